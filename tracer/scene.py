@@ -1,0 +1,349 @@
+"""The Snell scene file: one versioned .npz written by the exporter and read by the tracer.
+
+The format is documented in docs/scene-format.md. Every check here raises SceneError naming the
+field at fault, so that a bad export never reaches the integrator.
+"""
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+
+import numpy as np
+
+FORMAT = "snell-scene"
+VERSION = 1
+MATERIAL_KINDS = ("diffuse", "mirror", "glass", "refraction", "emission")
+LIGHT_KINDS = ("area", "point", "sun")
+AREA_SHAPES = ("rectangle", "square", "disk", "ellipse")
+SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
+FRESNEL_MODELS = ("exact", "schlick")
+
+DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact"}
+DEFAULT_DOF = {"use_dof": False, "focus_distance": 10.0, "fstop": 2.8, "blades": 0,
+               "rotation": 0.0, "ratio": 1.0}
+
+
+class SceneError(ValueError):
+    """A scene file or scene description that cannot be rendered; the message names the field."""
+
+
+@dataclass
+class Scene:
+    """Geometry arrays plus the parsed header (materials, lights, camera, world, render)."""
+    positions: np.ndarray
+    triangles: np.ndarray
+    material_ids: np.ndarray
+    object_ids: np.ndarray
+    materials: list
+    lights: list
+    camera: dict
+    world: dict = field(default_factory=lambda: {"color": [0.0, 0.0, 0.0]})
+    render: dict = field(default_factory=lambda: dict(DEFAULT_RENDER))
+    objects: list = field(default_factory=list)
+    normals: np.ndarray | None = None
+    source: str = ""
+
+    def header(self) -> dict:
+        """The JSON header as written to the file."""
+        return {"format": FORMAT, "version": VERSION, "source": self.source,
+                "objects": self.objects, "materials": self.materials, "lights": self.lights,
+                "world": self.world, "camera": self.camera, "render": self.render}
+
+    def with_render(self, **overrides) -> "Scene":
+        """A copy sharing the arrays, with render settings overridden (None values ignored)."""
+        other = copy.copy(self)
+        other.render = dict(self.render)
+        other.render.update({k: v for k, v in overrides.items() if v is not None})
+        _check_render(other.render)
+        return other
+
+    def with_camera(self, **overrides) -> "Scene":
+        """A copy sharing the arrays, with camera fields (or dof fields via dof={...}) overridden."""
+        other = copy.copy(self)
+        other.camera = copy.deepcopy(self.camera)
+        dof = overrides.pop("dof", None)
+        other.camera.update(overrides)
+        if dof:
+            other.camera["dof"].update(dof)
+        _check_camera(other.camera)
+        return other
+
+    def features(self) -> dict:
+        """Which costly features the scene needs: glass, mirrors, depth of field, environment."""
+        used = set(int(m) for m in np.unique(self.material_ids)) if len(self.material_ids) else set()
+        kinds = {self.materials[i]["kind"] for i in used}
+        return {
+            "glass": bool(kinds & {"glass", "refraction"}),
+            "mirrors": "mirror" in kinds,
+            "depth_of_field": aperture_radius(self.camera) > 0.0,
+            "environment": any(c > 0 for c in self.world["color"]),
+            "emissive_meshes": "emission" in kinds,
+        }
+
+
+def aperture_radius(camera: dict) -> float:
+    """Lens radius in metres: Cycles' lens / (2 f-stop), 0 when depth of field is off."""
+    dof = camera["dof"]
+    if not dof.get("use_dof", False):
+        return 0.0
+    if dof.get("aperture_radius") is not None:
+        return float(dof["aperture_radius"])
+    return (camera["lens"] * 1e-3) / (2.0 * max(float(dof["fstop"]), 1e-5))
+
+
+# ---------------------------------------------------------------------------------------------
+# Validation
+
+
+def _finite_vec(value, name, n=3, positive=False):
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SceneError(f"{name}: expected {n} numbers, got {value!r}") from None
+    if arr.shape != (n,):
+        raise SceneError(f"{name}: expected {n} numbers, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise SceneError(f"{name}: contains NaN or Inf ({value!r})")
+    if positive and np.any(arr < 0):
+        raise SceneError(f"{name}: must not be negative ({value!r})")
+    return arr
+
+
+def _finite_number(value, name, minimum=None, exclusive=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SceneError(f"{name}: expected a number, got {value!r}")
+    if not math.isfinite(value):
+        raise SceneError(f"{name}: is NaN or Inf")
+    if minimum is not None and (value <= minimum if exclusive else value < minimum):
+        raise SceneError(f"{name}: must be {'>' if exclusive else '>='} {minimum}, got {value!r}")
+    return float(value)
+
+
+def _matrix(value, name):
+    try:
+        m = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SceneError(f"{name}: expected a 4x4 matrix") from None
+    if m.shape != (4, 4):
+        raise SceneError(f"{name}: expected a 4x4 matrix, got shape {m.shape}")
+    if not np.all(np.isfinite(m)):
+        raise SceneError(f"{name}: contains NaN or Inf")
+    return m
+
+
+def _check_array(arrays, key, dtype, ncols):
+    if key not in arrays:
+        raise SceneError(f"{key}: missing array")
+    arr = arrays[key]
+    if arr.dtype != dtype:
+        raise SceneError(f"{key}: expected dtype {np.dtype(dtype).name}, got {arr.dtype.name}")
+    want_ndim = 1 if ncols is None else 2
+    if arr.ndim != want_ndim or (ncols is not None and arr.shape[1] != ncols):
+        want = "(n,)" if ncols is None else f"(n, {ncols})"
+        raise SceneError(f"{key}: expected shape {want}, got {arr.shape}")
+    return arr
+
+
+def _check_material(i, mat):
+    where = f"materials[{i}]" + (f" ({mat.get('name')!r})" if isinstance(mat, dict) else "")
+    if not isinstance(mat, dict):
+        raise SceneError(f"{where}: expected an object")
+    kind = mat.get("kind")
+    if kind not in MATERIAL_KINDS:
+        raise SceneError(f"{where}.kind: unknown material kind {kind!r} (known: {', '.join(MATERIAL_KINDS)})")
+    _finite_vec(mat.get("color"), f"{where}.color", positive=True)
+    if kind in ("glass", "refraction"):
+        _finite_number(mat.get("ior"), f"{where}.ior", 0.0, exclusive=True)
+    if kind == "glass" and "transmission_color" in mat:
+        _finite_vec(mat["transmission_color"], f"{where}.transmission_color", positive=True)
+    if kind == "emission":
+        _finite_number(mat.get("strength"), f"{where}.strength", 0.0)
+
+
+def _check_light(i, light):
+    where = f"lights[{i}]" + (f" ({light.get('name')!r})" if isinstance(light, dict) else "")
+    if not isinstance(light, dict):
+        raise SceneError(f"{where}: expected an object")
+    kind = light.get("kind")
+    if kind not in LIGHT_KINDS:
+        raise SceneError(f"{where}.kind: unknown light kind {kind!r} (known: {', '.join(LIGHT_KINDS)})")
+    if kind == "area":
+        if light.get("shape") not in AREA_SHAPES:
+            raise SceneError(f"{where}.shape: unknown area shape {light.get('shape')!r}")
+        m = _matrix(light.get("matrix"), f"{where}.matrix")
+        size = _finite_vec(light.get("size"), f"{where}.size", n=2)
+        if np.any(size <= 0) or abs(np.linalg.det(m[:3, :3])) < 1e-300:
+            raise SceneError(f"{where}: zero-area emitter (size {size.tolist()})")
+        _finite_vec(light.get("radiance"), f"{where}.radiance", positive=True)
+    elif kind == "point":
+        _finite_vec(light.get("position"), f"{where}.position")
+        _finite_vec(light.get("intensity"), f"{where}.intensity", positive=True)
+    else:
+        d = _finite_vec(light.get("direction"), f"{where}.direction")
+        if np.linalg.norm(d) == 0:
+            raise SceneError(f"{where}.direction: zero vector")
+        _finite_vec(light.get("irradiance"), f"{where}.irradiance", positive=True)
+
+
+def _check_camera(cam):
+    if not isinstance(cam, dict):
+        raise SceneError("camera: missing (the scene has no camera)")
+    _matrix(cam.get("matrix"), "camera.matrix")
+    for key in ("lens", "sensor_width", "sensor_height", "clip_start", "clip_end"):
+        _finite_number(cam.get(key), f"camera.{key}", 0.0, exclusive=True)
+    for key in ("shift_x", "shift_y"):
+        _finite_number(cam.get(key, 0.0), f"camera.{key}")
+    if cam.get("sensor_fit", "AUTO") not in SENSOR_FITS:
+        raise SceneError(f"camera.sensor_fit: unknown value {cam.get('sensor_fit')!r}")
+    res = cam.get("resolution")
+    if (not isinstance(res, (list, tuple)) or len(res) != 2
+            or not all(isinstance(r, int) and not isinstance(r, bool) and r > 0 for r in res)):
+        raise SceneError(f"camera.resolution: expected two positive integers, got {res!r}")
+    pct = cam.get("resolution_percentage", 100)
+    if not isinstance(pct, int) or pct <= 0:
+        raise SceneError(f"camera.resolution_percentage: expected a positive integer, got {pct!r}")
+    aspect = _finite_vec(cam.get("pixel_aspect", [1.0, 1.0]), "camera.pixel_aspect", n=2)
+    if np.any(aspect <= 0):
+        raise SceneError("camera.pixel_aspect: must be positive")
+    dof = cam.get("dof")
+    if not isinstance(dof, dict):
+        raise SceneError("camera.dof: expected an object")
+    _finite_number(dof.get("focus_distance"), "camera.dof.focus_distance", 0.0)
+    _finite_number(dof.get("fstop"), "camera.dof.fstop", 0.0, exclusive=True)
+    _finite_number(dof.get("rotation", 0.0), "camera.dof.rotation")
+    _finite_number(dof.get("ratio", 1.0), "camera.dof.ratio", 0.0, exclusive=True)
+    if not isinstance(dof.get("blades", 0), int):
+        raise SceneError("camera.dof.blades: expected an integer")
+    if dof.get("aperture_radius") is not None:
+        _finite_number(dof["aperture_radius"], "camera.dof.aperture_radius", 0.0)
+
+
+def _check_render(render):
+    for key in ("spp", "max_depth", "seed"):
+        v = render.get(key)
+        if not isinstance(v, int) or isinstance(v, bool) or v < (1 if key == "spp" else 0):
+            raise SceneError(f"render.{key}: expected a {'positive' if key == 'spp' else 'non-negative'} integer, got {v!r}")
+    if render.get("fresnel") not in FRESNEL_MODELS:
+        raise SceneError(f"render.fresnel: expected one of {FRESNEL_MODELS}, got {render.get('fresnel')!r}")
+
+
+def validate(scene: Scene) -> Scene:
+    """Check every array and header field; raise SceneError naming the first one at fault."""
+    arrays = {"positions": scene.positions, "triangles": scene.triangles,
+              "material_ids": scene.material_ids, "object_ids": scene.object_ids}
+    pos = _check_array(arrays, "positions", np.float32, 3)
+    tri = _check_array(arrays, "triangles", np.int32, 3)
+    mid = _check_array(arrays, "material_ids", np.int32, None)
+    oid = _check_array(arrays, "object_ids", np.int32, None)
+    if not np.all(np.isfinite(pos)):
+        bad = int(np.argmax(~np.isfinite(pos).all(axis=1)))
+        raise SceneError(f"positions: vertex {bad} is NaN or Inf")
+    for key, arr in (("material_ids", mid), ("object_ids", oid)):
+        if len(arr) != len(tri):
+            raise SceneError(f"{key}: {len(arr)} entries for {len(tri)} triangles")
+    if len(tri) and (tri.min() < 0 or tri.max() >= len(pos)):
+        raise SceneError(f"triangles: vertex index out of range [0, {len(pos)})")
+    if not isinstance(scene.materials, list):
+        raise SceneError("materials: expected a list")
+    for i, mat in enumerate(scene.materials):
+        _check_material(i, mat)
+    if len(mid) and (mid.min() < 0 or mid.max() >= len(scene.materials)):
+        raise SceneError(f"material_ids: index out of range [0, {len(scene.materials)})")
+    if len(oid) and (oid.min() < 0 or oid.max() >= max(len(scene.objects), 1)):
+        raise SceneError(f"object_ids: index out of range [0, {len(scene.objects)})")
+    if scene.normals is not None:
+        nrm = _check_array({"normals": scene.normals}, "normals", np.float32, 3)
+        if len(nrm) != len(pos):
+            raise SceneError(f"normals: {len(nrm)} normals for {len(pos)} vertices")
+        if not np.all(np.isfinite(nrm)):
+            raise SceneError("normals: contains NaN or Inf")
+    if not isinstance(scene.lights, list):
+        raise SceneError("lights: expected a list")
+    for i, light in enumerate(scene.lights):
+        _check_light(i, light)
+    _finite_vec((scene.world or {}).get("color"), "world.color", positive=True)
+    _check_camera(scene.camera)
+    _check_render(scene.render)
+    _check_emitter_areas(scene)
+    return scene
+
+
+def triangle_areas(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Area of every triangle, in float64."""
+    p = positions.astype(np.float64)[triangles]
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+
+
+def _check_emitter_areas(scene):
+    emissive = [i for i, m in enumerate(scene.materials) if m["kind"] == "emission"]
+    if not emissive or not len(scene.triangles):
+        return
+    for i in emissive:
+        sel = scene.material_ids == i
+        if sel.any() and triangle_areas(scene.positions, scene.triangles[sel]).sum() <= 0:
+            raise SceneError(f"materials[{i}] ({scene.materials[i]['name']!r}): zero-area emitter "
+                             "(all its triangles are degenerate)")
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading and writing
+
+
+def save(scene: Scene, path: str) -> None:
+    """Validate and write the scene atomically (a failed write leaves no partial file)."""
+    validate(scene)
+    header = json.dumps(scene.header(), allow_nan=False).encode("utf-8")
+    arrays = {"header": np.frombuffer(header, dtype=np.uint8), "positions": scene.positions,
+              "triangles": scene.triangles, "material_ids": scene.material_ids,
+              "object_ids": scene.object_ids}
+    if scene.normals is not None:
+        arrays["normals"] = scene.normals
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def load(path: str) -> Scene:
+    """Read and validate a scene file."""
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            arrays = {k: npz[k] for k in npz.files}
+    except FileNotFoundError:
+        raise SceneError(f"{path}: no such file") from None
+    except (OSError, ValueError) as exc:
+        raise SceneError(f"{path}: not a Snell scene file ({exc})") from None
+    if "header" not in arrays:
+        raise SceneError(f"{path}: not a Snell scene file (no header)")
+    try:
+        header = json.loads(arrays["header"].tobytes().decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SceneError(f"header: not valid JSON ({exc})") from None
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        raise SceneError(f"header.format: expected {FORMAT!r}, got {header.get('format')!r}")
+    if header.get("version") != VERSION:
+        raise SceneError(f"header.version: unknown version {header.get('version')!r} (this Snell reads {VERSION})")
+    for key in ("positions", "triangles", "material_ids", "object_ids"):
+        if key not in arrays:
+            raise SceneError(f"{key}: missing array")
+    scene = Scene(
+        positions=arrays["positions"], triangles=arrays["triangles"],
+        material_ids=arrays["material_ids"], object_ids=arrays["object_ids"],
+        normals=arrays.get("normals"),
+        materials=header.get("materials"), lights=header.get("lights"),
+        camera=header.get("camera"), world=header.get("world"),
+        render={**DEFAULT_RENDER, **(header.get("render") or {})},
+        objects=header.get("objects") or [], source=header.get("source", ""))
+    if isinstance(scene.camera, dict) and isinstance(scene.camera.get("dof"), dict):
+        scene.camera["dof"] = {**DEFAULT_DOF, **scene.camera["dof"]}
+    return validate(scene)
