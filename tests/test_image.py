@@ -1,0 +1,127 @@
+"""tracer/image.py: EXR/PNG round trips, the sRGB curve, NaN/Inf clean-up, write errors."""
+import os
+
+import numpy as np
+import pytest
+
+from snell.tracer import image
+
+
+def _ramp(h=5, w=7):
+    rng = np.random.default_rng(1)
+    rgb = rng.random((h, w, 3)).astype(np.float32) * 20.0
+    rgb[0, 0] = [1e-8, 65504.0 * 4, 0.0]  # beyond half range and denormal-ish: float32 must survive
+    return rgb
+
+
+def test_exr_round_trip_is_exact_float32(tmp_path):
+    rgb = _ramp()
+    path = tmp_path / "a.exr"
+    assert image.write_exr(path, rgb) == 0
+    back = image.read_exr(path)
+    assert back.dtype == np.float32 and back.shape == rgb.shape
+    assert np.array_equal(back, rgb)
+
+
+def test_exr_top_row_first(tmp_path):
+    rgb = np.zeros((4, 3, 3), np.float32)
+    rgb[0] = [1.0, 0.0, 0.0]  # top row red
+    path = tmp_path / "top.exr"
+    image.write_exr(path, rgb)
+    import OpenImageIO as oiio
+    buf = oiio.ImageBuf(str(path))
+    assert buf.getpixel(1, 0)[:3] == (1.0, 0.0, 0.0)  # OIIO's y = 0 is the top scanline
+    assert buf.getpixel(1, 3)[:3] == (0.0, 0.0, 0.0)
+    assert np.array_equal(image.read_exr(path)[0, :, 0], [1.0, 1.0, 1.0])
+
+
+@pytest.mark.parametrize("linear, code", [
+    (0.0, 0), (1.0, 255), (0.5, 188), (0.18, 118),
+    (0.0031308, 10),           # the curve's breakpoint: 12.92 * 0.0031308 * 255 = 10.31
+    (0.0031309, 10),           # just above it, the power branch gives the same value (continuous)
+    (-1.0, 0), (7.0, 255),     # clamped after the curve
+])
+def test_srgb_test_vectors(linear, code):
+    assert image.to_srgb8(np.full((1, 1, 3), linear, np.float32))[0, 0, 0] == code
+
+
+def test_srgb_curve_is_continuous_at_the_breakpoint():
+    below = image.srgb_oetf(0.0031308)
+    above = image.srgb_oetf(np.nextafter(0.0031308, 1.0))
+    assert abs(below - 0.040449936) < 1e-8
+    assert abs(above - below) < 1e-7
+
+
+def test_sanitize_counts_pixels_not_channels():
+    rgb = np.ones((3, 4, 3), np.float32)
+    rgb[0, 0, 0] = np.nan
+    rgb[0, 0, 2] = np.inf       # same pixel: counted once
+    rgb[2, 3, :] = -np.inf
+    clean, bad = image.sanitize(rgb)
+    assert bad == 2
+    assert np.all(np.isfinite(clean)) and clean.dtype == np.float32
+    assert clean[0, 0].tolist() == [0.0, 1.0, 0.0] and clean[2, 3].tolist() == [0.0, 0.0, 0.0]
+    assert np.isnan(rgb[0, 0, 0])  # the input is not modified
+    assert image.sanitize(np.ones((2, 2, 3)))[1] == 0
+
+
+def test_non_finite_pixels_never_reach_the_files(tmp_path):
+    rgb = np.full((2, 2, 3), 0.5, np.float32)
+    rgb[1, 1] = [np.nan, np.inf, -np.inf]
+    assert image.write_exr(tmp_path / "n.exr", rgb) == 1
+    back = image.read_exr(tmp_path / "n.exr")
+    assert np.all(np.isfinite(back)) and back[1, 1].tolist() == [0.0, 0.0, 0.0]
+    assert image.write_png(tmp_path / "n.png", rgb) == 1
+    assert image.to_srgb8(rgb)[1, 1].tolist() == [0, 0, 0]
+
+
+def test_png_is_8bit_srgb_top_row_first(tmp_path):
+    rgb = np.zeros((2, 3, 3), np.float32)
+    rgb[0] = 0.5
+    path = tmp_path / "a.png"
+    image.write_png(path, rgb)
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(str(path))
+    try:
+        assert inp.spec().format == oiio.TypeDesc("uint8") and inp.spec().nchannels == 3
+        pixels = inp.read_image("uint8")
+    finally:
+        inp.close()
+    assert pixels[0].tolist() == [[188] * 3] * 3 and pixels[1].tolist() == [[0] * 3] * 3
+
+
+def test_write_errors_name_the_path_and_leave_nothing(tmp_path):
+    rgb = np.zeros((2, 2, 3), np.float32)
+    with pytest.raises(OSError, match="missing"):
+        image.write_exr(tmp_path / "missing" / "a.exr", rgb)
+    with pytest.raises(OSError, match=r"a\.unknownext"):
+        image.write_exr(tmp_path / "a.unknownext", rgb)
+    assert os.listdir(tmp_path) == []
+    with pytest.raises(ValueError, match="shape"):
+        image.write_exr(tmp_path / "a.exr", np.zeros((2, 2)))
+    assert os.listdir(tmp_path) == []
+
+
+def test_failed_write_keeps_the_previous_file(tmp_path, monkeypatch):
+    path = tmp_path / "keep.exr"
+    image.write_exr(path, np.ones((2, 2, 3), np.float32))
+    import OpenImageIO as oiio
+
+    def boom(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(oiio.ImageOutput, "create", staticmethod(boom))
+    with pytest.raises(KeyboardInterrupt):
+        image.write_exr(path, np.zeros((2, 2, 3), np.float32))
+    monkeypatch.undo()
+    assert os.listdir(tmp_path) == ["keep.exr"]
+    assert np.all(image.read_exr(path) == 1.0)
+
+
+def test_read_errors_name_the_path(tmp_path):
+    with pytest.raises(OSError, match="nope.exr"):
+        image.read_exr(tmp_path / "nope.exr")
+    garbage = tmp_path / "garbage.exr"
+    garbage.write_bytes(b"not an image")
+    with pytest.raises(OSError, match="garbage.exr"):
+        image.read_exr(garbage)

@@ -1,0 +1,120 @@
+"""Image output: linear float EXR, 8-bit sRGB PNG, and NaN/Inf clean-up.
+
+Images are (H, W, 3) arrays of linear Rec.709 RGB with row 0 at the TOP, as OpenImageIO stores
+them. OpenImageIO is imported only by the functions that read or write files: the add-on running
+inside Blender hands pixels to the RenderEngine API instead and must not depend on it.
+
+Writes are atomic: the image goes to a temporary file in the destination directory, then is renamed
+over the destination, so an interrupted or failed write never leaves a partial image behind.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+
+
+def _as_rgb(rgb, what="image") -> np.ndarray:
+    arr = np.asarray(rgb)
+    if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[0] == 0 or arr.shape[1] == 0:
+        raise ValueError(f"{what}: expected an (H, W, 3) array, got shape {arr.shape}")
+    return arr
+
+
+def sanitize(rgb) -> tuple[np.ndarray, int]:
+    """Return (a float32 copy with every NaN/Inf channel set to 0, the number of pixels affected)."""
+    arr = np.array(_as_rgb(rgb), dtype=np.float32, copy=True)
+    bad = ~np.isfinite(arr)
+    bad_pixels = int(np.count_nonzero(bad.any(axis=2)))
+    if bad_pixels:
+        arr[bad] = 0.0
+    return arr, bad_pixels
+
+
+def srgb_oetf(linear) -> np.ndarray:
+    """The exact piecewise sRGB transfer function (IEC 61966-2-1), float64, no clamping."""
+    v = np.asarray(linear, dtype=np.float64)
+    return np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(np.maximum(v, 0.0031308), 1.0 / 2.4) - 0.055)
+
+
+def to_srgb8(rgb) -> np.ndarray:
+    """Blender's Standard view transform to 8 bits: sRGB curve, clamp to [0, 1], round.
+
+    NaN/Inf become 0 first (see sanitize).
+    """
+    clean, _ = sanitize(rgb)
+    encoded = np.clip(srgb_oetf(clean), 0.0, 1.0)
+    return np.rint(encoded * 255.0).astype(np.uint8)
+
+
+def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict) -> None:
+    import OpenImageIO as oiio
+
+    path = os.fspath(path)
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise OSError(f"{path}: cannot write image, directory {directory} does not exist")
+    # The temporary name keeps the real extension: OpenImageIO picks the format from it.
+    base, ext = os.path.splitext(os.path.basename(path))
+    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=directory)
+    os.close(fd)
+    try:
+        out = oiio.ImageOutput.create(tmp)
+        if out is None:
+            reason = oiio.geterror().replace(tmp, path) or "unsupported format"
+            raise OSError(f"{path}: cannot write image ({reason})")
+        height, width, channels = pixels.shape
+        spec = oiio.ImageSpec(width, height, channels, typedesc)
+        for name, value in attributes.items():
+            spec.attribute(name, value)
+        ok = out.open(tmp, spec) and out.write_image(pixels)
+        err = out.geterror() if not ok else ""
+        ok = out.close() and ok
+        if not ok:
+            reason = (err or out.geterror() or "unknown error").replace(tmp, path)
+            raise OSError(f"{path}: cannot write image ({reason})")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_exr(path, rgb) -> int:
+    """Write linear RGB as a 32-bit float EXR (lossless ZIP compression), top row first.
+
+    NaN/Inf are written as 0; returns how many pixels that affected.
+    """
+    clean, bad = sanitize(rgb)
+    _write_atomic(path, np.ascontiguousarray(clean), "float", {"compression": "zip"})
+    return bad
+
+
+def write_png(path, rgb) -> int:
+    """Write linear RGB as an 8-bit sRGB PNG (Standard view transform); returns NaN/Inf pixels."""
+    _, bad = sanitize(rgb)
+    _write_atomic(path, np.ascontiguousarray(to_srgb8(rgb)), "uint8", {})
+    return bad
+
+
+def read_exr(path) -> np.ndarray:
+    """Read an image's first three channels as an (H, W, 3) float32 array, top row first."""
+    import OpenImageIO as oiio
+
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise OSError(f"{path}: no such file")
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        raise OSError(f"{path}: cannot read image ({oiio.geterror() or 'unknown format'})")
+    try:
+        spec = inp.spec()
+        if spec.nchannels < 3:
+            raise OSError(f"{path}: expected RGB, the image has {spec.nchannels} channel(s)")
+        pixels = inp.read_image(0, 0, 0, 3, "float")
+        if pixels is None:
+            raise OSError(f"{path}: cannot read image ({inp.geterror() or 'unknown error'})")
+    finally:
+        inp.close()
+    return np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, 3)
