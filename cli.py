@@ -1,2 +1,281 @@
-def main(argv=None):
+"""The `snell` command line: render, export and inspect scenes.
+
+Each subcommand is two functions, `_setup_<name>(parser)` adding its arguments and
+`cmd_<name>(args) -> int` running it, plus one line in COMMANDS. A user error (missing file, bad
+scene, wrong extension) is raised as CliError, SceneError or OSError and reported by main() as one
+`snell: error: ...` line with exit status 1; anything else is a bug and keeps its traceback.
+Ctrl-C exits with 130 and writes nothing partial (image writes are atomic and happen after the render).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+from .tracer.scene import FRESNEL_MODELS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
+
+SCENE_EXTENSIONS = (".blend", ".snell")
+
+
+class CliError(Exception):
+    """A user error, reported as one line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one `snell: error: ...` line too (exit status 2, as argparse does)."""
+
+    def error(self, message):
+        self.exit(2, f"snell: error: {message} (see {self.prog} --help)\n")
+
+
+def warn(message: str) -> None:
+    print(f"snell: warning: {message}", file=sys.stderr)
+
+
+# ---------------------------------------------------------------------------------------------
+# Shared helpers
+
+
+def _extension(path: str) -> str:
+    return os.path.splitext(path)[1].lower()
+
+
+def load_scene(path: str):
+    """A Scene from a .snell file, or exported on the fly from a .blend (warnings to stderr)."""
+    ext = _extension(path)
+    if ext not in SCENE_EXTENSIONS:
+        raise CliError(f"{path}: unknown scene extension {ext or '(none)'!r} (expected .blend or .snell)")
+    if not os.path.isfile(path):
+        raise CliError(f"{path}: no such file")
+    if ext == ".snell":
+        return load(path)
+    try:
+        from .addon.export import export_blend
+        scene, warnings = export_blend(path)
+    except ModuleNotFoundError as exc:
+        if exc.name != "bpy":
+            raise
+        raise CliError(f"{path}: reading .blend files needs Blender's bpy module "
+                       "(pip install 'snell[blender]')") from None
+    except RuntimeError as exc:  # what bpy raises for an unreadable .blend
+        raise CliError(f"{path}: cannot export ({str(exc).strip()})") from None
+    for message in warnings:
+        warn(message)
+    return scene
+
+
+def _check_output(path: str, ext: str, option: str) -> None:
+    """Fail before a long render, not after it."""
+    if _extension(path) != ext:
+        raise CliError(f"{option} {path}: expected a {ext} file name")
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise CliError(f"{option} {path}: directory {directory} does not exist")
+
+
+def _int_at_least(minimum):
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < minimum:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}")
+        return value
+    return parse
+
+
+def _duration(seconds: float) -> str:
+    if seconds != seconds or seconds == float("inf"):
+        return "?"
+    if seconds < 60:
+        return f"{seconds:.1f}s"
+    minutes, secs = divmod(int(round(seconds)), 60)
+    hours, minutes = divmod(minutes, 60)
+    return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes}:{secs:02d}"
+
+
+class ProgressLine:
+    """The integrator's progress callback: one updating line on a terminal."""
+
+    def __init__(self, stream):
+        self.stream = stream
+        self.start = time.monotonic()
+        self.width = 0
+
+    def __call__(self, result, passes_done, passes_total):
+        elapsed = time.monotonic() - self.start
+        eta = elapsed / passes_done * (passes_total - passes_done) if passes_done else float("nan")
+        line = (f"snell: pass {passes_done}/{passes_total}, {result.spp} samples, "
+                f"elapsed {_duration(elapsed)}, ETA {_duration(eta)}")
+        self.stream.write("\r" + line.ljust(self.width))
+        self.stream.flush()
+        self.width = len(line)
+        return True
+
+    def close(self):
+        if self.width:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+# ---------------------------------------------------------------------------------------------
+# snell render
+
+
+def _setup_render(p):
+    p.add_argument("scene", help="a .blend (exported on the fly) or a .snell scene file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="linear float EXR to write")
+    p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit sRGB PNG (Standard view transform)")
+    p.add_argument("--spp", type=_int_at_least(1), help="samples per pixel (default: the scene's)")
+    p.add_argument("--max-depth", type=_int_at_least(0), metavar="M",
+                   help="emission plus up to M bounces; Cycles max_bounces = M - 1 (default: the scene's)")
+    p.add_argument("--seed", type=_int_at_least(0), help="random seed (default: the scene's)")
+    p.add_argument("--threads", type=_int_at_least(1), help="render threads (default: the integrator's)")
+    p.add_argument("--fresnel", choices=FRESNEL_MODELS, help="Fresnel model for glass (default: the scene's, exact)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
+
+
+def cmd_render(args) -> int:
+    _check_output(args.output, ".exr", "-o")
+    if args.png:
+        _check_output(args.png, ".png", "--png")
+    scene = load_scene(args.scene).with_render(spp=args.spp, max_depth=args.max_depth,
+                                                seed=args.seed, fresnel=args.fresnel)
+    from .tracer import image
+    from .tracer.integrator import render
+
+    options = {} if args.threads is None else {"threads": args.threads}
+    bar = ProgressLine(sys.stderr) if not args.quiet and sys.stderr.isatty() else None
+    try:
+        result = render(scene, progress=bar, **options)
+    finally:
+        if bar:
+            bar.close()
+    if result.cancelled:
+        raise KeyboardInterrupt
+    rgb = result.mean()
+    bad_pixels = image.write_exr(args.output, rgb)
+    if args.png:
+        image.write_png(args.png, rgb)
+    if not args.quiet:
+        print(_summary(args, rgb, result, bad_pixels))
     return 0
+
+
+def _summary(args, rgb, result, bad_pixels) -> str:
+    wall = result.time_s
+    rays = f"{result.rays / wall / 1e6:.2f} Mrays/s" if wall > 0 else "? Mrays/s"
+    embree = f"Embree {100.0 * result.embree_time_s / wall:.0f}% of wall time" if wall > 0 else "Embree ?"
+    nans = f"{result.nan_count} NaN/Inf samples"
+    if bad_pixels:
+        nans += f", {bad_pixels} NaN/Inf pixels written as 0"
+    written = args.output + (f" + {args.png}" if args.png else "")
+    return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {result.spp} spp in {_duration(wall)} "
+            f"({rays}, {embree}), {nans}")
+
+
+# ---------------------------------------------------------------------------------------------
+# snell export
+
+
+def _setup_export(p):
+    p.add_argument("scene", metavar="SCENE.blend", help="the Blender file to export")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.snell", help="scene file to write")
+
+
+def cmd_export(args) -> int:
+    if _extension(args.scene) != ".blend":
+        raise CliError(f"{args.scene}: expected a .blend file")
+    _check_output(args.output, ".snell", "-o")
+    scene = load_scene(args.scene)
+    save(scene, args.output)
+    print(f"snell: {args.output}: {len(scene.triangles)} triangles, {len(scene.materials)} materials, "
+          f"{len(scene.lights)} lights")
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------
+# snell info
+
+
+def _setup_info(p):
+    p.add_argument("scene", help="a .blend (exported on the fly) or a .snell scene file")
+
+
+def _plural(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _counts(items, order) -> str:
+    kinds = [item["kind"] for item in items]
+    parts = [f"{kinds.count(k)} {k}" for k in order if k in kinds]
+    return f"{len(items)}: {', '.join(parts)}" if items else "none"
+
+
+def describe(scene) -> list[str]:
+    """The lines `snell info` prints."""
+    cam, dof, render = scene.camera, scene.camera["dof"], scene.render
+    pct = cam.get("resolution_percentage", 100)
+    width, height = (int(r * pct / 100) for r in cam["resolution"])
+    resolution = f"{width}x{height}" + (f" ({pct}% of {cam['resolution'][0]}x{cam['resolution'][1]})"
+                                        if pct != 100 else "")
+    radius = aperture_radius(cam)
+    focus = (f"aperture radius {radius * 1000:.3g} mm, focus {dof['focus_distance']:.4g} m"
+             if radius > 0 else "no depth of field")
+    features = [name.replace("_", " ") for name, used in scene.features().items() if used]
+    objects = f", {_plural(len(scene.objects), 'object')}" if scene.objects else ""
+    return [
+        f"source     {scene.source or '?'}",
+        f"geometry   {_plural(len(scene.triangles), 'triangle')}{objects}",
+        f"materials  {_counts(scene.materials, MATERIAL_KINDS)}",
+        f"lights     {_counts(scene.lights, ('area', 'point', 'sun'))}",
+        f"world      {list(scene.world['color'])}",
+        f"camera     {cam.get('name', '?')!r}: {resolution}, lens {cam['lens']:g} mm, "
+        f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
+        f"render     {render['spp']} spp, max depth {render['max_depth']}, seed {render['seed']}, "
+        f"fresnel {render['fresnel']}",
+        f"features   {', '.join(features) or 'none'}",
+    ]
+
+
+def cmd_info(args) -> int:
+    print("\n".join(describe(load_scene(args.scene))))
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------
+
+COMMANDS = [
+    # (name, one-line help, add arguments, run)
+    ("render", "render a scene to a linear EXR (and an sRGB PNG)", _setup_render, cmd_render),
+    ("export", "export a .blend to a .snell scene file", _setup_export, cmd_export),
+    ("info", "summarise a scene: geometry, materials, lights, camera, features", _setup_info, cmd_info),
+]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="snell", description="Snell: an Embree path tracer for Blender scenes.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, help_text, setup, run in COMMANDS:
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        setup(p)
+        p.set_defaults(run=run)
+    return parser
+
+
+def main(argv=None) -> int:
+    try:
+        args = build_parser().parse_args(argv)
+        return args.run(args) or 0
+    except KeyboardInterrupt:
+        print("snell: interrupted", file=sys.stderr)
+        return 130
+    except (CliError, SceneError, OSError) as exc:
+        print(f"snell: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

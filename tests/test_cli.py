@@ -1,0 +1,248 @@
+"""The `snell` command line: errors as one line, `info`, `render` (real and with a stub integrator)."""
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+import types
+
+import numpy as np
+import pytest
+
+from snell import cli
+from snell.tracer import image
+from snell.tracer.scene import Scene, save
+
+HAVE_INTEGRATOR = importlib.util.find_spec("snell.tracer.integrator") is not None
+EMISSION = 2.0
+
+
+def tiny_scene(**render) -> Scene:
+    """An 8x8 camera at the origin looking down -Z at a two-sided emissive quad filling the
+    top half of the view (camera +Y is up) over a black world."""
+    positions = np.array([[-2, 0, -2], [2, 0, -2], [2, 2, -2], [-2, 2, -2]], np.float32)
+    return Scene(
+        positions=positions,
+        triangles=np.array([[0, 1, 2], [0, 2, 3]], np.int32),
+        material_ids=np.zeros(2, np.int32),
+        object_ids=np.zeros(2, np.int32),
+        objects=[{"name": "Quad", "closed": False}],
+        materials=[{"name": "Lamp", "kind": "emission", "color": [1.0, 1.0, 1.0], "strength": EMISSION}],
+        lights=[],
+        world={"color": [0.0, 0.0, 0.0]},
+        camera={"name": "Camera", "matrix": np.eye(4).tolist(), "lens": 50.0, "sensor_width": 36.0,
+                "sensor_height": 24.0, "sensor_fit": "AUTO", "shift_x": 0.0, "shift_y": 0.0,
+                "clip_start": 0.1, "clip_end": 100.0, "resolution": [8, 8],
+                "resolution_percentage": 100, "pixel_aspect": [1.0, 1.0],
+                "dof": {"use_dof": False, "focus_distance": 10.0, "fstop": 2.8, "blades": 0,
+                        "rotation": 0.0, "ratio": 1.0}},
+        render={"spp": 4, "max_depth": 2, "seed": 0, "fresnel": "exact", **render},
+        source="test_cli.py")
+
+
+@pytest.fixture
+def scene_file(tmp_path):
+    path = tmp_path / "tiny.snell"
+    save(tiny_scene(), str(path))
+    return path
+
+
+def run(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "snell.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=600, cwd=cwd)
+
+
+def assert_one_line_error(proc, *fragments):
+    assert proc.returncode != 0
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("snell: error: "), proc.stderr
+    assert "Traceback" not in proc.stderr
+    for fragment in fragments:
+        assert fragment in lines[0]
+
+
+# ---------------------------------------------------------------------------------------------
+# Errors
+
+
+def test_missing_file(tmp_path):
+    missing = tmp_path / "nope.snell"
+    for command in (["info", missing], ["render", missing, "-o", tmp_path / "a.exr"]):
+        assert_one_line_error(run(*command), "nope.snell", "no such file")
+    assert os.listdir(tmp_path) == []
+
+
+def test_garbage_scene_file(tmp_path):
+    garbage = tmp_path / "garbage.snell"
+    garbage.write_bytes(b"this is not a zip archive")
+    assert_one_line_error(run("info", garbage), "garbage.snell")
+    assert_one_line_error(run("render", garbage, "-o", tmp_path / "a.exr"), "garbage.snell")
+    assert os.listdir(tmp_path) == ["garbage.snell"]
+
+
+def test_unknown_extension(tmp_path):
+    other = tmp_path / "scene.obj"
+    other.write_text("v 0 0 0\n")
+    assert_one_line_error(run("info", other), "scene.obj", "extension")
+
+
+def test_scene_without_camera(tmp_path):
+    scene = tiny_scene()
+    header = dict(scene.header(), camera=None)
+    path = tmp_path / "nocam.snell"
+    with open(path, "wb") as f:
+        np.savez(f, header=np.frombuffer(json.dumps(header).encode(), np.uint8),
+                 positions=scene.positions, triangles=scene.triangles,
+                 material_ids=scene.material_ids, object_ids=scene.object_ids)
+    assert_one_line_error(run("info", path), "camera")
+
+
+def test_bad_outputs_fail_before_rendering(scene_file, tmp_path):
+    assert_one_line_error(run("render", scene_file, "-o", tmp_path / "a.png"), ".exr")
+    assert_one_line_error(run("render", scene_file, "-o", tmp_path / "a.exr", "--png", tmp_path / "a.jpg"), ".png")
+    assert_one_line_error(run("render", scene_file, "-o", tmp_path / "no" / "a.exr"), "does not exist")
+    assert_one_line_error(run("export", scene_file, "-o", tmp_path / "b.snell"), ".blend")
+    assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
+
+
+def test_usage_errors_are_one_line_too(scene_file, tmp_path):
+    proc = run("render", scene_file, "-o", tmp_path / "a.exr", "--spp", "0")
+    assert proc.returncode == 2
+    assert_one_line_error(proc, "--spp")
+    assert_one_line_error(run("render", scene_file, "-o", tmp_path / "a.exr", "--fresnel", "fast"), "--fresnel")
+    assert_one_line_error(run(), "required")
+    assert_one_line_error(run("frobnicate"), "frobnicate")
+
+
+# ---------------------------------------------------------------------------------------------
+# info
+
+
+def test_info(scene_file):
+    proc = run("info", scene_file)
+    assert proc.returncode == 0, proc.stderr
+    out = proc.stdout
+    assert "2 triangles" in out
+    assert "materials  1: 1 emission" in out
+    assert "lights     none" in out
+    assert "8x8" in out and "lens 50 mm" in out and "no depth of field" in out
+    assert "features   emissive meshes" in out
+    assert proc.stderr == ""
+
+
+def test_info_reports_depth_of_field(tmp_path):
+    path = tmp_path / "dof.snell"
+    save(tiny_scene().with_camera(dof={"use_dof": True, "focus_distance": 2.0, "fstop": 2.5}), str(path))
+    out = cli.describe(cli.load_scene(str(path)))
+    camera = next(line for line in out if line.startswith("camera"))
+    assert "aperture radius 10 mm" in camera and "focus 2 m" in camera  # 50 mm / (2 * 2.5)
+    assert "depth of field" in out[-1]
+
+
+# ---------------------------------------------------------------------------------------------
+# render with a stub integrator: the CLI's own behaviour, independent of the tracer
+
+
+class StubResult:
+    def __init__(self, scene, cancelled=False):
+        w, h = scene.camera["resolution"]
+        self.image = np.zeros((h, w, 3), np.float32)
+        self.image[0] = 1.0
+        self.image[-1, -1] = np.nan
+        self.spp, self.nan_count, self.rays = scene.render["spp"], 3, 1000
+        self.time_s, self.embree_time_s, self.cancelled = 0.5, 0.25, cancelled
+
+    def mean(self):
+        return self.image
+
+
+@pytest.fixture
+def stub_integrator(monkeypatch):
+    calls = []
+    module = types.ModuleType("snell.tracer.integrator")
+
+    def render(scene, *, threads=2, progress=None):
+        calls.append({"scene": scene, "threads": threads})
+        if module.behaviour == "interrupt":
+            raise KeyboardInterrupt
+        result = StubResult(scene, cancelled=module.behaviour == "cancel")
+        if progress:
+            progress(result, 1, 1)
+        return result
+
+    module.render, module.behaviour, module.calls = render, "ok", calls
+    monkeypatch.setitem(sys.modules, "snell.tracer.integrator", module)
+    return module
+
+
+def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrator, capsys):
+    out, png = tmp_path / "a.exr", tmp_path / "a.png"
+    code = cli.main(["render", str(scene_file), "-o", str(out), "--png", str(png), "--spp", "9",
+                     "--max-depth", "0", "--seed", "5", "--fresnel", "schlick", "--threads", "3"])
+    assert code == 0
+    call = stub_integrator.calls[0]
+    assert call["threads"] == 3
+    assert call["scene"].render == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick"}
+    rgb = image.read_exr(out)
+    assert rgb[0].min() == 1.0 and rgb[1:].max() == 0.0  # top row first, NaN written as 0
+    summary = capsys.readouterr().out.strip().splitlines()
+    assert len(summary) == 1
+    assert "8x8" in summary[0] and "9 spp" in summary[0] and "0.00 Mrays/s" in summary[0]
+    assert "Embree 50%" in summary[0] and "3 NaN/Inf samples" in summary[0] and "1 NaN/Inf pixels" in summary[0]
+
+
+def test_render_defaults_come_from_the_scene(scene_file, tmp_path, stub_integrator, capsys):
+    assert cli.main(["render", str(scene_file), "-o", str(tmp_path / "a.exr"), "--quiet"]) == 0
+    assert stub_integrator.calls[0]["scene"].render == tiny_scene().render
+    assert stub_integrator.calls[0]["threads"] == 2  # the integrator's own default
+    assert capsys.readouterr() == ("", "")
+
+
+@pytest.mark.parametrize("behaviour", ["interrupt", "cancel"])
+def test_interrupted_render_writes_nothing(scene_file, tmp_path, stub_integrator, capsys, behaviour):
+    stub_integrator.behaviour = behaviour
+    code = cli.main(["render", str(scene_file), "-o", str(tmp_path / "a.exr"),
+                     "--png", str(tmp_path / "a.png")])
+    assert code == 130
+    assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
+    assert capsys.readouterr().err.strip() == "snell: interrupted"
+
+
+def test_progress_line():
+    import io
+    stream = io.StringIO()
+    bar = cli.ProgressLine(stream)
+    assert bar(types.SimpleNamespace(spp=4), 1, 4) is True
+    bar(types.SimpleNamespace(spp=8), 2, 4)
+    bar.close()
+    text = stream.getvalue()
+    assert text.count("\n") == 1 and text.endswith("\n")
+    assert "pass 2/4, 8 samples" in text.split("\r")[-1] and "ETA" in text
+
+
+# ---------------------------------------------------------------------------------------------
+# render through the real integrator
+
+
+@pytest.mark.skipif(not HAVE_INTEGRATOR, reason="snell.tracer.integrator has not landed yet")
+def test_render_tiny_scene(scene_file, tmp_path):
+    out, png = tmp_path / "tiny.exr", tmp_path / "tiny.png"
+    proc = run("render", scene_file, "-o", out, "--png", png, "--spp", "4", "--threads", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr == ""  # not a terminal: no progress bar
+    summary = proc.stdout.strip().splitlines()
+    assert len(summary) == 1 and "4 spp" in summary[0] and "Mrays/s" in summary[0]
+    rgb = image.read_exr(out)
+    assert rgb.shape == (8, 8, 3)
+    # The quad fills the top half: the emitter is seen directly, the bottom sees the black world.
+    assert np.allclose(rgb[:3], EMISSION, rtol=1e-4)
+    assert np.all(rgb[5:] == 0.0)
+    srgb = image.to_srgb8(rgb)
+    import OpenImageIO as oiio
+    written = oiio.ImageInput.open(str(png))
+    try:
+        pixels = written.read_image("uint8")
+    finally:
+        written.close()
+    assert np.array_equal(pixels, srgb) and pixels[0, 0, 0] == 255 and pixels[-1, 0, 0] == 0
