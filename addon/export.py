@@ -1,0 +1,482 @@
+"""Convert a Blender depsgraph into a Snell Scene (docs/scene-format.md).
+
+Everything goes through the evaluated depsgraph, so modifiers, instances and world matrices are
+the ones Cycles sees. Mesh arrays are read with foreach_get into NumPy; each distinct evaluated
+mesh is converted once and then transformed per instance. Whatever Snell cannot render exactly
+is rendered with a stated fallback and reported in the returned warnings.
+"""
+from __future__ import annotations
+
+import math
+import os
+import warnings as _pywarnings
+
+import numpy as np
+
+from ..tracer import scene as scene_mod
+from ..tracer.scene import Scene, SceneError
+
+GREY = [0.8, 0.8, 0.8]
+DEFAULT_MATERIAL = {"name": "(default grey)", "kind": "diffuse", "color": GREY}
+
+
+# ---------------------------------------------------------------------------------------------
+# Materials
+
+
+def _follow(socket):
+    """The node feeding an input socket (through reroutes and enabled links), or None."""
+    while socket is not None and socket.is_linked:
+        link = socket.links[0]
+        if link.is_muted or not link.is_valid:
+            return None
+        node = link.from_node
+        if node.bl_idname == "NodeReroute":
+            socket = node.inputs[0]
+            continue
+        return node
+    return None
+
+
+def _active_output(tree, idname):
+    outputs = [n for n in tree.nodes if n.bl_idname == idname]
+    for n in outputs:
+        if n.is_active_output and n.target in ("ALL", "CYCLES"):
+            return n
+    return next((n for n in outputs if n.target in ("ALL", "CYCLES")), None)
+
+
+class _Inputs:
+    """Reads unlinked socket values of one node; a linked input is noted as an issue."""
+
+    def __init__(self, node, issues):
+        self.node, self.issues = node, issues
+
+    def color(self, name):
+        sock = self.node.inputs[name]
+        if sock.is_linked:
+            self.issues.append(f"node {self.node.name!r}: input {name!r} is linked (textures are "
+                               f"not supported), using its unlinked value")
+        return [float(c) for c in sock.default_value[:3]]
+
+    def value(self, name):
+        sock = self.node.inputs[name]
+        if sock.is_linked:
+            self.issues.append(f"node {self.node.name!r}: input {name!r} is linked, using its "
+                               f"unlinked value {sock.default_value:g}")
+        return float(sock.default_value)
+
+
+def convert_material(mat):
+    """(material dict, issues) for a Blender material; issues name the node at fault."""
+    issues = []
+    if mat is None:
+        return dict(DEFAULT_MATERIAL), ["no material, using grey 0.8 diffuse"]
+    name = mat.name
+    fallback = {"name": name, "kind": "diffuse", "color": GREY}
+    tree = mat.node_tree
+    if tree is None:
+        # Blender 5 always has a tree; files from older versions may not.
+        return fallback, ["no shader node tree, using grey 0.8 diffuse"]
+    out = _active_output(tree, "ShaderNodeOutputMaterial")
+    if out is None:
+        return fallback, ["no Material Output node, using grey 0.8 diffuse"]
+    node = _follow(out.inputs["Surface"])
+    if node is None:
+        return fallback, [f"node {out.name!r}: nothing connected to Surface, using grey 0.8 diffuse"]
+    inp = _Inputs(node, issues)
+    kind = node.bl_idname
+    if kind == "ShaderNodeBsdfDiffuse":
+        if inp.value("Roughness") > 0:
+            issues.append(f"node {node.name!r}: roughness > 0 (Oren-Nayar) rendered as Lambert")
+        return {"name": name, "kind": "diffuse", "color": inp.color("Color")}, issues
+    if kind in ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"):
+        if inp.value("Roughness") > 0:
+            issues.append(f"node {node.name!r}: glossy roughness > 0 rendered as a perfect mirror")
+        return {"name": name, "kind": "mirror", "color": inp.color("Color")}, issues
+    if kind in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
+        if inp.value("Roughness") > 0:
+            issues.append(f"node {node.name!r}: roughness > 0 rendered as smooth")
+        color = inp.color("Color")
+        result = {"name": name, "kind": "glass" if kind == "ShaderNodeBsdfGlass" else "refraction",
+                  "color": color, "ior": inp.value("IOR")}
+        if kind == "ShaderNodeBsdfGlass":
+            result["transmission_color"] = list(color)
+        return result, issues
+    if kind == "ShaderNodeEmission":
+        return {"name": name, "kind": "emission", "color": inp.color("Color"),
+                "strength": max(inp.value("Strength"), 0.0)}, issues
+    if kind == "ShaderNodeBsdfPrincipled":
+        return _principled(name, node, inp, issues), issues
+    issues.append(f"node {node.name!r} ({node.bl_idname}) is not supported, using grey 0.8 diffuse")
+    return fallback, issues
+
+
+def _principled(name, node, inp, issues):
+    base = inp.color("Base Color")
+    metallic = inp.value("Metallic")
+    transmission = inp.value("Transmission Weight")
+    roughness = inp.value("Roughness")
+    if inp.value("Emission Strength") > 0:
+        issues.append(f"node {node.name!r}: Principled emission is ignored (use an Emission node)")
+    if 0 < transmission < 1 or 0 < metallic < 1:
+        issues.append(f"node {node.name!r}: partial metallic/transmission rounded "
+                      f"(metallic {metallic:g}, transmission {transmission:g})")
+    if (transmission >= 0.5 or metallic >= 0.5) and roughness > 0:
+        issues.append(f"node {node.name!r}: roughness {roughness:g} rendered as smooth")
+    if transmission >= 0.5 and metallic < 0.5:
+        # Cycles tints the reflection by Specular Tint and transmission by sqrt(Base Color).
+        return {"name": name, "kind": "glass", "color": inp.color("Specular Tint"),
+                "transmission_color": [math.sqrt(max(c, 0.0)) for c in base],
+                "ior": inp.value("IOR")}
+    if metallic >= 0.5:
+        return {"name": name, "kind": "mirror", "color": base}
+    return {"name": name, "kind": "diffuse", "color": base}
+
+
+# ---------------------------------------------------------------------------------------------
+# Meshes
+
+
+def _mesh_arrays(obj):
+    """Local-space geometry of an evaluated object, ready for instancing (see _Mesh)."""
+    mesh = obj.to_mesh()
+    try:
+        if mesh is None:
+            return None
+        mesh.calc_loop_triangles()
+        nv, nt = len(mesh.vertices), len(mesh.loop_triangles)
+        co = np.empty(nv * 3, np.float32)
+        mesh.vertices.foreach_get("co", co)
+        tris = np.empty(nt * 3, np.int32)
+        mesh.loop_triangles.foreach_get("vertices", tris)
+        mat_index = np.empty(nt, np.int32)
+        mesh.loop_triangles.foreach_get("material_index", mat_index)
+        smooth = np.empty(nt, bool)
+        mesh.loop_triangles.foreach_get("use_smooth", smooth)
+        split = np.empty(nt * 9, np.float32)
+        mesh.loop_triangles.foreach_get("split_normals", split)
+        face_n = np.empty(nt * 3, np.float32)
+        mesh.loop_triangles.foreach_get("normal", face_n)
+    finally:
+        obj.to_mesh_clear()
+    return _Mesh(co.reshape(nv, 3).astype(np.float64), tris.reshape(nt, 3), mat_index,
+                 smooth, split.reshape(nt, 3, 3), face_n.reshape(nt, 3))
+
+
+class _Mesh:
+    """One evaluated mesh in local space: deduplicated (vertex, normal) pairs and triangles."""
+
+    def __init__(self, co, tris, mat_index, smooth, split, face_n):
+        p = co[tris] if len(tris) else np.zeros((0, 3, 3))
+        cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        longest = np.max(np.sum((p - p[:, [1, 2, 0]]) ** 2, axis=2), axis=1) if len(tris) else np.zeros(0)
+        # Relative test, so that a tiny but well-shaped triangle is kept.
+        keep = np.linalg.norm(cross, axis=1) > 1e-12 * longest
+        self.dropped = int(len(tris) - keep.sum())
+        tris, mat_index, smooth = tris[keep], mat_index[keep], smooth[keep]
+        split, face_n = split[keep], face_n[keep]
+        self.closed = _is_closed(tris)
+        self.mat_index = mat_index
+        # Smooth corners carry Blender's corner normal, flat ones the face normal.
+        corner_n = np.where(smooth[:, None, None], split, face_n[:, None, :]).reshape(-1, 3)
+        keys = np.empty(len(corner_n), dtype=[("v", np.int32), ("n", np.float32, 3)])
+        keys["v"], keys["n"] = tris.reshape(-1), corner_n
+        keys = keys.view(np.dtype((np.void, keys.dtype.itemsize)))
+        _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        self.positions = co[tris.reshape(-1)[first]]
+        self.normals = corner_n[first].astype(np.float64)
+        self.triangles = inverse.reshape(-1, 3).astype(np.int32)
+
+
+def _is_closed(tris):
+    """Every edge is shared by exactly two triangles."""
+    if len(tris) == 0:
+        return False
+    edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    return bool(np.all(counts == 2))
+
+
+# ---------------------------------------------------------------------------------------------
+# Lights, camera, world, render settings
+
+
+def _light_color(light):
+    color = np.array(light.color[:3], np.float64)
+    if getattr(light, "use_temperature", False):
+        color = color * np.array(light.temperature_color[:3])
+    return color * light.energy * 2.0 ** getattr(light, "exposure", 0.0)
+
+
+def _unit_columns(m):
+    """The matrix with its 3x3 columns normalised (object scale removed, handedness kept)."""
+    out = m.copy()
+    out[:3, :3] = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+    return out
+
+
+def convert_light(obj, matrix, warn):
+    """Light dict for a light object with world matrix (numpy 4x4), or None if skipped."""
+    light = obj.data
+    color = _light_color(light)
+    if light.type == "AREA":
+        scale = np.linalg.norm(matrix[:3, :3], axis=0)
+        shape = light.shape.lower()
+        sx = light.size
+        sy = light.size_y if shape in ("rectangle", "ellipse") else light.size
+        size = [float(sx * scale[0]), float(sy * scale[1])]
+        area = size[0] * size[1] * (math.pi / 4 if shape in ("disk", "ellipse") else 1.0)
+        if area <= 0:
+            warn(f"light {obj.name!r}: zero-area area light skipped")
+            return None
+        # normalize=False (Blender 5) drops the division by area: L = P / pi.
+        radiance = color / (math.pi * (area if getattr(light, "normalize", True) else 1.0))
+        if light.spread < math.pi - 1e-6:
+            warn(f"light {obj.name!r}: spread {math.degrees(light.spread):.1f} deg rendered as 180 deg")
+        return {"name": obj.name, "kind": "area", "shape": shape,
+                "matrix": _unit_columns(matrix).tolist(), "size": size,
+                "radiance": radiance.tolist(), "visible_camera": bool(obj.visible_camera)}
+    if light.type == "POINT":
+        if light.shadow_soft_size > 0:
+            warn(f"light {obj.name!r}: point radius {light.shadow_soft_size:g} is treated as 0")
+        return {"name": obj.name, "kind": "point", "position": matrix[:3, 3].tolist(),
+                "intensity": (color / (4 * math.pi)).tolist()}
+    if light.type == "SUN":
+        d = matrix[:3, :3] @ np.array([0.0, 0.0, -1.0])
+        return {"name": obj.name, "kind": "sun", "direction": (d / np.linalg.norm(d)).tolist(),
+                "irradiance": color.tolist()}
+    warn(f"light {obj.name!r}: {light.type.lower()} lights are not supported, skipped")
+    return None
+
+
+def convert_camera(scene, depsgraph):
+    """Camera dict from scene.camera; SceneError if there is none or it is not perspective."""
+    cam_obj = scene.camera
+    if cam_obj is None:
+        raise SceneError(f"scene {scene.name!r} has no camera")
+    cam_obj = cam_obj.evaluated_get(depsgraph)
+    cam = cam_obj.data
+    if cam.type != "PERSP":
+        raise SceneError(f"camera {cam_obj.name!r}: only perspective cameras are supported "
+                         f"(got {cam.type})")
+    m = np.array(cam_obj.matrix_world, np.float64)
+    if not np.all(np.isfinite(m)):
+        raise SceneError(f"camera {cam_obj.name!r}: world matrix contains NaN or Inf")
+    m = _unit_columns(m)
+    dof = cam.dof
+    focus = float(dof.focus_distance)
+    if dof.focus_object is not None:
+        target = np.array(dof.focus_object.evaluated_get(depsgraph).matrix_world.translation)
+        view_dir = -m[:3, 2]
+        focus = abs(float(np.dot(view_dir, m[:3, 3] - target)))
+    r = scene.render
+    return {
+        "name": cam_obj.name, "matrix": m.tolist(), "lens": float(cam.lens),
+        "sensor_width": float(cam.sensor_width), "sensor_height": float(cam.sensor_height),
+        "sensor_fit": cam.sensor_fit, "shift_x": float(cam.shift_x), "shift_y": float(cam.shift_y),
+        "clip_start": float(cam.clip_start), "clip_end": float(cam.clip_end),
+        "resolution": [int(r.resolution_x), int(r.resolution_y)],
+        "resolution_percentage": int(r.resolution_percentage),
+        "pixel_aspect": [float(r.pixel_aspect_x), float(r.pixel_aspect_y)],
+        "dof": {"use_dof": bool(dof.use_dof), "focus_distance": focus,
+                "fstop": float(dof.aperture_fstop), "blades": int(dof.aperture_blades),
+                "rotation": float(dof.aperture_rotation), "ratio": float(dof.aperture_ratio)},
+    }
+
+
+def convert_world(world, warn):
+    """World dict: the Background node's Color x Strength, else world.color; black if none."""
+    if world is None:
+        return {"color": [0.0, 0.0, 0.0]}
+    with _pywarnings.catch_warnings():
+        _pywarnings.simplefilter("ignore", DeprecationWarning)  # use_nodes goes in Blender 6
+        use_nodes = getattr(world, "use_nodes", True)
+    tree = world.node_tree if use_nodes else None
+    if tree is None:
+        return {"color": [float(c) for c in world.color[:3]]}
+    out = _active_output(tree, "ShaderNodeOutputWorld")
+    node = _follow(out.inputs["Surface"]) if out is not None else None
+    if node is None:
+        return {"color": [0.0, 0.0, 0.0]}  # Cycles renders an unconnected world black
+    if node.bl_idname != "ShaderNodeBackground":
+        warn(f"world {world.name!r}: node {node.name!r} ({node.bl_idname}) is not supported, "
+             f"using black")
+        return {"color": [0.0, 0.0, 0.0]}
+    issues = []
+    inp = _Inputs(node, issues)
+    color = np.array(inp.color("Color")) * max(inp.value("Strength"), 0.0)
+    for issue in issues:
+        warn(f"world {world.name!r}: {issue}")
+    return {"color": color.tolist()}
+
+
+def convert_render(scene):
+    """Render settings from scene.snell if the add-on registered them, else the defaults."""
+    render = dict(scene_mod.DEFAULT_RENDER)
+    props = getattr(scene, "snell", None)
+    if props is not None:
+        for key in ("spp", "max_depth", "seed"):
+            if hasattr(props, key):
+                render[key] = int(getattr(props, key))
+        if hasattr(props, "fresnel"):
+            render["fresnel"] = str(props.fresnel).lower()
+    return render
+
+
+# ---------------------------------------------------------------------------------------------
+# The depsgraph walk
+
+
+def _hidden_from_render(obj):
+    """A viewport depsgraph still holds objects hidden from render; a render one does not."""
+    orig = obj.original
+    if orig.hide_render:
+        return True
+    colls = orig.users_collection
+    return bool(colls) and all(c.hide_render for c in colls)
+
+
+class _Exporter:
+    def __init__(self, depsgraph):
+        self.depsgraph = depsgraph
+        self.warnings = []
+        self._warned = set()
+        self.materials = []
+        self.material_ids = {}  # Blender material (or None) -> index
+        self.meshes = {}  # evaluated geometry pointer -> _Mesh
+        self.parts = []  # (positions, normals, triangles, material ids, object id)
+        self.objects = []
+        self.lights = []
+
+    def warn(self, message):
+        if message not in self._warned:
+            self._warned.add(message)
+            self.warnings.append(message)
+
+    def material_id(self, mat, obj_name):
+        key = mat.original if mat is not None else None
+        if key not in self.material_ids:
+            converted, issues = convert_material(mat)
+            self.material_ids[key] = (len(self.materials), issues)
+            self.materials.append(converted)
+        index, issues = self.material_ids[key]
+        mat_name = mat.name if mat is not None else "(none)"
+        for issue in issues:
+            self.warn(f"object {obj_name!r}, material {mat_name!r}: {issue}")
+        return index
+
+    def add_instance(self, inst):
+        obj = inst.object
+        name = f"{inst.parent.name}/{obj.name}" if inst.is_instance and inst.parent else obj.name
+        matrix = np.array(inst.matrix_world, np.float64)
+        if not np.all(np.isfinite(matrix)):
+            raise SceneError(f"object {name!r}: world matrix contains NaN or Inf")
+        if obj.type == "LIGHT":
+            light = convert_light(obj, matrix, self.warn)
+            if light is not None:
+                light["name"] = name
+                self.lights.append(light)
+            return
+        if obj.type not in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
+            return
+        # Objects sharing evaluated geometry (linked duplicates, instances) share one conversion;
+        # with modifiers each object's evaluated data is its own.
+        key = (obj.type == "MESH" and obj.data.as_pointer()) or ("object", obj.as_pointer())
+        if key not in self.meshes:
+            self.meshes[key] = _mesh_arrays(obj)
+        mesh = self.meshes[key]
+        if mesh is None:
+            return
+        if mesh.dropped:
+            self.warn(f"object {name!r}: dropped {mesh.dropped} zero-area triangle(s)")
+        if len(mesh.triangles) == 0:
+            return
+        m3 = matrix[:3, :3]
+        det = np.linalg.det(m3)
+        if abs(det) < 1e-30:
+            self.warn(f"object {name!r}: singular world matrix (zero scale), skipped")
+            return
+        slots = [s.material for s in obj.material_slots] or [None]
+        lookup = np.array([self.material_id(m, name) for m in slots], np.int32)
+        mat_ids = lookup[np.clip(mesh.mat_index, 0, len(slots) - 1)]
+        object_id = len(self.objects)
+        self.objects.append({"name": name, "closed": mesh.closed})
+        if not mesh.closed:
+            for i in np.unique(mat_ids):
+                mat = self.materials[i]
+                if mat["kind"] in ("glass", "refraction"):
+                    self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} on a mesh "
+                              f"that is not closed (its edges are not all shared by two triangles)")
+        positions = mesh.positions @ m3.T + matrix[:3, 3]
+        normals = mesh.normals @ np.linalg.inv(m3)  # (M^-T n) for row vectors
+        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+        tris = mesh.triangles[:, [0, 2, 1]] if det < 0 else mesh.triangles
+        self.parts.append((positions, normals, tris, mat_ids, object_id))
+
+    def scene(self, bl_scene, camera, source):
+        offset, tris = 0, []
+        for positions, _, t, _, _ in self.parts:
+            tris.append(t + offset)
+            offset += len(positions)
+        cat = lambda arrays, shape, dtype: (np.concatenate(arrays).astype(dtype) if arrays
+                                            else np.zeros(shape, dtype))
+        return Scene(
+            positions=cat([p[0] for p in self.parts], (0, 3), np.float32),
+            normals=cat([p[1] for p in self.parts], (0, 3), np.float32),
+            triangles=cat(tris, (0, 3), np.int32),
+            material_ids=cat([p[3] for p in self.parts], (0,), np.int32),
+            object_ids=cat([np.full(len(p[2]), p[4], np.int32) for p in self.parts], (0,), np.int32),
+            materials=self.materials, lights=self.lights, camera=camera,
+            world=convert_world(bl_scene.world, self.warn), render=convert_render(bl_scene),
+            objects=self.objects, source=source)
+
+
+def export_depsgraph(depsgraph, *, source=""):
+    """Convert an evaluated depsgraph into (Scene, warnings)."""
+    bl_scene = depsgraph.scene
+    camera = convert_camera(bl_scene, depsgraph)
+    ex = _Exporter(depsgraph)
+    check_hidden = depsgraph.mode != "RENDER"
+    for inst in depsgraph.object_instances:
+        obj = inst.object
+        if check_hidden and (_hidden_from_render(obj) or
+                             (inst.is_instance and inst.parent and _hidden_from_render(inst.parent))):
+            continue
+        if not inst.is_instance and obj.is_instancer and not obj.show_instancer_for_render:
+            continue
+        ex.add_instance(inst)
+    scene = ex.scene(bl_scene, camera, source)
+    scene_mod.validate(scene)
+    return scene, ex.warnings
+
+
+def _prefer_render_settings():
+    """Make the viewport depsgraph evaluate what a render would: render visibility and levels."""
+    import bpy
+    for coll in bpy.data.collections:
+        coll.hide_viewport = coll.hide_render
+    for obj in bpy.data.objects:
+        obj.hide_viewport = obj.hide_render
+        for mod in obj.modifiers:
+            mod.show_viewport = mod.show_render
+            if hasattr(mod, "render_levels") and hasattr(mod, "levels"):
+                mod.levels = mod.render_levels
+
+
+def export_blend(path):
+    """Open a .blend file and export its active scene: (Scene, warnings)."""
+    import bpy
+    bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
+    # Blender offers only the viewport depsgraph outside a render; the file was just opened
+    # and is never saved, so switching it to render visibility and levels is harmless.
+    _prefer_render_settings()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    return export_depsgraph(depsgraph, source=os.path.basename(path))
+
+
+def export_to_file(blend_path, out_path):
+    """Export a .blend file to a .snell scene file; returns the warnings."""
+    scene, warnings = export_blend(blend_path)
+    scene_mod.save(scene, out_path)
+    return warnings

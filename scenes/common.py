@@ -1,0 +1,170 @@
+"""Helpers shared by the scene-building scripts: a fresh file, node materials, meshes, camera.
+
+Units: metres, +Z up. The Cornell box spans x in [-1, 1], y in [-1, 1] (open at y = -1, back
+wall at y = +1) and z in [0, 2], so it is 2 m wide like the seed's box.
+"""
+import math
+import os
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+BOX_HALF = 1.0
+BOX_HEIGHT = 2.0
+
+
+def reset():
+    """Start from an empty file (no objects, no world)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return bpy.context.scene
+
+
+def setup_render(scene, resolution=(256, 256), samples=64, max_bounces=7):
+    """Cycles settings that make a comparison with Snell fair (see cycles-conventions.md)."""
+    scene.render.engine = "CYCLES"
+    scene.render.resolution_x, scene.render.resolution_y = resolution
+    scene.render.resolution_percentage = 100
+    c = scene.cycles
+    c.device = "CPU"
+    c.samples = samples
+    c.max_bounces = max_bounces
+    c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = max_bounces
+    c.blur_glossy = 0.0
+    c.sample_clamp_indirect = 0.0
+    c.caustics_reflective = c.caustics_refractive = True
+    c.use_denoising = False
+    c.use_adaptive_sampling = False
+    c.film_exposure = 1.0
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+
+
+def set_world(scene, color, strength=1.0):
+    """A uniform world through a Background node."""
+    world = bpy.data.worlds.new("World")
+    scene.world = world
+    bg = world.node_tree.nodes.get("Background")
+    bg.inputs["Color"].default_value = (*color, 1.0)
+    bg.inputs["Strength"].default_value = strength
+    return world
+
+
+def material(name, kind, color=(0.8, 0.8, 0.8), **values):
+    """A node material with one shader into the output.
+
+    kind: diffuse | glossy | glass | refraction | emission | principled; values set the named
+    inputs (e.g. IOR=1.5, Strength=10, Roughness=0).
+    """
+    idname = {"diffuse": "ShaderNodeBsdfDiffuse", "glossy": "ShaderNodeBsdfGlossy",
+              "glass": "ShaderNodeBsdfGlass", "refraction": "ShaderNodeBsdfRefraction",
+              "emission": "ShaderNodeEmission", "principled": "ShaderNodeBsdfPrincipled"}[kind]
+    mat = bpy.data.materials.new(name)
+    tree = mat.node_tree
+    tree.nodes.clear()
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    node = tree.nodes.new(idname)
+    node.location = (-300, 0)
+    tree.links.new(node.outputs[0], out.inputs["Surface"])
+    color_input = "Base Color" if kind == "principled" else "Color"
+    node.inputs[color_input].default_value = (*color, 1.0)
+    if kind in ("glossy", "glass", "refraction"):
+        values.setdefault("Roughness", 0.0)  # the node default 0.5 is not a mirror
+    for key, value in values.items():
+        node.inputs[key].default_value = value
+    return mat
+
+
+def mesh_object(name, verts, faces, mat=None, smooth=False, collection=None):
+    """An object from numpy vertices (V, 3) and equal-sized polygons (F, k), built with foreach_set."""
+    verts = np.asarray(verts, np.float32).reshape(-1, 3)
+    faces = np.asarray(faces, np.int32)
+    mesh = bpy.data.meshes.new(name)
+    mesh.vertices.add(len(verts))
+    mesh.vertices.foreach_set("co", verts.ravel())
+    mesh.loops.add(faces.size)
+    mesh.loops.foreach_set("vertex_index", faces.ravel())
+    mesh.polygons.add(len(faces))
+    mesh.polygons.foreach_set("loop_start", np.arange(0, faces.size, faces.shape[1], dtype=np.int32))
+    mesh.update(calc_edges=True)
+    mesh.validate()
+    if smooth:
+        mesh.shade_smooth()
+    if mat is not None:
+        mesh.materials.append(mat)
+    obj = bpy.data.objects.new(name, mesh)
+    (collection or bpy.context.scene.collection).objects.link(obj)
+    return obj
+
+
+def quad(name, corners, mat):
+    """A one-polygon quad; corners counter-clockwise seen from the side the normal points to."""
+    return mesh_object(name, corners, [[0, 1, 2, 3]], mat)
+
+
+def uv_sphere(name, location, radius, mat, segments=64, rings=32):
+    """A smooth UV sphere with outward normals."""
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=radius,
+                                         location=location)
+    obj = bpy.context.active_object
+    obj.name = obj.data.name = name
+    obj.data.shade_smooth()
+    obj.data.materials.append(mat)
+    return obj
+
+
+def cornell_box(light_strength=15.0, light_size=0.5):
+    """The CS184 Cornell box: white floor/ceiling/back, red left, blue right, a ceiling emitter."""
+    h, z = BOX_HALF, BOX_HEIGHT
+    white = material("White", "diffuse", (0.725, 0.71, 0.68))
+    red = material("Red", "diffuse", (0.63, 0.065, 0.05))
+    blue = material("Blue", "diffuse", (0.1, 0.15, 0.6))
+    # Every wall's normal faces into the box.
+    quad("Floor", [(-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0)], white)
+    quad("Ceiling", [(-h, -h, z), (-h, h, z), (h, h, z), (h, -h, z)], white)
+    quad("BackWall", [(-h, h, 0), (h, h, 0), (h, h, z), (-h, h, z)], white)
+    quad("LeftWall", [(-h, -h, 0), (-h, h, 0), (-h, h, z), (-h, -h, z)], red)
+    quad("RightWall", [(h, -h, 0), (h, -h, z), (h, h, z), (h, h, 0)], blue)
+    s, lz = light_size / 2, z - 0.01
+    lamp = material("Light", "emission", (1.0, 1.0, 1.0), Strength=light_strength)
+    light = quad("Light", [(-s, -s, lz), (-s, s, lz), (s, s, lz), (s, -s, lz)], lamp)
+    light.visible_camera = True
+    return light
+
+
+def camera(scene, location, target, lens=35.0, sensor_width=36.0, name="Camera"):
+    """A perspective camera at location looking at target, +Z up; becomes the scene camera."""
+    data = bpy.data.cameras.new(name)
+    data.lens = lens
+    data.sensor_width = sensor_width
+    data.sensor_fit = "AUTO"
+    obj = bpy.data.objects.new(name, data)
+    scene.collection.objects.link(obj)
+    obj.location = location
+    direction = Vector(target) - Vector(location)
+    obj.rotation_euler = direction.to_track_quat("-Z", "Y").to_euler()
+    scene.camera = obj
+    return obj
+
+
+def aperture_fstop(lens_mm, radius_m):
+    """The f-stop whose Cycles aperture radius lens / (2 fstop) equals radius_m."""
+    return lens_mm * 1e-3 / (2.0 * radius_m)
+
+
+def save(path):
+    """Write the current file to path (directories created as needed)."""
+    path = os.path.abspath(path)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    bpy.ops.wm.save_as_mainfile(filepath=path, check_existing=False)
+    return path
+
+
+def cornell_camera(scene, target=(0.0, 0.0, 1.0), distance=3.4, height=1.0):
+    """The camera looking into the box through its open front."""
+    return camera(scene, (0.0, target[1] - distance, height), target, lens=35.0)
+
+
+__all__ = [n for n in dir() if not n.startswith("_") and n not in ("bpy", "np", "os", "math")]
