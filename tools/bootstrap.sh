@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Set up a development checkout from scratch and make a first render:
+#   .venv (Python 3.11) -> pip install -e '.[dev]' -> scenes/*.blend -> out/cornell_spheres.{exr,png}
+# Safe to run again: every step reuses what is already there.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+if [ ! -x .venv/bin/python ]; then
+    echo "bootstrap: creating .venv with python3.11"
+    python3.11 -m venv .venv
+fi
+
+echo "bootstrap: pip install -e '.[dev]'"
+.venv/bin/python -m pip install --quiet -e '.[dev]'
+
+if [ -f scenes/build_all.py ]; then
+    echo "bootstrap: building the reference scenes"
+    .venv/bin/python scenes/build_all.py
+    mkdir -p out
+    echo "bootstrap: rendering scenes/cornell_spheres.blend at 64 spp"
+    .venv/bin/snell render scenes/cornell_spheres.blend \
+        -o out/cornell_spheres.exr --png out/cornell_spheres.png --spp 64
+else
+    echo "bootstrap: scenes/build_all.py not found: skipping the reference scenes and the first render" >&2
+fi
