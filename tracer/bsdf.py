@@ -1,0 +1,125 @@
+"""Scattering functions on arrays: Fresnel, reflection, refraction and their samplers.
+
+Conventions follow Cycles (docs: shared/reference/cycles-conventions.md): directions are unit
+vectors, `eta` is the relative index n_transmitted / n_incident, and a smooth dielectric weights
+both reflection and refraction by its colour alone (no 1/eta^2 radiance scaling).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+# Material kind codes, per triangle in the integrator (order matches scene.MATERIAL_KINDS).
+DIFFUSE, MIRROR, GLASS, REFRACTION, EMISSION = range(5)
+
+
+def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise dot product of two (n, 3) arrays."""
+    return np.einsum("ij,ij->i", a, b)
+
+
+def normalize(v: np.ndarray) -> np.ndarray:
+    """Rows of v scaled to unit length."""
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def fresnel_dielectric(cos_i, eta):
+    """Exact unpolarised Fresnel reflectance and the cosine of the refracted ray.
+
+    cos_i >= 0 is the cosine on the incident side, eta = n_t / n_i. Total internal reflection
+    gives F = 1 and cos_t = 0 (tested before any square root, so it never makes a NaN).
+    """
+    cos_i = np.clip(np.asarray(cos_i, dtype=np.float64), 0.0, 1.0)
+    eta = np.asarray(eta, dtype=np.float64)
+    g2 = eta * eta - 1.0 + cos_i * cos_i
+    tir = g2 <= 0.0
+    cos_t = np.sqrt(np.where(tir, 1.0, g2)) / eta
+    r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    f = 0.5 * (r_s * r_s + r_p * r_p)
+    return np.where(tir, 1.0, f), np.where(tir, 0.0, cos_t)
+
+
+def fresnel_schlick(cos_i, eta):
+    """Schlick's approximation (the seed's choice) and the refracted cosine.
+
+    R0 = ((eta - 1) / (eta + 1))^2 and the cosine taken on the less dense side, as Schlick's
+    approximation requires (for exits that is the refracted cosine). TIR gives F = 1.
+    """
+    cos_i = np.clip(np.asarray(cos_i, dtype=np.float64), 0.0, 1.0)
+    eta = np.asarray(eta, dtype=np.float64)
+    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
+    tir = sin2_t >= 1.0
+    cos_t = np.sqrt(np.where(tir, 0.0, 1.0 - sin2_t))
+    r0 = ((eta - 1.0) / (eta + 1.0)) ** 2
+    c = np.where(eta >= 1.0, cos_i, cos_t)
+    f = r0 + (1.0 - r0) * (1.0 - c) ** 5
+    return np.where(tir, 1.0, f), np.where(tir, 0.0, cos_t)
+
+
+FRESNEL = {"exact": fresnel_dielectric, "schlick": fresnel_schlick}
+
+
+def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Mirror the incoming direction d about the normal n."""
+    return d - 2.0 * dot(d, n)[:, None] * n
+
+
+def refract(d: np.ndarray, n: np.ndarray, eta, cos_i, cos_t) -> np.ndarray:
+    """Refract d through a surface whose normal n faces the incident side (eta = n_t / n_i)."""
+    inv = (1.0 / np.asarray(eta, dtype=np.float64))[:, None]
+    return inv * d + (inv * np.asarray(cos_i)[:, None] - np.asarray(cos_t)[:, None]) * n
+
+
+def orthonormal_basis(n: np.ndarray):
+    """Two unit tangents completing n (Duff et al. 2017, branchless)."""
+    sign = np.where(n[:, 2] >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + n[:, 2])
+    b = n[:, 0] * n[:, 1] * a
+    t = np.stack([1.0 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], axis=1)
+    s = np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], axis=1)
+    return t, s
+
+
+def sample_cosine_hemisphere(n: np.ndarray, u: np.ndarray):
+    """Cosine-weighted directions around n; returns (directions, pdf in solid angle)."""
+    r = np.sqrt(u[:, 0])
+    phi = 2.0 * np.pi * u[:, 1]
+    x, y = r * np.cos(phi), r * np.sin(phi)
+    z = np.sqrt(np.maximum(0.0, 1.0 - u[:, 0]))
+    t, s = orthonormal_basis(n)
+    wi = x[:, None] * t + y[:, None] * s + z[:, None] * n
+    return wi, z / np.pi
+
+
+def sample_uniform_sphere(u: np.ndarray) -> np.ndarray:
+    """Uniform directions on the unit sphere (pdf 1 / 4 pi)."""
+    z = 1.0 - 2.0 * u[:, 0]
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = 2.0 * np.pi * u[:, 1]
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def sample_uniform_disk(u: np.ndarray) -> np.ndarray:
+    """Uniform points on the unit disk (concentric mapping, so strata stay compact)."""
+    a = 2.0 * u[:, 0] - 1.0
+    b = 2.0 * u[:, 1] - 1.0
+    use_a = np.abs(a) > np.abs(b)
+    r = np.where(use_a, a, b)
+    safe_a = np.where(a == 0.0, 1.0, a)
+    safe_b = np.where(b == 0.0, 1.0, b)
+    theta = np.where(use_a, (np.pi / 4.0) * (b / safe_a), np.pi / 2.0 - (np.pi / 4.0) * (a / safe_b))
+    theta = np.where((a == 0.0) & (b == 0.0), 0.0, theta)
+    return np.stack([r * np.cos(theta), r * np.sin(theta)], axis=1)
+
+
+def sample_regular_polygon(u: np.ndarray, blades: int, rotation: float) -> np.ndarray:
+    """Uniform points in a regular polygon inscribed in the unit circle, as Cycles' aperture."""
+    corner = np.floor(u[:, 0] * blades)
+    s = np.sqrt(u[:, 0] * blades - corner)
+    v = u[:, 1] * s
+    a = 1.0 - s
+    half = np.pi / blades
+    px, py = (a + v) * np.cos(half), (a - v) * np.sin(half)
+    rot = rotation + corner * 2.0 * np.pi / blades
+    c, sn = np.cos(rot), np.sin(rot)
+    return np.stack([c * px - sn * py, sn * px + c * py], axis=1)
