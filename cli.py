@@ -99,15 +99,16 @@ def _duration(seconds: float) -> str:
 class ProgressLine:
     """The integrator's progress callback: one updating line on a terminal."""
 
-    def __init__(self, stream):
+    def __init__(self, stream, spp=None):
         self.stream = stream
+        self.target = f"/{spp}" if spp else ""
         self.start = time.monotonic()
         self.width = 0
 
     def __call__(self, result, passes_done, passes_total):
         elapsed = time.monotonic() - self.start
         eta = elapsed / passes_done * (passes_total - passes_done) if passes_done else float("nan")
-        line = (f"snell: pass {passes_done}/{passes_total}, {result.spp} samples, "
+        line = (f"snell: pass {passes_done}/{passes_total}, {result.spp}{self.target} spp, "
                 f"elapsed {_duration(elapsed)}, ETA {_duration(eta)}")
         self.stream.write("\r" + line.ljust(self.width))
         self.stream.flush()
@@ -147,7 +148,7 @@ def cmd_render(args) -> int:
     from .tracer.integrator import render
 
     options = {} if args.threads is None else {"threads": args.threads}
-    bar = ProgressLine(sys.stderr) if not args.quiet and sys.stderr.isatty() else None
+    bar = ProgressLine(sys.stderr, scene.render["spp"]) if not args.quiet and sys.stderr.isatty() else None
     try:
         result = render(scene, progress=bar, **options)
     finally:

@@ -212,13 +212,13 @@ def test_interrupted_render_writes_nothing(scene_file, tmp_path, stub_integrator
 def test_progress_line():
     import io
     stream = io.StringIO()
-    bar = cli.ProgressLine(stream)
+    bar = cli.ProgressLine(stream, spp=16)
     assert bar(types.SimpleNamespace(spp=4), 1, 4) is True
     bar(types.SimpleNamespace(spp=8), 2, 4)
     bar.close()
     text = stream.getvalue()
     assert text.count("\n") == 1 and text.endswith("\n")
-    assert "pass 2/4, 8 samples" in text.split("\r")[-1] and "ETA" in text
+    assert "pass 2/4, 8/16 spp" in text.split("\r")[-1] and "ETA" in text
 
 
 # ---------------------------------------------------------------------------------------------
@@ -246,3 +246,22 @@ def test_render_tiny_scene(scene_file, tmp_path):
     finally:
         written.close()
     assert np.array_equal(pixels, srgb) and pixels[0, 0, 0] == 255 and pixels[-1, 0, 0] == 0
+
+
+@pytest.mark.skipif(not HAVE_INTEGRATOR, reason="snell.tracer.integrator has not landed yet")
+@pytest.mark.skipif(os.name != "posix", reason="sends SIGINT")
+def test_ctrl_c_during_a_real_render(scene_file, tmp_path):
+    import signal
+    import time
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "snell.cli", "render", str(scene_file), "-o", str(tmp_path / "a.exr"),
+         "--png", str(tmp_path / "a.png"), "--spp", "2000000"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        # A background job may inherit SIGINT ignored: restore Python's usual handler.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    time.sleep(2.0)  # imports done, rendering (the render itself would take about a minute)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert err == "snell: interrupted\n" and out == ""
+    assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
