@@ -30,6 +30,7 @@ from .scene import MATERIAL_KINDS, Scene
 CHUNK = 1 << 15           # paths per chunk: big enough to amortise Python, small enough for cache
 PASS_PATHS = 1 << 17      # aim for about this many paths per progressive pass
 RR_START = 3              # Russian roulette from this bounce on
+SHADOW_SHORTEN = 2.0 ** -16  # relative; well above Embree's float32 error in t
 
 
 @dataclass
@@ -121,7 +122,7 @@ class Renderer:
         beta = np.ones((n, 3))
         specular = np.ones(n, bool)   # the camera ray counts as specular: no MIS on what it sees
         pdf_prev = np.zeros(n)
-        stats = {"tir": 0, "transmissions": 0, "reflections": 0, "diffuse": 0, "rr_killed": 0}
+        stats = {"tir": 0, "tir_absorbed": 0, "transmissions": 0, "reflections": 0, "diffuse": 0, "rr_killed": 0}
 
         for depth in range(self.max_depth + 1):
             if len(path) == 0:
@@ -226,7 +227,7 @@ class Renderer:
 
     def _next_event(self, rows, p, ng_f, ns_f, eps, albedo, beta, rng):
         """Light samples at diffuse vertices: (rows, shadow origins, directions, lengths, contributions)."""
-        wi, dist, weight, pdf_light, end_eps = self.lights.sample(p, rng)
+        wi, target, weight, pdf_light = self.lights.sample(p, rng)
         cos = dot(wi, ns_f)
         ok = (cos > 0.0) & (dot(wi, ng_f) > 0.0) & np.any(weight > 0.0, axis=1)
         idx = np.nonzero(ok)[0]
@@ -236,8 +237,14 @@ class Renderer:
         w = np.where(pdf_light[idx] > 0, power_heuristic(pdf_light[idx], cos / np.pi), 1.0)
         contrib = beta[idx] * albedo[idx] * (cos / np.pi * w)[:, None] * weight[idx]
         origin = offset_origin(p[idx], ng_f[idx], eps[idx], wi[idx])
-        length = np.where(np.isfinite(dist[idx]), dist[idx] - end_eps[idx] - eps[idx], FAR)
-        return rows[idx], origin, wi[idx], length, contrib
+        # Aim from the offset origin at the light point and stop just short of it (the point
+        # may lie on an emissive triangle, which must not count as its own blocker).
+        segment = target[idx] - origin
+        finite = np.isfinite(segment[:, 0])
+        length = np.linalg.norm(np.where(finite[:, None], segment, 0.0), axis=1)
+        direction = np.where(finite[:, None], segment / np.where(finite, length, 1.0)[:, None], wi[idx])
+        length = np.where(finite, length * (1.0 - SHADOW_SHORTEN) - eps[idx], FAR)
+        return rows[idx], origin, direction, length, contrib
 
     def _dielectric(self, sel, d, ns_f, entering, mat, kind, beta, new_d, rng, stats):
         """Smooth glass (reflect with probability F, else refract) and refraction-only surfaces."""
@@ -256,6 +263,7 @@ class Renderer:
         weight = np.where((~glass & tir)[:, None], 0.0, weight)
         beta[sel] *= weight
         stats["tir"] += int((tir & glass).sum())
+        stats["tir_absorbed"] += int((tir & ~glass).sum())
         stats["reflections"] += int((reflects & ~tir).sum())
         stats["transmissions"] += int((~reflects & ~tir).sum())
 

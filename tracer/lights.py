@@ -139,18 +139,17 @@ class LightSampler:
     def sample(self, p: np.ndarray, rng: np.random.Generator):
         """Sample one light per shading point.
 
-        Returns (wi, distance to the light point, radiance / pdf as (n, 3), pdf in solid angle
-        for MIS with 0 for delta lights, target eps for shortening shadow rays).
+        Returns (wi, the light point (NaN for lights at infinity), radiance / pdf as (n, 3),
+        pdf in solid angle for MIS with 0 for delta lights).
         """
         n = len(p)
         u = rng.random((n, 3))
         pick = np.minimum(np.searchsorted(self.cdf, u[:, 0] * self.cdf[-1], side="right"), len(self.cdf) - 1)
         kind, index, pmf = self.kind[pick], self.index[pick], self.pmf[pick]
         wi = np.zeros((n, 3))
-        dist = np.full(n, np.inf)
+        target = np.full((n, 3), np.nan)
         weight = np.zeros((n, 3))
         pdf = np.zeros(n)
-        end_eps = np.zeros(n)
         for k in np.unique(kind):
             sel = np.nonzero(kind == k)[0]
             q, uv, m = p[sel], u[sel, 1:], pmf[sel]
@@ -159,25 +158,23 @@ class LightSampler:
                 corners = self.geometry.positions[self.geometry.triangles[tri]]
                 su = np.sqrt(uv[:, 0])[:, None]
                 b1, b2 = 1.0 - su, uv[:, 1:2] * su
-                target = corners[:, 0] * b1 + corners[:, 1] * (su - b2) + corners[:, 2] * b2
+                point = corners[:, 0] * b1 + corners[:, 1] * (su - b2) + corners[:, 2] * b2
                 normal = self.geometry.face_normal[tri]
                 area = self.geometry.area[tri]
                 radiance = self.tri_radiance[index[sel]]
                 two_sided = True
-                end_eps[sel] = np.maximum(2.0 ** -18 * self.geometry.tri_scale[tri], self.geometry.floor_offset)
             elif k == AREA:
                 lamp = index[sel]
-                target = self.area_lights.sample_points(lamp, uv)
+                point = self.area_lights.sample_points(lamp, uv)
                 normal = self.area_lights.emit[lamp]
                 area = self.area_lights.area[lamp]
                 radiance = self.area_lights.radiance[lamp]
                 two_sided = False
             elif k == POINT:
-                to = self.point_pos[index[sel]] - q
+                target[sel] = self.point_pos[index[sel]]
+                to = target[sel] - q
                 d2 = dot(to, to)
-                d = np.sqrt(d2)
-                wi[sel] = to / d[:, None]
-                dist[sel] = d
+                wi[sel] = to / np.sqrt(d2)[:, None]
                 weight[sel] = self.point_intensity[index[sel]] / (d2 * m)[:, None]
                 continue
             elif k == SUN:
@@ -189,7 +186,7 @@ class LightSampler:
                 pdf[sel] = m / (4.0 * np.pi)
                 weight[sel] = self.world / pdf[sel][:, None]
                 continue
-            to = target - q
+            to = point - q
             d2 = dot(to, to)
             d = np.sqrt(d2)
             w = to / d[:, None]
@@ -199,10 +196,10 @@ class LightSampler:
                 pdf_sa = m * d2 / (area * cos_l)
                 contrib = np.where((cos_l > 0)[:, None], radiance / pdf_sa[:, None], 0.0)
             wi[sel] = w
-            dist[sel] = d
+            target[sel] = point
             weight[sel] = contrib
             pdf[sel] = np.where(cos_l > 0, pdf_sa, 0.0)
-        return wi, dist, weight, pdf, end_eps
+        return wi, target, weight, pdf
 
     def pdf_triangle(self, prim, d, t):
         """Solid-angle density with which `sample` would have chosen this emissive-triangle hit."""
