@@ -92,9 +92,10 @@ def make_scene(meshes, materials, cam, world=(0.0, 0.0, 0.0), lights=(), normals
                zip(nrm, [m[0] for m in meshes], [m[1] for m in meshes])]
     settings = {"spp": 16, "max_depth": 8, "seed": 0, "fresnel": "exact"}
     settings.update(render)
-    scene = Scene(positions=np.concatenate(pos).astype(np.float32),
-                  triangles=np.concatenate(tri).astype(np.int32),
-                  material_ids=np.concatenate(mid), object_ids=np.concatenate(oid),
+    scene = Scene(positions=np.concatenate(pos or [np.zeros((0, 3))]).astype(np.float32),
+                  triangles=np.concatenate(tri or [np.zeros((0, 3))]).astype(np.int32),
+                  material_ids=np.concatenate(mid or [np.zeros(0)]).astype(np.int32),
+                  object_ids=np.concatenate(oid or [np.zeros(0)]).astype(np.int32),
                   materials=list(materials), lights=list(lights), camera=cam,
                   world={"color": list(world)}, render=settings,
                   objects=[{"name": f"object{i}", "closed": True} for i in range(len(meshes))],

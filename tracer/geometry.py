@@ -34,8 +34,11 @@ class Geometry:
         self.embree_time = 0.0
         self.ray_count = 0
         self._lock = threading.Lock()
+        # Corner positions (and normals) per triangle, so a hit gathers one row, not six.
+        self.corners = self.positions[self.triangles]
+        self.corner_normals = None if normals is None else self.normals[self.triangles]
         if self.count:
-            corners = self.positions[self.triangles]
+            corners = self.corners
             cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
             length = np.linalg.norm(cross, axis=1)
             self.area = 0.5 * length
@@ -89,18 +92,17 @@ class Geometry:
 
     def hits(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray, t: np.ndarray) -> Hits:
         """Rebuild hit points from barycentrics in float64 (not from o + t d) with their normals."""
-        tri = self.triangles[prim]
         u = u.astype(np.float64)[:, None]
         v = v.astype(np.float64)[:, None]
         w = 1.0 - u - v
-        pos = self.positions
-        p = w * pos[tri[:, 0]] + u * pos[tri[:, 1]] + v * pos[tri[:, 2]]
+        c = self.corners[prim]
+        p = w * c[:, 0] + u * c[:, 1] + v * c[:, 2]
         ng = self.face_normal[prim]
-        if self.normals is None:
+        if self.corner_normals is None:
             ns = ng
         else:
-            nrm = self.normals
-            ns = w * nrm[tri[:, 0]] + u * nrm[tri[:, 1]] + v * nrm[tri[:, 2]]
+            c = self.corner_normals[prim]
+            ns = w * c[:, 0] + u * c[:, 1] + v * c[:, 2]
             length = np.linalg.norm(ns, axis=1, keepdims=True)
             ns = np.where(length > 1e-12, ns / np.where(length > 0, length, 1.0), ng)
         eps = np.maximum(RELATIVE_OFFSET * np.maximum(self.tri_scale[prim], np.abs(p).max(axis=1)),

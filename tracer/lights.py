@@ -155,7 +155,7 @@ class LightSampler:
             q, uv, m = p[sel], u[sel, 1:], pmf[sel]
             if k == EMISSIVE_TRIANGLE:
                 tri = self.tri[index[sel]]
-                corners = self.geometry.positions[self.geometry.triangles[tri]]
+                corners = self.geometry.corners[tri]
                 su = np.sqrt(uv[:, 0])[:, None]
                 b1, b2 = 1.0 - su, uv[:, 1:2] * su
                 point = corners[:, 0] * b1 + corners[:, 1] * (su - b2) + corners[:, 2] * b2
