@@ -44,23 +44,23 @@ def _random_dirs(n, rng):
 
 def test_reflect_and_refract_round_trips():
     rng = np.random.default_rng(1)
-    n = np.tile([0.0, 0.0, 1.0], (1000, 1))
-    d = _random_dirs(1000, rng)
-    d[:, 2] = -np.abs(d[:, 2])                       # arriving from above
+    n = np.tile([[0.0], [0.0], [1.0]], (1, 1000))
+    d = _random_dirs(1000, rng).T
+    d[2] = -np.abs(d[2])                             # arriving from above
     r = bsdf.reflect(d, n)
     assert np.allclose(bsdf.reflect(r, n), d, atol=1e-14)
-    assert np.allclose(np.linalg.norm(r, axis=1), 1.0)
+    assert np.allclose(np.linalg.norm(r, axis=0), 1.0)
     eta = np.full(1000, 1.5)
-    cos_i = -d[:, 2]
+    cos_i = -d[2]
     f, cos_t = bsdf.fresnel_dielectric(cos_i, eta)
     t = bsdf.refract(d, n, eta, cos_i, cos_t)
-    assert np.allclose(np.linalg.norm(t, axis=1), 1.0, atol=1e-12)
+    assert np.allclose(np.linalg.norm(t, axis=0), 1.0, atol=1e-12)
     # Snell's law, then back out through the same interface gives the original direction.
-    sin_i = np.linalg.norm(np.cross(d, n), axis=1)
-    sin_t = np.linalg.norm(np.cross(t, n), axis=1)
+    sin_i = np.linalg.norm(np.cross(d.T, n.T), axis=1)
+    sin_t = np.linalg.norm(np.cross(t.T, n.T), axis=1)
     assert np.allclose(sin_i, 1.5 * sin_t, atol=1e-12)
     # The reversed refracted ray leaves the glass along the reversed incident ray.
-    back_cos_i = -t[:, 2]
+    back_cos_i = -t[2]
     back_f, back_cos_t = bsdf.fresnel_dielectric(back_cos_i, 1 / eta)
     back = bsdf.refract(-t, -n, 1 / eta, back_cos_i, back_cos_t)
     assert np.allclose(back, -d, atol=1e-12)
@@ -91,10 +91,10 @@ def test_cosine_hemisphere_sampling_chi_square():
     rng = np.random.default_rng(7)
     n_samples = 1_000_000
     normal = _random_dirs(1, rng)[0]
-    wi, pdf = bsdf.sample_cosine_hemisphere(np.tile(normal, (n_samples, 1)), rng.random((n_samples, 2)))
-    t, s = bsdf.orthonormal_basis(normal[None])
-    z = wi @ normal
-    phi = np.mod(np.arctan2(wi @ s[0], wi @ t[0]), 2 * np.pi)
+    wi, pdf = bsdf.sample_cosine_hemisphere(np.tile(normal[:, None], (1, n_samples)), rng.random((2, n_samples)))
+    t, s = bsdf.orthonormal_basis(normal[:, None])
+    z = normal @ wi
+    phi = np.mod(np.arctan2(s[:, 0] @ wi, t[:, 0] @ wi), 2 * np.pi)
     assert np.all(z >= 0) and np.allclose(pdf, z / np.pi)
     nz, nphi = 51, 101   # odd on purpose, as in Mitsuba's chi2 tests
     hist, _, _ = np.histogram2d(z, phi, bins=[nz, nphi], range=[[0, 1], [0, 2 * np.pi]])
@@ -110,8 +110,8 @@ def test_aperture_sampling_is_uniform(blades):
     """Disk and polygon samples: inside the shape, chi-square uniform over its area."""
     rng = np.random.default_rng(11 + blades)
     n_samples = 400_000
-    u = rng.random((n_samples, 2))
-    p = bsdf.sample_regular_polygon(u, blades, 0.3) if blades else bsdf.sample_uniform_disk(u)
+    u = rng.random((2, n_samples))
+    p = (bsdf.sample_regular_polygon(u, blades, 0.3) if blades else bsdf.sample_uniform_disk(u)).T
     r = np.linalg.norm(p, axis=1)
     assert r.max() <= 1.0 + 1e-12
     # Angular sectors: for a disk, equal-area rings (r^2 uniform) x sectors; for the polygon,

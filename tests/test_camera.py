@@ -28,17 +28,17 @@ def test_pixel_aspect_and_percentage():
 
 def test_shift_moves_the_window_by_shift_times_sensor_over_lens():
     cam = Camera(camera(resolution=(64, 32), lens=35.0, shift_x=0.25, shift_y=-0.1))
-    centre = cam.raster_to_camera(np.array([32.0]), np.array([16.0]))[0]
+    centre = cam.raster_to_camera(np.array([32.0]), np.array([16.0]))[:, 0]
     assert centre[0] == pytest.approx(0.25 * 36 / 35) and centre[1] == pytest.approx(-0.1 * 36 / 35)
 
 
 def test_raster_y_zero_is_the_bottom_and_images_are_top_first():
     cam = Camera(camera(resolution=(8, 8)))
     o, d, _ = cam.generate(np.array([0, 63]), np.full((2, 2), 0.5), None)
-    assert d[0, 1] > 0 and d[0, 0] < 0       # image row 0, column 0: top left
-    assert d[1, 1] < 0 and d[1, 0] > 0       # last pixel: bottom right
+    assert d[1, 0] > 0 and d[0, 0] < 0       # image row 0, column 0: top left
+    assert d[1, 1] < 0 and d[0, 1] > 0       # last pixel: bottom right
     pts = o + d * 3.0
-    assert np.allclose(cam.project(pts), [[0.5, 7.5], [7.5, 0.5]])
+    assert np.allclose(cam.project(pts).T, [[0.5, 7.5], [7.5, 0.5]])
 
 
 def test_rotation_ignores_object_scale():
@@ -68,10 +68,10 @@ def test_focus_plane_is_a_plane_not_a_sphere():
     assert cam.has_lens and cam.lens_radius == pytest.approx(0.02)
     rng = np.random.default_rng(0)
     pix = np.repeat([0, 135, 255], 200)
-    u_pix = np.tile(rng.random((1, 2)), (600, 1))
-    o, d, _ = cam.generate(pix, u_pix, rng.random((600, 2)))
-    t = (-3.0 - o[:, 2]) / d[:, 2]
-    hits = o + t[:, None] * d
+    u_pix = np.tile(rng.random((2, 1)), (1, 600))
+    o, d, _ = cam.generate(pix, u_pix, rng.random((2, 600)))
+    t = (-3.0 - o[2]) / d[2]
+    hits = (o + t * d).T
     for k in range(3):
         block = hits[200 * k:200 * (k + 1)]
         assert np.ptp(block[:, 0]) < 1e-9 and np.ptp(block[:, 1]) < 1e-9
@@ -80,7 +80,7 @@ def test_focus_plane_is_a_plane_not_a_sphere():
 def test_polygonal_aperture_and_ratio():
     cam = Camera(camera(dof={"use_dof": True, "aperture_radius": 1.0, "blades": 6,
                              "rotation": 0.0, "ratio": 2.0}))
-    p = cam.lens_samples(np.random.default_rng(3).random((20000, 2)))
+    p = cam.lens_samples(np.random.default_rng(3).random((2, 20000))).T
     # Corners at rotation + k 60deg +- 30deg: 30, 90, 150, ... so the hexagon reaches y = 1 and
     # x = cos 30 = 0.866, which ratio 2 halves.
     assert np.abs(p[:, 0]).max() == pytest.approx(0.5 * np.cos(np.pi / 6), abs=0.01)

@@ -74,8 +74,8 @@ def test_diffuse_furnace_matches_albedo():
     corners = [(xs + dx, 24 - ys - dy) for dx in (0, 1) for dy in (0, 1)]
     for cx, cy in corners:
         px = cam.raster_to_camera(cx.ravel().astype(float), cy.ravel().astype(float))
-        d = px / np.linalg.norm(px, axis=1, keepdims=True)
-        b = 8 * d[:, 2]                    # |o + t d|^2 = 1 with o = (0, 0, 4)
+        d = px / np.linalg.norm(px, axis=0)
+        b = 8 * d[2]                    # |o + t d|^2 = 1 with o = (0, 0, 4)
         disc = b * b - 4 * (16 - 1)
         on &= (disc > 0.05).reshape(24, 24)
     expected = 2.0 * np.array([0.5, 0.25, 0.75])
@@ -236,8 +236,8 @@ def test_nan_samples_are_counted_and_kept_out_of_the_image(monkeypatch):
 
     def poisoned(self, pixel, rng):
         value, stats = original(self, pixel, rng)
-        value[::7, 1] = np.nan
-        value[::11, 0] = np.inf
+        value[1, ::7] = np.nan
+        value[0, ::11] = np.inf
         return value, stats
     monkeypatch.setattr(Renderer, "trace", poisoned)
     result = render(scene)

@@ -56,54 +56,53 @@ class Camera:
         return self.lens_radius > 0.0
 
     def raster_to_camera(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Points on the plane z = -1 (camera space) for raster coordinates (y = 0 at the bottom)."""
-        cx = -self.half_x + 2.0 * self.half_x * (x / self.width) + self.shift_x
-        cy = -self.half_y + 2.0 * self.half_y * (y / self.height) + self.shift_y
-        return np.stack([cx, cy, -np.ones_like(cx)], axis=1)
+        """Points (3, n) on the plane z = -1 (camera space) for raster coordinates (y = 0 at the bottom)."""
+        cx = -self.half_x + (2.0 * self.half_x / self.width) * x + self.shift_x
+        cy = -self.half_y + (2.0 * self.half_y / self.height) * y + self.shift_y
+        return np.stack([cx, cy, np.full_like(cx, -1.0)])
 
     def lens_samples(self, u: np.ndarray) -> np.ndarray:
-        """Points on the aperture (camera space, z = 0) for uniform samples u in [0, 1)^2."""
+        """Points (2, n) on the aperture (camera space, z = 0) for uniform samples u (2, n)."""
         if self.blades >= 3:
             p = bsdf.sample_regular_polygon(u, self.blades, self.blade_rotation)
         else:
             p = bsdf.sample_uniform_disk(u)
-        p[:, 0] *= self.inv_ratio
+        p[0] *= self.inv_ratio
         return p * self.lens_radius
 
     def generate(self, pixel: np.ndarray, u_pixel: np.ndarray, u_lens: np.ndarray | None):
         """Rays for image pixels (index = row * width + col, row 0 at the top).
 
-        Returns world-space origins (float64), unit directions (float64) and the distance from
-        origin to far clip. Origins already sit on the near clip plane, because Embree's tnear is
-        fixed at 0.
+        u_pixel and u_lens are (2, n) uniform samples. Returns world-space origins and unit
+        directions, both (3, n) float64, and the distance from origin to the far clip. Origins
+        already sit on the near clip plane, because Embree's tnear is fixed at 0.
         """
         row, col = np.divmod(pixel, self.width)
-        x = col + u_pixel[:, 0]
-        y = (self.height - 1 - row) + u_pixel[:, 1]
-        p_plane = self.raster_to_camera(x, y)
-        d_pinhole = bsdf.normalize(p_plane)
-        z_inv = 1.0 / -d_pinhole[:, 2]
+        x = col + u_pixel[0]
+        y = (self.height - 1 - row) + u_pixel[1]
+        d_pinhole = bsdf.normalize(self.raster_to_camera(x, y))
+        z_inv = -1.0 / d_pinhole[2]
         if self.has_lens and u_lens is not None:
             lens = self.lens_samples(u_lens)
-            origin = np.zeros_like(p_plane)
-            origin[:, :2] = lens
-            # Cycles focuses on a plane: P_focus = D * focus / D.z.
-            p_focus = d_pinhole * (self.focus_distance * z_inv)[:, None]
-            d = bsdf.normalize(p_focus - origin)
+            # Cycles focuses on a plane: P_focus = D * focus / D.z, then D = P_focus - P_lens.
+            p_focus = d_pinhole * (self.focus_distance * z_inv)
+            p_focus[:2] -= lens
+            d = bsdf.normalize(p_focus)
+            origin = np.zeros_like(d)
+            origin[:2] = lens
         else:
-            origin = np.zeros_like(p_plane)
+            origin = np.zeros_like(d_pinhole)
             d = d_pinhole
-        near = self.clip_start * z_inv
-        origin = origin + d * near[:, None]
+        origin += d * (self.clip_start * z_inv)
         far = (self.clip_end - self.clip_start) * z_inv
-        world_o = origin @ self.rotation.T + self.position
-        world_d = d @ self.rotation.T
+        world_o = self.rotation @ origin + self.position[:, None]
+        world_d = self.rotation @ d
         return world_o, world_d, far
 
     def project(self, points: np.ndarray) -> np.ndarray:
-        """Pinhole raster coordinates (x, y from the bottom) of world points, for tests and tools."""
-        local = (np.asarray(points, dtype=np.float64) - self.position) @ self.rotation
-        plane = local[:, :2] / -local[:, 2:3]
-        x = (plane[:, 0] - self.shift_x + self.half_x) / (2.0 * self.half_x) * self.width
-        y = (plane[:, 1] - self.shift_y + self.half_y) / (2.0 * self.half_y) * self.height
-        return np.stack([x, y], axis=1)
+        """Pinhole raster coordinates (2, n), y from the bottom, of world points (3, n)."""
+        local = self.rotation.T @ (np.asarray(points, dtype=np.float64) - self.position[:, None])
+        plane = local[:2] / -local[2]
+        x = (plane[0] - self.shift_x + self.half_x) / (2.0 * self.half_x) * self.width
+        y = (plane[1] - self.shift_y + self.half_y) / (2.0 * self.half_y) * self.height
+        return np.stack([x, y])

@@ -1,4 +1,8 @@
-"""Triangle geometry on Embree: ray queries, hit reconstruction and self-intersection offsets."""
+"""Triangle geometry on Embree: ray queries, hit reconstruction and self-intersection offsets.
+
+Per-triangle data is stored transposed, (k, T), so that `take(prim, axis=1)` gathers each hit's
+rows into contiguous (k, n) arrays in one call (structure of arrays, as the integrator uses).
+"""
 from __future__ import annotations
 
 import threading
@@ -16,7 +20,7 @@ FAR = np.float32(1e30)
 
 
 class Hits:
-    """Surface data for the rays that hit something (all arrays share the same row order)."""
+    """Surface data for hits, (3, n) vectors: point, geometric and shading normals, offset size."""
     __slots__ = ("prim", "t", "p", "ng", "ns", "eps")
 
     def __init__(self, prim, t, p, ng, ns, eps):
@@ -27,33 +31,28 @@ class Geometry:
     """The scene's triangles in one Embree mesh (primID = triangle index) plus float64 copies."""
 
     def __init__(self, positions: np.ndarray, triangles: np.ndarray, normals: np.ndarray | None):
-        self.positions = positions.astype(np.float64)
-        self.triangles = triangles.astype(np.int64)
-        self.normals = None if normals is None else normals.astype(np.float64)
         self.count = len(triangles)
         self.embree_time = 0.0
         self.ray_count = 0
         self._lock = threading.Lock()
-        # Corner positions (and normals) per triangle, so a hit gathers one row, not six.
-        self.corners = self.positions[self.triangles]
-        self.corner_normals = None if normals is None else self.normals[self.triangles]
-        if self.count:
-            corners = self.corners
-            cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-            length = np.linalg.norm(cross, axis=1)
-            self.area = 0.5 * length
-            # Degenerate triangles cannot be hit in a meaningful way; give them any unit normal.
-            safe = np.where(length > 0.0, length, 1.0)[:, None]
-            self.face_normal = np.where(length[:, None] > 0.0, cross / safe, [0.0, 0.0, 1.0])
-            self.tri_scale = np.abs(corners).max(axis=(1, 2))
-            extent = float(np.ptp(self.positions, axis=0).max())
-        else:
-            self.area = np.zeros(0)
-            self.face_normal = np.zeros((0, 3))
-            self.tri_scale = np.zeros(0)
-            extent = 1.0
+        tri = triangles.astype(np.int64)
+        corners = positions.astype(np.float64)[tri]                       # (T, 3 corners, 3)
+        # Rows: corner 0 xyz, corner 1 xyz, corner 2 xyz.
+        self.corners = np.ascontiguousarray(corners.reshape(-1, 9).T)      # (9, T)
+        self.corner_normals = None
+        if normals is not None:
+            self.corner_normals = np.ascontiguousarray(normals.astype(np.float64)[tri].reshape(-1, 9).T)
+        cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        length = np.linalg.norm(cross, axis=1)
+        self.area = 0.5 * length
+        # Degenerate triangles cannot be hit in a meaningful way; give them any unit normal.
+        unit = np.where(length[:, None] > 0.0, cross / np.where(length > 0.0, length, 1.0)[:, None],
+                        [0.0, 0.0, 1.0])
+        self.face_normal = np.ascontiguousarray(unit.T)                      # (3, T)
+        self.tri_scale = np.abs(corners).max(axis=(1, 2)) if self.count else np.zeros(0)
+        extent = float(np.ptp(positions, axis=0).max()) if self.count else 1.0
         self.extent = max(extent, 1e-12)
-        self.floor_offset = FLOOR_OFFSET * self.extent + 1e-30
+        self.floor_offset = FLOOR_OFFSET * self.extent
         self._scene = None
         if self.count:
             self._scene = rtcore_scene.EmbreeScene()
@@ -68,50 +67,49 @@ class Geometry:
             self.ray_count += n
         return out
 
-    def intersect(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray | None = None):
-        """Closest hit per ray: (primID with -1 for a miss, u, v, t)."""
-        n = len(o)
+    def intersect(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray):
+        """Closest hit per ray of (3, n) origins and directions: (primID, -1 = miss; u; v; t)."""
+        n = o.shape[1]
         if self._scene is None or n == 0:
             return np.full(n, -1, np.int32), np.zeros(n, np.float32), np.zeros(n, np.float32), np.full(n, FAR)
-        o32 = np.ascontiguousarray(o, dtype=np.float32)
-        d32 = np.ascontiguousarray(d, dtype=np.float32)
-        dists = np.full(n, FAR, np.float32) if tmax is None else np.ascontiguousarray(tmax, np.float32)
+        o32 = np.ascontiguousarray(o.T, dtype=np.float32)
+        d32 = np.ascontiguousarray(d.T, dtype=np.float32)
+        dists = np.minimum(tmax, FAR).astype(np.float32)
         res = self._timed(n, lambda: self._scene.run(o32, d32, dists=dists, output=1))
         return res["primID"], res["u"], res["v"], res["tfar"]
 
     def occluded(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> np.ndarray:
-        """True where something blocks the segment o + t d, 0 <= t < tmax."""
-        n = len(o)
+        """True where something blocks the segment o + t d, 0 <= t < tmax ((3, n) inputs)."""
+        n = o.shape[1]
         if self._scene is None or n == 0:
             return np.zeros(n, bool)
-        o32 = np.ascontiguousarray(o, dtype=np.float32)
-        d32 = np.ascontiguousarray(d, dtype=np.float32)
-        dists = np.ascontiguousarray(np.minimum(tmax, FAR), np.float32)
+        o32 = np.ascontiguousarray(o.T, dtype=np.float32)
+        d32 = np.ascontiguousarray(d.T, dtype=np.float32)
+        dists = np.minimum(tmax, FAR).astype(np.float32)
         res = self._timed(n, lambda: self._scene.run(o32, d32, dists=dists, query="OCCLUDED"))
         return res == 0
 
     def hits(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray, t: np.ndarray) -> Hits:
         """Rebuild hit points from barycentrics in float64 (not from o + t d) with their normals."""
-        u = u.astype(np.float64)[:, None]
-        v = v.astype(np.float64)[:, None]
+        u = u.astype(np.float64)
+        v = v.astype(np.float64)
         w = 1.0 - u - v
-        c = self.corners[prim]
-        p = w * c[:, 0] + u * c[:, 1] + v * c[:, 2]
-        ng = self.face_normal[prim]
+        c = self.corners.take(prim, axis=1)
+        p = w * c[0:3] + u * c[3:6] + v * c[6:9]
+        ng = self.face_normal.take(prim, axis=1)
         if self.corner_normals is None:
             ns = ng
         else:
-            c = self.corner_normals[prim]
-            ns = w * c[:, 0] + u * c[:, 1] + v * c[:, 2]
-            length = np.linalg.norm(ns, axis=1, keepdims=True)
+            c = self.corner_normals.take(prim, axis=1)
+            ns = w * c[0:3] + u * c[3:6] + v * c[6:9]
+            length = np.sqrt(ns[0] * ns[0] + ns[1] * ns[1] + ns[2] * ns[2])
             ns = np.where(length > 1e-12, ns / np.where(length > 0, length, 1.0), ng)
-        eps = np.maximum(RELATIVE_OFFSET * np.maximum(self.tri_scale[prim], np.abs(p).max(axis=1)),
-                         self.floor_offset)
+        scale = np.maximum(np.maximum(np.abs(p[0]), np.abs(p[1])), np.abs(p[2]))
+        eps = np.maximum(RELATIVE_OFFSET * np.maximum(self.tri_scale.take(prim), scale), self.floor_offset)
         return Hits(prim, t.astype(np.float64), p, ng, ns, eps)
 
 
 def offset_origin(p: np.ndarray, ng: np.ndarray, eps: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """Move p off its surface along the geometric normal, to the side `direction` leaves to."""
-    side = np.where(np.einsum("ij,ij->i", direction, ng) >= 0.0, 1.0, -1.0)
-    return p + (side * eps)[:, None] * ng
-
+    """Move points p (3, n) off their surface along ng, to the side `direction` leaves to."""
+    toward = ng[0] * direction[0] + ng[1] * direction[1] + ng[2] * direction[2]
+    return p + np.where(toward >= 0.0, eps, -eps) * ng

@@ -75,6 +75,15 @@ class RenderResult:
         return self.embree_time_s / (self.time_s * self.threads) if self.time_s > 0 else 0.0
 
 
+def _select(mask: np.ndarray):
+    """Indices where mask holds, or a whole slice when it holds everywhere (no gather needed)."""
+    return slice(None) if mask.all() else np.flatnonzero(mask)
+
+
+def _count(sel, n: int) -> int:
+    return n if isinstance(sel, slice) else len(sel)
+
+
 def power_heuristic(a, b):
     """MIS weight of strategy a against b (both pdfs in solid angle)."""
     a2, b2 = a * a, b * b
@@ -93,14 +102,15 @@ class Renderer:
         self.geometry = Geometry(scene.positions, scene.triangles, scene.normals)
         mats = scene.materials
         self.kind = np.array([MATERIAL_KINDS.index(m["kind"]) for m in mats], np.int64)
-        self.color = np.array([m["color"] for m in mats], np.float64).reshape(-1, 3)
+        # Per-material colours as (3, M) columns, gathered per hit like every vector array.
+        self.color = np.array([m["color"] for m in mats], np.float64).reshape(-1, 3).T.copy()
         self.trans_color = np.array([m.get("transmission_color", m["color"]) for m in mats],
-                                    np.float64).reshape(-1, 3)
+                                    np.float64).reshape(-1, 3).T.copy()
         self.ior = np.array([m.get("ior", 1.0) for m in mats], np.float64)
-        self.radiance = self.color * np.array([m.get("strength", 0.0) if m["kind"] == "emission" else 0.0
-                                               for m in mats]).reshape(-1, 1)
+        strength = np.array([m.get("strength", 0.0) if m["kind"] == "emission" else 0.0 for m in mats])
+        self.radiance = self.color * strength
         self.tri_material = scene.material_ids.astype(np.int64)
-        self.lights = LightSampler(scene, self.geometry, self.kind, self.radiance)
+        self.lights = LightSampler(scene, self.geometry, self.kind, self.radiance.T)
         self.world = np.asarray(scene.world["color"], np.float64)
         self.has_world = bool(np.any(self.world > 0))
         render = scene.render
@@ -112,156 +122,167 @@ class Renderer:
     # -- one chunk of paths ---------------------------------------------------------------
 
     def trace(self, pixel: np.ndarray, rng: np.random.Generator):
-        """Radiance of one path per entry of `pixel`: (L (n, 3) float64, event counters)."""
+        """Radiance of one path per entry of `pixel`: (L (3, n) float64, event counters)."""
         n = len(pixel)
         geom, lights, area = self.geometry, self.lights, self.lights.area_lights
         cam = self.camera
-        o, d, tmax = cam.generate(pixel, rng.random((n, 2)), rng.random((n, 2)) if cam.has_lens else None)
-        radiance = np.zeros((n, 3))
+        o, d, tmax = cam.generate(pixel, rng.random((2, n)), rng.random((2, n)) if cam.has_lens else None)
+        radiance = np.zeros((3, n))
         path = np.arange(n)
-        beta = np.ones((n, 3))
+        beta = np.ones((3, n))
         specular = np.ones(n, bool)   # the camera ray counts as specular: no MIS on what it sees
         pdf_prev = np.zeros(n)
-        stats = {"tir": 0, "tir_absorbed": 0, "transmissions": 0, "reflections": 0, "diffuse": 0, "rr_killed": 0}
+        stats = dict.fromkeys(("tir", "tir_absorbed", "transmissions", "reflections", "diffuse", "rr_killed"), 0)
 
         for depth in range(self.max_depth + 1):
-            if len(path) == 0:
-                break
             # Stage 1: intersect.
             prim, u, v, t = geom.intersect(o, d, tmax)
-            t = np.where(prim >= 0, t, np.inf).astype(np.float64)
-            alive = np.ones(len(path), bool)
+            t = t.astype(np.float64)
+            alive = prim >= 0
 
             # Stage 2: lamps, world and emissive surfaces add their light.
             if area.count:
-                lamp, t_lamp = area.intersect(o, d, np.minimum(t, tmax), camera_rays=depth == 0)
-                hit = np.nonzero(lamp >= 0)[0]
+                lamp, t_lamp = area.intersect(o, d, np.where(alive, np.minimum(t, tmax), tmax),
+                                              camera_rays=depth == 0)
+                hit = np.flatnonzero(lamp >= 0)
                 if len(hit):
-                    w = np.where(specular[hit], 1.0,
-                                 power_heuristic(pdf_prev[hit], lights.pdf_area(lamp[hit], d[hit], t_lamp[hit])))
-                    radiance[path[hit]] += beta[hit] * area.radiance[lamp[hit]] * w[:, None]
+                    w = self._mis(specular[hit], pdf_prev[hit],
+                                  lambda: lights.pdf_area(lamp[hit], d[:, hit], t_lamp[hit]))
+                    radiance[:, path[hit]] += beta[:, hit] * area.radiance[:, lamp[hit]] * w
                     alive[hit] = False     # lamps do not scatter
-                    prim[hit] = -1
-            missed = np.nonzero((prim < 0) & alive)[0]
-            if len(missed):
-                alive[missed] = False
-                if self.has_world:
-                    w = np.where(specular[missed], 1.0, power_heuristic(pdf_prev[missed], lights.pdf_world()))
-                    radiance[path[missed]] += beta[missed] * self.world * w[:, None]
-            keep = np.nonzero(alive)[0]
-            path, beta, specular, pdf_prev = path[keep], beta[keep], specular[keep], pdf_prev[keep]
-            d, prim, u, v, t = d[keep], prim[keep], u[keep], v[keep], t[keep]
+                    prim[hit] = 0
+                missed = np.flatnonzero((lamp < 0) & ~alive)
+            else:
+                missed = np.flatnonzero(~alive)
+            if len(missed) and self.has_world:
+                w = self._mis(specular[missed], pdf_prev[missed], lights.pdf_world)
+                radiance[:, path[missed]] += beta[:, missed] * self.world[:, None] * w
+            keep = _select(alive)
+            path, beta, specular, pdf_prev = path[keep], beta[:, keep], specular[keep], pdf_prev[keep]
+            d, prim, u, v, t = d[:, keep], prim[keep], u[keep], v[keep], t[keep]
             if len(path) == 0:
                 break
             hits = geom.hits(prim, u, v, t)
-            mat = self.tri_material[prim]
-            kind = self.kind[mat]
+            mat = self.tri_material.take(prim)
+            kind = self.kind.take(mat)
             emits = kind == EMISSION
             if emits.any():
-                e = np.nonzero(emits)[0]
-                w = np.where(specular[e], 1.0,
-                             power_heuristic(pdf_prev[e], lights.pdf_triangle(prim[e], d[e], t[e])))
-                radiance[path[e]] += beta[e] * self.radiance[mat[e]] * w[:, None]
+                e = np.flatnonzero(emits)
+                w = self._mis(specular[e], pdf_prev[e], lambda: lights.pdf_triangle(prim[e], d[:, e], t[e]))
+                radiance[:, path[e]] += beta[:, e] * self.radiance[:, mat[e]] * w
             if depth == self.max_depth:
                 break
 
             # Stage 3: materials. Emitters do not scatter; the rest are sampled by kind.
-            keep = np.nonzero(~emits)[0]
-            path, beta, d, mat, kind = path[keep], beta[keep], d[keep], mat[keep], kind[keep]
-            p, ng, ns, eps = hits.p[keep], hits.ng[keep], hits.ns[keep], hits.eps[keep]
+            keep = _select(~emits)
+            path, beta, d, mat, kind = path[keep], beta[:, keep], d[:, keep], mat[keep], kind[keep]
+            p, ng, ns, eps = hits.p[:, keep], hits.ng[:, keep], hits.ns[:, keep], hits.eps[keep]
             # Face the normals towards the incoming ray (two-sided surfaces, inside of glass).
             entering = dot(d, ng) < 0.0
-            side = np.where(entering, 1.0, -1.0)[:, None]
+            side = np.where(entering, 1.0, -1.0)
             ng_f, ns_f = ng * side, ns * side
             m = len(path)
-            new_d = np.empty((m, 3))
+            new_d = np.empty((3, m))
             specular = np.ones(m, bool)
             pdf_prev = np.zeros(m)
             shadow = None
 
-            sel = np.nonzero(kind == DIFFUSE)[0]
-            if len(sel):
-                stats["diffuse"] += len(sel)
-                albedo = self.color[mat[sel]]
+            sel = _select(kind == DIFFUSE)
+            if _count(sel, m):
+                stats["diffuse"] += _count(sel, m)
+                albedo = self.color[:, mat[sel]]
                 if lights.has_any:
-                    shadow = self._next_event(sel, p[sel], ng_f[sel], ns_f[sel], eps[sel], albedo, beta[sel], rng)
-                wi, pdf = bsdf.sample_cosine_hemisphere(ns_f[sel], rng.random((len(sel), 2)))
-                below = dot(wi, ng_f[sel]) <= 0.0   # shading normals can point a sample inside
-                beta[sel] *= np.where(below[:, None], 0.0, albedo)
-                new_d[sel] = wi
+                    shadow = self._next_event(sel, p[:, sel], ng_f[:, sel], ns_f[:, sel], eps[sel],
+                                              albedo * beta[:, sel], rng)
+                wi, pdf = bsdf.sample_cosine_hemisphere(ns_f[:, sel], rng.random((2, _count(sel, m))))
+                below = dot(wi, ng_f[:, sel]) <= 0.0   # shading normals can point a sample inside
+                beta[:, sel] *= np.where(below, 0.0, albedo)
+                new_d[:, sel] = wi
                 specular[sel] = False
                 pdf_prev[sel] = pdf
 
-            sel = np.nonzero(kind == MIRROR)[0]
-            if len(sel):
-                stats["reflections"] += len(sel)
-                new_d[sel] = bsdf.reflect(d[sel], ns_f[sel])
-                beta[sel] *= self.color[mat[sel]]
+            sel = _select(kind == MIRROR)
+            if _count(sel, m):
+                stats["reflections"] += _count(sel, m)
+                new_d[:, sel] = bsdf.reflect(d[:, sel], ns_f[:, sel])
+                beta[:, sel] *= self.color[:, mat[sel]]
 
-            sel = np.nonzero((kind == GLASS) | (kind == REFRACTION))[0]
-            if len(sel):
+            sel = _select((kind == GLASS) | (kind == REFRACTION))
+            if _count(sel, m):
                 self._dielectric(sel, d, ns_f, entering, mat, kind, beta, new_d, rng, stats)
 
             # Stage 4: shadow rays of the whole bounce in one Embree call.
             if shadow is not None:
-                rows, origin, wi, dist, contrib = shadow
-                blocked = geom.occluded(origin, wi, dist)
-                free = ~blocked
-                radiance[path[rows[free]]] += contrib[free]
+                rows, origin, direction, length, contrib = shadow
+                free = ~geom.occluded(origin, direction, length)
+                radiance[:, path[rows[free]]] += contrib[:, free]
 
             # Stage 5: next rays, Russian roulette on the throughput, compaction.
             o = offset_origin(p, ng, eps, new_d)
             d = new_d
-            tmax = np.full(m, FAR, np.float64)
-            live = np.any(beta > 0.0, axis=1)
+            peak = np.maximum(np.maximum(beta[0], beta[1]), beta[2])
+            live = peak > 0.0
             if depth + 1 >= RR_START:
-                q = np.minimum(beta.max(axis=1), 1.0)
+                q = np.minimum(peak, 1.0)
                 survive = rng.random(m) < q
                 stats["rr_killed"] += int((live & ~survive).sum())
                 live &= survive
-                beta = beta / np.where(q > 0, q, 1.0)[:, None]
-            keep = np.nonzero(live)[0]
-            path, beta, specular, pdf_prev = path[keep], beta[keep], specular[keep], pdf_prev[keep]
-            o, d, tmax = o[keep], d[keep], tmax[keep]
+                beta = beta / np.where(q > 0, q, 1.0)
+            keep = _select(live)
+            path, beta, specular, pdf_prev = path[keep], beta[:, keep], specular[keep], pdf_prev[keep]
+            o, d = o[:, keep], d[:, keep]
+            tmax = np.full(len(path), FAR, np.float64)
+            if len(path) == 0:
+                break
         return radiance, stats
 
-    def _next_event(self, rows, p, ng_f, ns_f, eps, albedo, beta, rng):
-        """Light samples at diffuse vertices: (rows, shadow origins, directions, lengths, contributions)."""
+    @staticmethod
+    def _mis(specular, pdf_prev, light_pdf):
+        """MIS weight of BSDF-sampled emitter hits; after specular bounces it is 1 (no light pdf)."""
+        if specular.all():
+            return 1.0
+        return np.where(specular, 1.0, power_heuristic(pdf_prev, light_pdf()))
+
+    def _next_event(self, rows, p, ng_f, ns_f, eps, f_beta, rng):
+        """Light samples at diffuse vertices: (rows, shadow origins, directions, lengths, contributions).
+
+        f_beta is albedo x throughput; the Lambert BRDF is albedo / pi.
+        """
         wi, target, weight, pdf_light = self.lights.sample(p, rng)
         cos = dot(wi, ns_f)
-        ok = (cos > 0.0) & (dot(wi, ng_f) > 0.0) & np.any(weight > 0.0, axis=1)
-        idx = np.nonzero(ok)[0]
+        ok = (cos > 0.0) & (dot(wi, ng_f) > 0.0) & ((weight[0] > 0.0) | (weight[1] > 0.0) | (weight[2] > 0.0))
+        idx = np.flatnonzero(ok)
         if len(idx) == 0:
             return None
         cos = cos[idx]
-        w = np.where(pdf_light[idx] > 0, power_heuristic(pdf_light[idx], cos / np.pi), 1.0)
-        contrib = beta[idx] * albedo[idx] * (cos / np.pi * w)[:, None] * weight[idx]
-        origin = offset_origin(p[idx], ng_f[idx], eps[idx], wi[idx])
+        w = np.where(pdf_light[idx] > 0, power_heuristic(pdf_light[idx], cos * (1.0 / np.pi)), 1.0)
+        contrib = f_beta[:, idx] * weight[:, idx] * (cos * (1.0 / np.pi) * w)
+        wi = wi[:, idx]
+        origin = offset_origin(p[:, idx], ng_f[:, idx], eps[idx], wi)
         # Aim from the offset origin at the light point and stop just short of it (the point
         # may lie on an emissive triangle, which must not count as its own blocker).
-        segment = target[idx] - origin
-        finite = np.isfinite(segment[:, 0])
-        length = np.linalg.norm(np.where(finite[:, None], segment, 0.0), axis=1)
-        direction = np.where(finite[:, None], segment / np.where(finite, length, 1.0)[:, None], wi[idx])
+        segment = target[:, idx] - origin
+        finite = np.isfinite(segment[0])
+        length = np.sqrt(dot(segment, segment))
+        direction = np.where(finite, segment / np.where(finite, length, 1.0), wi)
         length = np.where(finite, length * (1.0 - SHADOW_SHORTEN) - eps[idx], FAR)
-        return rows[idx], origin, direction, length, contrib
+        rows = np.arange(len(ok))[rows][idx] if isinstance(rows, slice) else rows[idx]
+        return rows, origin, direction, length, contrib
 
     def _dielectric(self, sel, d, ns_f, entering, mat, kind, beta, new_d, rng, stats):
         """Smooth glass (reflect with probability F, else refract) and refraction-only surfaces."""
         ior = self.ior[mat[sel]]
         eta = np.where(entering[sel], ior, 1.0 / ior)
-        dd, n = d[sel], ns_f[sel]
+        dd, n = d[:, sel], ns_f[:, sel]
         cos_i = np.clip(-dot(dd, n), 0.0, 1.0)
         f, cos_t = self.fresnel(cos_i, eta)
         tir = f >= 1.0
         glass = kind[sel] == GLASS
-        reflects = np.where(glass, rng.random(len(sel)) < f, False)
-        refracted = bsdf.refract(dd, n, eta, cos_i, cos_t)
-        new_d[sel] = np.where(reflects[:, None], bsdf.reflect(dd, n), refracted)
-        weight = np.where(reflects[:, None], self.color[mat[sel]], self.trans_color[mat[sel]])
+        reflects = glass & (rng.random(len(f)) < f)
+        new_d[:, sel] = np.where(reflects, bsdf.reflect(dd, n), bsdf.refract(dd, n, eta, cos_i, cos_t))
+        weight = np.where(reflects, self.color[:, mat[sel]], self.trans_color[:, mat[sel]])
         # Refraction-only surfaces have nothing to give under total internal reflection.
-        weight = np.where((~glass & tir)[:, None], 0.0, weight)
-        beta[sel] *= weight
+        beta[:, sel] *= np.where(~glass & tir, 0.0, weight)
         stats["tir"] += int((tir & glass).sum())
         stats["tir_absorbed"] += int((tir & ~glass).sum())
         stats["reflections"] += int((reflects & ~tir).sum())
@@ -289,13 +310,13 @@ class Renderer:
                 pixels = np.repeat(np.arange(npix, dtype=np.int64), count)
                 chunks = [(k, c, pixels[s:s + CHUNK]) for c, s in enumerate(range(0, len(pixels), CHUNK))]
                 for pix, value, stats in pool.map(self._run_chunk, chunks):
-                    bad = ~np.all(np.isfinite(value), axis=1)
+                    bad = ~np.isfinite(value).all(axis=0)
                     if bad.any():
                         result.nan_count += int(bad.sum())
-                        value[bad] = 0.0
+                        value[:, bad] = 0.0
                     for c in range(3):
-                        flat_sum[:, c] += np.bincount(pix, value[:, c], minlength=npix)
-                        flat_sq[:, c] += np.bincount(pix, value[:, c] ** 2, minlength=npix)
+                        flat_sum[:, c] += np.bincount(pix, value[c], minlength=npix)
+                        flat_sq[:, c] += np.bincount(pix, value[c] * value[c], minlength=npix)
                     for key, val in stats.items():
                         totals[key] = totals.get(key, 0) + val
                 result.spp += count
