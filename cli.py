@@ -9,6 +9,7 @@ Ctrl-C exits with 130 and writes nothing partial (image writes are atomic and ha
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time
@@ -41,6 +42,24 @@ def _extension(path: str) -> str:
     return os.path.splitext(path)[1].lower()
 
 
+@contextlib.contextmanager
+def _blender_chatter_silenced():
+    """Blender writes status lines ("Read blend: ...") to file descriptor 1: keep stdout clean.
+
+    Its errors still arrive as exceptions, and exporter warnings as the returned list.
+    """
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 1)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def load_scene(path: str):
     """A Scene from a .snell file, or exported on the fly from a .blend (warnings to stderr)."""
     ext = _extension(path)
@@ -52,7 +71,8 @@ def load_scene(path: str):
         return load(path)
     try:
         from .addon.export import export_blend
-        scene, warnings = export_blend(path)
+        with _blender_chatter_silenced():
+            scene, warnings = export_blend(path)
     except ModuleNotFoundError as exc:
         if exc.name != "bpy":
             raise
@@ -247,12 +267,39 @@ def cmd_info(args) -> int:
 
 
 # ---------------------------------------------------------------------------------------------
+# snell batch
+
+
+def _setup_batch(p):
+    p.add_argument("scene", metavar="SCENE.blend", help="the Blender file to render")
+    p.add_argument("--frames", metavar="FRAMES",
+                   help="frames to render: 1, 1-10, 1-10x2 or 1,5,9 (default: the current frame)")
+    p.add_argument("-o", "--output", metavar="OUT_####.exr",
+                   help="output path, #### = frame number; .exr (linear float) or .png (view "
+                        "transform) (default: the file's Output Properties)")
+
+
+def cmd_batch(args) -> int:
+    """Render frames through the registered Snell engine in the bpy module (addon/batch.py)."""
+    try:
+        from .addon import batch
+        return batch.run(args.scene, frames=args.frames, output=args.output)
+    except ModuleNotFoundError as exc:
+        if exc.name != "bpy":
+            raise
+        raise CliError("snell batch needs Blender's bpy module (pip install 'snell[blender]')") from None
+    except batch.BatchError as exc:
+        raise CliError(str(exc)) from None
+
+
+# ---------------------------------------------------------------------------------------------
 
 COMMANDS = [
     # (name, one-line help, add arguments, run)
     ("render", "render a scene to a linear EXR (and an sRGB PNG)", _setup_render, cmd_render),
     ("export", "export a .blend to a .snell scene file", _setup_export, cmd_export),
     ("info", "summarise a scene: geometry, materials, lights, camera, features", _setup_info, cmd_info),
+    ("batch", "render frames of a .blend through the Snell engine, one image per frame", _setup_batch, cmd_batch),
 ]
 
 

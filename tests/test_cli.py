@@ -98,6 +98,27 @@ def test_scene_without_camera(tmp_path):
     assert_one_line_error(run("info", path), "camera")
 
 
+needs_bpy = pytest.mark.skipif(importlib.util.find_spec("bpy") is None, reason="needs bpy")
+
+
+@needs_bpy
+def test_blend_errors(tmp_path):
+    garbage = tmp_path / "garbage.blend"
+    garbage.write_bytes(b"BLENDER? no")
+    proc = run("info", garbage)
+    assert_one_line_error(proc, "garbage.blend")
+    assert proc.stdout == ""  # Blender's own status lines do not leak into stdout
+    empty = tmp_path / "empty.blend"
+    subprocess.run([sys.executable, "-c", "import bpy, sys; "
+                    "bpy.ops.wm.read_factory_settings(use_empty=True); "
+                    "bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1])", str(empty)],
+                   check=True, capture_output=True, timeout=300)
+    proc = run("render", empty, "-o", tmp_path / "a.exr")
+    assert_one_line_error(proc, "no camera")
+    assert proc.stdout == ""
+    assert not (tmp_path / "a.exr").exists()
+
+
 def test_bad_outputs_fail_before_rendering(scene_file, tmp_path):
     assert_one_line_error(run("render", scene_file, "-o", tmp_path / "a.png"), ".exr")
     assert_one_line_error(run("render", scene_file, "-o", tmp_path / "a.exr", "--png", tmp_path / "a.jpg"), ".png")
