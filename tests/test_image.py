@@ -125,3 +125,15 @@ def test_read_errors_name_the_path(tmp_path):
     garbage.write_bytes(b"not an image")
     with pytest.raises(OSError, match="garbage.exr"):
         image.read_exr(garbage)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX permissions")
+def test_written_files_get_ordinary_permissions(tmp_path):
+    mask = os.umask(0o022)
+    try:
+        image.write_exr(tmp_path / "a.exr", np.zeros((2, 2, 3), np.float32))
+        image.write_png(tmp_path / "a.png", np.zeros((2, 2, 3), np.float32))
+    finally:
+        os.umask(mask)
+    assert (tmp_path / "a.exr").stat().st_mode & 0o777 == 0o644
+    assert (tmp_path / "a.png").stat().st_mode & 0o777 == 0o644

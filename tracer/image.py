@@ -48,6 +48,12 @@ def to_srgb8(rgb) -> np.ndarray:
     return np.rint(encoded * 255.0).astype(np.uint8)
 
 
+def _new_file_mode() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict) -> None:
     import OpenImageIO as oiio
 
@@ -74,6 +80,7 @@ def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict) -> 
         if not ok:
             reason = (err or out.geterror() or "unknown error").replace(tmp, path)
             raise OSError(f"{path}: cannot write image ({reason})")
+        os.chmod(tmp, _new_file_mode())  # mkstemp makes 0600; give the usual 0666 & ~umask
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
