@@ -156,12 +156,17 @@ def _mesh_arrays(obj):
         mesh.loop_triangles.foreach_get("use_smooth", smooth)
         split = np.empty(nt * 9, np.float32)
         mesh.loop_triangles.foreach_get("split_normals", split)
-        face_n = np.empty(nt * 3, np.float32)
-        mesh.loop_triangles.foreach_get("normal", face_n)
+        # The polygon normal, not the triangle's: the two halves of a flat quad then share
+        # their vertices.
+        poly = np.empty(nt, np.int32)
+        mesh.loop_triangles.foreach_get("polygon_index", poly)
+        poly_n = np.empty(len(mesh.polygons) * 3, np.float32)
+        mesh.polygons.foreach_get("normal", poly_n)
+        face_n = poly_n.reshape(-1, 3)[poly]
     finally:
         obj.to_mesh_clear()
     return _Mesh(co.reshape(nv, 3).astype(np.float64), tris.reshape(nt, 3), mat_index,
-                 smooth, split.reshape(nt, 3, 3), face_n.reshape(nt, 3))
+                 smooth, split.reshape(nt, 3, 3), face_n)
 
 
 class _Mesh:
@@ -312,7 +317,12 @@ def convert_world(world, warn):
 
 
 def convert_render(scene):
-    """Render settings from scene.snell if the add-on registered them, else the defaults."""
+    """Render settings from scene.snell if the add-on registered them, else the defaults.
+
+    Without the add-on registered (`snell render file.blend`), the settings the add-on saved in
+    the file are still there as ID properties (only non-default values; the Fresnel enum as its
+    item index), so they are read from there.
+    """
     render = dict(scene_mod.DEFAULT_RENDER)
     props = getattr(scene, "snell", None)
     if props is not None:
@@ -321,6 +331,15 @@ def convert_render(scene):
                 render[key] = int(getattr(props, key))
         if hasattr(props, "fresnel"):
             render["fresnel"] = str(props.fresnel).lower()
+        return render
+    stored = scene.get("snell") if hasattr(scene, "get") else None
+    if stored is not None and hasattr(stored, "get"):
+        for key in ("spp", "max_depth", "seed"):
+            if isinstance(stored.get(key), int):
+                render[key] = int(stored[key])
+        fresnel = stored.get("fresnel")
+        if isinstance(fresnel, int) and 0 <= fresnel < len(scene_mod.FRESNEL_MODELS):
+            render["fresnel"] = scene_mod.FRESNEL_MODELS[fresnel]  # items: EXACT, SCHLICK
     return render
 
 

@@ -1,0 +1,425 @@
+"""The exporter: scenes built with bpy in the test, exported through the evaluated depsgraph."""
+import importlib
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from snell.addon import export  # noqa: E402
+from snell.tracer import scene as scene_mod  # noqa: E402
+from snell.tracer.scene import SceneError  # noqa: E402
+
+SCENES = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scenes")
+sys.path.insert(0, SCENES)
+common = importlib.import_module("common")
+
+
+@pytest.fixture
+def bl():
+    """An empty Blender scene with a camera."""
+    scene = common.reset()
+    common.camera(scene, (0.0, -10.0, 0.0), (0.0, 0.0, 0.0))
+    return scene
+
+
+def run():
+    return export.export_depsgraph(bpy.context.evaluated_depsgraph_get())
+
+
+def cube(name="Cube", mat=None, **kw):
+    bpy.ops.mesh.primitive_cube_add(size=2.0, **kw)
+    obj = bpy.context.active_object
+    obj.name = name
+    if mat is not None:
+        obj.data.materials.append(mat)
+    return obj
+
+
+def geometric_normals(s):
+    p = s.positions.astype(np.float64)[s.triangles]
+    return np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p.mean(axis=1)
+
+
+def assert_outward(s, center):
+    n, centroid = geometric_normals(s)
+    assert np.all(np.sum(n * (centroid - center), axis=1) > 0)
+    # Flat shading normals agree with the winding.
+    vn = s.normals[s.triangles].mean(axis=1)
+    assert np.all(np.sum(vn * n, axis=1) > 0)
+
+
+# ---------------------------------------------------------------------------------------------
+# Geometry
+
+
+def test_cube_world_transform(bl):
+    obj = cube(location=(1.0, 2.0, 3.0), rotation=(0.3, 0.5, 0.7))
+    obj.scale = (1.0, 2.0, 0.5)
+    s, warnings = run()
+    assert s.triangles.shape == (12, 3)
+    assert warnings == ["object 'Cube', material '(none)': no material, using grey 0.8 diffuse"]
+    m = np.array(obj.matrix_world)
+    local = np.array([v.co for v in obj.data.vertices])
+    expected = local @ m[:3, :3].T + m[:3, 3]
+    # Every world corner is exported (flat faces split vertices: 6 faces x 4 corners).
+    assert len(s.positions) == 24
+    d = np.linalg.norm(s.positions[:, None] - expected[None], axis=2).min(axis=1)
+    assert d.max() < 1e-5
+    assert_outward(s, m[:3, 3])
+    # Normals: inverse transpose, unit length, and equal to the true face normals.
+    n, _ = geometric_normals(s)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    assert np.allclose(np.linalg.norm(s.normals, axis=1), 1, atol=1e-5)
+    assert np.allclose(s.normals[s.triangles[:, 0]], n, atol=1e-5)
+    assert s.objects == [{"name": "Cube", "closed": True}]
+
+
+def test_negative_scale_flips_winding(bl):
+    obj = cube(location=(0.0, 0.0, 0.0))
+    obj.scale = (-1.0, 1.5, 1.0)
+    s, _ = run()
+    assert_outward(s, np.zeros(3))
+
+
+def test_instancing_converts_each_mesh_once(bl, monkeypatch):
+    calls = []
+    original = export._mesh_arrays
+    monkeypatch.setattr(export, "_mesh_arrays", lambda obj: calls.append(obj.name) or original(obj))
+    a = cube("A", location=(-3.0, 0.0, 0.0))
+    b = a.copy()
+    b.name = "B"
+    b.location = (3.0, 0.0, 0.0)
+    bl.collection.objects.link(b)
+    # A collection instance of A as a third copy.
+    coll = bpy.data.collections.new("Src")
+    coll.objects.link(a)
+    empty = bpy.data.objects.new("Inst", None)
+    empty.instance_type = "COLLECTION"
+    empty.instance_collection = coll
+    empty.location = (0.0, 0.0, 5.0)
+    bl.collection.objects.link(empty)
+    s, _ = run()
+    assert len(calls) == 1
+    assert s.triangles.shape == (36, 3)
+    assert sorted(o["name"] for o in s.objects) == ["A", "B", "Inst/A"]
+    centers = sorted(tuple(np.round(s.positions[s.triangles[s.object_ids == i]].reshape(-1, 3)
+                                    .mean(axis=0), 4)) for i in range(3))
+    assert centers == [(-3.0, 0.0, 0.0), (-3.0, 0.0, 5.0), (3.0, 0.0, 0.0)]
+
+
+def test_modifiers_are_applied(bl):
+    obj = cube()
+    obj.modifiers.new("Sub", "SUBSURF").levels = 1
+    s, _ = run()
+    assert s.triangles.shape == (48, 3)
+
+
+def test_smooth_and_flat_normals(bl):
+    mat = common.material("M", "diffuse")
+    sphere = common.uv_sphere("Smooth", (5.0, 0.0, 0.0), 1.0, mat, segments=16, rings=8)
+    s, _ = run()
+    # Smooth: one vertex per mesh vertex, normals radial.
+    assert len(s.positions) == len(sphere.data.vertices)
+    radial = s.positions - np.array([5.0, 0.0, 0.0])
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    assert np.all(np.sum(s.normals * radial, axis=1) > 0.995)
+    assert np.allclose(np.linalg.norm(s.normals, axis=1), 1, atol=1e-5)
+    sphere.data.shade_flat()
+    s, _ = run()
+    n, _ = geometric_normals(s)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    for k in range(3):
+        assert np.allclose(s.normals[s.triangles[:, k]], n, atol=1e-4)
+
+
+def test_material_slots_per_triangle(bl):
+    red = common.material("Red", "diffuse", (1.0, 0.0, 0.0))
+    green = common.material("Green", "diffuse", (0.0, 1.0, 0.0))
+    obj = cube(mat=red)
+    obj.data.materials.append(green)
+    mi = np.array([0, 1, 0, 1, 1, 1], np.int32)
+    obj.data.polygons.foreach_set("material_index", mi)
+    obj.data.update()
+    s, _ = run()
+    names = [s.materials[i]["name"] for i in s.material_ids]
+    # Triangles come in polygon order, two per quad.
+    assert names == [["Red", "Green"][i] for i in np.repeat(mi, 2)]
+
+
+def test_zero_area_triangles_dropped(bl):
+    verts = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (2, 0, 0)]
+    common.mesh_object("Sliver", verts, [[0, 1, 2], [0, 1, 3]], common.material("M", "diffuse"))
+    s, warnings = run()
+    assert s.triangles.shape == (1, 3)
+    assert any("'Sliver'" in w and "1 zero-area" in w for w in warnings)
+
+
+def test_nan_matrix_names_the_object(bl):
+    obj = cube("Broken")
+    obj.location = (float("nan"), 0.0, 0.0)
+    with pytest.raises(SceneError, match="Broken"):
+        run()
+
+
+def test_hidden_from_render_skipped(bl):
+    cube("Shown")
+    cube("Hidden", location=(3.0, 0.0, 0.0)).hide_render = True
+    coll = bpy.data.collections.new("Off")
+    bl.collection.children.link(coll)
+    coll.hide_render = True
+    in_coll = cube("InHiddenCollection", location=(-3.0, 0.0, 0.0))
+    bl.collection.objects.unlink(in_coll)
+    coll.objects.link(in_coll)
+    s, _ = run()
+    assert [o["name"] for o in s.objects] == ["Shown"]
+
+
+def test_no_camera(bl):
+    cube()
+    bl.camera = None
+    with pytest.raises(SceneError, match="has no camera"):
+        run()
+
+
+# ---------------------------------------------------------------------------------------------
+# Materials
+
+
+def exported_material(bl, mat, name="Obj"):
+    obj = cube(name, mat=mat)
+    s, warnings = run()
+    bpy.data.objects.remove(obj)
+    return s.materials[0], warnings
+
+
+@pytest.mark.parametrize("kind,values,expected", [
+    ("diffuse", {}, {"kind": "diffuse", "color": [0.2, 0.4, 0.6]}),
+    ("glossy", {"Roughness": 0.0}, {"kind": "mirror", "color": [0.2, 0.4, 0.6]}),
+    ("glass", {"IOR": 1.33}, {"kind": "glass", "color": [0.2, 0.4, 0.6], "ior": 1.33,
+                              "transmission_color": [0.2, 0.4, 0.6]}),
+    ("refraction", {"IOR": 1.2}, {"kind": "refraction", "color": [0.2, 0.4, 0.6], "ior": 1.2}),
+    ("emission", {"Strength": 7.0}, {"kind": "emission", "color": [0.2, 0.4, 0.6], "strength": 7.0}),
+    ("principled", {"Metallic": 1.0, "Roughness": 0.0}, {"kind": "mirror", "color": [0.2, 0.4, 0.6]}),
+    ("principled", {}, {"kind": "diffuse", "color": [0.2, 0.4, 0.6]}),
+])
+def test_material_mapping(bl, kind, values, expected):
+    m, warnings = exported_material(bl, common.material("M", kind, (0.2, 0.4, 0.6), **values))
+    assert warnings == []
+    assert m.pop("name") == "M"
+    assert set(m) == set(expected)
+    assert m.pop("kind") == expected.pop("kind")
+    for key, value in expected.items():
+        assert np.allclose(m[key], value, atol=1e-6), key
+
+
+def test_principled_glass_sqrt_tint(bl):
+    mat = common.material("PGlass", "principled", (0.25, 0.49, 1.0), **{
+        "Transmission Weight": 1.0, "Roughness": 0.0, "IOR": 1.45,
+        "Specular Tint": (0.9, 0.8, 0.7, 1.0)})
+    m, warnings = exported_material(bl, mat)
+    assert warnings == []
+    assert m["kind"] == "glass"
+    assert np.allclose(m["transmission_color"], [0.5, 0.7, 1.0], atol=1e-6)
+    assert np.allclose(m["color"], [0.9, 0.8, 0.7], atol=1e-6)
+    assert m["ior"] == pytest.approx(1.45)
+
+
+def test_fallback_warnings_name_object_material_node(bl):
+    tex = common.material("Textured", "diffuse", (0.3, 0.3, 0.3))
+    noise = tex.node_tree.nodes.new("ShaderNodeTexNoise")
+    tex.node_tree.links.new(noise.outputs["Color"], tex.node_tree.nodes["Diffuse BSDF"].inputs["Color"])
+    m, warnings = exported_material(bl, tex, "TexObj")
+    assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.3)
+    assert any("'TexObj'" in w and "'Textured'" in w and "'Diffuse BSDF'" in w and "linked" in w
+               for w in warnings)
+
+    mix = bpy.data.materials.new("Mixed")
+    mix.node_tree.nodes.clear()
+    out = mix.node_tree.nodes.new("ShaderNodeOutputMaterial")
+    node = mix.node_tree.nodes.new("ShaderNodeMixShader")
+    mix.node_tree.links.new(node.outputs[0], out.inputs["Surface"])
+    m, warnings = exported_material(bl, mix, "MixObj")
+    assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.8)
+    assert any("'MixObj'" in w and "'Mixed'" in w and "'Mix Shader'" in w for w in warnings)
+
+    rough = common.material("Rough", "glossy", (1.0, 1.0, 1.0), Roughness=0.3)
+    m, warnings = exported_material(bl, rough, "RoughObj")
+    assert m["kind"] == "mirror"
+    assert any("'RoughObj'" in w and "'Rough'" in w and "'Glossy BSDF'" in w for w in warnings)
+
+    glow = common.material("Glow", "principled", (1.0, 1.0, 1.0), **{"Emission Strength": 2.0})
+    m, warnings = exported_material(bl, glow, "GlowObj")
+    assert m["kind"] == "diffuse"
+    assert any("'GlowObj'" in w and "'Principled BSDF'" in w and "emission" in w for w in warnings)
+
+    m, warnings = exported_material(bl, None, "Bare")
+    assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.8)
+    assert any("'Bare'" in w and "no material" in w for w in warnings)
+
+
+def test_glass_on_open_mesh_warns(bl):
+    glass = common.material("Pane", "glass", (1.0, 1.0, 1.0), IOR=1.5)
+    common.quad("Window", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], glass)
+    cube("Closed", mat=glass, location=(5.0, 0.0, 0.0))
+    s, warnings = run()
+    assert {o["name"]: o["closed"] for o in s.objects} == {"Window": False, "Closed": True}
+    assert [w for w in warnings if "not closed" in w] == [
+        "object 'Window': glass material 'Pane' on a mesh that is not closed "
+        "(its edges are not all shared by two triangles)"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Lights, camera, world
+
+
+def add_light(bl, name, kind, **props):
+    data = bpy.data.lights.new(name, kind)
+    for key, value in props.items():
+        setattr(data, key, value)
+    obj = bpy.data.objects.new(name, data)
+    bl.collection.objects.link(obj)
+    return obj
+
+
+def test_lights(bl):
+    rect = add_light(bl, "Rect", "AREA", shape="RECTANGLE", size=1.0, size_y=0.5, energy=100.0,
+                     color=(1.0, 0.5, 0.25), exposure=1.0)
+    rect.scale = (2.0, 3.0, 1.0)
+    rect.location = (0.0, 0.0, 2.0)
+    rect.rotation_euler = (0.4, 0.0, 0.0)
+    rect.visible_camera = True
+    add_light(bl, "Disk", "AREA", shape="DISK", size=2.0, energy=10.0)
+    add_light(bl, "Raw", "AREA", shape="SQUARE", size=2.0, energy=10.0, normalize=False)
+    warm = add_light(bl, "Warm", "AREA", shape="SQUARE", size=1.0, energy=10.0,
+                     use_temperature=True, temperature=3000.0)
+    point = add_light(bl, "Point", "POINT", energy=4 * math.pi * 3, shadow_soft_size=0.0)
+    point.location = (1.0, 2.0, 3.0)
+    add_light(bl, "Bulb", "POINT", energy=1.0, shadow_soft_size=0.2)
+    sun = add_light(bl, "Sun", "SUN", energy=3.0)
+    sun.rotation_euler = (0.0, math.pi / 2, 0.0)
+    add_light(bl, "Spot", "SPOT", energy=1.0)
+    s, warnings = run()
+    lights = {l["name"]: l for l in s.lights}
+    assert set(lights) == {"Rect", "Disk", "Raw", "Warm", "Point", "Bulb", "Sun"}
+
+    r = lights["Rect"]
+    assert r["shape"] == "rectangle" and r["size"] == pytest.approx([2.0, 1.5])
+    assert np.allclose(r["radiance"], np.array([1.0, 0.5, 0.25]) * 100 * 2 / (math.pi * 3.0))
+    assert r["visible_camera"] is True
+    m = np.array(r["matrix"])
+    assert np.allclose(np.linalg.norm(m[:3, :3], axis=0), 1)  # scale lives in size only
+    assert np.allclose(m[:3, 3], [0, 0, 2]) and np.allclose(m[:3, 2], [0, -math.sin(0.4), math.cos(0.4)])
+    d = lights["Disk"]
+    assert d["shape"] == "disk" and d["size"] == pytest.approx([2.0, 2.0])
+    assert np.allclose(d["radiance"], 10 / (math.pi * math.pi / 4 * 4))
+    assert lights["Disk"]["visible_camera"] is False
+    assert np.allclose(lights["Raw"]["radiance"], 10 / math.pi)  # normalize off: P / pi
+    tc = np.array(bpy.data.lights["Warm"].temperature_color[:3])
+    assert np.allclose(lights["Warm"]["radiance"], tc * 10 / math.pi)
+    assert lights["Point"]["position"] == pytest.approx([1, 2, 3])
+    assert np.allclose(lights["Point"]["intensity"], 3.0)
+    assert np.allclose(lights["Sun"]["direction"], [-1, 0, 0], atol=1e-6)
+    assert np.allclose(lights["Sun"]["irradiance"], 3.0)
+    assert any("'Bulb'" in w and "radius" in w for w in warnings)
+    assert any("'Spot'" in w and "not supported" in w for w in warnings)
+
+
+def test_camera(bl):
+    cam = bl.camera
+    cam.scale = (2.0, 2.0, 2.0)
+    data = cam.data
+    data.lens, data.sensor_width, data.sensor_height, data.sensor_fit = 42.0, 30.0, 20.0, "VERTICAL"
+    data.shift_x, data.shift_y, data.clip_start, data.clip_end = 0.1, -0.2, 0.5, 50.0
+    data.dof.use_dof = True
+    data.dof.aperture_fstop, data.dof.aperture_blades = 4.0, 6
+    data.dof.aperture_rotation, data.dof.aperture_ratio = 0.3, 1.5
+    target = bpy.data.objects.new("Target", None)
+    target.location = (2.0, -4.0, 1.0)  # 6 m in front along the view axis (+Y), off-axis
+    bl.collection.objects.link(target)
+    data.dof.focus_object = target
+    r = bl.render
+    r.resolution_x, r.resolution_y, r.resolution_percentage = 320, 200, 50
+    r.pixel_aspect_x, r.pixel_aspect_y = 1.0, 2.0
+    s, _ = run()
+    c = s.camera
+    m = np.array(c["matrix"])
+    assert np.allclose(np.linalg.norm(m[:3, :3], axis=0), 1)
+    assert np.allclose(m[:3, 3], [0, -10, 0]) and np.allclose(-m[:3, 2], [0, 1, 0], atol=1e-6)
+    assert (c["lens"], c["sensor_width"], c["sensor_height"], c["sensor_fit"]) == (42.0, 30.0, 20.0, "VERTICAL")
+    assert c["shift_x"] == pytest.approx(0.1) and c["shift_y"] == pytest.approx(-0.2)
+    assert c["clip_start"] == pytest.approx(0.5) and c["clip_end"] == pytest.approx(50.0)
+    assert c["resolution"] == [320, 200] and c["resolution_percentage"] == 50
+    assert c["pixel_aspect"] == [1.0, 2.0]
+    dof = c["dof"]
+    assert dof["use_dof"] is True and dof["focus_distance"] == pytest.approx(6.0, abs=1e-5)
+    assert dof["fstop"] == 4.0 and dof["blades"] == 6
+    assert dof["rotation"] == pytest.approx(0.3) and dof["ratio"] == pytest.approx(1.5)
+    assert scene_mod.aperture_radius(c) == pytest.approx(0.042 / 8)
+
+
+def test_orthographic_camera_rejected(bl):
+    bl.camera.data.type = "ORTHO"
+    with pytest.raises(SceneError, match="perspective"):
+        run()
+
+
+def test_world(bl):
+    s, _ = run()
+    assert s.world == {"color": [0.0, 0.0, 0.0]}
+    common.set_world(bl, (0.5, 0.25, 1.0), 2.0)
+    s, _ = run()
+    assert np.allclose(s.world["color"], [1.0, 0.5, 2.0])
+
+
+def test_render_settings_default(bl):
+    s, _ = run()
+    assert s.render == scene_mod.DEFAULT_RENDER
+
+
+# ---------------------------------------------------------------------------------------------
+# Files and scene scripts
+
+
+def test_round_trip(bl, tmp_path):
+    common.uv_sphere("Ball", (0, 0, 0), 1.0, common.material("G", "glass", IOR=1.5), 16, 8)
+    add_light(bl, "Lamp", "AREA", size=1.0, energy=5.0)
+    path = str(tmp_path / "cube.blend")
+    common.save(path)
+    out = str(tmp_path / "cube.snell")
+    assert export.export_to_file(path, out) == []
+    s, _ = export.export_blend(path)
+    back = scene_mod.load(out)
+    for key in ("positions", "triangles", "material_ids", "object_ids", "normals"):
+        assert np.array_equal(getattr(back, key), getattr(s, key)), key
+    assert back.header() == s.header()
+    assert back.source == "cube.blend"
+
+
+@pytest.mark.parametrize("name", ["cornell_spheres", "cornell_dragon", "furnace", "slab", "lens"])
+def test_scene_scripts_build_and_export(name, tmp_path):
+    module = importlib.import_module(name)
+    path = module.build(str(tmp_path / f"{name}.blend"))
+    s, warnings = export.export_blend(path)
+    assert warnings == []
+    kinds = {m["kind"] for m in s.materials}
+    if name == "cornell_spheres":
+        assert {"mirror", "glass", "emission", "diffuse"} <= kinds
+        assert s.camera["resolution"] == [256, 256] and not s.camera["dof"]["use_dof"]
+        assert all(o["closed"] for o in s.objects if "Sphere" in o["name"])
+    if name == "cornell_dragon":
+        dragon = [i for i, o in enumerate(s.objects) if o["name"] == "Dragon"][0]
+        assert np.sum(s.object_ids == dragon) >= 100_000
+        assert s.objects[dragon]["closed"]
+        assert scene_mod.aperture_radius(s.camera) == pytest.approx(0.1, rel=1e-5)
+        centre = s.positions[s.triangles[s.object_ids == dragon]].reshape(-1, 3).mean(axis=0)
+        assert np.linalg.norm(np.array(s.camera["matrix"])[:3, 3] - centre) == pytest.approx(3.3, abs=0.1)
+    if name == "furnace":
+        assert s.world["color"] == [1.0, 1.0, 1.0] and kinds == {"glass"}
+    if name == "slab":
+        assert [o["closed"] for o in s.objects] == [False, True]
+    if name == "lens":
+        assert s.camera["dof"]["use_dof"]
