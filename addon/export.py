@@ -459,9 +459,15 @@ def export_depsgraph(depsgraph, *, source=""):
     check_hidden = depsgraph.mode != "RENDER"
     for inst in depsgraph.object_instances:
         obj = inst.object
-        if check_hidden and (_hidden_from_render(obj) or
-                             (inst.is_instance and inst.parent and _hidden_from_render(inst.parent))):
-            continue
+        if check_hidden:
+            # An instanced collection renders even when the source collection is hidden.
+            if inst.is_instance:
+                hidden = obj.original.hide_render or (
+                    inst.parent is not None and _hidden_from_render(inst.parent))
+            else:
+                hidden = _hidden_from_render(obj)
+            if hidden:
+                continue
         if not inst.is_instance and obj.is_instancer and not obj.show_instancer_for_render:
             continue
         ex.add_instance(inst)
@@ -473,10 +479,14 @@ def export_depsgraph(depsgraph, *, source=""):
 def _prefer_render_settings():
     """Make the viewport depsgraph evaluate what a render would: render visibility and levels."""
     import bpy
+    # Only un-hide: things hidden from render stay evaluated (a focus empty, an instance source)
+    # and are skipped by export_depsgraph.
     for coll in bpy.data.collections:
-        coll.hide_viewport = coll.hide_render
+        if not coll.hide_render:
+            coll.hide_viewport = False
     for obj in bpy.data.objects:
-        obj.hide_viewport = obj.hide_render
+        if not obj.hide_render:
+            obj.hide_viewport = False
         for mod in obj.modifiers:
             mod.show_viewport = mod.show_render
             if hasattr(mod, "render_levels") and hasattr(mod, "levels"):
@@ -486,6 +496,9 @@ def _prefer_render_settings():
 def export_blend(path):
     """Open a .blend file and export its active scene: (Scene, warnings)."""
     import bpy
+
+    from .properties import ensure_readable
+    ensure_readable()  # scene.snell: the render settings the add-on saved in the file
     bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
     # Blender offers only the viewport depsgraph outside a render; the file was just opened
     # and is never saved, so switching it to render visibility and levels is harmless.

@@ -176,6 +176,24 @@ def test_hidden_from_render_skipped(bl):
     coll.objects.link(in_coll)
     s, _ = run()
     assert [o["name"] for o in s.objects] == ["Shown"]
+    # Instances of a hidden source collection still render.
+    empty = bpy.data.objects.new("Inst", None)
+    empty.instance_type, empty.instance_collection = "COLLECTION", coll
+    bl.collection.objects.link(empty)
+    s, _ = run()
+    assert sorted(o["name"] for o in s.objects) == ["Inst/InHiddenCollection", "Shown"]
+
+
+def test_export_blend_uses_render_visibility(tmp_path):
+    common.reset()
+    common.camera(bpy.context.scene, (0.0, -10.0, 0.0), (0.0, 0.0, 0.0))
+    obj = cube("ViewportOff")
+    obj.hide_viewport = True
+    obj.modifiers.new("Sub", "SUBSURF").render_levels = 1
+    obj.modifiers["Sub"].levels = 0
+    path = common.save(str(tmp_path / "vis.blend"))
+    s, _ = export.export_blend(path)
+    assert s.triangles.shape == (48, 3)
 
 
 def test_no_camera(bl):
