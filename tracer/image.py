@@ -10,9 +10,10 @@ over the destination, so an interrupted or failed write never leaves a partial i
 from __future__ import annotations
 
 import os
-import tempfile
 
 import numpy as np
+
+from .atomic import atomic_path
 
 
 def _as_rgb(rgb, what="image") -> np.ndarray:
@@ -48,12 +49,6 @@ def to_srgb8(rgb) -> np.ndarray:
     return np.rint(encoded * 255.0).astype(np.uint8)
 
 
-def _new_file_mode() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
-
-
 def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict) -> None:
     import OpenImageIO as oiio
 
@@ -61,11 +56,7 @@ def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict) -> 
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         raise OSError(f"{path}: cannot write image, directory {directory} does not exist")
-    # The temporary name keeps the real extension: OpenImageIO picks the format from it.
-    base, ext = os.path.splitext(os.path.basename(path))
-    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=directory)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         out = oiio.ImageOutput.create(tmp)
         if out is None:
             reason = oiio.geterror().replace(tmp, path) or "unsupported format"
@@ -80,12 +71,6 @@ def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict) -> 
         if not ok:
             reason = (err or out.geterror() or "unknown error").replace(tmp, path)
             raise OSError(f"{path}: cannot write image ({reason})")
-        os.chmod(tmp, _new_file_mode())  # mkstemp makes 0600; give the usual 0666 & ~umask
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def write_exr(path, rgb) -> int:

@@ -8,11 +8,11 @@ from __future__ import annotations
 import copy
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from .atomic import atomic_path
 
 FORMAT = "snell-scene"
 VERSION = 1
@@ -302,16 +302,9 @@ def save(scene: Scene, path: str) -> None:
               "object_ids": scene.object_ids}
     if scene.normals is not None:
         arrays["normals"] = scene.normals
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as f:
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as f:
             np.savez(f, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def load(path: str) -> Scene:
