@@ -1,0 +1,132 @@
+"""`snell batch`: headless renders of .blend frames through the bpy module and the registered engine.
+
+The same path as `blender --background scene.blend --engine SNELL --render-frame N`: the file is
+opened, its render engine set to SNELL, and each frame rendered by bpy.ops.render.render with
+write_still, so the engine, the exporter, Blender's colour management and its image writers do
+exactly what they do for F12. One progress line per frame on stderr; the exit status is 1 if
+any frame failed.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import sys
+import time
+
+FORMATS = {".exr": "OPEN_EXR", ".png": "PNG"}
+
+
+class BatchError(Exception):
+    """A user error before any frame is rendered (bad file, bad frame list, bad output name)."""
+
+
+def parse_frames(text: str) -> list[int]:
+    """'7', '1-10', '1-10x2' or comma-separated mixes of them, in the given order."""
+    frames = []
+    for part in text.split(","):
+        m = re.fullmatch(r"\s*(-?\d+)(?:\s*(?:-|\.\.)\s*(-?\d+)(?:\s*x\s*(\d+))?)?\s*", part)
+        if not m:
+            raise BatchError(f"--frames {text!r}: expected frames like 1, 1-10, 1-10x2 or 1,5,9")
+        start = int(m.group(1))
+        end = int(m.group(2)) if m.group(2) is not None else start
+        step = int(m.group(3) or 1)
+        if end < start or step < 1:
+            raise BatchError(f"--frames {text!r}: empty range {part.strip()!r}")
+        frames.extend(range(start, end + 1, step))
+    return frames
+
+
+@contextlib.contextmanager
+def _stdout_silenced():
+    """Blender's chatter ("Fra:1 Mem:...", "Saved: ...") goes to file descriptor 1: drop it."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 1)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def _set_output(scene, output):
+    ext = os.path.splitext(output)[1].lower()
+    if ext not in FORMATS:
+        raise BatchError(f"-o {output}: expected a .exr or .png file name")
+    directory = os.path.dirname(os.path.abspath(output))
+    if not os.path.isdir(directory):
+        raise BatchError(f"-o {output}: directory {directory} does not exist")
+    settings = scene.render.image_settings
+    settings.file_format = FORMATS[ext]
+    if ext == ".exr":   # linear scene-referred float, as `snell render` writes
+        settings.color_depth = "32"
+        settings.color_mode = "RGB"
+    else:               # 8-bit through the scene's view transform, as any engine
+        settings.color_depth = "8"
+        settings.color_mode = "RGB"
+    scene.render.use_file_extension = True
+    scene.render.filepath = os.path.abspath(output)
+
+
+def run(blend_path: str, frames: str | None = None, output: str | None = None,
+        stream=sys.stderr) -> int:
+    """Render the frames of blend_path; returns the exit status (0, or 1 if a frame failed)."""
+    import bpy
+
+    from . import final, registration
+
+    if not os.path.isfile(blend_path):
+        raise BatchError(f"{blend_path}: no such file")
+    frame_list = parse_frames(frames) if frames else None
+    registration.ensure_registered()
+    try:
+        with _stdout_silenced():
+            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend_path))
+    except RuntimeError as exc:
+        raise BatchError(f"{blend_path}: cannot open ({' '.join(str(exc).split())})") from None
+    scene = bpy.context.scene
+    scene.render.engine = "SNELL"
+    if output:
+        _set_output(scene, output)
+    frame_list = frame_list or [scene.frame_current]
+    pattern = scene.render.filepath
+    failed, seen_warnings = 0, set()
+    for i, frame in enumerate(frame_list, 1):
+        head = f"snell: frame {frame} ({i}/{len(frame_list)})"
+        path = scene.render.frame_path(frame=frame)
+        start = time.perf_counter()
+        error = None
+        try:
+            scene.render.filepath = path   # already numbered and with its extension
+            scene.frame_set(frame)
+            before = os.stat(path).st_mtime_ns if os.path.exists(path) else None
+            with _stdout_silenced():
+                bpy.ops.render.render(write_still=True)
+        except RuntimeError as exc:
+            error = final.last_render.get("error") or " ".join(str(exc).split())
+        finally:
+            scene.render.filepath = pattern
+        record = dict(final.last_render)
+        for message in record.get("warnings", []):
+            if message not in seen_warnings:
+                seen_warnings.add(message)
+                print(f"snell: warning: {message}", file=stream)
+        if error is None and record.get("error"):
+            error = record["error"]
+        if error is None and record.get("cancelled"):
+            error = "cancelled"
+        if error is None and (not os.path.exists(path) or os.stat(path).st_mtime_ns == before):
+            error = f"no image written to {path}"
+        if error:
+            failed += 1
+            print(f"{head}: FAILED: {error}", file=stream, flush=True)
+            continue
+        rate = record.get("rays_per_second", 0.0) / 1e6
+        print(f"{head}: {path}: {record.get('spp', 0)} spp in {time.perf_counter() - start:.1f}s "
+              f"({rate:.2f} M rays/s)", file=stream, flush=True)
+    if failed:
+        print(f"snell: {failed} of {len(frame_list)} frames failed", file=stream)
+    return 1 if failed else 0

@@ -1,0 +1,15 @@
+"""The Snell render engine as Blender sees it. Thin: the F12 work is in final.py."""
+import bpy
+
+from . import final
+
+
+class SnellRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "SNELL"
+    bl_label = "Snell"
+    bl_use_preview = False          # no material preview renders
+    bl_use_postprocess = True       # compositing and sequencer work as with any engine
+    bl_use_eevee_viewport = True    # Material Preview in the viewport uses EEVEE
+
+    def render(self, depsgraph):
+        final.render(self, depsgraph)

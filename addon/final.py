@@ -1,0 +1,176 @@
+"""The final (F12) render: export the depsgraph, then render progressively into the result.
+
+Called by SnellRenderEngine.render. Every displayed state is a whole image (the mean of the
+passes done so far), so the Render window never shows a half-drawn frame. Esc (test_break) is
+checked after the export, after the BVH build and after every pass; the image of the samples done
+so far stays. Failures end with one clear message through report() and error_set().
+
+`last_render` records what the most recent render did (samples, timings, warnings, error) for
+`snell batch` and the tests.
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+import traceback
+
+import numpy as np
+
+from ..tracer.scene import SceneError
+from . import window
+
+MAX_REPORTED_WARNINGS = 20
+
+last_render: dict = {}
+
+
+class RenderFailed(Exception):
+    """A failure the user should see as one message."""
+
+
+def _duration(seconds: float) -> str:
+    if seconds != seconds or seconds == float("inf"):
+        return "--:--"
+    minutes, secs = divmod(seconds, 60.0)
+    hours, minutes = divmod(int(minutes), 60)
+    return f"{hours}:{minutes:02d}:{secs:05.2f}" if hours else f"{minutes:02d}:{secs:05.2f}"
+
+
+def _border(render, full_w, full_h):
+    if not render.use_border:
+        return window.border_pixels(full_w, full_h)
+    return window.border_pixels(full_w, full_h, (render.border_min_x, render.border_max_x,
+                                                 render.border_min_y, render.border_max_y))
+
+
+def _threads(bl_scene) -> int:
+    props = getattr(bl_scene, "snell", None)
+    threads = int(getattr(props, "threads", 0) or 0)
+    return threads or max(1, int(bl_scene.render.threads))
+
+
+def _export(engine, depsgraph, record):
+    import bpy
+    from .export import export_depsgraph
+
+    source = os.path.basename(bpy.data.filepath) or "(unsaved)"
+    try:
+        scene, warnings = export_depsgraph(depsgraph, source=source)
+    except SceneError as exc:
+        raise RenderFailed(f"cannot render this scene: {exc}") from None
+    record["warnings"] = list(warnings)
+    for message in warnings[:MAX_REPORTED_WARNINGS]:
+        engine.report({"WARNING"}, f"Snell: {message}")
+    if len(warnings) > MAX_REPORTED_WARNINGS:
+        engine.report({"WARNING"}, f"Snell: ... and {len(warnings) - MAX_REPORTED_WARNINGS} "
+                                   f"more warnings (see the console)")
+        for message in warnings[MAX_REPORTED_WARNINGS:]:
+            print(f"Snell: warning: {message}", file=sys.stderr)
+    if len(scene.triangles) == 0 and not scene.lights and not any(scene.world["color"]):
+        message = "the scene has no geometry, no lights and a black world: the image is black"
+        record["warnings"].append(message)
+        engine.report({"WARNING"}, f"Snell: {message}")
+    return scene
+
+
+def _renderer(scene, threads):
+    try:
+        from ..tracer.integrator import Renderer
+    except ImportError as exc:
+        raise RenderFailed(f"the Embree bindings (embreex) cannot be loaded: {exc}. "
+                           f"Reinstall the Snell extension for this platform.") from None
+    return Renderer(scene, threads=threads)
+
+
+class _Progress:
+    """The integrator's per-pass callback: pixels, progress bar, stats line and Esc."""
+
+    def __init__(self, engine, result, width, height, spp, record, t_start):
+        self.engine, self.result = engine, result
+        self.combined = result.layers[0].passes["Combined"]
+        if len(self.combined.rect) != width * height:
+            raise RenderFailed(f"render result is {len(self.combined.rect)} pixels, "
+                               f"expected {width}x{height}")
+        self.rgba = np.ones((height, width, 4), np.float32)
+        self.spp, self.record, self.t_start = spp, record, t_start
+        self.t_loop = time.perf_counter()
+
+    def write(self, render_result):
+        # The tracer's row 0 is the top; Blender's is the bottom.
+        self.rgba[:, :, :3] = render_result.mean()[::-1]
+        self.combined.rect.foreach_set(self.rgba.ravel())
+        self.engine.update_result(self.result)
+
+    def __call__(self, render_result, done, total):
+        self.write(render_result)
+        now = time.perf_counter()
+        if done == 1:
+            self.record["first_pass_s"] = now - self.t_start
+        elapsed = now - self.t_loop
+        remaining = elapsed / done * (total - done)
+        self.record.update(spp=render_result.spp, passes=done)
+        self.engine.update_progress(done / total)
+        self.engine.update_stats("", f"Remaining {_duration(remaining)} | Sample "
+                                     f"{render_result.spp}/{self.spp} | "
+                                     f"{render_result.rays_per_second / 1e6:.2f} M rays/s")
+        return not self.engine.test_break()
+
+
+def render(engine, depsgraph):
+    """F12: the whole final render of one frame (see the module docstring)."""
+    t_start = time.perf_counter()
+    bl_scene = depsgraph.scene
+    record = {"frame": bl_scene.frame_current, "spp": 0, "passes": 0, "target_spp": 0,
+              "cancelled": False, "error": None, "warnings": [], "first_pass_s": None}
+    last_render.clear()
+    last_render.update(record)
+    record = last_render
+    result = None
+    try:
+        engine.update_stats("", "Snell: exporting the scene")
+        scene = _export(engine, depsgraph, record)
+        record["export_s"] = time.perf_counter() - t_start
+        if engine.test_break():
+            record["cancelled"] = True
+            return
+        x0, y0, w, h = _border(bl_scene.render, engine.resolution_x, engine.resolution_y)
+        scene = scene.with_camera(**window.window_camera(scene.camera, x0, y0, w, h))
+        spp = int(scene.render["spp"])
+        record["target_spp"] = spp
+        engine.update_stats("", f"Snell: building the BVH of {len(scene.triangles)} triangles")
+        renderer = _renderer(scene, _threads(bl_scene))
+        if engine.test_break():
+            record["cancelled"] = True
+            return
+        result = engine.begin_result(0, 0, w, h)
+        progress = _Progress(engine, result, w, h, spp, record, t_start)
+        engine.update_stats("", f"Snell: rendering, sample 0/{spp}")
+        rendered = renderer.render(progress=progress)
+        record.update(spp=rendered.spp, cancelled=rendered.cancelled, time_s=rendered.time_s,
+                      rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count)
+        if rendered.nan_count:
+            engine.report({"WARNING"}, f"Snell: {rendered.nan_count} NaN/Inf samples counted as 0")
+        state = "Cancelled after" if rendered.cancelled else "Done:"
+        engine.update_stats("", f"Snell: {state} {rendered.spp}/{spp} samples in "
+                                f"{_duration(time.perf_counter() - t_start)} "
+                                f"({rendered.rays_per_second / 1e6:.2f} M rays/s)")
+        engine.end_result(result)
+        result = None
+    except RenderFailed as exc:
+        _fail(engine, str(exc), record)
+    except Exception as exc:  # a bug: keep the traceback in the console, a message in the UI
+        traceback.print_exc()
+        _fail(engine, f"render failed ({type(exc).__name__}: {exc}); details in the console", record)
+    finally:
+        if result is not None:
+            engine.end_result(result, cancel=True)
+        record["total_s"] = time.perf_counter() - t_start
+
+
+def _fail(engine, message, record):
+    message = " ".join(f"Snell: {message}".split())
+    record["error"] = message
+    engine.report({"ERROR"}, message)
+    engine.error_set(message)
+    engine.update_stats("", message)

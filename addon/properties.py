@@ -1,0 +1,64 @@
+"""Snell's render settings, stored on every scene as `scene.snell`.
+
+addon/export.py reads spp, max_depth, seed and fresnel from here into the scene file; threads is
+used by the render engine only.
+"""
+import bpy
+from bpy.props import EnumProperty, IntProperty
+
+
+class SnellRenderSettings(bpy.types.PropertyGroup):
+    spp: IntProperty(
+        name="Samples", default=64, min=1, soft_max=4096,
+        description="Samples per pixel of a final render")
+    max_depth: IntProperty(
+        name="Max Depth", default=8, min=0, soft_max=64,
+        description="Emission plus up to this many bounces (the seed project's max_ray_depth). "
+                    "Cycles equivalent: max_bounces = Max Depth - 1 (with the diffuse, glossy and "
+                    "transmission limits set to the same value); 0 shows only emitters seen directly")
+    seed: IntProperty(
+        name="Seed", default=0, min=0,
+        description="Random seed: the same seed and sample count give the same image, whatever "
+                    "the thread count")
+    threads: IntProperty(
+        name="Threads", default=0, min=0, soft_max=256,
+        description="Render threads; 0 uses Blender's own setting (Performance > Threads)")
+    fresnel: EnumProperty(
+        name="Fresnel", default="EXACT",
+        items=[("EXACT", "Exact", "The exact unpolarised dielectric Fresnel equations, as Cycles"),
+               ("SCHLICK", "Schlick", "Schlick's approximation, as the seed project (not Cycles)")],
+        description="Fresnel model for glass")
+
+
+def register():
+    bpy.types.Scene.snell = bpy.props.PointerProperty(type=SnellRenderSettings, name="Snell")
+
+
+def unregister():
+    del bpy.types.Scene.snell
+
+
+_standalone = False
+
+
+def ensure_readable():
+    """Make scene.snell readable without the add-on (the `snell` command exporting a .blend).
+
+    Blender 5 keeps add-on properties out of reach until their type is registered; only the
+    property group is registered here, and registration.register() takes it over.
+    """
+    global _standalone
+    if hasattr(bpy.types.Scene, "snell"):
+        return
+    bpy.utils.register_class(SnellRenderSettings)
+    register()
+    _standalone = True
+
+
+def drop_standalone():
+    """Undo ensure_readable() before the full registration."""
+    global _standalone
+    if _standalone:
+        unregister()
+        bpy.utils.unregister_class(SnellRenderSettings)
+        _standalone = False
