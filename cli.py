@@ -14,6 +14,7 @@ import os
 import sys
 import time
 
+from .compare.bench import CLI as BENCH_COMMAND
 from .tracer.scene import FRESNEL_MODELS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
 
 SCENE_EXTENSIONS = (".blend", ".snell")
@@ -301,6 +302,7 @@ COMMANDS = [
     ("info", "summarise a scene: geometry, materials, lights, camera, features", _setup_info, cmd_info),
     ("batch", "render frames of a .blend through the Snell engine, one image per frame", _setup_batch, cmd_batch),
 ]
+COMMANDS.append(BENCH_COMMAND)  # bench (compare/bench.py)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,294 @@
+"""`snell bench`: Snell and Cycles at a ladder of sample counts against a converged reference.
+
+For each scene: a reference (a long Cycles render as K seeds, cached on disk, see
+compare/bench.py cache_key), then for each renderer the ladder 1, 2, 4, ... spp until max_spp or
+until the next point is predicted (twice this point's wall time) to pass the time cap. Each point
+runs in its own child process (`python -m snell.addon.bench point SPEC OUT`) so that its peak
+memory is its own: the child's ru_maxrss from os.wait4, which includes Python, numpy and the bpy
+module (reported too, as the baseline of a child that only imports them) and native memory
+(Embree's BVH, Cycles' scene). The times are measured inside the child, as the user waits in an
+open Blender: Snell = export of the .blend + scene build (Embree BVH) + render; Cycles = loading
+the .blend + render (including its EXR write). Interpreter start-up and `import bpy` are excluded.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ..compare import bench as cb
+from ..compare import metrics
+from . import cycles
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DEFAULT_SCENES = [os.path.join(REPO, "scenes", "cornell_spheres.blend"),
+                  os.path.join(REPO, "scenes", "cornell_dragon.blend")]
+SNELL_SEED = 7          # Snell's seed for every ladder point
+CYCLES_SEED = 90001     # Cycles' seed for every ladder point (the reference uses seeds 1..K)
+
+
+@dataclass
+class Options:
+    threads: int = 2
+    max_depth: int = 8
+    scale: int = 100          # resolution percentage for every render
+    min_spp: int = 1          # bottom of the ladder
+    max_spp: int = 1024
+    time_cap_s: float = 60.0  # per ladder point (predicted)
+    ref_seeds: int = 16
+    ref_spp: int = 256        # per seed
+    quick: bool = False
+
+
+QUICK = dict(scale=25, min_spp=4, max_spp=16, time_cap_s=20.0, ref_seeds=4, ref_spp=64, quick=True)
+
+
+def default_cache_dir() -> str:
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "snell", "bench")
+
+
+# ---------------------------------------------------------------------------------------------
+# Child process: one ladder point
+
+
+def _snell_point(spec):
+    from ..tracer.integrator import Renderer
+    from .export import export_blend
+    start = time.perf_counter()
+    scene, _ = export_blend(spec["blend"])
+    export_s = time.perf_counter() - start
+    scene = scene.with_render(spp=spec["spp"], max_depth=spec["max_depth"], seed=SNELL_SEED)
+    if spec["scale"] != 100:
+        scene = scene.with_camera(resolution_percentage=spec["scale"])
+    t = time.perf_counter()
+    renderer = Renderer(scene, threads=spec["threads"])
+    build_s = time.perf_counter() - t
+    result = renderer.render(spp=spec["spp"])
+    wall = time.perf_counter() - start
+    return result.mean(), {
+        "export_s": export_s, "build_s": build_s, "render_s": result.time_s, "wall_s": wall,
+        "rays_per_second": result.rays_per_second, "rays": result.rays,
+        "embree_share": result.embree_share,
+        "embree_share_of_wall": result.embree_time_s / (wall * result.threads),
+        "nan_samples": result.nan_count, "threads": result.threads}
+
+
+def _cycles_point(spec):
+    import bpy
+
+    from ..tracer.image import read_exr
+    settings = cycles.forced_settings(spec["max_depth"], spec["spp"], CYCLES_SEED, spec["threads"])
+    camera = {"resolution_percentage": spec["scale"]} if spec["scale"] != 100 else None
+    with tempfile.TemporaryDirectory(prefix="snell-bench-") as workdir:
+        out = os.path.join(workdir, "cycles.exr")
+        start = time.perf_counter()
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(spec["blend"]))
+        scene = bpy.context.scene
+        cycles._apply(scene, settings)
+        cycles._apply_camera(scene, camera)
+        scene.render.filepath = out
+        load_s = time.perf_counter() - start
+        t = time.perf_counter()
+        bpy.ops.render.render(write_still=True)
+        render_s = time.perf_counter() - t
+        wall = time.perf_counter() - start
+        rgb = read_exr(out).astype(np.float32)
+    return rgb, {"load_s": load_s, "render_s": render_s, "wall_s": wall, "threads": spec["threads"]}
+
+
+def _child(spec_path, out_path):
+    with open(spec_path) as f:
+        spec = json.load(f)
+    import bpy  # noqa: F401  (the baseline: what every point pays before it starts)
+
+    from ..tracer import integrator  # noqa: F401
+    if spec["kind"] == "baseline":
+        image, stats = np.zeros((1, 1, 3), np.float32), {}
+    elif spec["kind"] == "snell":
+        image, stats = _snell_point(spec)
+    else:
+        image, stats = _cycles_point(spec)
+    np.save(out_path + ".npy", image)
+    with open(out_path + ".json", "w") as f:
+        json.dump(stats, f)
+
+
+class PointError(RuntimeError):
+    pass
+
+
+def run_point(kind, blend, spp, opts: Options):
+    """(image, stats) of one point in a child process; stats gain peak_rss_mb (the child's)."""
+    spec = {"kind": kind, "blend": os.path.abspath(blend) if blend else None, "spp": spp,
+            "max_depth": opts.max_depth, "threads": opts.threads, "scale": opts.scale}
+    with tempfile.TemporaryDirectory(prefix="snell-bench-") as tmp:
+        spec_path, out = os.path.join(tmp, "spec.json"), os.path.join(tmp, "out")
+        with open(spec_path, "w") as f:
+            json.dump(spec, f)
+        proc = subprocess.Popen([sys.executable, "-m", "snell.addon.bench", "point", spec_path, out],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        err = proc.stderr.read()
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        proc.stderr.close()
+        if proc.returncode != 0 or not os.path.exists(out + ".json"):
+            tail = err.decode(errors="replace").strip().splitlines()[-5:]
+            raise PointError(f"{kind} {spp} spp on {blend}: child exited {proc.returncode}: "
+                             + " / ".join(tail))
+        image = np.load(out + ".npy")
+        with open(out + ".json") as f:
+            stats = json.load(f)
+    kb = usage.ru_maxrss if sys.platform != "darwin" else usage.ru_maxrss / 1024
+    stats["peak_rss_mb"] = kb / 1024.0
+    return image, stats
+
+
+# ---------------------------------------------------------------------------------------------
+# Reference
+
+
+def reference(blend, opts: Options, cache_dir, log):
+    """(mean, info) of the converged reference, from the cache when its key matches."""
+    import bpy
+    seeds = cycles.seeds_for(opts.ref_seeds)
+    forced = [(k, v) for k, v, _ in cycles.forced_settings(opts.max_depth, opts.ref_spp, 0, 1)
+              if k not in ("cycles.seed", "render.threads")]
+    settings = {"seeds": seeds, "spp_per_seed": opts.ref_spp, "max_depth": opts.max_depth,
+                "resolution_percentage": opts.scale, "forced": forced}
+    version = bpy.app.version_string
+    key = cb.cache_key(blend, settings, version)
+    hit = cb.cache_load(cache_dir, key)
+    if hit is not None:
+        mean, var, meta = hit
+        cached = True
+        log(f"{os.path.basename(blend)}: reference from cache ({key})")
+    else:
+        log(f"{os.path.basename(blend)}: reference: {opts.ref_seeds} Cycles seeds x {opts.ref_spp} spp ...")
+        camera = {"resolution_percentage": opts.scale} if opts.scale != 100 else None
+        res = cycles.render_seeds(blend, spp=opts.ref_spp, max_depth=opts.max_depth, seeds=seeds,
+                                  threads=opts.threads, camera=camera,
+                                  progress=lambda d, n, t: log(f"  seed {d}/{n}, {t:.1f} s"))
+        mean, var = res.mean, res.variance_of_mean
+        meta = {"render_s": res.time_s, "threads": opts.threads, "blender": version,
+                "settings": settings, "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
+        cb.cache_store(cache_dir, key, mean, var, meta)
+        cached = False
+    noise = cb.reference_noise(mean, var)
+    info = {"key": key, "cached": cached, "seeds": len(seeds), "spp_per_seed": opts.ref_spp,
+            "spp": len(seeds) * opts.ref_spp, "render_s": meta["render_s"],
+            "render_threads": meta["threads"], "blender": version,
+            "noise_relmse": noise["relmse"], "noise_rmse": noise["rmse"]}
+    return np.asarray(mean, np.float64), info
+
+
+# ---------------------------------------------------------------------------------------------
+# The bench
+
+
+def _ladder(kind, blend, ref, opts, baseline_mb, log):
+    points, spp = [], opts.min_spp
+    while spp is not None:
+        image, stats = run_point(kind, blend, spp, opts)
+        if image.shape != ref.shape:
+            raise PointError(f"{kind} image {image.shape} differs from the reference {ref.shape}")
+        p = {"spp": spp, **stats, **cb.errors(image, ref)}
+        p["peak_rss_above_baseline_mb"] = p["peak_rss_mb"] - baseline_mb
+        p["efficiency"] = p["relmse"] * p["wall_s"]
+        h, w = ref.shape[:2]
+        p["samples_per_second"] = h * w * spp / p["render_s"] if p["render_s"] > 0 else 0.0
+        points.append(p)
+        log(f"  {kind:6s} {spp:5d} spp  wall {p['wall_s']:7.2f} s  relMSE {p['relmse']:.4g}  "
+            f"RMSE {p['rmse']:.4g}  FLIP {p['flip']:.4g}  peak {p['peak_rss_mb']:.0f} MB")
+        spp = cb.next_spp(spp, p["wall_s"], max_spp=opts.max_spp, time_cap_s=opts.time_cap_s)
+    return points
+
+
+def definitions(opts: Options) -> dict:
+    return {
+        "relmse": f"mean over pixels and channels of (I - R)^2 / (R^2 + eps), eps = {metrics.RELMSE_EPS:g}, "
+                  f"after dropping the largest {metrics.RELMSE_DROP:.1%} of the per-value terms "
+                  "(fireflies); R = the scene's Cycles reference",
+        "rmse": "sqrt(mean over pixels and channels of (I - R)^2), nothing dropped",
+        "flip": "mean HDR-FLIP of I against R (flip-evaluator, linear values clamped at 0)",
+        "efficiency": "relMSE x wall time (constant for an unbiased renderer; lower wins)",
+        "time_to_equal_error": "target = the larger of the two renderers' smallest relMSE on the "
+                               "ladder; each renderer's time at the target by piecewise-linear "
+                               "interpolation of log time against log relMSE between the ladder "
+                               "points around its first crossing; ratio = Snell / Cycles. fit_ratio: "
+                               "the same from least-squares lines of slope -1 (log relMSE = a - "
+                               "log time), i.e. the ratio of the geometric means of relMSE x time; "
+                               "snell_slope, cycles_slope: free least-squares slopes (-1 for an "
+                               "unbiased renderer once fixed costs such as export no longer dominate)",
+        "wall_s": "Snell: export of the .blend + scene build (Embree BVH) + render; Cycles: loading "
+                  "the .blend + render (EXR write included); both with the same threads, each point "
+                  "in a fresh child process, timed inside it (interpreter start and import bpy excluded)",
+        "embree_share": "Snell only: Embree query time / (render time x threads); "
+                        "embree_share_of_wall divides by the point's whole wall time instead",
+        "rays_per_second": "Snell only: camera, bounce and shadow rays per second of render time "
+                           "(Cycles reports no ray count; samples_per_second is given for both)",
+        "peak_rss_mb": "the point's child process maximum resident set size (os.wait4 ru_maxrss): "
+                       "Python, numpy, the bpy module and native memory (Embree, Cycles); "
+                       "peak_rss_above_baseline_mb subtracts a child that only imports them",
+        "reference_noise": "the reference's own expected contribution to a point's relMSE and RMSE: "
+                           "mean of var / (R^2 + eps) and sqrt(mean var), var = its across-seed "
+                           "variance of the mean; measured errors include it (not subtracted)",
+    }
+
+
+def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
+    """Run the bench, write bench.json, bench.html and bench.svg into report_dir, return the data."""
+    log = log or (lambda s: None)
+    cache_dir = cache_dir or default_cache_dir()
+    os.makedirs(report_dir, exist_ok=True)
+    start = time.perf_counter()
+    _, base = run_point("baseline", None, 0, opts)
+    baseline_mb = base["peak_rss_mb"]
+    out_scenes = []
+    for blend in scenes:
+        name = os.path.splitext(os.path.basename(blend))[0]
+        ref, ref_info = reference(blend, opts, cache_dir, log)
+        log(f"{name}: ladder")
+        snell = _ladder("snell", blend, ref, opts, baseline_mb, log)
+        cyc = _ladder("cycles", blend, ref, opts, baseline_mb, log)
+        out_scenes.append({
+            "name": name, "blend": os.path.abspath(blend),
+            "height": int(ref.shape[0]), "width": int(ref.shape[1]),
+            "reference": ref_info,
+            "snell": {"points": snell, "efficiency": cb.efficiency_summary(snell)},
+            "cycles": {"points": cyc, "efficiency": cb.efficiency_summary(cyc)},
+            "time_to_equal_error": cb.equal_error(snell, cyc),
+        })
+    import bpy
+    data = {
+        "schema": cb.SCHEMA,
+        "quick": opts.quick,
+        "settings": {**asdict(opts), "resolution_percentage": opts.scale, "cache_dir": cache_dir,
+                     "snell_seed": SNELL_SEED, "cycles_seed": CYCLES_SEED},
+        "definitions": definitions(opts),
+        "environment": {"blender": bpy.app.version_string, "python": platform.python_version(),
+                        "numpy": np.__version__, "machine": platform.machine(),
+                        "cpu_count": os.cpu_count(), "baseline_rss_mb": baseline_mb},
+        "scenes": out_scenes,
+        "total_s": time.perf_counter() - start,
+    }
+    svg = cb.svg_plot(out_scenes)
+    with open(os.path.join(report_dir, "bench.svg"), "w") as f:
+        f.write(svg)
+    cb.write_json(os.path.join(report_dir, "bench.json"), data)
+    cb.write_html(os.path.join(report_dir, "bench.html"), data, svg)
+    return data
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == "point":
+        _child(sys.argv[2], sys.argv[3])
+    else:
+        sys.exit("usage: python -m snell.addon.bench point SPEC.json OUT")

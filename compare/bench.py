@@ -1,0 +1,441 @@
+"""The pure-Python half of `snell bench`: error metrics, ladders, curve fits, cache keys, the
+JSON, the log-log SVG plot and the HTML page. No bpy (the renders run in addon/bench.py).
+
+Definitions (stated again in bench.json under "definitions"):
+- relMSE = mean over pixels and channels of (I - R)^2 / (R^2 + eps), eps = metrics.RELMSE_EPS,
+  after dropping the largest metrics.RELMSE_DROP fraction of the per-value terms (fireflies); the
+  same rule as `snell compare` (compare/metrics.py).
+- RMSE = sqrt(mean((I - R)^2)), no values dropped. FLIP = mean HDR-FLIP (metrics.flip).
+- efficiency figure = relMSE x wall time (constant for an unbiased renderer; lower wins).
+- time to equal error: per renderer, log(time) is interpolated piecewise-linearly in log(relMSE)
+  along the ladder, at the first point where the curve reaches the target; the target is the
+  larger of the two renderers' smallest reached relMSE, so both curves reach it.
+"""
+from __future__ import annotations
+
+import hashlib
+import html
+import json
+import math
+import os
+
+import numpy as np
+
+from . import metrics
+
+SCHEMA = 1
+
+
+# ---------------------------------------------------------------------------------------------
+# Error metrics against the converged reference
+
+
+def relmse(image, reference, eps=None, drop=None):
+    """compare/metrics.py's relMSE (same eps and outlier rule) of image against reference."""
+    eps = metrics.RELMSE_EPS if eps is None else eps
+    drop = metrics.RELMSE_DROP if drop is None else drop
+    image, reference = np.asarray(image, np.float64), np.asarray(reference, np.float64)
+    rel = np.sort(((image - reference) ** 2 / (reference * reference + eps)).ravel())
+    keep = len(rel) - int(math.floor(drop * len(rel)))
+    return float(rel[:keep].mean())
+
+
+def rmse(image, reference):
+    d = np.asarray(image, np.float64) - np.asarray(reference, np.float64)
+    return float(math.sqrt(np.mean(d * d)))
+
+
+def errors(image, reference) -> dict:
+    flip = metrics.flip(reference, image)
+    return {"relmse": relmse(image, reference), "rmse": rmse(image, reference),
+            "flip": float("nan") if flip is None else flip}
+
+
+def reference_noise(reference, variance_of_mean) -> dict:
+    """The reference's own error: the expected relMSE and RMSE its noise alone adds to a point."""
+    r = np.asarray(reference, np.float64)
+    v = np.asarray(variance_of_mean, np.float64)
+    return {"relmse": float(np.mean(v / (r * r + metrics.RELMSE_EPS))),
+            "rmse": float(math.sqrt(np.mean(v)))}
+
+
+# ---------------------------------------------------------------------------------------------
+# Ladder and curves
+
+
+def next_spp(spp: int, wall_s: float, *, max_spp: int, time_cap_s: float):
+    """The ladder's next sample count (doubling), or None when it would pass max_spp or, predicted
+    as twice this point's wall time, the time cap."""
+    nxt = spp * 2
+    if nxt > max_spp or 2.0 * wall_s > time_cap_s:
+        return None
+    return nxt
+
+
+def time_at_error(times, errs, target):
+    """Seconds at which the log-log curve (points in ladder order) first reaches `target`:
+    log t interpolated linearly in log error between the two points around the crossing.
+    None if the curve never reaches it."""
+    pts = [(float(t), float(e)) for t, e in zip(times, errs) if t > 0 and e > 0]
+    if not pts or target <= 0:
+        return None
+    if pts[0][1] <= target:
+        return pts[0][0]  # reached at the first point (no extrapolation to earlier times)
+    for (t0, e0), (t1, e1) in zip(pts, pts[1:]):
+        if e1 <= target:
+            if e1 == e0:
+                return t1
+            f = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
+            return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0)))
+    return None
+
+
+def loglog_fit(times, errs):
+    """Least-squares line log(error) = intercept + slope log(time); slope near -1 when unbiased."""
+    x = np.log(np.asarray(times, np.float64))
+    y = np.log(np.asarray(errs, np.float64))
+    if len(x) < 2 or np.ptp(x) == 0:
+        return {"slope": float("nan"), "intercept": float(y.mean()) if len(y) else float("nan")}
+    slope, intercept = np.polyfit(x, y, 1)
+    return {"slope": float(slope), "intercept": float(intercept)}
+
+
+def unit_slope_fit(times, errs):
+    """The least-squares line of slope -1 (an unbiased renderer's): log(error) = a - log(time),
+    a = mean(log(error x time)); its time at error e is exp(a) / e."""
+    a = float(np.mean(np.log(np.asarray(errs, np.float64) * np.asarray(times, np.float64))))
+    return {"slope": -1.0, "intercept": a}
+
+
+def equal_error(snell_points, cycles_points) -> dict:
+    """Time-to-equal-error of Snell over Cycles at the larger of the two smallest relMSEs."""
+    ts, es = [p["wall_s"] for p in snell_points], [p["relmse"] for p in snell_points]
+    tc, ec = [p["wall_s"] for p in cycles_points], [p["relmse"] for p in cycles_points]
+    target = max(min(es), min(ec))
+    t_s, t_c = time_at_error(ts, es, target), time_at_error(tc, ec, target)
+    us, uc = unit_slope_fit(ts, es), unit_slope_fit(tc, ec)
+    nan = float("nan")
+    return {
+        "target_relmse": target,
+        "snell_s": nan if t_s is None else t_s,
+        "cycles_s": nan if t_c is None else t_c,
+        "ratio": nan if not (t_s and t_c) else t_s / t_c,
+        # free least-squares slopes, to judge the ladder (-1 once fixed costs no longer dominate)
+        "snell_slope": loglog_fit(ts, es)["slope"],
+        "cycles_slope": loglog_fit(tc, ec)["slope"],
+        # slope -1 fits: the ratio of geometric-mean relMSE x time, the same at every target
+        "fit_ratio": math.exp(us["intercept"] - uc["intercept"]),
+    }
+
+
+def efficiency_summary(points) -> dict:
+    """relMSE x wall time per point; the median over the ladder and the value at the last point."""
+    eff = [p["relmse"] * p["wall_s"] for p in points]
+    return {"median": float(np.median(eff)), "last": float(eff[-1])}
+
+
+# ---------------------------------------------------------------------------------------------
+# Reference cache
+
+
+def cache_key(blend_path, settings: dict, blender_version: str) -> str:
+    """sha256 of the .blend bytes, the reference settings (JSON, sorted) and Blender's version."""
+    h = hashlib.sha256()
+    with open(blend_path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    h.update(json.dumps(settings, sort_keys=True, default=str).encode())
+    h.update(blender_version.encode())
+    return h.hexdigest()[:32]
+
+
+def cache_load(directory, key):
+    """(mean, variance_of_mean, meta) from the cache, or None."""
+    path = os.path.join(directory, f"ref-{key}.npz")
+    if not os.path.isfile(path):
+        return None
+    try:
+        with np.load(path) as z:
+            meta = json.loads(str(z["meta"]))
+            return z["mean"], z["variance_of_mean"], meta
+    except (OSError, ValueError, KeyError):
+        return None  # a damaged entry is rendered again
+
+
+def cache_store(directory, key, mean, variance_of_mean, meta):
+    os.makedirs(directory, exist_ok=True)
+    path = os.path.join(directory, f"ref-{key}.npz")
+    tmp = path + ".tmp.npz"
+    np.savez_compressed(tmp, mean=np.asarray(mean, np.float32),
+                        variance_of_mean=np.asarray(variance_of_mean, np.float32),
+                        meta=np.array(json.dumps(meta, sort_keys=True, default=str)))
+    os.replace(tmp, path)
+    return path
+
+
+# ---------------------------------------------------------------------------------------------
+# JSON
+
+
+def _finite(value):
+    if isinstance(value, dict):
+        return {str(k): _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        v = float(value)
+        return v if math.isfinite(v) else None  # JSON has no NaN: missing = null
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    return value
+
+
+def missing_values(data, path="") -> list:
+    """Paths of null (or non-finite) values in the JSON tree: empty when every key is filled."""
+    out = []
+    if isinstance(data, dict):
+        for k, v in data.items():
+            out += missing_values(v, f"{path}.{k}" if path else k)
+    elif isinstance(data, list):
+        for i, v in enumerate(data):
+            out += missing_values(v, f"{path}[{i}]")
+    elif data is None or (isinstance(data, float) and not math.isfinite(data)):
+        out.append(path)
+    return out
+
+
+def write_json(path, data):
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        json.dump(_finite(data), f, indent=2, sort_keys=True)
+    os.replace(tmp, path)
+
+
+# ---------------------------------------------------------------------------------------------
+# Plot: log-log relMSE against wall time, one panel per scene, one polyline per renderer
+
+
+COLOURS = {"snell": "#d62728", "cycles": "#1f77b4"}
+
+
+def _decades(lo, hi):
+    a, b = math.floor(math.log10(lo)), math.ceil(math.log10(hi))
+    if a == b:
+        b = a + 1
+    return a, b
+
+
+def svg_plot(scenes, panel_w=360, panel_h=280) -> str:
+    """One inline SVG: a log-log panel of relMSE against wall time for each scene."""
+    m = {"l": 58, "r": 12, "t": 26, "b": 40}
+    parts = []
+    for i, sc in enumerate(scenes):
+        pts = {r: [(p["wall_s"], p["relmse"]) for p in sc[r]["points"]
+                   if p["wall_s"] > 0 and p["relmse"] > 0] for r in ("snell", "cycles")}
+        allp = pts["snell"] + pts["cycles"]
+        if not allp:
+            continue
+        x0, x1 = _decades(min(p[0] for p in allp), max(p[0] for p in allp))
+        y0, y1 = _decades(min(p[1] for p in allp), max(p[1] for p in allp))
+        ox = i * panel_w
+        w, h = panel_w - m["l"] - m["r"], panel_h - m["t"] - m["b"]
+
+        def X(t):
+            return ox + m["l"] + (math.log10(t) - x0) / (x1 - x0) * w
+
+        def Y(e):
+            return m["t"] + (1 - (math.log10(e) - y0) / (y1 - y0)) * h
+
+        g = [f'<rect x="{ox + m["l"]}" y="{m["t"]}" width="{w}" height="{h}" fill="white" stroke="#888"/>',
+             f'<text x="{ox + m["l"] + w / 2}" y="16" text-anchor="middle" font-weight="bold">'
+             f'{html.escape(sc["name"])}</text>']
+        for d in range(x0, x1 + 1):
+            x = X(10.0 ** d)
+            g.append(f'<line x1="{x:.1f}" y1="{m["t"]}" x2="{x:.1f}" y2="{m["t"] + h}" stroke="#ddd"/>')
+            g.append(f'<text x="{x:.1f}" y="{m["t"] + h + 14}" text-anchor="middle">{10.0 ** d:g}</text>')
+        for d in range(y0, y1 + 1):
+            y = Y(10.0 ** d)
+            g.append(f'<line x1="{ox + m["l"]}" y1="{y:.1f}" x2="{ox + m["l"] + w}" y2="{y:.1f}" stroke="#ddd"/>')
+            g.append(f'<text x="{ox + m["l"] - 4}" y="{y + 4:.1f}" text-anchor="end">1e{d}</text>')
+        g.append(f'<text x="{ox + m["l"] + w / 2}" y="{panel_h - 6}" text-anchor="middle">wall time (s)</text>')
+        g.append(f'<text transform="translate({ox + 13},{m["t"] + h / 2}) rotate(-90)" '
+                 f'text-anchor="middle">relMSE</text>')
+        for k, (r, p) in enumerate(pts.items()):
+            c = COLOURS[r]
+            line = " ".join(f"{X(t):.1f},{Y(e):.1f}" for t, e in p)
+            g.append(f'<polyline points="{line}" fill="none" stroke="{c}" stroke-width="2"/>')
+            g += [f'<circle cx="{X(t):.1f}" cy="{Y(e):.1f}" r="3" fill="{c}"/>' for t, e in p]
+            ly = m["t"] + 14 + 16 * k
+            g.append(f'<line x1="{ox + m["l"] + w - 70}" y1="{ly - 4}" x2="{ox + m["l"] + w - 52}" '
+                     f'y2="{ly - 4}" stroke="{c}" stroke-width="2"/>')
+            g.append(f'<text x="{ox + m["l"] + w - 48}" y="{ly}">{"Snell" if r == "snell" else "Cycles"}</text>')
+        parts.append("\n".join(g))
+    total_w = panel_w * max(1, len(scenes))
+    return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{total_w}" height="{panel_h}" '
+            f'viewBox="0 0 {total_w} {panel_h}" font-family="sans-serif" font-size="11">\n'
+            + "\n".join(parts) + "\n</svg>\n")
+
+
+# ---------------------------------------------------------------------------------------------
+# HTML
+
+
+def _f(x, digits=3):
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "n/a"
+    if isinstance(x, float):
+        return f"{x:.{digits}g}"
+    return str(x)
+
+
+def table_rows(data):
+    """One row per ladder point (scene, renderer, spp, wall, parts, errors, throughput, memory)."""
+    rows = []
+    for sc in data["scenes"]:
+        for r in ("snell", "cycles"):
+            for p in sc[r]["points"]:
+                parts = (f"export {p['export_s']:.2f} + build {p['build_s']:.2f} + render {p['render_s']:.2f}"
+                         if r == "snell" else f"load {p['load_s']:.2f} + render {p['render_s']:.2f}")
+                rows.append([sc["name"], "Snell" if r == "snell" else "Cycles", p["spp"],
+                             f"{p['wall_s']:.2f}", parts, _f(p["relmse"]), _f(p["rmse"]), _f(p["flip"]),
+                             _f(p["relmse"] * p["wall_s"]),
+                             f"{p['rays_per_second'] / 1e6:.2f} M" if r == "snell" else "n/a",
+                             f"{100 * p['embree_share']:.0f}%" if r == "snell" else "n/a",
+                             f"{p['peak_rss_mb']:.0f} ({p['peak_rss_above_baseline_mb']:+.0f})"])
+    return rows
+
+
+HEADER = ["scene", "renderer", "spp", "wall s", "parts (s)", "relMSE", "RMSE", "FLIP", "relMSE x s",
+          "rays/s", "Embree share", "peak RSS MB (over baseline)"]
+
+
+def summary_rows(data):
+    rows = []
+    for sc in data["scenes"]:
+        eq = sc["time_to_equal_error"]
+        rows.append([sc["name"], f"{sc['width']}x{sc['height']}", _f(eq["target_relmse"]),
+                     _f(eq["snell_s"]), _f(eq["cycles_s"]), _f(eq["ratio"]), _f(eq["fit_ratio"]),
+                     _f(eq["snell_slope"]), _f(eq["cycles_slope"]),
+                     _f(sc["snell"]["efficiency"]["median"]), _f(sc["cycles"]["efficiency"]["median"]),
+                     _f(sc["reference"]["noise_relmse"])])
+    return rows
+
+
+SUMMARY_HEADER = ["scene", "size", "target relMSE", "Snell s", "Cycles s", "Snell / Cycles",
+                  "ratio (slope -1 fits)", "Snell LSQ slope", "Cycles LSQ slope", "Snell relMSE x s (median)",
+                  "Cycles relMSE x s (median)", "reference noise relMSE"]
+
+
+def _table(rows, header):
+    out = ["<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>"]
+    out += ["<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows]
+    return "\n".join(out + ["</table>"])
+
+
+def markdown_table(data) -> str:
+    """The per-point and summary tables as Markdown (printed by the CLI, pasted in notes)."""
+    def md(rows, header):
+        lines = ["| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
+        return "\n".join(lines + ["| " + " | ".join(str(c) for c in r) + " |" for r in rows])
+    return md(summary_rows(data), SUMMARY_HEADER) + "\n\n" + md(table_rows(data), HEADER)
+
+
+def write_html(path, data, svg):
+    from .report import _page  # the validator's page frame and CSS
+    d = data["definitions"]
+    s = data["settings"]
+    refs = "".join(
+        f"<li>{html.escape(sc['name'])}: {sc['reference']['seeds']} Cycles seeds x "
+        f"{sc['reference']['spp_per_seed']} spp = {sc['reference']['spp']} spp, "
+        f"{sc['reference']['render_s']:.1f} s ({'cached' if sc['reference']['cached'] else 'rendered now'}); "
+        f"own noise: relMSE {_f(sc['reference']['noise_relmse'])}, RMSE {_f(sc['reference']['noise_rmse'])}</li>"
+        for sc in data["scenes"])
+    body = (
+        f"<h1>Snell vs Cycles: time against error{' (quick)' if data['quick'] else ''}</h1>\n"
+        f"<p class='small'>{s['threads']} threads each, max depth {s['max_depth']}, resolution "
+        f"{s['resolution_percentage']}% of the file's, ladder {s['min_spp']}, {2 * s['min_spp']}, ... spp up to {s['max_spp']} "
+        f"spp or a predicted {s['time_cap_s']:g} s per point.</p>\n"
+        f"<h2>Error against wall time</h2>\n{svg}\n"
+        f"<h2>Time to equal error</h2>\n{_table(summary_rows(data), SUMMARY_HEADER)}\n"
+        f"<p class='small'>{html.escape(d['time_to_equal_error'])}</p>\n"
+        f"<h2>Ladder points</h2>\n{_table(table_rows(data), HEADER)}\n"
+        f"<h2>Definitions</h2><ul>" + "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>"
+                                               for k, v in d.items()) + "</ul>\n"
+        f"<h2>References</h2><ul>{refs}</ul>\n")
+    with open(path, "w") as f:
+        f.write(_page("snell bench", body))
+
+
+# ---------------------------------------------------------------------------------------------
+# `snell bench` (wired into cli.py's COMMANDS; the renders run in addon/bench.py, which needs bpy)
+
+
+def setup_cli(p):
+    from ..cli import _int_at_least
+    p.add_argument("scenes", nargs="*", metavar="SCENE.blend",
+                   help="scenes to bench (default: scenes/cornell_spheres.blend and "
+                        "scenes/cornell_dragon.blend)")
+    p.add_argument("--report", required=True, metavar="DIR",
+                   help="directory for bench.json, bench.html and bench.svg (created)")
+    p.add_argument("--quick", action="store_true",
+                   help="smoke test: 25%% resolution, ladder 4, 8, 16 spp, reference 4 seeds x 64 spp")
+    p.add_argument("--threads", type=_int_at_least(1), help="threads for each renderer (default 2)")
+    p.add_argument("--max-depth", type=_int_at_least(1), metavar="M", help="default 8")
+    p.add_argument("--scale", type=_int_at_least(1), metavar="PCT",
+                   help="resolution percentage (default 100, --quick 25)")
+    p.add_argument("--min-spp", type=_int_at_least(1), help="bottom of the ladder (default 1, --quick 4)")
+    p.add_argument("--max-spp", type=_int_at_least(1), help="top of the ladder (default 1024, --quick 16)")
+    p.add_argument("--time-cap", type=float, metavar="S",
+                   help="stop a ladder before a point predicted to take longer (default 60, --quick 20)")
+    p.add_argument("--ref-seeds", type=_int_at_least(2), metavar="K",
+                   help="Cycles seeds of the reference (default 16, --quick 4)")
+    p.add_argument("--ref-spp", type=_int_at_least(1), metavar="N",
+                   help="samples per reference seed (default 256, --quick 64)")
+    p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/snell/bench)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+
+
+def cmd(args) -> int:
+    import sys
+
+    from ..cli import CliError
+    try:
+        from ..addon import bench as ab
+    except ModuleNotFoundError as exc:
+        if exc.name != "bpy":
+            raise
+        raise CliError("snell bench needs Blender's bpy module (pip install 'snell[blender]')") from None
+    scenes = args.scenes or ab.DEFAULT_SCENES
+    for s in scenes:
+        if os.path.splitext(s)[1].lower() != ".blend":
+            raise CliError(f"{s}: expected a .blend file")
+        if not os.path.isfile(s):
+            raise CliError(f"{s}: no such file" + (" (build it with scenes/build_all.py)"
+                                                   if s in ab.DEFAULT_SCENES else ""))
+    parent = os.path.dirname(os.path.abspath(args.report))
+    if not os.path.isdir(parent):
+        raise CliError(f"--report {args.report}: directory {parent} does not exist")
+    opts = ab.Options(**(ab.QUICK if args.quick else {}))
+    for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),
+                       ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"), ("ref_seeds", "ref_seeds"),
+                       ("ref_spp", "ref_spp")):
+        if getattr(args, name) is not None:
+            setattr(opts, attr, getattr(args, name))
+    log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr, flush=True))
+    try:
+        data = ab.run(scenes, args.report, opts, cache_dir=args.cache, log=log)
+    except ab.PointError as exc:
+        raise CliError(str(exc)) from None
+    print(markdown_table(data))
+    for sc in data["scenes"]:
+        eq = sc["time_to_equal_error"]
+        print(f"snell bench: {sc['name']}: time to relMSE {eq['target_relmse']:.3g}: Snell / Cycles = "
+              f"{_f(eq['ratio'])} (fits {_f(eq['fit_ratio'])})")
+    print(f"snell bench: {data['total_s']:.1f} s -> {os.path.join(args.report, 'bench.html')}")
+    return 0
+
+
+CLI = ("bench", "Snell and Cycles at a ladder of sample counts: error against time, JSON and HTML",
+       setup_cli, cmd)

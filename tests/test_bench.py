@@ -1,0 +1,110 @@
+"""`snell bench`: the --quick smoke run (every JSON key filled, finite) and its pure-Python parts.
+
+Speed is never asserted: only that the numbers exist, are finite and are consistent with each other.
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from snell.compare import bench as cb
+from snell.compare import metrics
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCENES = [os.path.join(REPO, "scenes", n) for n in ("cornell_spheres.blend", "cornell_dragon.blend")]
+
+
+def _points(times, errs):
+    return [{"wall_s": t, "relmse": e} for t, e in zip(times, errs)]
+
+
+def test_time_at_error_interpolates_log_log():
+    # relMSE = 1 / t exactly: the time at error e is 1 / e
+    t = [1.0, 2.0, 4.0, 8.0]
+    e = [1.0, 0.5, 0.25, 0.125]
+    assert cb.time_at_error(t, e, 0.3) == pytest.approx(1 / 0.3)
+    assert cb.time_at_error(t, e, 2.0) == 1.0      # reached at the first point
+    assert cb.time_at_error(t, e, 0.1) is None     # never reached
+    # the first crossing counts, even if the curve comes back up (noise)
+    assert cb.time_at_error([1, 2, 4], [1.0, 0.2, 0.5], 0.5) == pytest.approx(
+        math.exp(math.log(2) * math.log(2) / math.log(5)))
+
+
+def test_equal_error_ratio_and_target():
+    snell = _points([2, 4, 8, 16], [0.8, 0.4, 0.2, 0.1])        # relMSE x time = 1.6
+    cycles = _points([1, 2, 4], [0.8, 0.4, 0.2])                # relMSE x time = 0.8
+    eq = cb.equal_error(snell, cycles)
+    assert eq["target_relmse"] == pytest.approx(0.2)           # larger of the two minima
+    assert eq["snell_s"] == pytest.approx(8) and eq["cycles_s"] == pytest.approx(4)
+    assert eq["ratio"] == pytest.approx(2) and eq["fit_ratio"] == pytest.approx(2)
+    assert eq["snell_slope"] == pytest.approx(-1) and eq["cycles_slope"] == pytest.approx(-1)
+
+
+def test_relmse_matches_the_validator_rule():
+    rng = np.random.default_rng(1)
+    ref = rng.uniform(0, 1, (32, 32, 3))
+    img = ref + rng.normal(0, 0.1, ref.shape)
+    img[0, 0, 0] = 1e6  # a firefly: dropped by the outlier rule
+    rel = cb.relmse(img, ref)
+    c = metrics.compare(img, np.full(ref.shape, 0.01), 10, ref, np.full(ref.shape, 0.01), 10)
+    assert rel == pytest.approx(c["relmse"]) and rel < 1
+    assert cb.rmse(img, ref) == pytest.approx(c["rmse"])
+
+
+def test_cache_key_and_roundtrip(tmp_path):
+    blend = tmp_path / "a.blend"
+    blend.write_bytes(b"abc")
+    k1 = cb.cache_key(blend, {"spp": 4}, "5.0.1")
+    assert k1 == cb.cache_key(blend, {"spp": 4}, "5.0.1")
+    assert k1 != cb.cache_key(blend, {"spp": 8}, "5.0.1")
+    assert k1 != cb.cache_key(blend, {"spp": 4}, "5.1.0")
+    blend.write_bytes(b"abd")
+    assert k1 != cb.cache_key(blend, {"spp": 4}, "5.0.1")
+    assert cb.cache_load(tmp_path, k1) is None
+    m = np.ones((2, 3, 3))
+    cb.cache_store(tmp_path, k1, m, m * 0.5, {"render_s": 1.5})
+    mean, var, meta = cb.cache_load(tmp_path, k1)
+    assert np.allclose(mean, 1) and np.allclose(var, 0.5) and meta == {"render_s": 1.5}
+
+
+def test_missing_values_finds_nulls():
+    assert cb.missing_values({"a": [1.0, {"b": 2}]}) == []
+    assert cb.missing_values({"a": [1.0, {"b": None}], "c": float("nan")}) == ["a[1].b", "c"]
+
+
+@pytest.mark.skipif(not all(map(os.path.isfile, SCENES)), reason="reference scenes not built")
+def test_quick_bench_fills_every_key(tmp_path):
+    pytest.importorskip("bpy")
+    pytest.importorskip("flip_evaluator")
+    report = tmp_path / "report"
+    proc = subprocess.run([sys.executable, "-m", "snell.cli", "bench", "--quick", "--report", str(report),
+                           "--cache", str(tmp_path / "cache"), "--quiet"],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads((report / "bench.json").read_text())
+    assert cb.missing_values(data) == []
+    assert data["quick"] is True and len(data["scenes"]) == 2
+    for sc in data["scenes"]:
+        assert sc["reference"]["cached"] is False and sc["reference"]["spp"] == 4 * 64
+        for r in ("snell", "cycles"):
+            pts = sc[r]["points"]
+            assert [p["spp"] for p in pts] == [4, 8, 16]
+            for p in pts:
+                assert p["wall_s"] > 0 and p["relmse"] > 0 and p["rmse"] > 0 and 0 < p["flip"] < 1
+                assert p["peak_rss_mb"] > 0
+                assert p["efficiency"] == pytest.approx(p["relmse"] * p["wall_s"])
+            if r == "snell":
+                assert all(p["wall_s"] >= p["export_s"] + p["build_s"] + p["render_s"] - 1e-6 for p in pts)
+                assert all(p["rays_per_second"] > 0 and 0 < p["embree_share"] <= 1 for p in pts)
+        eq = sc["time_to_equal_error"]
+        assert eq["ratio"] > 0 and eq["fit_ratio"] > 0
+        assert eq["target_relmse"] == pytest.approx(max(min(p["relmse"] for p in sc["snell"]["points"]),
+                                                        min(p["relmse"] for p in sc["cycles"]["points"])))
+    html = (report / "bench.html").read_text()
+    assert html.count("<polyline") == 4 and "cornell_dragon" in html
+    assert (report / "bench.svg").read_text().startswith("<svg")
+    assert "Snell / Cycles" in proc.stdout
