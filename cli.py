@@ -15,6 +15,7 @@ import sys
 import time
 
 from .compare.bench import CLI as BENCH_COMMAND
+from .compare.commands import COMMANDS as COMPARE_COMMANDS
 from .tracer.scene import FRESNEL_MODELS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
 
 SCENE_EXTENSIONS = (".blend", ".snell")
@@ -302,6 +303,7 @@ COMMANDS = [
     ("info", "summarise a scene: geometry, materials, lights, camera, features", _setup_info, cmd_info),
     ("batch", "render frames of a .blend through the Snell engine, one image per frame", _setup_batch, cmd_batch),
 ]
+COMMANDS += COMPARE_COMMANDS  # compare, study (compare/commands.py)
 COMMANDS.append(BENCH_COMMAND)  # bench (compare/bench.py)
 
 

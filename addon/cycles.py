@@ -1,0 +1,231 @@
+"""Render a .blend in Cycles (CPU, through the bpy module) with settings forced to match Snell.
+
+`forced_settings(...)` lists every setting the validator changes, with the reason; the report
+prints that list. `render_seeds(...)` renders K independent seeds and returns the per-pixel mean
+and the across-seed variance of that mean (an honest variance even though each Cycles render uses
+a stratified quasi-random sequence: the seeds are independent scrambles of it).
+
+Cycles has no per-pixel sample-variance pass in bpy 5.0.1 (only Sample Count and the denoising
+passes), so K seeds is the cheapest honest estimate.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+class NoCyclesEquivalent(ValueError):
+    """A Snell setting that Cycles cannot reproduce (e.g. max depth 0)."""
+
+
+def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2):
+    """[(setting, value, reason)] applied to the scene before a Cycles render."""
+    if max_depth < 1:
+        raise NoCyclesEquivalent(f"max depth {max_depth}: Cycles has no max_bounces equivalent "
+                                 "(max_bounces = max depth - 1 >= 0)")
+    b = max_depth - 1
+    bounce = f"max depth {max_depth} = emission + {max_depth} bounces = Cycles max_bounces {b}"
+    return [
+        ("render.engine", "CYCLES", "the reference renderer"),
+        ("cycles.device", "CPU", "reproducible, no GPU"),
+        ("render.threads_mode", "FIXED", "shared machine"),
+        ("render.threads", threads, "shared machine"),
+        ("cycles.samples", spp + 1, "sample indices 0..spp; only 1..spp are rendered (below)"),
+        ("cycles.seed", seed, "independent seed per render"),
+        ("cycles.use_animated_seed", False, "the seed is the one given"),
+        ("cycles.use_sample_subset", True, "render the subset of samples 1..spp: sample 0 of "
+         "every render goes through the pixel centre, a 1/spp bias towards point sampling "
+         "(measured: without this, Cycles images are detectably sharper than box-filtered)"),
+        ("cycles.sample_offset", 1, "skip sample 0"),
+        ("cycles.sample_subset_length", spp, "spp samples per pixel"),
+        ("cycles.sampling_pattern", "TABULATED_SOBOL", "no blue-noise correlation between pixels"),
+        ("cycles.pixel_filter_type", "BOX", "Snell's uniform offset in the pixel"),
+        ("cycles.filter_width", 1.0, "box one pixel wide"),
+        ("cycles.use_denoising", False, "unbiased, sample-count matched"),
+        ("cycles.use_adaptive_sampling", False, "same samples in every pixel"),
+        ("cycles.time_limit", 0.0, "sample-count matched"),
+        ("cycles.sample_clamp_direct", 0.0, "no clamping (biased)"),
+        ("cycles.sample_clamp_indirect", 0.0, "no clamping (biased)"),
+        ("cycles.blur_glossy", 0.0, "no filter glossy (biased)"),
+        ("cycles.caustics_reflective", True, "Snell renders caustics"),
+        ("cycles.caustics_refractive", True, "Snell renders caustics"),
+        ("cycles.use_guiding", False, "plain path tracing"),
+        ("cycles.light_sampling_threshold", 0.0, "no probabilistic shadow-ray termination"),
+        ("cycles.max_bounces", b, bounce),
+        ("cycles.diffuse_bounces", b, "per-kind limits equal to max_bounces"),
+        ("cycles.glossy_bounces", b, "per-kind limits equal to max_bounces"),
+        ("cycles.transmission_bounces", b, "per-kind limits equal to max_bounces"),
+        ("cycles.transparent_max_bounces", b, "per-kind limits equal to max_bounces"),
+        ("cycles.volume_bounces", 0, "Snell has no volumes"),
+        ("cycles.min_light_bounces", 0, "no forced bounces"),
+        ("cycles.min_transparent_bounces", 0, "no forced bounces"),
+        ("cycles.film_exposure", 1.0, "no exposure scaling"),
+        ("render.film_transparent", False, "the world is visible"),
+        ("render.use_motion_blur", False, "Snell has no motion blur"),
+        ("render.use_border", False, "full frame"),
+        ("render.use_compositing", False, "raw render result"),
+        ("render.use_sequencer", False, "raw render result"),
+        ("view_settings.view_transform", "Standard", "same display transform for both PNGs"),
+        ("view_settings.look", "None", "same display transform"),
+        ("view_settings.exposure", 0.0, "same display transform"),
+        ("view_settings.gamma", 1.0, "same display transform"),
+        ("objects.shadow_terminator_*_offset", 0.0, "Cycles moves shadow-ray origins of smooth "
+         "low-poly meshes off the surface by default (geometry offset 0.1); Snell does not"),
+        ("output", "OPEN_EXR 32-bit RGB", "scene-linear output, read back"),
+    ]
+
+
+def _apply(scene, settings):
+    for key, value, _ in settings:
+        if key == "output":
+            continue
+        if key.startswith("objects."):
+            for obj in scene.objects:
+                for attr in ("shadow_terminator_geometry_offset", "shadow_terminator_shading_offset",
+                             "shadow_terminator_normal_offset"):
+                    if hasattr(obj, attr):
+                        setattr(obj, attr, value)
+            continue
+        owner_name, attr = key.split(".", 1)
+        owner = {"render": scene.render, "cycles": scene.cycles,
+                 "view_settings": scene.view_settings}[owner_name]
+        setattr(owner, attr, value)
+    img = scene.render.image_settings
+    if hasattr(img, "media_type"):
+        img.media_type = "IMAGE"
+    img.file_format = "OPEN_EXR"
+    img.color_depth = "32"
+    img.color_mode = "RGB"
+    img.exr_codec = "ZIP"
+
+
+def fstop_for_radius(lens_mm: float, radius_m: float) -> float:
+    """Cycles' aperture radius is lens / (2 fstop)."""
+    return lens_mm * 1e-3 / (2.0 * radius_m)
+
+
+def _apply_camera(scene, camera):
+    """camera: optional {"focus_distance": d, "aperture_radius": r (0 = pinhole),
+    "resolution_percentage": p} overrides."""
+    if not camera:
+        return []
+    cam = scene.camera.data
+    dof = cam.dof
+    done = []
+    for key in ("lens", "shift_x", "shift_y"):
+        if key in camera:
+            setattr(cam, key, float(camera[key]))
+            done.append((f"camera.{key}", float(camera[key]), "framing override (both renderers)"))
+    if "resolution_percentage" in camera:
+        scene.render.resolution_percentage = int(camera["resolution_percentage"])
+        done.append(("render.resolution_percentage", int(camera["resolution_percentage"]),
+                     "both renderers at the same reduced resolution"))
+    if "aperture_radius" in camera:
+        r = float(camera["aperture_radius"])
+        dof.use_dof = r > 0
+        if r > 0:
+            dof.aperture_fstop = fstop_for_radius(cam.lens, r)
+        done.append(("camera.dof.aperture_fstop", round(dof.aperture_fstop, 6),
+                     f"aperture radius {r:g} m = lens {cam.lens:g} mm / (2 fstop)"))
+    if "focus_distance" in camera:
+        dof.focus_object = None
+        dof.focus_distance = float(camera["focus_distance"])
+        done.append(("camera.dof.focus_distance", float(camera["focus_distance"]),
+                     "study setting"))
+    return done
+
+
+@dataclass
+class CyclesResult:
+    mean: np.ndarray             # (H, W, 3) float64, row 0 = top
+    variance_of_mean: np.ndarray  # (H, W, 3) float64, across-seed estimate
+    spp: int                     # total samples per pixel (seeds x spp per seed)
+    seeds: list
+    time_s: float                # render time of all seeds (file loading excluded)
+    settings: list = field(default_factory=list)
+    images: list = field(default_factory=list)  # per-seed images
+
+
+def _render_one(blend_path, settings, camera, workdir):
+    import bpy
+
+    from ..tracer.image import read_exr
+    bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend_path))
+    scene = bpy.context.scene
+    _apply(scene, settings)
+    extra = _apply_camera(scene, camera)
+    out = os.path.join(workdir, "cycles.exr")
+    scene.render.filepath = out
+    start = time.perf_counter()
+    bpy.ops.render.render(write_still=True)
+    elapsed = time.perf_counter() - start
+    rgb = read_exr(out).astype(np.float64)
+    os.remove(out)
+    return rgb, elapsed, extra
+
+
+def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), threads: int = 2,
+                 camera=None, progress=None, quiet_blender=True, overrides=None) -> CyclesResult:
+    """Render the file once per seed with `spp` samples each; mean and variance of the mean.
+
+    progress(done, total, elapsed_s) is called after each seed.
+    """
+    seeds = list(seeds)
+    if len(seeds) < 2:
+        raise ValueError("need at least two seeds for a variance")
+    images, total, extra = [], 0.0, []
+    with tempfile.TemporaryDirectory(prefix="snell-cycles-") as workdir:
+        for k, seed in enumerate(seeds):
+            settings = forced_settings(max_depth, spp, seed, threads)
+            if overrides:  # experiments only: replace forced values
+                settings = [(k, overrides.get(k, v), why) for k, v, why in settings]
+            with _silenced(quiet_blender):
+                rgb, elapsed, extra = _render_one(blend_path, settings, camera, workdir)
+            images.append(rgb)
+            total += elapsed
+            if progress is not None:
+                progress(k + 1, len(seeds), total)
+    stack = np.stack(images)
+    mean = stack.mean(axis=0)
+    var = stack.var(axis=0, ddof=1) / len(seeds)
+    settings = forced_settings(max_depth, spp, seeds[0], threads)
+    settings = [s for s in settings if s[0] != "cycles.seed"]
+    settings.append(("cycles.seed", ", ".join(map(str, seeds)),
+                     f"{len(seeds)} independent renders; variance of the mean from their spread"))
+    return CyclesResult(mean, var, spp * len(seeds), seeds, total, settings + extra, images)
+
+
+class _silenced:
+    """Blender prints render progress to file descriptor 1; keep the terminal for our progress."""
+
+    def __init__(self, active=True):
+        self.active = active
+
+    def __enter__(self):
+        if not self.active:
+            return
+        import sys
+        sys.stdout.flush()
+        self.saved = os.dup(1)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 1)
+        os.close(devnull)
+
+    def __exit__(self, *exc):
+        if not self.active:
+            return
+        os.dup2(self.saved, 1)
+        os.close(self.saved)
+
+
+def seeds_for(k: int, base: int = 0):
+    """K distinct Cycles seeds derived from a base seed."""
+    return [base * 1000 + i + 1 for i in range(k)]
+
+
+__all__ = ["forced_settings", "render_seeds", "CyclesResult", "NoCyclesEquivalent",
+           "fstop_for_radius", "seeds_for"]

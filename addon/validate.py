@@ -1,0 +1,169 @@
+"""`snell compare`: render one .blend with Snell and with Cycles under matched settings, test.
+
+compare_blend() does the work and returns a dict (the numbers of metrics.json plus images and
+maps); the CLI wraps it and writes the report. Cycles renders K independent seeds with spp / K
+samples each, so both renderers spend the same number of samples per pixel.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+
+import numpy as np
+
+from ..compare import metrics
+from . import cycles
+
+DEFAULT_CYCLES_SEEDS = 8
+
+
+class Progress:
+    """One updating line per renderer on a terminal (plain lines otherwise)."""
+
+    def __init__(self, stream=None, enabled=True):
+        self.stream = stream or sys.stderr
+        self.enabled = enabled
+        self.tty = self.stream.isatty() if enabled else False
+        self.width = 0
+
+    def line(self, text, final=False):
+        if not self.enabled:
+            return
+        if self.tty:
+            self.stream.write("\r" + text.ljust(self.width) + ("\n" if final else ""))
+            self.width = 0 if final else len(text)
+        elif final:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+
+    def snell(self, label=""):
+        start = time.monotonic()
+
+        def cb(result, done, total):
+            elapsed = time.monotonic() - start
+            self.line(f"snell{label}: pass {done}/{total}, {result.spp} spp, {elapsed:.1f}s",
+                      final=done == total)
+            return True
+        return cb
+
+    def cycles(self, label=""):
+        def cb(done, total, elapsed):
+            self.line(f"cycles{label}: seed {done}/{total}, {elapsed:.1f}s", final=done == total)
+        return cb
+
+
+def load_snell_scene(blend_path):
+    """(Scene, exporter warnings) for a .blend."""
+    from .export import export_blend
+    with cycles._silenced():
+        return export_blend(blend_path)
+
+
+def snell_render(scene, spp, progress=None, threads=2):
+    from ..tracer.integrator import Renderer
+    return Renderer(scene, threads=threads).render(spp=spp, progress=progress)
+
+
+def cycles_render(blend_path, *, spp, max_depth, seed, n_seeds=DEFAULT_CYCLES_SEEDS, camera=None,
+                  progress=None, threads=2):
+    per_seed = max(1, math.ceil(spp / n_seeds))
+    return cycles.render_seeds(blend_path, spp=per_seed, max_depth=max_depth,
+                               seeds=cycles.seeds_for(n_seeds, seed), camera=camera,
+                               progress=progress, threads=threads)
+
+
+def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label=""):
+    """Statistics of a Snell RenderResult against a CyclesResult; returns the report dict."""
+    a = snell_result.mean().astype(np.float64)
+    va = snell_result.variance_of_mean()
+    halves = None
+    k = len(cyc.images)
+    if k >= 4:
+        first, second = np.stack(cyc.images[:k // 2]), np.stack(cyc.images[k // 2:])
+        halves = (first.mean(axis=0), second.mean(axis=0),
+                  second.var(axis=0, ddof=1) / len(second), len(second) - 1)
+    stats = metrics.compare(a, va, max(snell_result.spp - 1, 1), cyc.mean, cyc.variance_of_mean,
+                            len(cyc.seeds) - 1, halves=halves)
+    stats["statistical_verdict"] = stats["verdict"]
+    if not_comparable:
+        stats["verdict"] = metrics.NOT_COMPARABLE
+    stats["not_comparable"] = list(not_comparable)
+    stats["snell"] = {"time_s": snell_result.time_s, "spp": snell_result.spp,
+                      "nan_samples": snell_result.nan_count, "image": a}
+    stats["cycles"] = {"time_s": cyc.time_s, "spp": cyc.spp, "seeds": list(cyc.seeds),
+                       "spp_per_seed": cyc.spp // len(cyc.seeds), "image": cyc.mean}
+    stats["cycles_settings"] = [list(s) for s in cyc.settings]
+    stats["snell_settings"] = [list(s) for s in settings]
+    stats["label"] = label
+    return stats
+
+
+def snell_settings(scene):
+    r, cam = scene.render, scene.camera
+    from ..tracer.scene import aperture_radius
+    pct = cam.get("resolution_percentage", 100)
+    res = [int(x * pct / 100) for x in cam["resolution"]]
+    return [
+        ("resolution", f"{res[0]}x{res[1]}", "same as Cycles"),
+        ("spp", r["spp"], "samples per pixel"),
+        ("max_depth", r["max_depth"], "emission + max_depth bounces"),
+        ("seed", r["seed"], ""),
+        ("fresnel", r["fresnel"], "exact is Cycles' rule"),
+        ("aperture_radius_m", round(aperture_radius(cam), 6), "lens / (2 fstop) unless overridden"),
+        ("focus_distance_m", cam["dof"]["focus_distance"], ""),
+        ("pixel filter", "box (uniform in the pixel)", ""),
+    ]
+
+
+def compare_blend(blend_path, *, spp=None, max_depth=None, seed=None, scale=None,
+                  n_seeds=DEFAULT_CYCLES_SEEDS, threads=2, progress=None, snell_scene=None,
+                  camera=None):
+    """Render blend_path with both renderers and compare.
+
+    scale: resolution percentage for both. camera: {"focus_distance", "aperture_radius"}
+    overrides for both. snell_scene: optional function Scene -> Scene applied to Snell only (to
+    inject a deliberate error).
+    """
+    progress = progress or Progress(enabled=False)
+    scene, warnings = load_snell_scene(blend_path)
+    scene = scene.with_render(spp=spp, max_depth=max_depth, seed=seed)
+    cam_over = dict(camera or {})
+    if scale is not None:
+        scene = scene.with_camera(resolution_percentage=int(scale))
+        cam_over["resolution_percentage"] = int(scale)
+    if "focus_distance" in cam_over or "aperture_radius" in cam_over:
+        dof = {}
+        if "focus_distance" in cam_over:
+            dof["focus_distance"] = float(cam_over["focus_distance"])
+        if "aperture_radius" in cam_over:
+            dof["aperture_radius"] = float(cam_over["aperture_radius"])
+            dof["use_dof"] = float(cam_over["aperture_radius"]) > 0
+        scene = scene.with_camera(dof=dof)
+    if snell_scene is not None:
+        scene = snell_scene(scene)
+    r = scene.render
+    snell_result = snell_render(scene, r["spp"], progress.snell(), threads)
+    not_comparable = [f"exporter: {w}" for w in warnings]
+    try:
+        cyc = cycles_render(blend_path, spp=r["spp"], max_depth=r["max_depth"], seed=r["seed"],
+                            n_seeds=n_seeds, camera=cam_over, progress=progress.cycles(),
+                            threads=threads)
+    except cycles.NoCyclesEquivalent as exc:
+        return snell_only(snell_result, scene, str(exc))
+    out = compare_renders(snell_result, cyc, not_comparable=not_comparable,
+                          settings=snell_settings(scene))
+    out["scene"] = str(blend_path)
+    out["exporter_warnings"] = list(warnings)
+    return out
+
+
+def snell_only(snell_result, scene, reason):
+    """The report dict of a setting with no Cycles equivalent."""
+    return {"verdict": metrics.NOT_COMPARABLE, "statistical_verdict": None,
+            "not_comparable": [reason], "rule": metrics.RULE,
+            "snell": {"time_s": snell_result.time_s, "spp": snell_result.spp,
+                      "nan_samples": snell_result.nan_count,
+                      "image": snell_result.mean().astype(np.float64)},
+            "cycles": None, "cycles_settings": [], "snell_settings": [list(s) for s in snell_settings(scene)],
+            "maps": None}

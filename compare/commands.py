@@ -1,0 +1,104 @@
+"""The `snell compare` and `snell study` subcommands (wired into cli.py's COMMANDS).
+
+Only argument parsing and output here: the renders run in addon/validate.py and addon/study.py
+(which need bpy), the statistics in compare/metrics.py, the pages in compare/report.py.
+"""
+from __future__ import annotations
+
+import os
+import sys
+
+
+def _int_at_least(minimum):
+    from ..cli import _int_at_least as parse
+    return parse(minimum)
+
+
+def _common(p):
+    p.add_argument("scene", metavar="SCENE.blend", help="the Blender file to render in both renderers")
+    p.add_argument("--report", required=True, metavar="DIR",
+                   help="directory for report.html, metrics.json and the images (created)")
+    p.add_argument("--spp", type=_int_at_least(2),
+                   help="samples per pixel for each renderer (default: the scene's); Cycles renders "
+                        "--cycles-seeds seeds of spp / seeds samples")
+    p.add_argument("--seed", type=_int_at_least(0), help="Snell seed; Cycles seeds derive from it")
+    p.add_argument("--scale", type=_int_at_least(1), metavar="PCT",
+                   help="resolution percentage for both renderers (default: the file's)")
+    p.add_argument("--cycles-seeds", type=_int_at_least(2), default=8, metavar="K",
+                   help="independent Cycles renders for the per-pixel variance (default 8)")
+    p.add_argument("--threads", type=_int_at_least(1), default=2, help="threads for each renderer")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+
+
+def setup_compare(p):
+    _common(p)
+    p.add_argument("--max-depth", type=_int_at_least(0), metavar="M",
+                   help="emission plus up to M bounces = Cycles max_bounces M - 1 (default: the scene's)")
+
+
+def setup_study(p):
+    from ..addon.study import STUDIES  # bpy-free module
+    p.add_argument("study", choices=sorted(STUDIES), help="which of the seed's studies")
+    _common(p)
+
+
+def _check(args):
+    from ..cli import CliError
+    if os.path.splitext(args.scene)[1].lower() != ".blend":
+        raise CliError(f"{args.scene}: expected a .blend file")
+    if not os.path.isfile(args.scene):
+        raise CliError(f"{args.scene}: no such file")
+    parent = os.path.dirname(os.path.abspath(args.report))
+    if not os.path.isdir(parent):
+        raise CliError(f"--report {args.report}: directory {parent} does not exist")
+
+
+def _needs_bpy():
+    from ..cli import CliError
+    try:
+        import bpy  # noqa: F401
+    except ModuleNotFoundError:
+        raise CliError("snell compare/study need Blender's bpy module (pip install 'snell[blender]')") from None
+
+
+def cmd_compare(args) -> int:
+    _check(args)
+    _needs_bpy()
+    from ..addon import validate
+    from . import report
+    progress = validate.Progress(sys.stderr, enabled=not args.quiet)
+    result = validate.compare_blend(args.scene, spp=args.spp, max_depth=args.max_depth, seed=args.seed,
+                                    scale=args.scale, n_seeds=args.cycles_seeds, threads=args.threads,
+                                    progress=progress)
+    data = report.write_comparison(args.report, result)
+    html = os.path.join(args.report, "report.html")
+    if result.get("cycles"):
+        print(f"snell compare: {data['verdict']}: z-pass {data['z_pass_fraction']:.4f}, "
+              f"relMSE {data['relmse']:.4g}, FLIP {data['flip'] if data['flip'] is None else round(data['flip'], 4)}, "
+              f"Snell {data['snell']['time_s']:.1f}s, Cycles {data['cycles']['time_s']:.1f}s -> {html}")
+    else:
+        print(f"snell compare: {data['verdict']} ({'; '.join(data['not_comparable'])}) -> {html}")
+    return 0
+
+
+def cmd_study(args) -> int:
+    _check(args)
+    _needs_bpy()
+    from ..addon import study, validate
+    from . import report
+    progress = validate.Progress(sys.stderr, enabled=not args.quiet)
+    rows = study.run_study(args.study, args.scene, spp=args.spp, seed=args.seed, scale=args.scale,
+                           n_seeds=args.cycles_seeds, threads=args.threads, progress=progress)
+    data = report.write_study(args.report, args.study, rows, study.NOTES[args.study])
+    for row in data["settings"]:
+        print(f"snell study {args.study}: {row['label']}: {row['verdict']}")
+    print(f"snell study {args.study}: {data['verdict']} -> {os.path.join(args.report, 'report.html')}")
+    return 0
+
+
+COMMANDS = [
+    ("compare", "render a .blend in Snell and Cycles, test their agreement, write an HTML report",
+     setup_compare, cmd_compare),
+    ("study", "the seed's depth, focus or aperture study, Snell and Cycles side by side",
+     setup_study, cmd_study),
+]
