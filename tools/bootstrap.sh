@@ -10,6 +10,14 @@ if [ ! -x .venv/bin/python ]; then
     python3.11 -m venv .venv
 fi
 
+# Headless Chromium for the report test (tests/test_compare.py); Debian's package, if apt is usable.
+if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
+    echo "bootstrap: apt-get install chromium"
+    DEBIAN_FRONTEND=noninteractive apt-get update -qq || true
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium \
+        || echo "bootstrap: chromium could not be installed: the report test will skip" >&2
+fi
+
 echo "bootstrap: pip install -e '.[dev]'"
 .venv/bin/python -m pip install --quiet -e '.[dev]'
 
