@@ -94,10 +94,13 @@ def power_heuristic(a, b):
 class Renderer:
     """A scene prepared for rendering: camera, Embree geometry, materials and lights."""
 
-    def __init__(self, scene: Scene, threads: int = 2):
+    def __init__(self, scene: Scene, threads: int = 2, next_event: bool = True):
+        """next_event=False turns light sampling off (BSDF sampling only): a second, independent
+        estimator of the same image, which tests use to check the first one."""
         start = time.perf_counter()
         self.scene = scene
         self.threads = max(1, int(threads))
+        self.next_event = next_event
         self.camera = Camera(scene.camera)
         self.geometry = Geometry(scene.positions, scene.triangles, scene.normals)
         mats = scene.materials
@@ -191,7 +194,7 @@ class Renderer:
             if _count(sel, m):
                 stats["diffuse"] += _count(sel, m)
                 albedo = self.color[:, mat[sel]]
-                if lights.has_any:
+                if self.next_event and lights.has_any:
                     shadow = self._next_event(sel, p[:, sel], ng_f[:, sel], ns_f[:, sel], eps[sel],
                                               albedo * beta[:, sel], rng)
                 wi, pdf = bsdf.sample_cosine_hemisphere(ns_f[:, sel], rng.random((2, _count(sel, m))))
@@ -236,10 +239,9 @@ class Renderer:
                 break
         return radiance, stats
 
-    @staticmethod
-    def _mis(specular, pdf_prev, light_pdf):
+    def _mis(self, specular, pdf_prev, light_pdf):
         """MIS weight of BSDF-sampled emitter hits; after specular bounces it is 1 (no light pdf)."""
-        if specular.all():
+        if not self.next_event or specular.all():
             return 1.0
         return np.where(specular, 1.0, power_heuristic(pdf_prev, light_pdf()))
 
