@@ -4,9 +4,10 @@ For each scene: a reference (a long Cycles render as K seeds, cached on disk, se
 compare/bench.py cache_key), then for each renderer the ladder 1, 2, 4, ... spp until max_spp or
 until the next point is predicted (twice this point's wall time) to pass the time cap. Each point
 runs in its own child process (`python -m snell.addon.bench point SPEC OUT`) so that its peak
-memory is its own: the child's ru_maxrss from os.wait4, which includes Python, numpy and the bpy
-module (reported too, as the baseline of a child that only imports them) and native memory
-(Embree's BVH, Cycles' scene). The times are measured inside the child, as the user waits in an
+memory is its own: the child's VmHWM (peak RSS of its own address space; ru_maxrss is not used
+because Linux carries the parent's high-water mark into it over fork and exec), which includes
+Python, numpy and the bpy module (reported too, as the baseline of a child that only imports them)
+and native memory (Embree's BVH, Cycles' scene). The times are measured inside the child, as the user waits in an
 open Blender: Snell = export of the .blend + scene build (Embree BVH) + render; Cycles = loading
 the .blend + render (including its EXR write). Interpreter start-up and `import bpy` are excluded.
 """
@@ -116,9 +117,25 @@ def _child(spec_path, out_path):
         image, stats = _snell_point(spec)
     else:
         image, stats = _cycles_point(spec)
+    stats["peak_rss_mb"] = _own_peak_rss_mb()
     np.save(out_path + ".npy", image)
     with open(out_path + ".json", "w") as f:
         json.dump(stats, f)
+
+
+def _own_peak_rss_mb():
+    """This process's peak resident set size in MB. On Linux VmHWM of its own address space:
+    ru_maxrss would also carry the parent's high-water mark over fork and exec."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    import resource
+    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return kb / (1024.0 * 1024.0 if sys.platform == "darwin" else 1024.0)
 
 
 class PointError(RuntimeError):
@@ -133,12 +150,9 @@ def run_point(kind, blend, spp, opts: Options):
         spec_path, out = os.path.join(tmp, "spec.json"), os.path.join(tmp, "out")
         with open(spec_path, "w") as f:
             json.dump(spec, f)
-        proc = subprocess.Popen([sys.executable, "-m", "snell.addon.bench", "point", spec_path, out],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        err = proc.stderr.read()
-        _, status, usage = os.wait4(proc.pid, 0)
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        proc.stderr.close()
+        proc = subprocess.run([sys.executable, "-m", "snell.addon.bench", "point", spec_path, out],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        err = proc.stderr
         if proc.returncode != 0 or not os.path.exists(out + ".json"):
             tail = err.decode(errors="replace").strip().splitlines()[-5:]
             raise PointError(f"{kind} {spp} spp on {blend}: child exited {proc.returncode}: "
@@ -146,8 +160,6 @@ def run_point(kind, blend, spp, opts: Options):
         image = np.load(out + ".npy")
         with open(out + ".json") as f:
             stats = json.load(f)
-    kb = usage.ru_maxrss if sys.platform != "darwin" else usage.ru_maxrss / 1024
-    stats["peak_rss_mb"] = kb / 1024.0
     return image, stats
 
 
@@ -234,7 +246,8 @@ def definitions(opts: Options) -> dict:
                         "embree_share_of_wall divides by the point's whole wall time instead",
         "rays_per_second": "Snell only: camera, bounce and shadow rays per second of render time "
                            "(Cycles reports no ray count; samples_per_second is given for both)",
-        "peak_rss_mb": "the point's child process maximum resident set size (os.wait4 ru_maxrss): "
+        "peak_rss_mb": "the point's child process peak resident set size (Linux VmHWM; ru_maxrss "
+                       "elsewhere): "
                        "Python, numpy, the bpy module and native memory (Embree, Cycles); "
                        "peak_rss_above_baseline_mb subtracts a child that only imports them",
         "reference_noise": "the reference's own expected contribution to a point's relMSE and RMSE: "
