@@ -1,6 +1,6 @@
 """Depth-of-field test: a small emissive quad at a chosen depth in a black world.
 
-Run: python scenes/lens.py OUT.blend [depth] [focus] [lens_radius]
+Run: python scenes/lens.py OUT.blend [depth] [focus] [lens_radius] [size]
 The camera sits at the origin looking down +Y (the quad faces it at distance depth), with depth
 of field on: fstop = lens_mm * 1e-3 / (2 lens_radius). Out of focus, the quad blurs into a disk
 whose size follows from thin-lens optics.
@@ -30,4 +30,4 @@ def build(path, depth=3.0, focus=3.0, lens_radius=0.05, size=0.05):
 
 if __name__ == "__main__":
     a = sys.argv[1:]
-    build(a[0], *(float(x) for x in a[1:4]))
+    build(a[0], *(float(x) for x in a[1:5]))
