@@ -30,24 +30,9 @@ SCHEMA = 1
 # Error metrics against the converged reference
 
 
-def relmse(image, reference, eps=None, drop=None):
-    """compare/metrics.py's relMSE (same eps and outlier rule) of image against reference."""
-    eps = metrics.RELMSE_EPS if eps is None else eps
-    drop = metrics.RELMSE_DROP if drop is None else drop
-    image, reference = np.asarray(image, np.float64), np.asarray(reference, np.float64)
-    rel = np.sort(((image - reference) ** 2 / (reference * reference + eps)).ravel())
-    keep = len(rel) - int(math.floor(drop * len(rel)))
-    return float(rel[:keep].mean())
-
-
-def rmse(image, reference):
-    d = np.asarray(image, np.float64) - np.asarray(reference, np.float64)
-    return float(math.sqrt(np.mean(d * d)))
-
-
 def errors(image, reference) -> dict:
     flip = metrics.flip(reference, image)
-    return {"relmse": relmse(image, reference), "rmse": rmse(image, reference),
+    return {"relmse": metrics.relmse(image, reference), "rmse": metrics.rmse(image, reference),
             "flip": float("nan") if flip is None else flip}
 
 

@@ -124,6 +124,21 @@ def sharpness_test(a, va, dfa, half_a, half_b, vb_half, dfb_half):
     return z, float(_two_sided_p(np.array(z), np.array(df))), df
 
 
+def relmse(image, reference, eps=RELMSE_EPS, drop=RELMSE_DROP) -> float:
+    """Mean of (I - R)^2 / (R^2 + eps) over pixels and channels, the largest `drop` fraction of
+    the terms (fireflies) left out."""
+    image, reference = np.asarray(image, np.float64), np.asarray(reference, np.float64)
+    rel = np.sort(((image - reference) ** 2 / (reference * reference + eps)).ravel())
+    keep = len(rel) - int(math.floor(drop * len(rel)))
+    return float(rel[:keep].mean())
+
+
+def rmse(image, reference) -> float:
+    """Root mean square difference over pixels and channels."""
+    d = np.asarray(image, np.float64) - np.asarray(reference, np.float64)
+    return float(math.sqrt(np.mean(d * d)))
+
+
 def compare(a, va, dfa, b, vb, dfb, *, halves=None):
     """All statistics of image a (test, e.g. Snell) against image b (reference, e.g. Cycles).
 
@@ -196,12 +211,7 @@ def compare(a, va, dfa, b, vb, dfb, *, halves=None):
     verdict = CONSISTENT if all(tests.values()) else INCONSISTENT
 
     # error metrics (b is the reference)
-    sq = diff * diff
-    rel = sq / (b * b + RELMSE_EPS)
-    flat = np.sort(rel.ravel())
-    keep = len(flat) - int(math.floor(RELMSE_DROP * len(flat)))
-    relmse = float(flat[:keep].mean())
-    mse = float(sq.mean())
+    mse = float((diff * diff).mean())
     noise = float((va + vb).mean())
     zmap = np.take_along_axis(t, np.argmax(np.abs(t), axis=2)[..., None], axis=2)[..., 0]
 
@@ -231,7 +241,7 @@ def compare(a, va, dfa, b, vb, dfb, *, halves=None):
         "mean_z": dict(zip(chans, map(float, ct))),
         "mean_ratio": dict(zip(chans, map(float, ratio))),
         "mean_ratio_se": dict(zip(chans, map(float, ratio_se))),
-        "relmse": relmse,
+        "relmse": relmse(a, b),
         "relmse_eps": RELMSE_EPS,
         "relmse_dropped_fraction": RELMSE_DROP,
         "rmse": math.sqrt(mse),
