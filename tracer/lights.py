@@ -10,6 +10,7 @@ import numpy as np
 
 from . import bsdf
 from .bsdf import dot
+from .geometry import interpolate
 
 EMISSIVE_TRIANGLE, AREA, POINT, SUN, WORLD = range(5)
 AREA_SHAPE_CODES = {"rectangle": 0, "square": 0, "disk": 1, "ellipse": 1}
@@ -156,10 +157,9 @@ class LightSampler:
             q, uv, m, idx = p[:, sel], u[1:, sel], pmf[sel], index[sel]
             if k == EMISSIVE_TRIANGLE:
                 tri = self.tri[idx]
-                c = geom.corners.take(tri, axis=1)
                 su = np.sqrt(uv[0])
                 b2 = uv[1] * su
-                point = (1.0 - su) * c[0:3] + (su - b2) * c[3:6] + b2 * c[6:9]
+                point = interpolate(geom.corners, tri, np.stack([1.0 - su, su - b2, b2]))
                 normal = geom.face_normal.take(tri, axis=1)
                 area = geom.area[tri]
                 radiance = self.tri_radiance.take(idx, axis=1)
