@@ -9,11 +9,11 @@ Ctrl-C exits with 130 and writes nothing partial (image writes are atomic and ha
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import sys
 import time
 
+from .addon.console import stdout_silenced
 from .compare.bench import CLI as BENCH_COMMAND
 from .compare.commands import COMMANDS as COMPARE_COMMANDS
 from .tracer.scene import FRESNEL_MODELS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
@@ -44,24 +44,6 @@ def _extension(path: str) -> str:
     return os.path.splitext(path)[1].lower()
 
 
-@contextlib.contextmanager
-def _blender_chatter_silenced():
-    """Blender writes status lines ("Read blend: ...") to file descriptor 1: keep stdout clean.
-
-    Its errors still arrive as exceptions, and exporter warnings as the returned list.
-    """
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "w") as devnull:
-            os.dup2(devnull.fileno(), 1)
-        yield
-    finally:
-        sys.stdout.flush()
-        os.dup2(saved, 1)
-        os.close(saved)
-
-
 def load_scene(path: str):
     """A Scene from a .snell file, or exported on the fly from a .blend (warnings to stderr)."""
     ext = _extension(path)
@@ -73,7 +55,7 @@ def load_scene(path: str):
         return load(path)
     try:
         from .addon.export import export_blend
-        with _blender_chatter_silenced():
+        with stdout_silenced():
             scene, warnings = export_blend(path)
     except ModuleNotFoundError as exc:
         if exc.name != "bpy":

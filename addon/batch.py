@@ -8,11 +8,12 @@ any frame failed.
 """
 from __future__ import annotations
 
-import contextlib
 import os
 import re
 import sys
 import time
+
+from .console import stdout_silenced
 
 FORMATS = {".exr": "OPEN_EXR", ".png": "PNG"}
 
@@ -35,21 +36,6 @@ def parse_frames(text: str) -> list[int]:
             raise BatchError(f"--frames {text!r}: empty range {part.strip()!r}")
         frames.extend(range(start, end + 1, step))
     return frames
-
-
-@contextlib.contextmanager
-def _stdout_silenced():
-    """Blender's chatter ("Fra:1 Mem:...", "Saved: ...") goes to file descriptor 1: drop it."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "w") as devnull:
-            os.dup2(devnull.fileno(), 1)
-        yield
-    finally:
-        sys.stdout.flush()
-        os.dup2(saved, 1)
-        os.close(saved)
 
 
 def _set_output(scene, output):
@@ -83,7 +69,7 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
     frame_list = parse_frames(frames) if frames else None
     registration.ensure_registered()
     try:
-        with _stdout_silenced():
+        with stdout_silenced():
             bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend_path))
     except RuntimeError as exc:
         raise BatchError(f"{blend_path}: cannot open ({' '.join(str(exc).split())})") from None
@@ -103,7 +89,7 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
             scene.render.filepath = path   # already numbered and with its extension
             scene.frame_set(frame)
             before = os.stat(path).st_mtime_ns if os.path.exists(path) else None
-            with _stdout_silenced():
+            with stdout_silenced():
                 bpy.ops.render.render(write_still=True)
         except RuntimeError as exc:
             error = final.last_render.get("error") or " ".join(str(exc).split())

@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .console import stdout_silenced
+
 
 class NoCyclesEquivalent(ValueError):
     """A Snell setting that Cycles cannot reproduce (e.g. max depth 0)."""
@@ -183,7 +185,7 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
             settings = forced_settings(max_depth, spp, seed, threads)
             if overrides:  # experiments only: replace forced values
                 settings = [(k, overrides.get(k, v), why) for k, v, why in settings]
-            with _silenced(quiet_blender):
+            with stdout_silenced(quiet_blender):
                 rgb, elapsed, extra = _render_one(blend_path, settings, camera, workdir)
             images.append(rgb)
             total += elapsed
@@ -197,29 +199,6 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     settings.append(("cycles.seed", ", ".join(map(str, seeds)),
                      f"{len(seeds)} independent renders; variance of the mean from their spread"))
     return CyclesResult(mean, var, spp * len(seeds), seeds, total, settings + extra, images)
-
-
-class _silenced:
-    """Blender prints render progress to file descriptor 1; keep the terminal for our progress."""
-
-    def __init__(self, active=True):
-        self.active = active
-
-    def __enter__(self):
-        if not self.active:
-            return
-        import sys
-        sys.stdout.flush()
-        self.saved = os.dup(1)
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, 1)
-        os.close(devnull)
-
-    def __exit__(self, *exc):
-        if not self.active:
-            return
-        os.dup2(self.saved, 1)
-        os.close(self.saved)
 
 
 def seeds_for(k: int, base: int = 0):

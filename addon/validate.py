@@ -14,6 +14,7 @@ import numpy as np
 
 from ..compare import metrics
 from . import cycles
+from .console import stdout_silenced
 
 DEFAULT_CYCLES_SEEDS = 8
 
@@ -56,7 +57,7 @@ class Progress:
 def load_snell_scene(blend_path):
     """(Scene, exporter warnings) for a .blend."""
     from .export import export_blend
-    with cycles._silenced():
+    with stdout_silenced():
         return export_blend(blend_path)
 
 
