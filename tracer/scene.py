@@ -148,13 +148,20 @@ def _check_array(arrays, key, dtype, ncols):
     return arr
 
 
-def _check_material(i, mat):
-    where = f"materials[{i}]" + (f" ({mat.get('name')!r})" if isinstance(mat, dict) else "")
-    if not isinstance(mat, dict):
+def _entry_kind(section, i, entry, kinds):
+    """The name to report an entry of a header list by, and its checked kind."""
+    where = f"{section}[{i}]" + (f" ({entry.get('name')!r})" if isinstance(entry, dict) else "")
+    if not isinstance(entry, dict):
         raise SceneError(f"{where}: expected an object")
-    kind = mat.get("kind")
-    if kind not in MATERIAL_KINDS:
-        raise SceneError(f"{where}.kind: unknown material kind {kind!r} (known: {', '.join(MATERIAL_KINDS)})")
+    kind = entry.get("kind")
+    if kind not in kinds:
+        what = section[:-1]
+        raise SceneError(f"{where}.kind: unknown {what} kind {kind!r} (known: {', '.join(kinds)})")
+    return where, kind
+
+
+def _check_material(i, mat):
+    where, kind = _entry_kind("materials", i, mat, MATERIAL_KINDS)
     _finite_vec(mat.get("color"), f"{where}.color", positive=True)
     if kind in ("glass", "refraction"):
         _finite_number(mat.get("ior"), f"{where}.ior", 0.0, exclusive=True)
@@ -165,12 +172,7 @@ def _check_material(i, mat):
 
 
 def _check_light(i, light):
-    where = f"lights[{i}]" + (f" ({light.get('name')!r})" if isinstance(light, dict) else "")
-    if not isinstance(light, dict):
-        raise SceneError(f"{where}: expected an object")
-    kind = light.get("kind")
-    if kind not in LIGHT_KINDS:
-        raise SceneError(f"{where}.kind: unknown light kind {kind!r} (known: {', '.join(LIGHT_KINDS)})")
+    where, kind = _entry_kind("lights", i, light, LIGHT_KINDS)
     if kind == "area":
         if light.get("shape") not in AREA_SHAPES:
             raise SceneError(f"{where}.shape: unknown area shape {light.get('shape')!r}")
