@@ -32,16 +32,20 @@ class SnellPanel:
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
 
+    def column(self):
+        """A property column laid out like Cycles' render panels."""
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        return layout.column()
+
 
 class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
     bl_label = "Sampling"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
         props = context.scene.snell
-        col = layout.column()
+        col = self.column()
         col.prop(props, "spp")
         col.prop(props, "seed")
 
@@ -50,11 +54,8 @@ class RENDER_PT_snell_light_paths(SnellPanel, bpy.types.Panel):
     bl_label = "Light Paths"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
         props = context.scene.snell
-        col = layout.column()
+        col = self.column()
         col.prop(props, "max_depth")
         col.label(text=f"Cycles: Max Bounces {props.max_depth - 1}" if props.max_depth > 0
                   else "No Cycles equivalent (emitters only)")
@@ -66,10 +67,7 @@ class RENDER_PT_snell_performance(SnellPanel, bpy.types.Panel):
     bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        layout.prop(context.scene.snell, "threads")
+        self.column().prop(context.scene.snell, "threads")
 
 
 classes = (RENDER_PT_snell_sampling, RENDER_PT_snell_light_paths, RENDER_PT_snell_performance)
