@@ -67,6 +67,34 @@ def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
     return d - (2.0 * dot(d, n)) * n
 
 
+def valid_reflection_normal(ng: np.ndarray, wi: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Cycles' ensure_valid_specular_reflection: bend shading normals n towards ng just enough
+    that the mirror reflection of wi (pointing away from the surface, like ng) clears it.
+
+    The reflection ends at height t = min(0.9 wi.ng, 0.01) above the surface: in the plane of ng
+    and n, n' = (sqrt(1 - z^2), z) solves 4 a z^4 - 2 b z^2 + c = 0 with a = Ix^2 + Iz^2,
+    b = 2 (a + Iz t), c = (Iz + t)^2; Cycles takes the larger root when wi.x < 0.
+    """
+    r_height = 2.0 * dot(n, wi) * dot(n, ng) - dot(wi, ng)
+    iz = dot(wi, ng)
+    t = np.minimum(0.9 * iz, 0.01)
+    bad = r_height < t
+    if not bad.any():
+        return n
+    x = n - dot(n, ng) * ng
+    length = np.sqrt(dot(x, x))
+    x = np.where(length > 0.0, x / np.where(length > 0.0, length, 1.0), n)
+    ix = dot(wi, x)
+    a = ix * ix + iz * iz
+    b = 2.0 * (a + iz * t)
+    c = (iz + t) ** 2
+    root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z2 = np.where(ix < 0.0, b + root, b - root) * 0.25 / a
+    fixed = np.sqrt(np.maximum(1.0 - z2, 0.0)) * x + np.sqrt(np.maximum(z2, 0.0)) * ng
+    return np.where(bad & (a > 0.0), fixed, n)
+
+
 def refract(d: np.ndarray, n: np.ndarray, eta, cos_i, cos_t) -> np.ndarray:
     """Refract d through surfaces whose normals n face the incident side (eta = n_t / n_i)."""
     inv = 1.0 / np.asarray(eta, dtype=np.float64)

@@ -135,7 +135,8 @@ class Renderer:
         beta = np.ones((3, n))
         specular = np.ones(n, bool)   # the camera ray counts as specular: no MIS on what it sees
         pdf_prev = np.zeros(n)
-        stats = dict.fromkeys(("tir", "tir_absorbed", "transmissions", "reflections", "diffuse", "rr_killed"), 0)
+        stats = dict.fromkeys(("tir", "tir_absorbed", "rejected", "transmissions", "reflections", "diffuse",
+                               "rr_killed", "depth_limited"), 0)
 
         for depth in range(self.max_depth + 1):
             # Stage 1: intersect.
@@ -174,6 +175,8 @@ class Renderer:
                 w = self._mis(specular[e], pdf_prev[e], lambda: lights.pdf_triangle(prim[e], d[:, e], t[e]))
                 radiance[:, path[e]] += beta[:, e] * self.radiance[:, mat[e]] * w
             if depth == self.max_depth:
+                # Paths that would scatter again: the depth limit, not the scene, ends them.
+                stats["depth_limited"] += int((~emits).sum())
                 break
 
             # Stage 3: materials. Emitters do not scatter; the rest are sampled by kind.
@@ -204,15 +207,9 @@ class Renderer:
                 specular[sel] = False
                 pdf_prev[sel] = pdf
 
-            sel = _select(kind == MIRROR)
+            sel = _select((kind == MIRROR) | (kind == GLASS) | (kind == REFRACTION))
             if _count(sel, m):
-                stats["reflections"] += _count(sel, m)
-                new_d[:, sel] = bsdf.reflect(d[:, sel], ns_f[:, sel])
-                beta[:, sel] *= self.color[:, mat[sel]]
-
-            sel = _select((kind == GLASS) | (kind == REFRACTION))
-            if _count(sel, m):
-                self._dielectric(sel, d, ns_f, entering, mat, kind, beta, new_d, rng, stats)
+                self._specular(sel, d, ng_f, ns_f, entering, mat, kind, beta, new_d, rng, stats)
 
             # Stage 4: shadow rays of the whole bounce in one Embree call.
             if shadow is not None:
@@ -271,24 +268,48 @@ class Renderer:
         rows = np.arange(len(ok))[rows][idx] if isinstance(rows, slice) else rows[idx]
         return rows, origin, direction, length, contrib
 
-    def _dielectric(self, sel, d, ns_f, entering, mat, kind, beta, new_d, rng, stats):
-        """Smooth glass (reflect with probability F, else refract) and refraction-only surfaces."""
-        ior = self.ior[mat[sel]]
-        eta = np.where(entering[sel], ior, 1.0 / ior)
-        dd, n = d[:, sel], ns_f[:, sel]
-        cos_i = np.clip(-dot(dd, n), 0.0, 1.0)
-        f, cos_t = self.fresnel(cos_i, eta)
-        tir = f >= 1.0
-        glass = kind[sel] == GLASS
-        reflects = glass & (rng.random(len(f)) < f)
-        new_d[:, sel] = np.where(reflects, bsdf.reflect(dd, n), bsdf.refract(dd, n, eta, cos_i, cos_t))
-        weight = np.where(reflects, self.color[:, mat[sel]], self.trans_color[:, mat[sel]])
-        # Refraction-only surfaces have nothing to give under total internal reflection.
-        beta[:, sel] *= np.where(~glass & tir, 0.0, weight)
-        stats["tir"] += int((tir & glass).sum())
-        stats["tir_absorbed"] += int((tir & ~glass).sum())
+    def _specular(self, sel, d, ng_f, ns_f, entering, mat, kind, beta, new_d, rng, stats):
+        """Mirrors, smooth glass (reflect with probability F, else refract) and refraction-only
+        surfaces, with Cycles' rules for shading normals (cycles-conventions.md):
+
+        - mirror and glass normals are bent until their mirror reflection clears the surface
+          (ensure_valid_specular_reflection);
+        - a sample is rejected (its path ends) when the shading normal faces away from the viewer,
+          or when the new direction is not on the side its event implies for both normals;
+        - refraction-only surfaces have nothing to give under total internal reflection.
+        """
+        k = kind[sel]
+        dd, ng, n = d[:, sel], ng_f[:, sel], ns_f[:, sel]
+        if self.geometry.corner_normals is not None:
+            bend = k != REFRACTION
+            n = np.where(bend, bsdf.valid_reflection_normal(ng, -dd, n), n)
+        cos_i = -dot(dd, n)
+        color = self.color[:, mat[sel]]
+        reflects = k == MIRROR
+        weight = color
+        dielectric = ~reflects
+        if dielectric.any():
+            ior = self.ior[mat[sel]]
+            eta = np.where(entering[sel], ior, 1.0 / ior)
+            f, cos_t = self.fresnel(np.clip(cos_i, 0.0, 1.0), eta)
+            tir = dielectric & (f >= 1.0)
+            glass = k == GLASS
+            reflects = reflects | (glass & (rng.random(len(f)) < f))
+            weight = np.where(reflects, color, self.trans_color[:, mat[sel]])
+            out = np.where(reflects, bsdf.reflect(dd, n), bsdf.refract(dd, n, eta, cos_i, cos_t))
+            stats["tir"] += int((tir & glass).sum())
+            stats["tir_absorbed"] += int((tir & ~glass).sum())
+            stats["transmissions"] += int((dielectric & ~reflects & ~tir).sum())
+        else:
+            tir = np.zeros(len(k), bool)
+            out = bsdf.reflect(dd, n)
+        refracts = ~reflects
+        valid = ((cos_i > 0.0) & ((dot(ng, out) < 0.0) == refracts) & ((dot(n, out) < 0.0) == refracts)
+                 & ~(tir & (k == REFRACTION)))
         stats["reflections"] += int((reflects & ~tir).sum())
-        stats["transmissions"] += int((~reflects & ~tir).sum())
+        stats["rejected"] += int((~valid & ~(tir & (k == REFRACTION))).sum())
+        new_d[:, sel] = out
+        beta[:, sel] *= np.where(valid, weight, 0.0)
 
     # -- passes ----------------------------------------------------------------------------
 
