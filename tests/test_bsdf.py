@@ -129,3 +129,23 @@ def test_aperture_sampling_is_uniform(blades):
     expected = np.full(hist.shape, n_samples / hist.size)
     alpha = 1 - (1 - 0.01) ** (1 / 3)
     assert _chi2_pvalue(hist.ravel(), expected.ravel()) > alpha
+
+
+def test_valid_reflection_normal_lifts_reflections_to_cycles_threshold():
+    """Bent normals put the mirror reflection exactly at height min(0.9 wi.ng, 0.01); others stay."""
+    rng = np.random.default_rng(5)
+    n = 100_000
+    ng = np.tile([[0.0], [0.0], [1.0]], (1, n))
+    th, ph = rng.uniform(0, 0.999 * np.pi / 2, n), rng.uniform(0, 2 * np.pi, n)
+    wi = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)])
+    tn, pn = rng.uniform(0, 0.6, n), rng.uniform(0, 2 * np.pi, n)
+    normal = np.stack([np.sin(tn) * np.cos(pn), np.sin(tn) * np.sin(pn), np.cos(tn)])
+    threshold = np.minimum(0.9 * wi[2], 0.01)
+    before = bsdf.reflect(-wi, normal)[2]
+    bent = bsdf.valid_reflection_normal(ng, wi, normal)
+    after = bsdf.reflect(-wi, bent)[2]
+    low = before < threshold
+    assert 0.05 < low.mean() < 0.5
+    assert np.allclose(after[low], threshold[low], atol=1e-9)
+    assert np.array_equal(bent[:, ~low], normal[:, ~low])
+    assert np.allclose(np.linalg.norm(bent, axis=0), 1.0, atol=1e-12)
