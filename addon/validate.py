@@ -62,8 +62,10 @@ def load_snell_scene(blend_path):
 
 
 def snell_render(scene, spp, progress=None, threads=2):
+    """Snell with independent samples: the z-tests need honest per-pixel variances, which the
+    default stratified sampler's correlated samples would over-estimate."""
     from ..tracer.integrator import Renderer
-    return Renderer(scene, threads=threads).render(spp=spp, progress=progress)
+    return Renderer(scene, threads=threads, sampler="independent").render(spp=spp, progress=progress)
 
 
 def cycles_render(blend_path, *, spp, max_depth, seed, n_seeds=DEFAULT_CYCLES_SEEDS, camera=None,

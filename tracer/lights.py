@@ -136,14 +136,14 @@ class LightSampler:
         """Whether next-event estimation has anything to sample."""
         return self.count > 0
 
-    def sample(self, p: np.ndarray, rng: np.random.Generator):
-        """Sample one light for each shading point of p (3, n).
+    def sample(self, p: np.ndarray, u: np.ndarray):
+        """Sample one light for each shading point of p (3, n), with uniform numbers u (3, n):
+        u[0] picks the light, u[1:] the point on it.
 
         Returns (wi (3, n), the light point (3, n), NaN for lights at infinity, radiance / pdf
         (3, n), pdf in solid angle for MIS with 0 for delta lights).
         """
         n = p.shape[1]
-        u = rng.random((3, n))
         pick = np.minimum(np.searchsorted(self.cdf, u[0] * self.cdf[-1], side="right"), len(self.cdf) - 1)
         kind, index, pmf = self.kind[pick], self.index[pick], self.pmf[pick]
         wi = np.empty((3, n))
