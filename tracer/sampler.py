@@ -14,7 +14,18 @@ from __future__ import annotations
 import numpy as np
 
 U32 = np.uint32
-_MASKS = [(U32(0x55555555), 1), (U32(0x33333333), 2), (U32(0x0F0F0F0F), 4), (U32(0x00FF00FF), 8)]
+
+
+def _reverse16_table() -> np.ndarray:
+    table = np.arange(1 << 16, dtype=U32)
+    out = np.zeros_like(table)
+    for bit in range(16):
+        out |= ((table >> U32(bit)) & U32(1)) << U32(15 - bit)
+    return out
+
+
+# Bit reversal by two 16-bit table look-ups: a few numpy calls instead of twenty mask steps.
+_REVERSE16 = _reverse16_table()
 
 # Direction numbers of Sobol's second dimension: v_0 = 2^31, v_j = v_{j-1} ^ (v_{j-1} >> 1).
 _V1 = [1 << 31]
@@ -26,9 +37,10 @@ _V1 = np.array(_V1, dtype=U32)
 def reverse_bits(x: np.ndarray) -> np.ndarray:
     """Reverse the 32 bits of each element."""
     x = x.astype(U32)
-    for mask, shift in _MASKS:
-        x = ((x >> U32(shift)) & mask) | ((x & mask) << U32(shift))
-    return (x >> U32(16)) | (x << U32(16))
+    return (_REVERSE16.take(x & U32(0xFFFF)) << U32(16)) | _REVERSE16.take(x >> U32(16))
+
+
+_V1_REVERSED = reverse_bits(_V1)
 
 
 def hash32(*keys) -> np.ndarray:
@@ -61,12 +73,16 @@ def owen_scramble(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
 
 def sobol_pair(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The first two Sobol dimensions (32-bit fixed point) of each index."""
-    index = index.astype(U32)
-    second = np.zeros_like(index)
+    return reverse_bits(index), reverse_bits(_sobol_second_reversed(index.astype(U32)))
+
+
+def _sobol_second_reversed(index: np.ndarray) -> np.ndarray:
+    # The second dimension with its bits reversed: the XOR of the reversed direction numbers.
+    out = np.zeros_like(index)
     bits = int(index.max()).bit_length() if index.size else 0
     for j in range(bits):
-        second ^= np.where((index >> U32(j)) & U32(1), _V1[j], U32(0))
-    return reverse_bits(index), second
+        out ^= np.where((index >> U32(j)) & U32(1), _V1_REVERSED[j], U32(0))
+    return out
 
 
 def to_unit(x: np.ndarray) -> np.ndarray:
@@ -86,5 +102,11 @@ def stratified_2d(pixel: np.ndarray, sample: np.ndarray, seed: int, dimension: i
     base = hash32(pixel, seed, dimension)
     shift = U32(32 - bits)
     shuffled = owen_scramble(sample.astype(U32) << shift, hash32(base, 1)) >> shift
-    x, y = sobol_pair(shuffled)
-    return np.stack([to_unit(owen_scramble(x, hash32(base, 2))), to_unit(owen_scramble(y, hash32(base, 3)))])
+    # owen_scramble(v) = reverse(LK(reverse(v))), and the Sobol dimensions are cheapest to form
+    # bit-reversed: the first one reversed is the index itself.
+    x = reverse_bits(_laine_karras(shuffled, hash32(base, 2)))
+    y = reverse_bits(_laine_karras(_sobol_second_reversed(shuffled), hash32(base, 3)))
+    out = np.empty((2, len(x)))
+    out[0] = to_unit(x)
+    out[1] = to_unit(y)
+    return out
