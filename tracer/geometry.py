@@ -101,9 +101,14 @@ class Geometry:
             ns = interpolate(self.corner_normals, prim, bary)
             length = np.sqrt(ns[0] * ns[0] + ns[1] * ns[1] + ns[2] * ns[2])
             ns = np.where(length > 1e-12, ns / np.where(length > 0, length, 1.0), ng)
-        scale = np.maximum(np.maximum(np.abs(p[0]), np.abs(p[1])), np.abs(p[2]))
-        eps = np.maximum(RELATIVE_OFFSET * np.maximum(self.tri_scale.take(prim), scale), self.floor_offset)
-        return Hits(prim, t.astype(np.float64), p, ng, ns, eps)
+        return Hits(prim, t.astype(np.float64), p, ng, ns, hit_offset(self, prim, p))
+
+
+def hit_offset(geometry: Geometry, prim: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """How far to lift points p (3, n) on triangles prim off their surface."""
+    scale = np.maximum(np.maximum(np.abs(p[0]), np.abs(p[1])), np.abs(p[2]))
+    return np.maximum(RELATIVE_OFFSET * np.maximum(geometry.tri_scale.take(prim), scale),
+                      geometry.floor_offset)
 
 
 def interpolate(corner_values: np.ndarray, prim: np.ndarray, bary: np.ndarray) -> np.ndarray:

@@ -34,7 +34,6 @@ SAMPLERS = ("stratified", "independent")
 STRATIFIED_BOUNCES = 2    # bounces whose light and BSDF samples are stratified (then random)
 RR_START = 3              # Russian roulette from this bounce on ...
 RR_THRESHOLD = 0.1        # ... for paths whose throughput has fallen below this
-SHADOW_SHORTEN = 2.0 ** -16  # relative; well above Embree's float32 error in t
 
 
 @dataclass
@@ -294,13 +293,12 @@ class Renderer:
         contrib = f_beta[:, idx] * weight[:, idx] * (cos * (1.0 / np.pi) * w)
         wi = wi[:, idx]
         origin = offset_origin(p[:, idx], ng_f[:, idx], eps[idx], wi)
-        # Aim from the offset origin at the light point and stop just short of it (the point
-        # may lie on an emissive triangle, which must not count as its own blocker).
+        # Aim from the offset origin at the (offset) light point.
         segment = target[:, idx] - origin
         finite = np.isfinite(segment[0])
         length = np.sqrt(dot(segment, segment))
         direction = np.where(finite, segment / np.where(finite, length, 1.0), wi)
-        length = np.where(finite, length * (1.0 - SHADOW_SHORTEN) - eps[idx], FAR)
+        length = np.where(finite, length, FAR)
         rows = np.arange(len(ok))[rows][idx] if isinstance(rows, slice) else rows[idx]
         return rows, origin, direction, length, contrib
 

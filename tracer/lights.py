@@ -10,7 +10,7 @@ import numpy as np
 
 from . import bsdf
 from .bsdf import dot
-from .geometry import interpolate
+from .geometry import hit_offset, interpolate, offset_origin
 
 EMISSIVE_TRIANGLE, AREA, POINT, SUN, WORLD = range(5)
 AREA_SHAPE_CODES = {"rectangle": 0, "square": 0, "disk": 1, "ellipse": 1}
@@ -195,6 +195,11 @@ class LightSampler:
                 pdf_sa = m * d2 / (area * cos_l)
                 weight[:, sel] = np.where(cos_l > 0, radiance / pdf_sa, 0.0)
             wi[:, sel] = w
+            if k == EMISSIVE_TRIANGLE:
+                # Lift the light point off its triangle towards the shading point, as hit points
+                # are lifted: a shadow ray that ends on the triangle's plane can hit the light
+                # itself (grazing rays to a lamp just under a ceiling did, darkening the ceiling).
+                point = offset_origin(point, normal, hit_offset(geom, tri, point), -w)
             target[:, sel] = point
             pdf[sel] = np.where(cos_l > 0, pdf_sa, 0.0)
         return wi, target, weight, pdf
