@@ -172,7 +172,8 @@ def cmd_render(args) -> int:
 def _summary(args, rgb, result, bad_pixels) -> str:
     wall = result.time_s
     rays = f"{result.rays / wall / 1e6:.2f} Mrays/s" if wall > 0 else "? Mrays/s"
-    embree = f"Embree {100.0 * result.embree_time_s / wall:.0f}% of wall time" if wall > 0 else "Embree ?"
+    # The same definition as the bench's: Embree query time over (wall time x threads).
+    embree = f"Embree {100.0 * result.embree_share:.0f}% of thread time" if wall > 0 else "Embree ?"
     nans = f"{result.nan_count} NaN/Inf samples"
     if bad_pixels:
         nans += f", {bad_pixels} NaN/Inf pixels written as 0"

@@ -173,6 +173,8 @@ class StubResult:
         self.image[-1, -1] = np.nan
         self.spp, self.nan_count, self.rays = scene.render["spp"], 3, 1000
         self.time_s, self.embree_time_s, self.cancelled = 0.5, 0.25, cancelled
+        self.threads = 2
+        self.embree_share = self.embree_time_s / (self.time_s * self.threads)
 
     def mean(self):
         return self.image
@@ -210,7 +212,7 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
     summary = capsys.readouterr().out.strip().splitlines()
     assert len(summary) == 1
     assert "8x8" in summary[0] and "9 spp" in summary[0] and "0.00 Mrays/s" in summary[0]
-    assert "Embree 50%" in summary[0] and "3 NaN/Inf samples" in summary[0] and "1 NaN/Inf pixels" in summary[0]
+    assert "Embree 25% of thread time" in summary[0] and "3 NaN/Inf samples" in summary[0] and "1 NaN/Inf pixels" in summary[0]
 
 
 def test_render_defaults_come_from_the_scene(scene_file, tmp_path, stub_integrator, capsys):
