@@ -7,8 +7,9 @@ and compaction. Max depth m is the seed's max_ray_depth: emission plus up to m b
 Cycles' max_bounces = m - 1.
 
 A render is a sequence of passes. Each pass is cut into fixed-size chunks with their own random
-streams (keyed by seed, pass and chunk), so the image depends on the seed and sample count only,
-not on the thread count. Chunks run on a thread pool: Embree and most numpy kernels release the
+streams (keyed by seed, pass and chunk); the stratified camera, light and BSDF samples are keyed
+by seed, pixel and sample index. So the image depends on the seed and sample count only, not on
+the thread count. Chunks run on a thread pool: Embree and most numpy kernels release the
 GIL.
 """
 from __future__ import annotations
