@@ -3,7 +3,6 @@
 Units: metres, +Z up. The Cornell box spans x in [-1, 1], y in [-1, 1] (open at y = -1, back
 wall at y = +1) and z in [0, 2], so it is 2 m wide like the seed's box.
 """
-import math
 import os
 
 import bpy
