@@ -21,10 +21,10 @@ FAR = np.float32(1e30)
 
 class Hits:
     """Surface data for hits, (3, n) vectors: point, geometric and shading normals, offset size."""
-    __slots__ = ("prim", "t", "p", "ng", "ns", "eps")
+    __slots__ = ("p", "ng", "ns", "eps")
 
-    def __init__(self, prim, t, p, ng, ns, eps):
-        self.prim, self.t, self.p, self.ng, self.ns, self.eps = prim, t, p, ng, ns, eps
+    def __init__(self, p, ng, ns, eps):
+        self.p, self.ng, self.ns, self.eps = p, ng, ns, eps
 
 
 class Geometry:
@@ -88,7 +88,7 @@ class Geometry:
         res = self._timed(n, lambda: self._scene.run(o32, d32, dists=dists, query="OCCLUDED"))
         return res == 0
 
-    def hits(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray, t: np.ndarray) -> Hits:
+    def hits(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> Hits:
         """Rebuild hit points from barycentrics in float64 (not from o + t d) with their normals."""
         u = u.astype(np.float64)
         v = v.astype(np.float64)
@@ -101,7 +101,7 @@ class Geometry:
             ns = interpolate(self.corner_normals, prim, bary)
             length = np.sqrt(ns[0] * ns[0] + ns[1] * ns[1] + ns[2] * ns[2])
             ns = np.where(length > 1e-12, ns / np.where(length > 0, length, 1.0), ng)
-        return Hits(prim, t.astype(np.float64), p, ng, ns, hit_offset(self, prim, p))
+        return Hits(p, ng, ns, hit_offset(self, prim, p))
 
 
 def hit_offset(geometry: Geometry, prim: np.ndarray, p: np.ndarray) -> np.ndarray:

@@ -197,7 +197,7 @@ class Renderer:
             d, prim, u, v, t = d[:, keep], prim[keep], u[keep], v[keep], t[keep]
             if len(path) == 0:
                 break
-            hits = geom.hits(prim, u, v, t)
+            hits = geom.hits(prim, u, v)
             mat = self.tri_material.take(prim)
             kind = self.kind.take(mat)
             emits = kind == EMISSION
@@ -300,7 +300,7 @@ class Renderer:
         length = np.sqrt(dot(segment, segment))
         direction = np.where(finite, segment / np.where(finite, length, 1.0), wi)
         length = np.where(finite, length, FAR)
-        rows = np.arange(len(ok))[rows][idx] if isinstance(rows, slice) else rows[idx]
+        rows = idx if isinstance(rows, slice) else rows[idx]   # a slice here selects every row
         return rows, origin, direction, length, contrib
 
     def _specular(self, sel, d, ng_f, ns_f, entering, mat, kind, beta, new_d, rng, stats):
