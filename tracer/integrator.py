@@ -203,7 +203,9 @@ class Renderer:
             emits = kind == EMISSION
             if emits.any():
                 e = np.flatnonzero(emits)
-                w = self._mis(specular[e], pdf_prev[e], lambda: lights.pdf_triangle(prim[e], d[:, e], t[e]))
+                origin = o[:, e if isinstance(keep, slice) else keep[e]]   # o is not compacted
+                w = self._mis(specular[e], pdf_prev[e],
+                              lambda: lights.pdf_triangle(prim[e], origin, d[:, e], t[e]))
                 radiance[:, path[e]] += beta[:, e] * self.radiance[:, mat[e]] * w
             if depth == self.max_depth:
                 # Paths that would scatter again: the depth limit, not the scene, ends them.

@@ -3,13 +3,18 @@
 One discrete distribution picks a light in proportion to an estimate of its power; each light
 then samples a point (or direction). `LightSampler.sample` serves next-event estimation and the
 `pdf_*` methods give the same densities for multiple importance sampling of BSDF-sampled hits.
+
+Emissive triangles are sampled as Cycles samples them: uniformly in the solid angle they subtend
+(Arvo 1995) when they are large next to their distance from the shading point, uniformly in area
+otherwise. Area sampling of a lamp 1 cm under a ceiling gives the ceiling's points next to it
+weights that grow as 1 / distance^2: fireflies that solid-angle sampling does not have.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from . import bsdf
-from .bsdf import dot
+from .bsdf import dot, normalize
 from .geometry import hit_offset, interpolate, offset_origin
 
 EMISSIVE_TRIANGLE, AREA, POINT, SUN, WORLD = range(5)
@@ -20,6 +25,66 @@ def luminance(rgb) -> np.ndarray:
     """Rec.709 luminance."""
     rgb = np.asarray(rgb, dtype=np.float64)
     return rgb @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross products of two (3, n) vector arrays."""
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def solid_angle(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Solid angle of the spherical triangles with unit corners a, b, c (3, n) (Van Oosterom and
+    Strackee 1983)."""
+    return 2.0 * np.arctan2(np.abs(dot(a, cross(b, c))), 1.0 + dot(a, b) + dot(b, c) + dot(a, c))
+
+
+def sample_spherical_triangle(a: np.ndarray, b: np.ndarray, c: np.ndarray, u: np.ndarray):
+    """Directions uniform in solid angle over spherical triangles with unit corners a, b, c (3, n)
+    for u (2, n): (directions (3, n), solid angles (n)).
+
+    Arvo's method in the form Cycles uses: u[0] chooses the sub-triangle a, b, c' of area
+    u[0] x the solid angle, u[1] a point on the arc from b to c'.
+    """
+    cos_a, cos_b, cos_c = dot(b, c), dot(a, c), dot(a, b)
+    mixed = np.abs(dot(a, cross(b, c)))
+    omega = 2.0 * np.arctan2(mixed, 1.0 + cos_a + cos_b + cos_c)
+    sub = u[0] * omega
+    sin_sub, cos_sub = np.sin(sub), np.cos(sub)
+    # cos and sin of the angle at a, both without their common factor sin(b) sin(c).
+    cos_alpha, sin_alpha = cos_a - cos_b * cos_c, mixed
+    sin2_bc = np.maximum((1.0 - cos_b * cos_b) * (1.0 - cos_c * cos_c), 1e-300)
+    temp = (cos_c - 1.0) * (cos_sub * cos_alpha + sin_sub * sin_alpha) * cos_alpha / sin2_bc
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = (cos_sub - cos_c + temp) / (1.0 - cos_sub * cos_c + temp)
+    # 0 / 0 only for triangles seen edge-on (no solid angle, so no weight): any q will do.
+    q = np.where(np.isfinite(q), np.clip(q, -1.0, 1.0), 1.0)
+    c_sub = _unit_or_zero(q * a + np.sqrt(1.0 - q * q) * _unit_or_zero(c - cos_b * a))
+    cos_bc = dot(c_sub, b)
+    z = 1.0 - u[1] * (1.0 - cos_bc)
+    return z * b + np.sqrt(np.maximum(1.0 - z * z, 0.0)) * _unit_or_zero(c_sub - cos_bc * b), omega
+
+
+def use_solid_angle(corners: np.ndarray, plane: np.ndarray) -> np.ndarray:
+    """Cycles' choice between solid-angle and area sampling of triangles (n, corner, xyz) from
+    points at signed distances `plane` from them: solid angle where an edge is longer than the
+    distance (near and large triangles, where area sampling is noisy)."""
+    edges = corners - np.roll(corners, 1, axis=1)
+    return np.einsum("nkj,nkj->nk", edges, edges).max(axis=1) > plane * plane
+
+
+def area_to_solid_angle(point, q, normal, area, two_sided: bool) -> np.ndarray:
+    """Solid-angle density at q (3, n) of uniform points on lamps of the given areas and normals."""
+    to = point - q
+    d2 = dot(to, to)
+    cos_l = -dot(to, normal) / np.sqrt(d2)
+    cos_l = np.abs(cos_l) if two_sided else np.maximum(cos_l, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(cos_l > 0, d2 / (area * cos_l), 0.0)
+
+
+def _unit_or_zero(v: np.ndarray) -> np.ndarray:
+    length = np.sqrt(dot(v, v))
+    return v / np.where(length > 0, length, 1.0)
 
 
 class AreaLights:
@@ -157,19 +222,13 @@ class LightSampler:
             q, uv, m, idx = p[:, sel], u[1:, sel], pmf[sel], index[sel]
             if k == EMISSIVE_TRIANGLE:
                 tri = self.tri[idx]
-                su = np.sqrt(uv[0])
-                b2 = uv[1] * su
-                point = interpolate(geom.corners, tri, np.stack([1.0 - su, su - b2, b2]))
-                normal = geom.face_normal.take(tri, axis=1)
-                area = geom.area[tri]
+                point, normal, density = self.triangle_points(tri, q, uv)
                 radiance = self.tri_radiance.take(idx, axis=1)
-                two_sided = True
             elif k == AREA:
                 point = self.area_lights.sample_points(idx, uv)
                 normal = self.area_lights.emit[:, idx]
-                area = self.area_lights.area[idx]
+                density = area_to_solid_angle(point, q, normal, self.area_lights.area[idx], two_sided=False)
                 radiance = self.area_lights.radiance[:, idx]
-                two_sided = False
             elif k == POINT:
                 target[:, sel] = self.point_pos[:, idx]
                 to = self.point_pos[:, idx] - q
@@ -186,14 +245,10 @@ class LightSampler:
                 pdf[sel] = m / (4.0 * np.pi)
                 weight[:, sel] = self.world[:, None] / pdf[sel]
                 continue
-            to = point - q
-            d2 = dot(to, to)
-            w = to / np.sqrt(d2)
-            cos_l = -dot(w, normal)
-            cos_l = np.abs(cos_l) if two_sided else np.maximum(cos_l, 0.0)
+            w = normalize(point - q)
+            pdf_sa = m * density
             with np.errstate(divide="ignore", invalid="ignore"):
-                pdf_sa = m * d2 / (area * cos_l)
-                weight[:, sel] = np.where(cos_l > 0, radiance / pdf_sa, 0.0)
+                weight[:, sel] = np.where(pdf_sa > 0, radiance / pdf_sa, 0.0)
             wi[:, sel] = w
             if k == EMISSIVE_TRIANGLE:
                 # Lift the light point off its triangle towards the shading point, as hit points
@@ -201,15 +256,53 @@ class LightSampler:
                 # itself (grazing rays to a lamp just under a ceiling did, darkening the ceiling).
                 point = offset_origin(point, normal, hit_offset(geom, tri, point), -w)
             target[:, sel] = point
-            pdf[sel] = np.where(cos_l > 0, pdf_sa, 0.0)
+            pdf[sel] = pdf_sa
         return wi, target, weight, pdf
 
-    def pdf_triangle(self, prim, d, t):
-        """Solid-angle density with which `sample` would have chosen this emissive-triangle hit."""
-        cos_l = np.abs(dot(d, self.geometry.face_normal.take(prim, axis=1)))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            pdf = self.tri_pmf[prim] * t * t / (self.geometry.area[prim] * cos_l)
-        return np.where(cos_l > 0, pdf, 0.0)
+    def triangle_points(self, tri, q, u):
+        """Points on emissive triangles tri sampled from shading points q (3, n) with u (2, n):
+        (points (3, n), face normals (3, n), solid-angle density of each point, pick excluded)."""
+        geom = self.geometry
+        corners = geom.corners.take(tri, axis=0)               # (n, corner, xyz)
+        normal = geom.face_normal.take(tri, axis=1)
+        plane = dot(normal, corners[:, 0].T - q)               # signed distance to the plane
+        point = np.empty_like(q)
+        density = np.zeros(len(tri))
+        spherical = use_solid_angle(corners, plane)
+        s = np.flatnonzero(spherical)
+        if len(s):
+            qs = q[:, s]
+            a, b, c = (_unit_or_zero(corners[s, i].T - qs) for i in range(3))
+            direction, omega = sample_spherical_triangle(a, b, c, u[:, s])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = plane[s] / dot(normal[:, s], direction)      # where it meets the plane
+                ok = (omega > 0.0) & np.isfinite(t) & (t > 0.0)
+                # Triangles seen edge-on give nothing; their points stay finite (a corner).
+                point[:, s] = np.where(ok, qs + np.where(ok, t, 0.0) * direction, corners[s, 0].T)
+                density[s] = np.where(ok, 1.0 / np.where(ok, omega, 1.0), 0.0)
+        r = np.flatnonzero(~spherical)
+        if len(r):
+            su = np.sqrt(u[0, r])
+            b2 = u[1, r] * su
+            point[:, r] = interpolate(geom.corners, tri[r], np.stack([1.0 - su, su - b2, b2]))
+            density[r] = area_to_solid_angle(point[:, r], q[:, r], normal[:, r], geom.area[tri[r]],
+                                             two_sided=True)
+        return point, normal, density
+
+    def pdf_triangle(self, prim, o, d, t):
+        """Solid-angle density with which `sample` would have chosen this emissive-triangle hit
+        of the ray o + t d."""
+        geom = self.geometry
+        corners = geom.corners.take(prim, axis=0)
+        normal = geom.face_normal.take(prim, axis=1)
+        spherical = use_solid_angle(corners, dot(normal, corners[:, 0].T - o))
+        density = area_to_solid_angle(o + t * d, o, normal, geom.area[prim], two_sided=True)
+        s = np.flatnonzero(spherical)
+        if len(s):
+            omega = solid_angle(*(_unit_or_zero(corners[s, i].T - o[:, s]) for i in range(3)))
+            with np.errstate(divide="ignore"):
+                density[s] = np.where(omega > 0, 1.0 / omega, 0.0)
+        return self.tri_pmf[prim] * density
 
     def pdf_area(self, lamp, d, t):
         """Solid-angle density with which `sample` would have chosen this area-lamp hit."""
