@@ -22,11 +22,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import bsdf
+from .arrays import count, select
 from .bsdf import DIFFUSE, EMISSION, GLASS, MIRROR, REFRACTION, dot
 from .camera import Camera
 from .geometry import FAR, Geometry, offset_origin
 from .lights import LightSampler
-from .sampler import stratified_2d
+from .sampler import pixel_key, stratified_2d_keyed
 from .scene import MATERIAL_KINDS, Scene
 
 CHUNK = 1 << 15           # paths per chunk: big enough to amortise Python, small enough for cache
@@ -77,15 +78,6 @@ class RenderResult:
     def embree_share(self) -> float:
         """Fraction of the threads' wall time spent inside Embree queries."""
         return self.embree_time_s / (self.time_s * self.threads) if self.time_s > 0 else 0.0
-
-
-def _select(mask: np.ndarray):
-    """Indices where mask holds, or a whole slice when it holds everywhere (no gather needed)."""
-    return slice(None) if mask.all() else np.flatnonzero(mask)
-
-
-def _count(sel, n: int) -> int:
-    return n if isinstance(sel, slice) else len(sel)
 
 
 def power_heuristic(a, b):
@@ -151,11 +143,13 @@ class Renderer:
         cam = self.camera
         stratified = self.sampler == "stratified" and sample is not None
 
+        key = pixel_key(pixel, self.seed) if stratified else None
+
         def uniform(rows, dimension, depth=0):
             """(2, len(rows)) uniform numbers for the paths at rows: a stratified 2D pair of
             dimension `dimension` over the first bounces, the random stream after that."""
             if stratified and depth < STRATIFIED_BOUNCES:
-                return stratified_2d(pixel[rows], sample[rows], self.seed, dimension, sample_bits)
+                return stratified_2d_keyed(key[rows], sample[rows], dimension, sample_bits)
             return rng.random((2, n if isinstance(rows, slice) else len(rows)))
 
         everyone = slice(None)
@@ -192,7 +186,7 @@ class Renderer:
             if len(missed) and self.has_world:
                 w = self._mis(specular[missed], pdf_prev[missed], lights.pdf_world)
                 radiance[:, path[missed]] += beta[:, missed] * self.world[:, None] * w
-            keep = _select(alive)
+            keep = select(alive)
             path, beta, specular, pdf_prev = path[keep], beta[:, keep], specular[keep], pdf_prev[keep]
             d, prim, u, v, t = d[:, keep], prim[keep], u[keep], v[keep], t[keep]
             if len(path) == 0:
@@ -213,7 +207,7 @@ class Renderer:
                 break
 
             # Stage 3: materials. Emitters do not scatter; the rest are sampled by kind.
-            keep = _select(~emits)
+            keep = select(~emits)
             path, beta, d, mat, kind = path[keep], beta[:, keep], d[:, keep], mat[keep], kind[keep]
             p, ng, ns, eps = hits.p[:, keep], hits.ng[:, keep], hits.ns[:, keep], hits.eps[keep]
             # Face the normals towards the incoming ray (two-sided surfaces, inside of glass).
@@ -226,9 +220,9 @@ class Renderer:
             pdf_prev = np.zeros(m)
             shadow = None
 
-            sel = _select(kind == DIFFUSE)
-            if _count(sel, m):
-                stats["diffuse"] += _count(sel, m)
+            sel = select(kind == DIFFUSE)
+            if count(sel, m):
+                stats["diffuse"] += count(sel, m)
                 albedo = self.color[:, mat[sel]]
                 if self.next_event and lights.has_any:
                     shadow = self._next_event(sel, p[:, sel], ng_f[:, sel], ns_f[:, sel], eps[sel],
@@ -242,8 +236,8 @@ class Renderer:
                 specular[sel] = False
                 pdf_prev[sel] = pdf
 
-            sel = _select((kind == MIRROR) | (kind == GLASS) | (kind == REFRACTION))
-            if _count(sel, m):
+            sel = select((kind == MIRROR) | (kind == GLASS) | (kind == REFRACTION))
+            if count(sel, m):
                 self._specular(sel, d, ng_f, ns_f, entering, mat, kind, beta, new_d, rng, stats)
 
             # Stage 4: shadow rays of the whole bounce in one Embree call.
@@ -266,7 +260,7 @@ class Renderer:
                 stats["rr_killed"] += int((live & ~survive).sum())
                 live &= survive
                 beta = beta / np.where(q > 0, q, 1.0)
-            keep = _select(live)
+            keep = select(live)
             path, beta, specular, pdf_prev = path[keep], beta[:, keep], specular[keep], pdf_prev[keep]
             o, d = o[:, keep], d[:, keep]
             tmax = np.full(len(path), FAR, np.float64)
@@ -367,10 +361,10 @@ class Renderer:
         flat_sq = result.sum_sq.reshape(-1, 3)
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             for k in range(passes):
-                count = min(per_pass, spp - k * per_pass)
-                pixels = np.repeat(np.arange(npix, dtype=np.int64), count)
+                in_pass = min(per_pass, spp - k * per_pass)
+                pixels = np.repeat(np.arange(npix, dtype=np.int64), in_pass)
                 # Sample index of each path within its pixel (for the stratified sampler).
-                samples = np.tile(np.arange(k * per_pass, k * per_pass + count, dtype=np.int64), npix)
+                samples = np.tile(np.arange(k * per_pass, k * per_pass + in_pass, dtype=np.int64), npix)
                 chunks = [(k, c, pixels[s:s + CHUNK], samples[s:s + CHUNK], sample_bits)
                           for c, s in enumerate(range(0, len(pixels), CHUNK))]
                 for pix, value, stats in pool.map(self._run_chunk, chunks):
@@ -383,7 +377,7 @@ class Renderer:
                         flat_sq[:, c] += np.bincount(pix, value[c] * value[c], minlength=npix)
                     for key, val in stats.items():
                         totals[key] = totals.get(key, 0) + val
-                result.spp += count
+                result.spp += in_pass
                 result.time_s = time.perf_counter() - start
                 result.embree_time_s = self.geometry.embree_time - embree_before
                 result.rays = self.geometry.ray_count - rays_before

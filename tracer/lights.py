@@ -15,10 +15,15 @@ import numpy as np
 
 from . import bsdf
 from .bsdf import dot, normalize
-from .geometry import hit_offset, interpolate, offset_origin
+from .arrays import count, select
+from .geometry import hit_offset, offset_origin
 
 EMISSIVE_TRIANGLE, AREA, POINT, SUN, WORLD = range(5)
 AREA_SHAPE_CODES = {"rectangle": 0, "square": 0, "disk": 1, "ellipse": 1}
+# Emissive triangles are sampled in solid angle from points closer to their plane than this
+# times their longest edge, in area from farther away (where the two differ little in noise and
+# area sampling costs a third as much).
+SOLID_ANGLE_RANGE = 0.25
 
 
 def luminance(rgb) -> np.ndarray:
@@ -58,18 +63,19 @@ def sample_spherical_triangle(a: np.ndarray, b: np.ndarray, c: np.ndarray, u: np
         q = (cos_sub - cos_c + temp) / (1.0 - cos_sub * cos_c + temp)
     # 0 / 0 only for triangles seen edge-on (no solid angle, so no weight): any q will do.
     q = np.where(np.isfinite(q), np.clip(q, -1.0, 1.0), 1.0)
-    c_sub = _unit_or_zero(q * a + np.sqrt(1.0 - q * q) * _unit_or_zero(c - cos_b * a))
+    # a is orthogonal to the unit vector along c - cos_b a, and c_sub - cos_bc b has length
+    # sin(arc b c_sub): both unit vectors come from cosines, without a normalisation pass.
+    c_sub = q * a + (np.sqrt(1.0 - q * q) * _inverse_sine(cos_b)) * (c - cos_b * a)
     cos_bc = dot(c_sub, b)
     z = 1.0 - u[1] * (1.0 - cos_bc)
-    return z * b + np.sqrt(np.maximum(1.0 - z * z, 0.0)) * _unit_or_zero(c_sub - cos_bc * b), omega
+    tangent = (np.sqrt(np.maximum(1.0 - z * z, 0.0)) * _inverse_sine(cos_bc)) * (c_sub - cos_bc * b)
+    return z * b + tangent, omega
 
 
-def use_solid_angle(corners: np.ndarray, plane: np.ndarray) -> np.ndarray:
-    """Cycles' choice between solid-angle and area sampling of triangles (n, corner, xyz) from
-    points at signed distances `plane` from them: solid angle where an edge is longer than the
-    distance (near and large triangles, where area sampling is noisy)."""
-    edges = corners - np.roll(corners, 1, axis=1)
-    return np.einsum("nkj,nkj->nk", edges, edges).max(axis=1) > plane * plane
+def _inverse_sine(cos: np.ndarray) -> np.ndarray:
+    """1 / sin of angles in [0, pi] given their cosines, 0 where the sine vanishes."""
+    sin2 = 1.0 - cos * cos
+    return np.where(sin2 > 0.0, 1.0 / np.sqrt(np.where(sin2 > 0.0, sin2, 1.0)), 0.0)
 
 
 def area_to_solid_angle(point, q, normal, area, two_sided: bool) -> np.ndarray:
@@ -172,6 +178,15 @@ class LightSampler:
         keep = (luminance(tri_radiance.T) > 0) & (geometry.area[emissive] > 0)
         self.tri = emissive[keep]
         self.tri_radiance = np.ascontiguousarray(tri_radiance[:, keep])
+        # The light triangles' own copies, (corner, xyz, E) and (3, E): a handful of lamp
+        # triangles stay in cache, where gathers from the whole mesh's arrays would not.
+        self.tri_corners = np.ascontiguousarray(geometry.corners[self.tri].transpose(1, 2, 0))
+        self.tri_normal = np.ascontiguousarray(geometry.face_normal[:, self.tri])
+        self.tri_area = geometry.area[self.tri]
+        edges = self.tri_corners - np.roll(self.tri_corners, 1, axis=0)
+        self.tri_edge2 = (edges * edges).sum(axis=1).max(axis=0)     # longest edge, squared
+        self.light_of_prim = np.zeros(geometry.count, np.int64)      # 0 also where tri_pmf is 0
+        self.light_of_prim[self.tri] = np.arange(len(self.tri))
         radius = 0.5 * geometry.extent if geometry.count else 1.0
         # Power estimates: only the ratios matter, and any positive choice stays unbiased.
         world_power = luminance(self.world) * 4.0 * np.pi ** 2 * radius ** 2
@@ -221,8 +236,7 @@ class LightSampler:
             sel = np.nonzero(kind == k)[0] if len(kinds) > 1 else slice(None)
             q, uv, m, idx = p[:, sel], u[1:, sel], pmf[sel], index[sel]
             if k == EMISSIVE_TRIANGLE:
-                tri = self.tri[idx]
-                point, normal, density = self.triangle_points(tri, q, uv)
+                point, normal, density = self.triangle_points(idx, q, uv)
                 radiance = self.tri_radiance.take(idx, axis=1)
             elif k == AREA:
                 point = self.area_lights.sample_points(idx, uv)
@@ -254,52 +268,53 @@ class LightSampler:
                 # Lift the light point off its triangle towards the shading point, as hit points
                 # are lifted: a shadow ray that ends on the triangle's plane can hit the light
                 # itself (grazing rays to a lamp just under a ceiling did, darkening the ceiling).
-                point = offset_origin(point, normal, hit_offset(geom, tri, point), -w)
+                point = offset_origin(point, normal, hit_offset(geom, self.tri[idx], point), -w)
             target[:, sel] = point
             pdf[sel] = pdf_sa
         return wi, target, weight, pdf
 
-    def triangle_points(self, tri, q, u):
-        """Points on emissive triangles tri sampled from shading points q (3, n) with u (2, n):
+    def triangle_points(self, light, q, u):
+        """Points on the light triangles `light` sampled from shading points q (3, n) with u (2, n):
         (points (3, n), face normals (3, n), solid-angle density of each point, pick excluded)."""
-        geom = self.geometry
-        corners = geom.corners.take(tri, axis=0)               # (n, corner, xyz)
-        normal = geom.face_normal.take(tri, axis=1)
-        plane = dot(normal, corners[:, 0].T - q)               # signed distance to the plane
+        v = self.tri_corners.take(light, axis=2)                # (corner, xyz, n)
+        normal = self.tri_normal.take(light, axis=1)
+        plane = dot(normal, v[0] - q)                           # signed distance to the plane
+        spherical = self.tri_edge2.take(light) > (plane * plane) * (1.0 / SOLID_ANGLE_RANGE ** 2)
         point = np.empty_like(q)
-        density = np.zeros(len(tri))
-        spherical = use_solid_angle(corners, plane)
-        s = np.flatnonzero(spherical)
-        if len(s):
-            qs = q[:, s]
-            a, b, c = (_unit_or_zero(corners[s, i].T - qs) for i in range(3))
+        density = np.empty(len(light))
+        s = select(spherical)
+        if count(s, len(light)):
+            qs, vs = q[:, s], v[:, :, s]
+            a, b, c = (_unit_or_zero(vs[i] - qs) for i in range(3))
             direction, omega = sample_spherical_triangle(a, b, c, u[:, s])
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = plane[s] / dot(normal[:, s], direction)      # where it meets the plane
                 ok = (omega > 0.0) & np.isfinite(t) & (t > 0.0)
                 # Triangles seen edge-on give nothing; their points stay finite (a corner).
-                point[:, s] = np.where(ok, qs + np.where(ok, t, 0.0) * direction, corners[s, 0].T)
+                point[:, s] = np.where(ok, qs + np.where(ok, t, 0.0) * direction, vs[0])
                 density[s] = np.where(ok, 1.0 / np.where(ok, omega, 1.0), 0.0)
-        r = np.flatnonzero(~spherical)
-        if len(r):
+        r = select(~spherical)
+        if count(r, len(light)):
             su = np.sqrt(u[0, r])
             b2 = u[1, r] * su
-            point[:, r] = interpolate(geom.corners, tri[r], np.stack([1.0 - su, su - b2, b2]))
-            density[r] = area_to_solid_angle(point[:, r], q[:, r], normal[:, r], geom.area[tri[r]],
-                                             two_sided=True)
+            vr = v[:, :, r]
+            point[:, r] = vr[0] + (su - b2) * (vr[1] - vr[0]) + b2 * (vr[2] - vr[0])
+            density[r] = area_to_solid_angle(point[:, r], q[:, r], normal[:, r],
+                                             self.tri_area.take(light[r]), two_sided=True)
         return point, normal, density
 
     def pdf_triangle(self, prim, o, d, t):
         """Solid-angle density with which `sample` would have chosen this emissive-triangle hit
         of the ray o + t d."""
-        geom = self.geometry
-        corners = geom.corners.take(prim, axis=0)
-        normal = geom.face_normal.take(prim, axis=1)
-        spherical = use_solid_angle(corners, dot(normal, corners[:, 0].T - o))
-        density = area_to_solid_angle(o + t * d, o, normal, geom.area[prim], two_sided=True)
+        light = self.light_of_prim.take(prim)
+        v = self.tri_corners.take(light, axis=2)
+        normal = self.tri_normal.take(light, axis=1)
+        plane = dot(normal, v[0] - o)
+        spherical = self.tri_edge2.take(light) > (plane * plane) * (1.0 / SOLID_ANGLE_RANGE ** 2)
+        density = area_to_solid_angle(o + t * d, o, normal, self.tri_area.take(light), two_sided=True)
         s = np.flatnonzero(spherical)
         if len(s):
-            omega = solid_angle(*(_unit_or_zero(corners[s, i].T - o[:, s]) for i in range(3)))
+            omega = solid_angle(*(_unit_or_zero(v[i][:, s] - o[:, s]) for i in range(3)))
             with np.errstate(divide="ignore"):
                 density[s] = np.where(omega > 0, 1.0 / omega, 0.0)
         return self.tri_pmf[prim] * density
