@@ -127,3 +127,18 @@ def test_shading_point_in_the_lamp_plane_gets_no_light_and_no_nan():
     with np.errstate(all="raise"):
         wi, target, weight, pdf = lights.sample(p, np.random.default_rng(3).random((3, 64)))
     assert np.all(weight == 0.0) and np.all(pdf == 0.0)
+
+
+def test_emitter_of_no_power_is_hit_without_error():
+    """A black emission material is never a light to sample, but BSDF-sampled paths still hit
+    it and ask for its MIS density (zero)."""
+    from builders import quad
+    mats = [{"name": "Floor", "kind": "diffuse", "color": [0.8, 0.8, 0.8]},
+            {"name": "Off", "kind": "emission", "color": [1.0, 1.0, 1.0], "strength": 0.0}]
+    scene = make_scene([(*quad((0, 0, 0), 5, 5), 0), (*quad((0.3, 0, 0.5), 0.3, 0.3, normal_sign=-1), 1)],
+                       mats, camera(position=(0, 0, 3), resolution=(8, 8)), world=[1.0, 1.0, 1.0],
+                       spp=16, max_depth=3)
+    renderer = Renderer(scene)
+    assert len(renderer.lights.tri) == 0
+    result = renderer.render()
+    assert result.nan_count == 0 and np.isfinite(result.mean()).all() and result.mean().max() > 0

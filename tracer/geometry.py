@@ -113,7 +113,13 @@ def hit_offset(geometry: Geometry, prim: np.ndarray, p: np.ndarray) -> np.ndarra
 
 def interpolate(corner_values: np.ndarray, prim: np.ndarray, bary: np.ndarray) -> np.ndarray:
     """Barycentric interpolation (3, n) of per-corner vectors (T, 3, 3) at triangles prim."""
-    return np.einsum("nkj,kn->jn", corner_values.take(prim, axis=0), bary)
+    # Gather each hit's nine contiguous values, then transpose once into contiguous (9, n) rows:
+    # twice as fast as an einsum over the gathered (n, 3, 3) block.
+    c = np.ascontiguousarray(corner_values.reshape(-1, 9).take(prim, axis=0).T)
+    out = c[0:3] * bary[0]
+    out += c[3:6] * bary[1]
+    out += c[6:9] * bary[2]
+    return out
 
 
 def offset_origin(p: np.ndarray, ng: np.ndarray, eps: np.ndarray, direction: np.ndarray) -> np.ndarray:

@@ -5,7 +5,7 @@ then samples a point (or direction). `LightSampler.sample` serves next-event est
 `pdf_*` methods give the same densities for multiple importance sampling of BSDF-sampled hits.
 
 Emissive triangles are sampled as Cycles samples them: uniformly in the solid angle they subtend
-(Arvo 1995) when they are large next to their distance from the shading point, uniformly in area
+(Arvo 1995) when the shading point is near them (SOLID_ANGLE_RANGE), uniformly in area
 otherwise. Area sampling of a lamp 1 cm under a ceiling gives the ceiling's points next to it
 weights that grow as 1 / distance^2: fireflies that solid-angle sampling does not have.
 """
@@ -21,8 +21,9 @@ from .geometry import hit_offset, offset_origin
 EMISSIVE_TRIANGLE, AREA, POINT, SUN, WORLD = range(5)
 AREA_SHAPE_CODES = {"rectangle": 0, "square": 0, "disk": 1, "ellipse": 1}
 # Emissive triangles are sampled in solid angle from points closer to their plane than this
-# times their longest edge, in area from farther away (where the two differ little in noise and
-# area sampling costs a third as much).
+# times their longest edge, in area from farther away. Cycles makes the same kind of distance
+# test. Measured on the dragon scene at 16 spp: the same relMSE as with 1.0 or 2.0 (0.0252 vs
+# 0.0250) in less time, where area sampling everywhere gave 0.0326.
 SOLID_ANGLE_RANGE = 0.25
 
 
@@ -279,7 +280,7 @@ class LightSampler:
         v = self.tri_corners.take(light, axis=2)                # (corner, xyz, n)
         normal = self.tri_normal.take(light, axis=1)
         plane = dot(normal, v[0] - q)                           # signed distance to the plane
-        spherical = self.tri_edge2.take(light) > (plane * plane) * (1.0 / SOLID_ANGLE_RANGE ** 2)
+        spherical = self._near(light, plane)
         point = np.empty_like(q)
         density = np.empty(len(light))
         s = select(spherical)
@@ -303,14 +304,19 @@ class LightSampler:
                                              self.tri_area.take(light[r]), two_sided=True)
         return point, normal, density
 
+    def _near(self, light, plane):
+        """Whether points at distances `plane` from light triangles sample them in solid angle."""
+        return self.tri_edge2.take(light) * SOLID_ANGLE_RANGE ** 2 > plane * plane
+
     def pdf_triangle(self, prim, o, d, t):
         """Solid-angle density with which `sample` would have chosen this emissive-triangle hit
         of the ray o + t d."""
+        if len(self.tri) == 0:      # emitters of no power: never sampled
+            return np.zeros(len(prim))
         light = self.light_of_prim.take(prim)
         v = self.tri_corners.take(light, axis=2)
         normal = self.tri_normal.take(light, axis=1)
-        plane = dot(normal, v[0] - o)
-        spherical = self.tri_edge2.take(light) > (plane * plane) * (1.0 / SOLID_ANGLE_RANGE ** 2)
+        spherical = self._near(light, dot(normal, v[0] - o))
         density = area_to_solid_angle(o + t * d, o, normal, self.tri_area.take(light), two_sided=True)
         s = np.flatnonzero(spherical)
         if len(s):
