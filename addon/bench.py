@@ -46,6 +46,7 @@ class Options:
     ref_seeds: int = 16
     ref_spp: int = 256        # per seed
     quick: bool = False
+    repeat: int = 1           # runs per point; the run of median wall time is kept
 
 
 QUICK = dict(scale=25, min_spp=4, max_spp=16, time_cap_s=20.0, ref_seeds=4, ref_spp=64, quick=True)
@@ -208,7 +209,10 @@ def reference(blend, opts: Options, cache_dir, log):
 def _ladder(kind, blend, ref, opts, baseline_mb, log):
     points, spp = [], opts.min_spp
     while spp is not None:
-        image, stats = run_point(kind, blend, spp, opts)
+        # Repeats of a point render the same image (same seed); only the timings differ.
+        runs = [run_point(kind, blend, spp, opts) for _ in range(opts.repeat)]
+        image = runs[0][0]
+        stats = cb.median_run([r[1] for r in runs])
         if image.shape != ref.shape:
             raise PointError(f"{kind} image {image.shape} differs from the reference {ref.shape}")
         p = {"spp": spp, **stats, **cb.errors(image, ref)}
@@ -241,7 +245,9 @@ def definitions(opts: Options) -> dict:
                                "unbiased renderer once fixed costs such as export no longer dominate)",
         "wall_s": "Snell: export of the .blend + scene build (Embree BVH) + render; Cycles: loading "
                   "the .blend + render (EXR write included); both with the same threads, each point "
-                  "in a fresh child process, timed inside it (interpreter start and import bpy excluded)",
+                  "in a fresh child process, timed inside it (interpreter start and import bpy excluded); "
+                  f"each point run {opts.repeat} time(s), keeping the run of median wall time "
+                  "(wall_s_runs lists them all; peak_rss_mb is the largest)",
         "embree_share": "Snell only: Embree query time / (render time x threads); "
                         "embree_share_of_wall divides by the point's whole wall time instead",
         "rays_per_second": "Snell only: camera, bounce and shadow rays per second of render time "

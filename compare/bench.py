@@ -57,6 +57,18 @@ def next_spp(spp: int, wall_s: float, *, max_spp: int, time_cap_s: float):
     return nxt
 
 
+def median_run(runs: list) -> dict:
+    """One point's stats from repeated runs: those of the run with the median wall time (the
+    lower one of an even count, so that its parts still add up), with the largest peak memory
+    and every run's wall time."""
+    ordered = sorted(runs, key=lambda r: r["wall_s"])
+    out = dict(ordered[(len(ordered) - 1) // 2])
+    out["peak_rss_mb"] = max(r["peak_rss_mb"] for r in runs)
+    out["runs"] = len(runs)
+    out["wall_s_runs"] = [r["wall_s"] for r in runs]
+    return out
+
+
 def time_at_error(times, errs, target):
     """Seconds at which the log-log curve (points in ladder order) first reaches `target`:
     log t interpolated linearly in log error between the two points around the crossing.
@@ -378,6 +390,8 @@ def setup_cli(p):
                    help="Cycles seeds of the reference (default 16, --quick 4)")
     p.add_argument("--ref-spp", type=_int_at_least(1), metavar="N",
                    help="samples per reference seed (default 256, --quick 64)")
+    p.add_argument("--repeat", type=_int_at_least(1), metavar="N",
+                   help="time every point N times and keep the run of median wall time (default 1)")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/snell/bench)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
@@ -405,7 +419,7 @@ def cmd(args) -> int:
     opts = ab.Options(**(ab.QUICK if args.quick else {}))
     for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),
                        ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"), ("ref_seeds", "ref_seeds"),
-                       ("ref_spp", "ref_spp")):
+                       ("ref_spp", "ref_spp"), ("repeat", "repeat")):
         if getattr(args, name) is not None:
             setattr(opts, attr, getattr(args, name))
     log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr, flush=True))

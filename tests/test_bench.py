@@ -79,6 +79,18 @@ def test_missing_values_finds_nulls():
 
 
 @pytest.mark.skipif(not all(map(os.path.isfile, SCENES)), reason="reference scenes not built")
+def test_median_run_keeps_one_whole_run():
+    """The kept run is the median by wall time, whole (its parts add up), with the largest peak."""
+    runs = [{"wall_s": 12.0, "render_s": 11.0, "export_s": 1.0, "peak_rss_mb": 300},
+            {"wall_s": 10.0, "render_s": 7.0, "export_s": 3.0, "peak_rss_mb": 310},
+            {"wall_s": 11.0, "render_s": 10.5, "export_s": 0.5, "peak_rss_mb": 305}]
+    p = cb.median_run(runs)
+    assert (p["wall_s"], p["render_s"], p["export_s"]) == (11.0, 10.5, 0.5)
+    assert p["peak_rss_mb"] == 310 and p["runs"] == 3 and p["wall_s_runs"] == [12.0, 10.0, 11.0]
+    assert cb.median_run(runs[:2])["wall_s"] == 10.0           # even count: the lower median
+    assert cb.median_run(runs[:1]) == {**runs[0], "runs": 1, "wall_s_runs": [12.0]}
+
+
 def test_quick_bench_fills_every_key(tmp_path):
     pytest.importorskip("bpy")
     pytest.importorskip("flip_evaluator")
