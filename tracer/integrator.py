@@ -186,30 +186,31 @@ class Renderer:
             if len(missed) and self.has_world:
                 w = self._mis(specular[missed], pdf_prev[missed], lights.pdf_world)
                 radiance[:, path[missed]] += beta[:, missed] * self.world[:, None] * w
-            keep = select(alive)
-            path, beta, specular, pdf_prev = path[keep], beta[:, keep], specular[keep], pdf_prev[keep]
-            d, prim, u, v, t = d[:, keep], prim[keep], u[keep], v[keep], t[keep]
-            if len(path) == 0:
+            if not alive.any():
                 break
-            hits = geom.hits(prim, u, v)
-            mat = self.tri_material.take(prim)
+            # Emissive triangles add their light before any compaction: one gather per bounce
+            # then serves every array, and emitters get no hit reconstruction they do not use.
+            mat = self.tri_material.take(prim)          # misses (-1) read garbage, masked below
             kind = self.kind.take(mat)
-            emits = kind == EMISSION
+            emits = alive & (kind == EMISSION)
             if emits.any():
                 e = np.flatnonzero(emits)
-                origin = o[:, e if isinstance(keep, slice) else keep[e]]   # o is not compacted
                 w = self._mis(specular[e], pdf_prev[e],
-                              lambda: lights.pdf_triangle(prim[e], origin, d[:, e], t[e]))
+                              lambda: lights.pdf_triangle(prim[e], o[:, e], d[:, e], t[e]))
                 radiance[:, path[e]] += beta[:, e] * self.radiance[:, mat[e]] * w
+            scatters = alive & ~emits
             if depth == self.max_depth:
                 # Paths that would scatter again: the depth limit, not the scene, ends them.
-                stats["depth_limited"] += int((~emits).sum())
+                stats["depth_limited"] += int(scatters.sum())
                 break
 
             # Stage 3: materials. Emitters do not scatter; the rest are sampled by kind.
-            keep = select(~emits)
+            keep = select(scatters)
             path, beta, d, mat, kind = path[keep], beta[:, keep], d[:, keep], mat[keep], kind[keep]
-            p, ng, ns, eps = hits.p[:, keep], hits.ng[:, keep], hits.ns[:, keep], hits.eps[keep]
+            if len(path) == 0:
+                break
+            hits = geom.hits(prim[keep], u[keep], v[keep])
+            p, ng, ns, eps = hits.p, hits.ng, hits.ns, hits.eps
             # Face the normals towards the incoming ray (two-sided surfaces, inside of glass).
             entering = dot(d, ng) < 0.0
             side = np.where(entering, 1.0, -1.0)
