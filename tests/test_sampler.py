@@ -112,6 +112,12 @@ def _ref_stratified(pixel, sample, seed, dimension, bits):
             for v, k in ((first, 2), (second, 3))]
 
 
+def _matches_reference(pixel, sample, seed, dimension, bits) -> bool:
+    got = S.stratified_2d(pixel, sample, seed, dimension, bits)
+    want = np.array([_ref_stratified(p, s, seed, dimension, bits) for p, s in zip(pixel, sample)]).T
+    return got.shape == want.shape and got.dtype == np.float64 and np.array_equal(got, want)
+
+
 def test_stratified_2d_matches_the_reference_bit_for_bit():
     rng = np.random.default_rng(11)
     for bits in range(0, 33):
@@ -120,19 +126,15 @@ def test_stratified_2d_matches_the_reference_bit_for_bit():
         sample = rng.integers(0, 1 << bits, n) if bits else np.zeros(n, np.int64)
         sample[:3] = [0, (1 << bits) - 1, 1 << bits]   # both ends, and one past (wraps)
         for seed, dimension in ((0, 0), (int(rng.integers(2**31)), 5), (-3, 2**33 + 1)):
-            got = S.stratified_2d(pixel, sample, seed, dimension, bits)
-            want = [_ref_stratified(p, s, seed, dimension, bits) for p, s in zip(pixel, sample)]
-            assert got.shape == (2, n) and got.dtype == np.float64
-            assert np.array_equal(got, np.array(want).T), (bits, seed, dimension)
+            assert S.stratified_2d(pixel, sample, seed, dimension, bits).shape == (2, n)
+            assert _matches_reference(pixel, sample, seed, dimension, bits), (bits, seed, dimension)
 
 
 def test_stratified_2d_matches_the_reference_for_other_integer_types():
     pixel = np.array([0, 7, 2**31 - 1, 40_000], np.int32)
     for dtype in (np.int32, np.uint32, np.uint64, np.int16):
         sample = np.array([0, 3, 63, 17], dtype)
-        got = S.stratified_2d(pixel, sample, 9, 4, 6)
-        want = [_ref_stratified(p, s, 9, 4, 6) for p, s in zip(pixel, sample)]
-        assert np.array_equal(got, np.array(want).T), dtype
+        assert _matches_reference(pixel, sample, 9, 4, 6), dtype
 
 
 # stratified_2d(PIXELS, SAMPLES, seed, dimension, bits) * 2^24, recorded before the sampler was

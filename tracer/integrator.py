@@ -165,8 +165,7 @@ class Renderer:
 
         for depth in range(self.max_depth + 1):
             # Stage 1: intersect.
-            prim, u, v, t = geom.intersect(o, d, tmax)
-            t = t.astype(np.float64)
+            prim, u, v, t = geom.intersect(o, d, tmax)     # t stays float32: few paths use it
             alive = prim >= 0
 
             # Stage 2: lamps, world and emissive surfaces add their light.
@@ -196,7 +195,8 @@ class Renderer:
             if emits.any():
                 e = np.flatnonzero(emits)
                 w = self._mis(specular[e], pdf_prev[e],
-                              lambda: lights.pdf_triangle(prim[e], o[:, e], d[:, e], t[e]))
+                              lambda: lights.pdf_triangle(prim[e], o[:, e], d[:, e],
+                                                          t[e].astype(np.float64)))
                 radiance[:, path[e]] += beta[:, e] * self.radiance[:, mat[e]] * w
             scatters = alive & ~emits
             if depth == self.max_depth:

@@ -38,10 +38,17 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
+def _spherical_triangle(a: np.ndarray, b: np.ndarray, c: np.ndarray):
+    """Cosines of the sides (b c, a c, a b), |a . (b x c)| and the solid angle (Van Oosterom and
+    Strackee 1983) of spherical triangles with unit corners a, b, c (3, n)."""
+    cos_a, cos_b, cos_c = dot(b, c), dot(a, c), dot(a, b)
+    mixed = np.abs(dot(a, cross(b, c)))
+    return cos_a, cos_b, cos_c, mixed, 2.0 * np.arctan2(mixed, 1.0 + cos_a + cos_b + cos_c)
+
+
 def solid_angle(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Solid angle of the spherical triangles with unit corners a, b, c (3, n) (Van Oosterom and
-    Strackee 1983)."""
-    return 2.0 * np.arctan2(np.abs(dot(a, cross(b, c))), 1.0 + dot(a, b) + dot(b, c) + dot(a, c))
+    """Solid angle of the spherical triangles with unit corners a, b, c (3, n)."""
+    return _spherical_triangle(a, b, c)[4]
 
 
 def sample_spherical_triangle(a: np.ndarray, b: np.ndarray, c: np.ndarray, u: np.ndarray):
@@ -51,9 +58,7 @@ def sample_spherical_triangle(a: np.ndarray, b: np.ndarray, c: np.ndarray, u: np
     Arvo's method in the form Cycles uses: u[0] chooses the sub-triangle a, b, c' of area
     u[0] x the solid angle, u[1] a point on the arc from b to c'.
     """
-    cos_a, cos_b, cos_c = dot(b, c), dot(a, c), dot(a, b)
-    mixed = np.abs(dot(a, cross(b, c)))
-    omega = 2.0 * np.arctan2(mixed, 1.0 + cos_a + cos_b + cos_c)
+    cos_a, cos_b, cos_c, mixed, omega = _spherical_triangle(a, b, c)
     sub = u[0] * omega
     sin_sub, cos_sub = np.sin(sub), np.cos(sub)
     # cos and sin of the angle at a, both without their common factor sin(b) sin(c).
