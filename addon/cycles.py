@@ -61,7 +61,9 @@ def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2):
         ("cycles.diffuse_bounces", b, "per-kind limits equal to max_bounces"),
         ("cycles.glossy_bounces", b, "per-kind limits equal to max_bounces"),
         ("cycles.transmission_bounces", b, "per-kind limits equal to max_bounces"),
-        ("cycles.transparent_max_bounces", b, "per-kind limits equal to max_bounces"),
+        ("cycles.transparent_max_bounces", 1024, "Cycles counts each crossing of a light object "
+         "as a transparent bounce (a workaround in shade_light.h); Snell's lamps have no such "
+         "limit and it has no other transparency, so the limit is lifted"),
         ("cycles.volume_bounces", 0, "Snell has no volumes"),
         ("cycles.min_light_bounces", 0, "no forced bounces"),
         ("cycles.min_transparent_bounces", 0, "no forced bounces"),

@@ -191,6 +191,28 @@ def test_disk_area_light_irradiance():
     assert abs(img[..., 0].mean() - expected) < 4.5 * math.sqrt(var[..., 0].sum()) / 81 + 2e-3
 
 
+def test_lamps_are_transparent_to_camera_rays():
+    """Lamps have no surface (Cycles' light objects): a camera ray adds the light of every lamp it
+    crosses and goes on to the emissive wall behind them, so the centre pixel is exactly
+    L_front + L_back + L_wall, and a lamp seen from behind adds nothing."""
+    wall = quad((0, 0, -1), 5, 5)
+    mats = [{"name": "Wall", "kind": "emission", "color": WHITE, "strength": 0.25}]
+
+    def lamp(z, radiance, facing_camera=True):
+        m = np.eye(4)
+        m[:3, 3] = (0, 0, z)
+        if facing_camera:
+            m[:3, 1:3] *= -1             # a half turn about X: it emits along +Z, to the camera
+        return {"name": f"L{z}", "kind": "area", "shape": "square", "matrix": m.tolist(),
+                "size": [1.0, 1.0], "radiance": [radiance] * 3, "visible_camera": True}
+
+    lamps = [lamp(1.0, 2.0), lamp(0.5, 0.5), lamp(0.2, 100.0, facing_camera=False)]
+    scene = make_scene([(*wall, 0)], mats, camera(resolution=(9, 9), lens=200.0), lights=lamps,
+                       spp=4, max_depth=0)
+    img = render(scene).mean()
+    assert np.allclose(img[4, 4], 2.0 + 0.5 + 0.25, rtol=1e-6)
+
+
 def test_max_depth_semantics():
     """m = 0 shows only emitters; m = 1 adds direct light on surfaces (Cycles max_bounces 0)."""
     floor = quad((0, 0, 0), 50, 50)

@@ -168,20 +168,16 @@ class Renderer:
             prim, u, v, t = geom.intersect(o, d, tmax)     # t stays float32: few paths use it
             alive = prim >= 0
 
-            # Stage 2: lamps, world and emissive surfaces add their light.
+            # Stage 2: lamps, world and emissive surfaces add their light. Lamps have no
+            # surface, as in Cycles: a ray adds the light of every lamp it crosses before its
+            # hit (or escape) and goes on as if the lamp were not there.
             if area.count:
-                lamp, t_lamp = area.intersect(o, d, np.where(alive, np.minimum(t, tmax), tmax),
-                                              camera_rays=depth == 0)
-                hit = np.flatnonzero(lamp >= 0)
-                if len(hit):
+                t_surface = np.where(alive, np.minimum(t, tmax), tmax)
+                for lamp, hit, t_lamp in area.crossings(o, d, t_surface, camera_rays=depth == 0):
                     w = self._mis(specular[hit], pdf_prev[hit],
-                                  lambda: lights.pdf_area(lamp[hit], d[:, hit], t_lamp[hit]))
-                    radiance[:, path[hit]] += beta[:, hit] * area.radiance[:, lamp[hit]] * w
-                    alive[hit] = False     # lamps do not scatter
-                    prim[hit] = 0
-                missed = np.flatnonzero((lamp < 0) & ~alive)
-            else:
-                missed = np.flatnonzero(~alive)
+                                  lambda: lights.pdf_area(lamp, d[:, hit], t_lamp))
+                    radiance[:, path[hit]] += beta[:, hit] * area.radiance[:, lamp:lamp + 1] * w
+            missed = np.flatnonzero(~alive)
             if len(missed) and self.has_world:
                 w = self._mis(specular[missed], pdf_prev[missed], lights.pdf_world)
                 radiance[:, path[missed]] += beta[:, missed] * self.world[:, None] * w

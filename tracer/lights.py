@@ -130,11 +130,12 @@ class AreaLights:
             self.radiance[:, i] = light["radiance"]
             self.visible_camera[i] = bool(light.get("visible_camera", True))
 
-    def intersect(self, o, d, tmax, camera_rays: bool):
-        """Nearest front-face lamp hit closer than tmax for (3, n) rays: (lamp index or -1, t)."""
-        n = o.shape[1]
-        best = np.full(n, -1, np.int64)
-        best_t = np.asarray(tmax, dtype=np.float64).copy()
+    def crossings(self, o, d, tmax, camera_rays: bool):
+        """Every front-face lamp crossing closer than tmax of (3, n) rays: (lamp, rows, t) per lamp.
+
+        Lamps have no surface (Cycles' lights): a ray picks up the light of each lamp it crosses
+        and goes on, so all crossings count, not only the nearest.
+        """
         for i in range(self.count):
             if camera_rays and not self.visible_camera[i]:
                 continue
@@ -145,7 +146,7 @@ class AreaLights:
                 continue
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (emit @ self.center[:, i] - emit @ o) / denom
-            idx = np.nonzero(front & (t > 0.0) & (t < best_t))[0]
+            idx = np.nonzero(front & (t > 0.0) & (t < tmax))[0]
             if not len(idx):
                 continue
             q = o[:, idx] + t[idx] * d[:, idx] - self.center[:, i:i + 1]
@@ -153,9 +154,8 @@ class AreaLights:
             b = (self.ey[:, i] @ q) / self.half[1, i]
             inside = (a * a + b * b <= 1.0) if self.ellipse[i] else ((np.abs(a) <= 1.0) & (np.abs(b) <= 1.0))
             idx = idx[inside]
-            best[idx] = i
-            best_t[idx] = t[idx]
-        return best, best_t
+            if len(idx):
+                yield i, idx, t[idx]
 
     def sample_points(self, lamp: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Uniform points (3, n) on the given lamps for u (2, n)."""
