@@ -153,12 +153,13 @@ def test_thin_lens_focal_plane_stays_sharp():
     assert (off_plane[..., 0] > 0).sum() > 9
 
 
-def test_pinhole_uses_no_lens_samples(monkeypatch):
+def test_depth_of_field_off_is_a_pinhole():
+    """With depth of field off, the f-stop plays no part: the out-of-focus emitter stays sharp."""
     scene = _emitter_sphere_scene(6.0, 0.01, 3.0, 0.4).with_camera(dof={"use_dof": False})
     cam = Camera(scene.camera)
-    assert not cam.has_lens
-    monkeypatch.setattr(Camera, "lens_samples", lambda *a: pytest.fail("lens sampled without DoF"))
-    render(scene)
+    assert not cam.has_lens and cam.params().lens_radius == 0.0
+    img = render(scene).mean()
+    assert _second_moment_px(img, cam) < 0.5 and (img[..., 0] > 0).sum() <= 9
 
 
 def _lit_floor(max_depth, light):
@@ -256,14 +257,14 @@ def test_nan_samples_are_counted_and_kept_out_of_the_image(monkeypatch):
     pos, tri, nrm = icosphere(2)
     mats = [{"name": "Grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
     scene = make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(8, 8)), world=WHITE, spp=2)
-    original = Renderer.trace
+    from snell.tracer import wavefront
+    original = wavefront.film
 
-    def poisoned(self, pixel, rng, *args):
-        value, stats = original(self, pixel, rng, *args)
-        value[1, ::7] = np.nan
-        value[0, ::11] = np.inf
-        return value, stats
-    monkeypatch.setattr(Renderer, "trace", poisoned)
+    def poisoned(radiance, n, *args):
+        radiance[:n:7, 1] = np.nan
+        radiance[:n:11, 0] = np.inf
+        return original(radiance, n, *args)
+    monkeypatch.setattr(wavefront, "film", poisoned)
     result = render(scene)
     # One pass of 128 paths (64 pixels x 2 samples) in one chunk.
     expected_bad = len(set(range(0, 128, 7)) | set(range(0, 128, 11)))

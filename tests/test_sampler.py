@@ -1,7 +1,7 @@
 """The stratified sampler: exact net structure per pixel, uniform and unbiased overall."""
 import math
-from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
 from scipy import stats
 
@@ -11,12 +11,14 @@ from snell.tracer.integrator import Renderer
 
 
 def test_reverse_bits_and_sobol_test_vectors():
-    x = np.array([1, 2, 0x80000000, 0x12345678], np.uint32)
-    assert [int(v) for v in S.reverse_bits(x)] == [int(format(int(a), "032b")[::-1], 2) for a in x]
-    first, second = S.sobol_pair(np.arange(4))
+    for x in (1, 2, 0x80000000, 0x12345678):
+        assert S.reverse_bits(np.uint64(x)) == int(format(x, "032b")[::-1], 2)
     # Sobol's first points: (0, 0), (1/2, 1/2), (1/4, 3/4), (3/4, 1/4).
-    assert np.allclose(S.to_unit(first), [0, 0.5, 0.25, 0.75])
-    assert np.allclose(S.to_unit(second), [0, 0.5, 0.75, 0.25])
+    first = [S.to_unit(S.reverse_bits(np.uint64(i))) for i in range(4)]
+    second = [S.to_unit(S.sobol_second(np.uint64(i))) for i in range(4)]
+    assert first == [0, 0.5, 0.25, 0.75] and second == [0, 0.5, 0.75, 0.25]
+    for i in (0, 1, 5, 65535, 65536, 2**31 + 3):
+        assert S.sobol_second_reversed(np.uint64(i)) == S.reverse_bits(S.sobol_second(np.uint64(i)))
 
 
 def test_every_power_of_two_prefix_of_a_pixel_is_a_stratified_net():
@@ -172,21 +174,6 @@ def test_stratified_2d_reproduces_the_recorded_values():
         assert np.array_equal(got * (1 << 24), want), (seed, dimension, bits)
 
 
-def test_keyed_draws_equal_stratified_2d():
-    """pixel_key once per path, then stratified_2d_keyed per dimension, on any subset of paths."""
-    rng = np.random.default_rng(4)
-    pixel, sample = rng.integers(0, 1920 * 1080, 5000), rng.integers(0, 64, 5000)
-    key = S.pixel_key(pixel, 13)
-    # Shrinking and growing subsets, as a chunk's bounces use them: the scratch buffers are reused.
-    for rows in (slice(None), rng.random(5000) < 0.7, rng.random(5000) < 0.2, slice(None),
-                 np.flatnonzero(rng.random(5000) < 0.5)):
-        for dimension in (0, 1, 2, 3, 4, 5, 6, 7):
-            for bits in (1, 6, 10, 16, 17):
-                want = S.stratified_2d(pixel[rows], sample[rows], 13, dimension, bits)
-                got = S.stratified_2d_keyed(key[rows], sample[rows], dimension, bits)
-                assert np.array_equal(got, want), (dimension, bits)
-
-
 def test_stratified_2d_broadcasts_and_handles_empty_input():
     one = S.stratified_2d(np.int64(5), np.arange(8), 1, 2, 3)
     many = S.stratified_2d(np.full(8, 5), np.arange(8), 1, 2, 3)
@@ -196,12 +183,30 @@ def test_stratified_2d_broadcasts_and_handles_empty_input():
     assert S.stratified_2d(np.zeros(0, np.int64), np.zeros(0, np.int64), 1, 2, 3).shape == (2, 0)
 
 
-def test_threads_draw_the_same_points():
-    """The scratch buffers are per thread: concurrent draws of different sizes do not mix."""
-    rng = np.random.default_rng(8)
-    jobs = [(rng.integers(0, 10**6, n), rng.integers(0, 256, n), d) for n in (3000, 700, 5000, 1)
-            for d in range(4)] * 3
-    serial = [S.stratified_2d(p, s, 2, d, 8) for p, s, d in jobs]
-    with ThreadPoolExecutor(4) as pool:
-        parallel = list(pool.map(lambda job: S.stratified_2d(job[0], job[1], 2, job[2], 8), jobs))
-    assert all(np.array_equal(a, b) for a, b in zip(serial, parallel))
+@numba.njit(cache=True)
+def _random_pairs(pixels, samples, seed, dimension):
+    out = np.empty((2, len(pixels)))
+    for i in range(len(pixels)):
+        out[0, i], out[1, i] = S.random_pair(S.pixel_key(pixels[i], seed), samples[i], dimension)
+    return out
+
+
+def test_random_pairs_are_uniform_and_independent():
+    """The independent sampler: uniform in 2D, and no correlation between a pixel's consecutive
+    samples, between dimensions, or with the stratified pair of the same key."""
+    n, spp = 100_000, 4
+    pixels = np.repeat(np.arange(n // spp), spp)
+    samples = np.tile(np.arange(spp), n // spp)
+    alpha = 1 - (1 - 0.01) ** (1 / 4)
+    u = _random_pairs(pixels, samples, 3, 7)
+    assert u.min() >= 0.0 and u.max() < 1.0
+    assert stats.chisquare(np.histogram2d(u[0], u[1], bins=16, range=[[0, 1], [0, 1]])[0].ravel()).pvalue > alpha
+    consecutive = u[0].reshape(-1, spp)
+    h = np.histogram2d(consecutive[:, 0], consecutive[:, 1], bins=16, range=[[0, 1], [0, 1]])[0]
+    assert stats.chisquare(h.ravel()).pvalue > alpha
+    other = _random_pairs(pixels, samples, 3, 8)
+    h = np.histogram2d(u[0], other[0], bins=16, range=[[0, 1], [0, 1]])[0]
+    assert stats.chisquare(h.ravel()).pvalue > alpha
+    strat = S.stratified_2d(pixels, samples, 3, 7, 2)
+    h = np.histogram2d(u[0], strat[0], bins=16, range=[[0, 1], [0, 1]])[0]
+    assert stats.chisquare(h.ravel()).pvalue > alpha

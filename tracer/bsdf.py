@@ -1,155 +1,198 @@
-"""Scattering functions on arrays: Fresnel, reflection, refraction and their samplers.
-
-Vectors are structure-of-arrays: shape (3, n), one row per coordinate, so every operation runs
-on contiguous rows instead of strided (n, 3) columns (about five times faster in numpy).
+"""Scattering functions, one vertex at a time: Fresnel, reflection, refraction and their samplers.
 
 Conventions follow Cycles (docs: shared/reference/cycles-conventions.md): directions are unit
-vectors, `eta` is the relative index n_transmitted / n_incident, and a smooth dielectric weights
-both reflection and refraction by its colour alone (no 1/eta^2 radiance scaling).
+vectors (tuples, see vec.py), `eta` is the relative index n_transmitted / n_incident, and a
+smooth dielectric weights both reflection and refraction by its colour alone (no 1/eta^2
+radiance scaling).
 """
 from __future__ import annotations
 
-import numpy as np
+import math
+
+from .jit import jit
+from .vec import add, dot, madd, mul, sub
 
 # Material kind codes, per triangle in the integrator (order matches scene.MATERIAL_KINDS).
 DIFFUSE, MIRROR, GLASS, REFRACTION, EMISSION = range(5)
+# Fresnel models (order matches scene.FRESNEL_MODELS).
+EXACT, SCHLICK = range(2)
+# What a specular vertex did (for the integrator's counters).
+REFLECTED, TRANSMITTED, TIR, TIR_ABSORBED = range(4)
 
 
-def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Dot products of two (3, n) vector arrays."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def normalize(v: np.ndarray) -> np.ndarray:
-    """Columns of a (3, n) array scaled to unit length."""
-    return v * (1.0 / np.sqrt(dot(v, v)))
-
-
+@jit
 def fresnel_dielectric(cos_i, eta):
     """Exact unpolarised Fresnel reflectance and the cosine of the refracted ray.
 
-    cos_i >= 0 is the cosine on the incident side, eta = n_t / n_i. Total internal reflection
-    gives F = 1 and cos_t = 0 (tested before any square root, so it never makes a NaN).
+    cos_i is clamped to [0, 1], eta = n_t / n_i. Total internal reflection gives F = 1 and
+    cos_t = 0 (tested before any square root, so it never makes a NaN).
     """
-    cos_i = np.clip(np.asarray(cos_i, dtype=np.float64), 0.0, 1.0)
-    eta = np.asarray(eta, dtype=np.float64)
+    cos_i = min(max(cos_i, 0.0), 1.0)
     g2 = eta * eta - 1.0 + cos_i * cos_i
-    tir = g2 <= 0.0
-    cos_t = np.sqrt(np.where(tir, 1.0, g2)) / eta
+    if g2 <= 0.0:
+        return 1.0, 0.0
+    cos_t = math.sqrt(g2) / eta
     r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
     r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
-    f = 0.5 * (r_s * r_s + r_p * r_p)
-    return np.where(tir, 1.0, f), np.where(tir, 0.0, cos_t)
+    return 0.5 * (r_s * r_s + r_p * r_p), cos_t
 
 
+@jit
 def fresnel_schlick(cos_i, eta):
     """Schlick's approximation (the seed's choice) and the refracted cosine.
 
     R0 = ((eta - 1) / (eta + 1))^2 and the cosine taken on the less dense side, as Schlick's
     approximation requires (for exits that is the refracted cosine). TIR gives F = 1.
     """
-    cos_i = np.clip(np.asarray(cos_i, dtype=np.float64), 0.0, 1.0)
-    eta = np.asarray(eta, dtype=np.float64)
+    cos_i = min(max(cos_i, 0.0), 1.0)
     sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
-    tir = sin2_t >= 1.0
-    cos_t = np.sqrt(np.where(tir, 0.0, 1.0 - sin2_t))
+    if sin2_t >= 1.0:
+        return 1.0, 0.0
+    cos_t = math.sqrt(1.0 - sin2_t)
     r0 = ((eta - 1.0) / (eta + 1.0)) ** 2
-    c = np.where(eta >= 1.0, cos_i, cos_t)
-    f = r0 + (1.0 - r0) * (1.0 - c) ** 5
-    return np.where(tir, 1.0, f), np.where(tir, 0.0, cos_t)
+    c = cos_i if eta >= 1.0 else cos_t
+    return r0 + (1.0 - r0) * (1.0 - c) ** 5, cos_t
 
 
-FRESNEL = {"exact": fresnel_dielectric, "schlick": fresnel_schlick}
+@jit
+def fresnel(model, cos_i, eta):
+    """Reflectance and refracted cosine by the scene's Fresnel model (EXACT or SCHLICK)."""
+    if model == SCHLICK:
+        return fresnel_schlick(cos_i, eta)
+    return fresnel_dielectric(cos_i, eta)
 
 
-def reflect(d: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Mirror the incoming directions d about the normals n (both (3, n))."""
-    return d - (2.0 * dot(d, n)) * n
+@jit
+def reflect(d, n):
+    """Mirror the incoming direction d about the normal n."""
+    return madd(d, -2.0 * dot(d, n), n)
 
 
-def valid_reflection_normal(ng: np.ndarray, wi: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Cycles' ensure_valid_specular_reflection: bend shading normals n towards ng just enough
+@jit
+def refract(d, n, eta, cos_i, cos_t):
+    """Refract d through a surface whose normal n faces the incident side (eta = n_t / n_i)."""
+    inv = 1.0 / eta
+    return madd(mul(d, inv), inv * cos_i - cos_t, n)
+
+
+@jit
+def valid_reflection_normal(ng, wi, n):
+    """Cycles' ensure_valid_specular_reflection: bend the shading normal n towards ng just enough
     that the mirror reflection of wi (pointing away from the surface, like ng) clears it.
 
     The reflection ends at height t = min(0.9 wi.ng, 0.01) above the surface: in the plane of ng
     and n, n' = (sqrt(1 - z^2), z) solves 4 a z^4 - 2 b z^2 + c = 0 with a = Ix^2 + Iz^2,
     b = 2 (a + Iz t), c = (Iz + t)^2; Cycles takes the larger root when wi.x < 0.
     """
-    r_height = 2.0 * dot(n, wi) * dot(n, ng) - dot(wi, ng)
     iz = dot(wi, ng)
-    t = np.minimum(0.9 * iz, 0.01)
-    bad = r_height < t
-    if not bad.any():
+    t = min(0.9 * iz, 0.01)
+    if 2.0 * dot(n, wi) * dot(n, ng) - iz >= t:
         return n
-    x = n - dot(n, ng) * ng
-    length = np.sqrt(dot(x, x))
-    x = np.where(length > 0.0, x / np.where(length > 0.0, length, 1.0), n)
+    x = sub(n, mul(ng, dot(n, ng)))
+    x_len = math.sqrt(dot(x, x))
+    x = mul(x, 1.0 / x_len) if x_len > 0.0 else n
     ix = dot(wi, x)
     a = ix * ix + iz * iz
+    if not a > 0.0:
+        return n
     b = 2.0 * (a + iz * t)
     c = (iz + t) ** 2
-    root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z2 = np.where(ix < 0.0, b + root, b - root) * 0.25 / a
-    fixed = np.sqrt(np.maximum(1.0 - z2, 0.0)) * x + np.sqrt(np.maximum(z2, 0.0)) * ng
-    return np.where(bad & (a > 0.0), fixed, n)
+    root = math.sqrt(max(b * b - 4.0 * a * c, 0.0))
+    z2 = ((b + root) if ix < 0.0 else (b - root)) * 0.25 / a
+    return add(mul(x, math.sqrt(max(1.0 - z2, 0.0))), mul(ng, math.sqrt(max(z2, 0.0))))
 
 
-def refract(d: np.ndarray, n: np.ndarray, eta, cos_i, cos_t) -> np.ndarray:
-    """Refract d through surfaces whose normals n face the incident side (eta = n_t / n_i)."""
-    inv = 1.0 / np.asarray(eta, dtype=np.float64)
-    return inv * d + (inv * cos_i - cos_t) * n
+@jit
+def sample_specular(kind, d, ng, n, entering, color, trans_color, ior, fresnel_model, u):
+    """Sample a mirror, smooth glass or refraction-only surface for the incoming direction d.
+
+    ng and n face the incoming ray (n already bent by valid_reflection_normal where Cycles bends
+    it); u in [0, 1) chooses reflection with probability F on glass. Returns (new direction,
+    weight, event, valid): the weight is colour for reflections and transmission colour for
+    refractions. valid is False where Cycles rejects the sample: the shading normal faces away
+    from the viewer, or the new direction is not on the side its event implies for both normals.
+    A refraction-only surface has nothing to give under total internal reflection (event
+    TIR_ABSORBED, weight 0).
+    """
+    cos_i = -dot(d, n)
+    if kind == MIRROR:
+        out, event, weight = reflect(d, n), REFLECTED, color
+    else:
+        eta = ior if entering else 1.0 / ior
+        f, cos_t = fresnel(fresnel_model, cos_i, eta)
+        if f >= 1.0:
+            if kind == REFRACTION:
+                return d, (0.0, 0.0, 0.0), TIR_ABSORBED, True
+            out, event, weight = reflect(d, n), TIR, color
+        elif kind == GLASS and u < f:
+            out, event, weight = reflect(d, n), REFLECTED, color
+        else:
+            out, event, weight = refract(d, n, eta, cos_i, cos_t), TRANSMITTED, trans_color
+    refracts = event == TRANSMITTED
+    valid = cos_i > 0.0 and (dot(ng, out) < 0.0) == refracts and (dot(n, out) < 0.0) == refracts
+    return out, weight, event, valid
 
 
-def orthonormal_basis(n: np.ndarray):
-    """Two unit tangents completing the normals n (Duff et al. 2017, branchless)."""
-    sign = np.where(n[2] >= 0.0, 1.0, -1.0)
+@jit
+def orthonormal_basis(n):
+    """Two unit tangents completing the unit normal n (Duff et al. 2017, branchless)."""
+    sign = 1.0 if n[2] >= 0.0 else -1.0
     a = -1.0 / (sign + n[2])
     b = n[0] * n[1] * a
-    t = np.stack([1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]])
-    s = np.stack([b, sign + n[1] * n[1] * a, -n[1]])
-    return t, s
+    return ((1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]),
+            (b, sign + n[1] * n[1] * a, -n[1]))
 
 
-def sample_cosine_hemisphere(n: np.ndarray, u: np.ndarray):
-    """Cosine-weighted directions around the normals n for u (2, n); returns (wi, pdf)."""
-    r = np.sqrt(u[0])
-    phi = 2.0 * np.pi * u[1]
-    x, y = r * np.cos(phi), r * np.sin(phi)
-    z = np.sqrt(np.maximum(0.0, 1.0 - u[0]))
+@jit
+def sample_cosine_hemisphere(n, u0, u1):
+    """A cosine-weighted direction around the unit normal n and its density (cos / pi)."""
+    r = math.sqrt(u0)
+    phi = 2.0 * math.pi * u1
+    z = math.sqrt(max(0.0, 1.0 - u0))
     t, s = orthonormal_basis(n)
-    return x * t + y * s + z * n, z * (1.0 / np.pi)
+    return add(add(mul(t, r * math.cos(phi)), mul(s, r * math.sin(phi))), mul(n, z)), z / math.pi
 
 
-def sample_uniform_sphere(u: np.ndarray) -> np.ndarray:
-    """Uniform directions on the unit sphere (pdf 1 / 4 pi) for u (2, n)."""
-    z = 1.0 - 2.0 * u[0]
-    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    phi = 2.0 * np.pi * u[1]
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z])
+@jit
+def sample_uniform_sphere(u0, u1):
+    """A uniform direction on the unit sphere (density 1 / 4 pi)."""
+    z = 1.0 - 2.0 * u0
+    r = math.sqrt(max(0.0, 1.0 - z * z))
+    phi = 2.0 * math.pi * u1
+    return (r * math.cos(phi), r * math.sin(phi), z)
 
 
-def sample_uniform_disk(u: np.ndarray) -> np.ndarray:
-    """Uniform points (2, n) on the unit disk (concentric mapping, so strata stay compact)."""
-    a = 2.0 * u[0] - 1.0
-    b = 2.0 * u[1] - 1.0
-    use_a = np.abs(a) > np.abs(b)
-    r = np.where(use_a, a, b)
-    safe_a = np.where(a == 0.0, 1.0, a)
-    safe_b = np.where(b == 0.0, 1.0, b)
-    theta = np.where(use_a, (np.pi / 4.0) * (b / safe_a), np.pi / 2.0 - (np.pi / 4.0) * (a / safe_b))
-    theta = np.where((a == 0.0) & (b == 0.0), 0.0, theta)
-    return np.stack([r * np.cos(theta), r * np.sin(theta)])
+@jit
+def sample_uniform_disk(u0, u1):
+    """A uniform point (x, y) on the unit disk (concentric mapping, so strata stay compact)."""
+    a = 2.0 * u0 - 1.0
+    b = 2.0 * u1 - 1.0
+    if a == 0.0 and b == 0.0:
+        return 0.0, 0.0
+    if abs(a) > abs(b):
+        r, theta = a, (math.pi / 4.0) * (b / a)
+    else:
+        r, theta = b, math.pi / 2.0 - (math.pi / 4.0) * (a / b)
+    return r * math.cos(theta), r * math.sin(theta)
 
 
-def sample_regular_polygon(u: np.ndarray, blades: int, rotation: float) -> np.ndarray:
-    """Uniform points (2, n) in a regular polygon inscribed in the unit circle, as Cycles' aperture."""
-    corner = np.floor(u[0] * blades)
-    s = np.sqrt(u[0] * blades - corner)
-    v = u[1] * s
+@jit
+def sample_regular_polygon(u0, u1, blades, rotation):
+    """A uniform point (x, y) in a regular polygon inscribed in the unit circle, as Cycles' aperture."""
+    corner = math.floor(u0 * blades)
+    s = math.sqrt(u0 * blades - corner)
+    v = u1 * s
     a = 1.0 - s
-    half = np.pi / blades
-    px, py = (a + v) * np.cos(half), (a - v) * np.sin(half)
-    rot = rotation + corner * 2.0 * np.pi / blades
-    c, sn = np.cos(rot), np.sin(rot)
-    return np.stack([c * px - sn * py, sn * px + c * py])
+    half = math.pi / blades
+    px, py = (a + v) * math.cos(half), (a - v) * math.sin(half)
+    rot = rotation + corner * 2.0 * math.pi / blades
+    c, sn = math.cos(rot), math.sin(rot)
+    return c * px - sn * py, sn * px + c * py
+
+
+@jit
+def power_heuristic(a, b):
+    """MIS weight of strategy a against b (both densities in solid angle)."""
+    a2, b2 = a * a, b * b
+    return a2 / (a2 + b2) if a2 + b2 > 0.0 else 0.0
+

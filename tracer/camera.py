@@ -1,18 +1,43 @@
 """Blender's perspective camera, built as Cycles builds it, with the thin lens.
 
 Camera space is Blender's: looking down -Z with +Y up. Raster y = 0 is the bottom row (Cycles);
-images are returned top row first, so the integrator maps image row r to raster row H - 1 - r.
+images are returned top row first, so image row r is raster row H - 1 - r.
+`Camera` works out the parameters once; `camera_ray` turns one pixel and lens sample into a ray
+in compiled code.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-from . import bsdf
+from .bsdf import sample_regular_polygon, sample_uniform_disk
+from .jit import jit, jit_inline
 from .scene import aperture_radius
+from .vec import madd, mul, normalize
+
+
+class CameraParams(NamedTuple):
+    """What camera_ray needs, as plain numbers and arrays."""
+    width: int
+    height: int
+    half_x: float
+    half_y: float
+    shift_x: float
+    shift_y: float
+    clip_start: float
+    clip_end: float
+    rotation: np.ndarray        # (3, 3) camera-to-world, scale removed
+    position: np.ndarray        # (3,)
+    lens_radius: float
+    focus_distance: float
+    blades: int
+    blade_rotation: float
+    inv_ratio: float
 
 
 class Camera:
-    """Turns pixel and lens samples into world-space rays."""
+    """A scene camera's parameters, and rays for arrays of samples (tests, tools)."""
 
     def __init__(self, cam: dict):
         pct = cam.get("resolution_percentage", 100)
@@ -55,6 +80,14 @@ class Camera:
         """Whether rays need lens samples (depth of field on with a non-zero aperture)."""
         return self.lens_radius > 0.0
 
+    def params(self) -> CameraParams:
+        """The parameters for compiled code."""
+        return CameraParams(self.width, self.height, self.half_x, self.half_y, self.shift_x,
+                            self.shift_y, self.clip_start, self.clip_end,
+                            np.ascontiguousarray(self.rotation), self.position.copy(),
+                            float(self.lens_radius), self.focus_distance, self.blades,
+                            self.blade_rotation, self.inv_ratio)
+
     def raster_to_camera(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Points (3, n) on the plane z = -1 (camera space) for raster coordinates (y = 0 at the bottom)."""
         cx = -self.half_x + (2.0 * self.half_x / self.width) * x + self.shift_x
@@ -63,41 +96,19 @@ class Camera:
 
     def lens_samples(self, u: np.ndarray) -> np.ndarray:
         """Points (2, n) on the aperture (camera space, z = 0) for uniform samples u (2, n)."""
-        if self.blades >= 3:
-            p = bsdf.sample_regular_polygon(u, self.blades, self.blade_rotation)
-        else:
-            p = bsdf.sample_uniform_disk(u)
-        p[0] *= self.inv_ratio
-        return p * self.lens_radius
+        out = np.empty((2, u.shape[1]))
+        _lens_points(self.params(), np.ascontiguousarray(u, dtype=np.float64), out)
+        return out
 
     def generate(self, pixel: np.ndarray, u_pixel: np.ndarray, u_lens: np.ndarray | None):
-        """Rays for image pixels (index = row * width + col, row 0 at the top).
-
-        u_pixel and u_lens are (2, n) uniform samples. Returns world-space origins and unit
-        directions, both (3, n) float64, and the distance from origin to the far clip. Origins
-        already sit on the near clip plane, because Embree's tnear is fixed at 0.
-        """
-        row, col = np.divmod(pixel, self.width)
-        x = col + u_pixel[0]
-        y = (self.height - 1 - row) + u_pixel[1]
-        d_pinhole = bsdf.normalize(self.raster_to_camera(x, y))
-        z_inv = -1.0 / d_pinhole[2]
-        if self.has_lens and u_lens is not None:
-            lens = self.lens_samples(u_lens)
-            # Cycles focuses on a plane: P_focus = D * focus / D.z, then D = P_focus - P_lens.
-            p_focus = d_pinhole * (self.focus_distance * z_inv)
-            p_focus[:2] -= lens
-            d = bsdf.normalize(p_focus)
-            origin = np.zeros_like(d)
-            origin[:2] = lens
-        else:
-            origin = np.zeros_like(d_pinhole)
-            d = d_pinhole
-        origin += d * (self.clip_start * z_inv)
-        far = (self.clip_end - self.clip_start) * z_inv
-        world_o = self.rotation @ origin + self.position[:, None]
-        world_d = self.rotation @ d
-        return world_o, world_d, far
+        """Rays for image pixels (index = row * width + col, row 0 at the top): world-space
+        origins and unit directions (3, n) and the distance to the far clip (n)."""
+        n = len(pixel)
+        o, d, far = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+        u_lens = np.zeros((2, n)) if u_lens is None or not self.has_lens else u_lens
+        _camera_rays(self.params(), np.asarray(pixel, np.int64), np.asarray(u_pixel, np.float64),
+                     np.asarray(u_lens, np.float64), o, d, far)
+        return o.T, d.T, far
 
     def project(self, points: np.ndarray) -> np.ndarray:
         """Pinhole raster coordinates (2, n), y from the bottom, of world points (3, n)."""
@@ -106,3 +117,64 @@ class Camera:
         x = (plane[0] - self.shift_x + self.half_x) / (2.0 * self.half_x) * self.width
         y = (plane[1] - self.shift_y + self.half_y) / (2.0 * self.half_y) * self.height
         return np.stack([x, y])
+
+
+@jit_inline
+def lens_point(cam, u0, u1):
+    """A point (x, y) on the aperture in camera space (z = 0): disk or polygon, anamorphic ratio."""
+    if cam.blades >= 3:
+        x, y = sample_regular_polygon(u0, u1, cam.blades, cam.blade_rotation)
+    else:
+        x, y = sample_uniform_disk(u0, u1)
+    return x * cam.inv_ratio * cam.lens_radius, y * cam.lens_radius
+
+
+@jit_inline
+def camera_ray(cam, pixel, u0, u1, lens0, lens1):
+    """The world-space ray (origin, unit direction, distance to the far clip) through image pixel
+    `pixel` (row 0 at the top) at offset (u0, u1) in the pixel, through lens sample (lens0, lens1).
+
+    Origins sit on the near clip plane, because Embree's tnear is fixed at 0. Cycles focuses on a
+    plane: P_focus = D * focus / D.z, then D = P_focus - P_lens.
+    """
+    row = pixel // cam.width
+    col = pixel - row * cam.width
+    x = col + u0
+    y = (cam.height - 1 - row) + u1
+    cx = -cam.half_x + (2.0 * cam.half_x / cam.width) * x + cam.shift_x
+    cy = -cam.half_y + (2.0 * cam.half_y / cam.height) * y + cam.shift_y
+    d = normalize((cx, cy, -1.0))
+    z_inv = -1.0 / d[2]
+    o = (0.0, 0.0, 0.0)
+    if cam.lens_radius > 0.0:
+        lx, ly = lens_point(cam, lens0, lens1)
+        p_focus = mul(d, cam.focus_distance * z_inv)
+        d = normalize((p_focus[0] - lx, p_focus[1] - ly, p_focus[2]))
+        o = (lx, ly, 0.0)
+    o = madd(o, cam.clip_start * z_inv, d)
+    far = (cam.clip_end - cam.clip_start) * z_inv
+    r, t = cam.rotation, cam.position
+    world_o = (r[0, 0] * o[0] + r[0, 1] * o[1] + r[0, 2] * o[2] + t[0],
+               r[1, 0] * o[0] + r[1, 1] * o[1] + r[1, 2] * o[2] + t[1],
+               r[2, 0] * o[0] + r[2, 1] * o[1] + r[2, 2] * o[2] + t[2])
+    world_d = (r[0, 0] * d[0] + r[0, 1] * d[1] + r[0, 2] * d[2],
+               r[1, 0] * d[0] + r[1, 1] * d[1] + r[1, 2] * d[2],
+               r[2, 0] * d[0] + r[2, 1] * d[1] + r[2, 2] * d[2])
+    return world_o, world_d, far
+
+
+@jit
+def _camera_rays(cam, pixel, u_pixel, u_lens, o, d, far):
+    for i in range(pixel.shape[0]):
+        ro, rd, f = camera_ray(cam, pixel[i], u_pixel[0, i], u_pixel[1, i], u_lens[0, i], u_lens[1, i])
+        for k in range(3):
+            o[i, k] = ro[k]
+            d[i, k] = rd[k]
+        far[i] = f
+
+
+@jit
+def _lens_points(cam, u, out):
+    for i in range(u.shape[1]):
+        out[0, i], out[1, i] = lens_point(cam, u[0, i], u[1, i])
+

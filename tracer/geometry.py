@@ -1,30 +1,36 @@
-"""Triangle geometry on Embree: ray queries, hit reconstruction and self-intersection offsets.
+"""Triangle geometry: Embree queries (through embreex), hit points and self-intersection offsets.
 
-Per-triangle data is stored transposed, (k, T), so that `take(prim, axis=1)` gathers each hit's
-rows into contiguous (k, n) arrays in one call (structure of arrays, as the integrator uses).
+`Geometry` owns the Embree scene and the float64 per-triangle tables that compiled code reads
+through a `Mesh`; `hit_point` rebuilds a hit from its barycentrics and `offset_origin` lifts a
+new ray's origin off the surface (robust-tracing.md).
 """
 from __future__ import annotations
 
 import threading
 import time
+from typing import NamedTuple
 
 import numpy as np
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
+from .jit import jit, jit_inline
+from .vec import dot, madd, mul, row
+
 # Offsets scale with the coordinates (float32 spacing grows with magnitude) and have a floor
 # tied to the scene's size, because Embree reports hits at t = 0 (robust-tracing.md).
 RELATIVE_OFFSET = 2.0 ** -18
 FLOOR_OFFSET = 2.0 ** -24
-FAR = np.float32(1e30)
+FAR = 1e30
 
 
-class Hits:
-    """Surface data for hits, (3, n) vectors: point, geometric and shading normals, offset size."""
-    __slots__ = ("p", "ng", "ns", "eps")
-
-    def __init__(self, p, ng, ns, eps):
-        self.p, self.ng, self.ns, self.eps = p, ng, ns, eps
+class Mesh(NamedTuple):
+    """Per-triangle tables for compiled code."""
+    corners: np.ndarray          # (T, 3, 3) float64: triangle, corner, xyz
+    corner_normals: np.ndarray   # (T, 3, 3) float64 shading normals, or (0, 3, 3) if flat
+    face_normal: np.ndarray      # (T, 3) unit geometric normals
+    tri_scale: np.ndarray        # (T,) largest |coordinate| of each triangle
+    floor_offset: float          # smallest offset, from the scene's size
 
 
 class Geometry:
@@ -36,8 +42,7 @@ class Geometry:
         self.ray_count = 0
         self._lock = threading.Lock()
         tri = triangles.astype(np.int64)
-        # (T, 3 corners, xyz): a hit gathers its triangle's 72 contiguous bytes in one cache line
-        # or two; a (9, T) layout would cost nine scattered reads per hit on big meshes.
+        # (T, 3 corners, xyz): a hit reads its triangle's 72 contiguous bytes, one or two lines.
         corners = positions.astype(np.float64)[tri]
         self.corners = corners
         self.corner_normals = None if normals is None else normals.astype(np.float64)[tri]
@@ -45,9 +50,9 @@ class Geometry:
         length = np.linalg.norm(cross, axis=1)
         self.area = 0.5 * length
         # Degenerate triangles cannot be hit in a meaningful way; give them any unit normal.
-        unit = np.where(length[:, None] > 0.0, cross / np.where(length > 0.0, length, 1.0)[:, None],
-                        [0.0, 0.0, 1.0])
-        self.face_normal = np.ascontiguousarray(unit.T)                      # (3, T)
+        self.face_normal = np.where(length[:, None] > 0.0,
+                                    cross / np.where(length > 0.0, length, 1.0)[:, None],
+                                    [0.0, 0.0, 1.0])
         self.tri_scale = np.abs(corners).max(axis=(1, 2)) if self.count else np.zeros(0)
         extent = float(np.ptp(positions, axis=0).max()) if self.count else 1.0
         self.extent = max(extent, 1e-12)
@@ -56,6 +61,10 @@ class Geometry:
         if self.count:
             self._scene = rtcore_scene.EmbreeScene()
             TriangleMesh(self._scene, positions.astype(np.float32), triangles.astype(np.int32))
+        self.mesh = Mesh(np.ascontiguousarray(corners),
+                         np.zeros((0, 3, 3)) if normals is None
+                         else np.ascontiguousarray(self.corner_normals),
+                         np.ascontiguousarray(self.face_normal), self.tri_scale, self.floor_offset)
 
     def _timed(self, n, fn):
         start = time.perf_counter()
@@ -66,63 +75,54 @@ class Geometry:
             self.ray_count += n
         return out
 
-    def intersect(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray):
-        """Closest hit per ray of (3, n) origins and directions: (primID, -1 = miss; u; v; t)."""
-        n = o.shape[1]
+    def intersect(self, o32: np.ndarray, d32: np.ndarray, tmax32: np.ndarray):
+        """Closest hits of (n, 3) float32 rays: (primID, -1 = miss; u; v; t). tmax32 is
+        overwritten with the hit distances (embreex's output), and is the returned t."""
+        n = len(o32)
         if self._scene is None or n == 0:
-            return np.full(n, -1, np.int32), np.zeros(n, np.float32), np.zeros(n, np.float32), np.full(n, FAR)
-        o32 = np.ascontiguousarray(o.T, dtype=np.float32)
-        d32 = np.ascontiguousarray(d.T, dtype=np.float32)
-        dists = np.minimum(tmax, FAR).astype(np.float32)
-        res = self._timed(n, lambda: self._scene.run(o32, d32, dists=dists, output=1))
+            return np.full(n, -1, np.int32), np.zeros(n, np.float32), np.zeros(n, np.float32), tmax32
+        res = self._timed(n, lambda: self._scene.run(o32, d32, dists=tmax32, output=1))
         return res["primID"], res["u"], res["v"], res["tfar"]
 
-    def occluded(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> np.ndarray:
-        """True where something blocks the segment o + t d, 0 <= t < tmax ((3, n) inputs)."""
-        n = o.shape[1]
+    def occluded(self, o32: np.ndarray, d32: np.ndarray, tmax32: np.ndarray) -> np.ndarray:
+        """Per (n, 3) float32 segment o + t d, 0 <= t < tmax: 0 where blocked, -1 where free."""
+        n = len(o32)
         if self._scene is None or n == 0:
-            return np.zeros(n, bool)
-        o32 = np.ascontiguousarray(o.T, dtype=np.float32)
-        d32 = np.ascontiguousarray(d.T, dtype=np.float32)
-        dists = np.minimum(tmax, FAR).astype(np.float32)
-        res = self._timed(n, lambda: self._scene.run(o32, d32, dists=dists, query="OCCLUDED"))
-        return res == 0
-
-    def hits(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray) -> Hits:
-        """Rebuild hit points from barycentrics in float64 (not from o + t d) with their normals."""
-        u = u.astype(np.float64)
-        v = v.astype(np.float64)
-        bary = np.stack([1.0 - u - v, u, v])
-        p = interpolate(self.corners, prim, bary)
-        ng = self.face_normal.take(prim, axis=1)
-        if self.corner_normals is None:
-            ns = ng
-        else:
-            ns = interpolate(self.corner_normals, prim, bary)
-            length = np.sqrt(ns[0] * ns[0] + ns[1] * ns[1] + ns[2] * ns[2])
-            ns = np.where(length > 1e-12, ns / np.where(length > 0, length, 1.0), ng)
-        return Hits(p, ng, ns, hit_offset(self, prim, p))
+            return np.full(n, -1, np.int32)
+        return self._timed(n, lambda: self._scene.run(o32, d32, dists=tmax32, query="OCCLUDED"))
 
 
-def hit_offset(geometry: Geometry, prim: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """How far to lift points p (3, n) on triangles prim off their surface."""
-    scale = np.maximum(np.maximum(np.abs(p[0]), np.abs(p[1])), np.abs(p[2]))
-    return np.maximum(RELATIVE_OFFSET * np.maximum(geometry.tri_scale.take(prim), scale),
-                      geometry.floor_offset)
+@jit_inline
+def hit_offset(mesh, prim, p):
+    """How far to lift a point p on triangle prim off its surface."""
+    scale = max(abs(p[0]), max(abs(p[1]), abs(p[2])))
+    return max(RELATIVE_OFFSET * max(mesh.tri_scale[prim], scale), mesh.floor_offset)
 
 
-def interpolate(corner_values: np.ndarray, prim: np.ndarray, bary: np.ndarray) -> np.ndarray:
-    """Barycentric interpolation (3, n) of per-corner vectors (T, 3, 3) at triangles prim."""
-    # Gather each hit's nine contiguous values, then transpose once into contiguous (9, n) rows:
-    # twice as fast as an einsum over the gathered (n, 3, 3) block.
-    c = np.ascontiguousarray(corner_values.reshape(-1, 9).take(prim, axis=0).T)
-    out = c[0:3] * bary[0]
-    out += c[3:6] * bary[1]
-    out += c[6:9] * bary[2]
-    return out
+@jit_inline
+def hit_point(mesh, prim, u, v):
+    """The hit on triangle prim at barycentrics (u, v), rebuilt in float64 (not from o + t d):
+    (point, geometric normal, shading normal, offset size)."""
+    w = 1.0 - u - v
+    c = mesh.corners[prim]
+    p = (w * c[0, 0] + u * c[1, 0] + v * c[2, 0],
+         w * c[0, 1] + u * c[1, 1] + v * c[2, 1],
+         w * c[0, 2] + u * c[1, 2] + v * c[2, 2])
+    ng = row(mesh.face_normal, prim)
+    ns = ng
+    if mesh.corner_normals.shape[0] > 0:
+        cn = mesh.corner_normals[prim]
+        n = (w * cn[0, 0] + u * cn[1, 0] + v * cn[2, 0],
+             w * cn[0, 1] + u * cn[1, 1] + v * cn[2, 1],
+             w * cn[0, 2] + u * cn[1, 2] + v * cn[2, 2])
+        length = np.sqrt(dot(n, n))
+        if length > 1e-12:
+            ns = mul(n, 1.0 / length)
+    return p, ng, ns, hit_offset(mesh, prim, p)
 
 
-def offset_origin(p: np.ndarray, ng: np.ndarray, eps: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """Move points p (3, n) off their surface along ng, to the side `direction` leaves to."""
-    toward = ng[0] * direction[0] + ng[1] * direction[1] + ng[2] * direction[2]
-    return p + np.where(toward >= 0.0, eps, -eps) * ng
+@jit
+def offset_origin(p, ng, eps, direction):
+    """Move p off its surface along ng, to the side `direction` leaves to."""
+    return madd(p, eps if dot(ng, direction) >= 0.0 else -eps, ng)
+

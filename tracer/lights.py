@@ -1,8 +1,9 @@
 """Light sources: emissive triangles, area, point and sun lamps, and the uniform world.
 
 One discrete distribution picks a light in proportion to an estimate of its power; each light
-then samples a point (or direction). `LightSampler.sample` serves next-event estimation and the
-`pdf_*` methods give the same densities for multiple importance sampling of BSDF-sampled hits.
+then samples a point (or direction). `sample_light` serves next-event estimation and the `pdf_*`
+functions give the same densities for multiple importance sampling of BSDF-sampled hits.
+`LightSampler` builds the tables (`Lights`) that compiled code reads.
 
 Emissive triangles are sampled as Cycles samples them: uniformly in the solid angle they subtend
 (Arvo 1995) when the shading point is near them (SOLID_ANGLE_RANGE), uniformly in area
@@ -11,12 +12,15 @@ weights that grow as 1 / distance^2: fireflies that solid-angle sampling does no
 """
 from __future__ import annotations
 
+import math
+from typing import NamedTuple
+
 import numpy as np
 
 from . import bsdf
-from .bsdf import dot, normalize
-from .arrays import count, select
 from .geometry import hit_offset, offset_origin
+from .jit import jit, jit_inline
+from .vec import cross, dot, madd, mul, normalize, row, sub
 
 EMISSIVE_TRIANGLE, AREA, POINT, SUN, WORLD = range(5)
 AREA_SHAPE_CODES = {"rectangle": 0, "square": 0, "disk": 1, "ellipse": 1}
@@ -27,194 +31,115 @@ AREA_SHAPE_CODES = {"rectangle": 0, "square": 0, "disk": 1, "ellipse": 1}
 SOLID_ANGLE_RANGE = 0.25
 
 
+class Lights(NamedTuple):
+    """Every light of a scene as tables for compiled code (vectors are (n, 3) rows)."""
+    kind: np.ndarray             # (K,) the kind of each light of the distribution
+    index: np.ndarray            # (K,) its row in its kind's tables
+    pmf: np.ndarray              # (K,) selection probability
+    cdf: np.ndarray              # (K,)
+    tri_prim: np.ndarray         # (E,) the mesh triangle of each light triangle
+    tri_corners: np.ndarray      # (E, 3, 3)
+    tri_normal: np.ndarray       # (E, 3)
+    tri_area: np.ndarray         # (E,)
+    tri_edge2: np.ndarray        # (E,) longest edge, squared
+    tri_radiance: np.ndarray     # (E, 3)
+    light_of_prim: np.ndarray    # (T,) light triangle of each mesh triangle (0 where none)
+    tri_pmf: np.ndarray          # (T,) selection probability of each mesh triangle
+    area_center: np.ndarray      # (L, 3)
+    area_ex: np.ndarray          # (L, 3) unit axes of the lamp's plane
+    area_ey: np.ndarray          # (L, 3)
+    area_emit: np.ndarray        # (L, 3) unit direction each lamp emits towards (local -Z)
+    area_half: np.ndarray        # (L, 2) half sizes along ex, ey
+    area_ellipse: np.ndarray     # (L,) disk or ellipse (else rectangle)
+    area_radiance: np.ndarray    # (L, 3)
+    area_area: np.ndarray        # (L,)
+    area_visible_camera: np.ndarray  # (L,)
+    area_pmf: np.ndarray         # (L,)
+    point_pos: np.ndarray        # (P, 3)
+    point_intensity: np.ndarray  # (P, 3) W/sr
+    sun_dir: np.ndarray          # (S, 3) unit direction the light travels
+    sun_irradiance: np.ndarray   # (S, 3)
+    world: np.ndarray            # (3,) uniform world radiance
+    world_pmf: float
+
+
 def luminance(rgb) -> np.ndarray:
     """Rec.709 luminance."""
     rgb = np.asarray(rgb, dtype=np.float64)
     return rgb @ np.array([0.2126, 0.7152, 0.0722])
 
 
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross products of two (3, n) vector arrays."""
-    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+def _rows(values, n=3) -> np.ndarray:
+    return np.ascontiguousarray(np.array(values, np.float64).reshape(-1, n))
 
 
-def _spherical_triangle(a: np.ndarray, b: np.ndarray, c: np.ndarray):
-    """Cosines of the sides (b c, a c, a b), |a . (b x c)| and the solid angle (Van Oosterom and
-    Strackee 1983) of spherical triangles with unit corners a, b, c (3, n)."""
-    cos_a, cos_b, cos_c = dot(b, c), dot(a, c), dot(a, b)
-    mixed = np.abs(dot(a, cross(b, c)))
-    return cos_a, cos_b, cos_c, mixed, 2.0 * np.arctan2(mixed, 1.0 + cos_a + cos_b + cos_c)
-
-
-def solid_angle(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Solid angle of the spherical triangles with unit corners a, b, c (3, n)."""
-    return _spherical_triangle(a, b, c)[4]
-
-
-def sample_spherical_triangle(a: np.ndarray, b: np.ndarray, c: np.ndarray, u: np.ndarray):
-    """Directions uniform in solid angle over spherical triangles with unit corners a, b, c (3, n)
-    for u (2, n): (directions (3, n), solid angles (n)).
-
-    Arvo's method in the form Cycles uses: u[0] chooses the sub-triangle a, b, c' of area
-    u[0] x the solid angle, u[1] a point on the arc from b to c'.
-    """
-    cos_a, cos_b, cos_c, mixed, omega = _spherical_triangle(a, b, c)
-    sub = u[0] * omega
-    sin_sub, cos_sub = np.sin(sub), np.cos(sub)
-    # cos and sin of the angle at a, both without their common factor sin(b) sin(c).
-    cos_alpha, sin_alpha = cos_a - cos_b * cos_c, mixed
-    sin2_bc = np.maximum((1.0 - cos_b * cos_b) * (1.0 - cos_c * cos_c), 1e-300)
-    temp = (cos_c - 1.0) * (cos_sub * cos_alpha + sin_sub * sin_alpha) * cos_alpha / sin2_bc
-    with np.errstate(divide="ignore", invalid="ignore"):
-        q = (cos_sub - cos_c + temp) / (1.0 - cos_sub * cos_c + temp)
-    # 0 / 0 only for triangles seen edge-on (no solid angle, so no weight): any q will do.
-    q = np.where(np.isfinite(q), np.clip(q, -1.0, 1.0), 1.0)
-    # a is orthogonal to the unit vector along c - cos_b a, and c_sub - cos_bc b has length
-    # sin(arc b c_sub): both unit vectors come from cosines, without a normalisation pass.
-    c_sub = q * a + (np.sqrt(1.0 - q * q) * _inverse_sine(cos_b)) * (c - cos_b * a)
-    cos_bc = dot(c_sub, b)
-    z = 1.0 - u[1] * (1.0 - cos_bc)
-    tangent = (np.sqrt(np.maximum(1.0 - z * z, 0.0)) * _inverse_sine(cos_bc)) * (c_sub - cos_bc * b)
-    return z * b + tangent, omega
-
-
-def _inverse_sine(cos: np.ndarray) -> np.ndarray:
-    """1 / sin of angles in [0, pi] given their cosines, 0 where the sine vanishes."""
-    sin2 = 1.0 - cos * cos
-    return np.where(sin2 > 0.0, 1.0 / np.sqrt(np.where(sin2 > 0.0, sin2, 1.0)), 0.0)
-
-
-def area_to_solid_angle(point, q, normal, area, two_sided: bool) -> np.ndarray:
-    """Solid-angle density at q (3, n) of uniform points on lamps of the given areas and normals."""
-    to = point - q
-    d2 = dot(to, to)
-    cos_l = -dot(to, normal) / np.sqrt(d2)
-    cos_l = np.abs(cos_l) if two_sided else np.maximum(cos_l, 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(cos_l > 0, d2 / (area * cos_l), 0.0)
-
-
-def _unit_or_zero(v: np.ndarray) -> np.ndarray:
-    length = np.sqrt(dot(v, v))
-    return v / np.where(length > 0, length, 1.0)
-
-
-class AreaLights:
-    """Blender area lamps as analytic one-sided rectangles and ellipses (not Embree geometry).
-
-    Per-lamp vectors are stored as (3, L) columns, like every vector array in the tracer.
-    """
-
-    def __init__(self, lights: list):
-        n = len(lights)
-        self.count = n
-        self.center = np.zeros((3, n))
-        self.ex = np.zeros((3, n))
-        self.ey = np.zeros((3, n))
-        self.emit = np.zeros((3, n))   # unit direction each lamp emits towards (local -Z)
-        self.half = np.zeros((2, n))
-        self.ellipse = np.zeros(n, bool)
-        self.radiance = np.zeros((3, n))
-        self.area = np.zeros(n)
-        self.visible_camera = np.zeros(n, bool)
-        for i, light in enumerate(lights):
-            m = np.asarray(light["matrix"], dtype=np.float64)
-            self.center[:, i] = m[:3, 3]
-            self.ex[:, i] = m[:3, 0] / np.linalg.norm(m[:3, 0])
-            self.ey[:, i] = m[:3, 1] / np.linalg.norm(m[:3, 1])
-            self.emit[:, i] = -m[:3, 2] / np.linalg.norm(m[:3, 2])
-            self.half[:, i] = 0.5 * np.asarray(light["size"], dtype=np.float64)
-            self.ellipse[i] = AREA_SHAPE_CODES[light["shape"]] == 1
-            full = 4.0 * self.half[0, i] * self.half[1, i]
-            self.area[i] = full * (np.pi / 4.0 if self.ellipse[i] else 1.0)
-            self.radiance[:, i] = light["radiance"]
-            self.visible_camera[i] = bool(light.get("visible_camera", True))
-
-    def crossings(self, o, d, tmax, camera_rays: bool):
-        """Every front-face lamp crossing closer than tmax of (3, n) rays: (lamp, rows, t) per lamp.
-
-        Lamps have no surface (Cycles' lights): a ray picks up the light of each lamp it crosses
-        and goes on, so all crossings count, not only the nearest.
-        """
-        for i in range(self.count):
-            if camera_rays and not self.visible_camera[i]:
-                continue
-            emit = self.emit[:, i]
-            denom = emit @ d
-            front = denom < 0.0  # the ray travels against the emission direction
-            if not front.any():
-                continue
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = (emit @ self.center[:, i] - emit @ o) / denom
-            idx = np.nonzero(front & (t > 0.0) & (t < tmax))[0]
-            if not len(idx):
-                continue
-            q = o[:, idx] + t[idx] * d[:, idx] - self.center[:, i:i + 1]
-            a = (self.ex[:, i] @ q) / self.half[0, i]
-            b = (self.ey[:, i] @ q) / self.half[1, i]
-            inside = (a * a + b * b <= 1.0) if self.ellipse[i] else ((np.abs(a) <= 1.0) & (np.abs(b) <= 1.0))
-            idx = idx[inside]
-            if len(idx):
-                yield i, idx, t[idx]
-
-    def sample_points(self, lamp: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Uniform points (3, n) on the given lamps for u (2, n)."""
-        local = np.where(self.ellipse[lamp], bsdf.sample_uniform_disk(u), 2.0 * u - 1.0) * self.half[:, lamp]
-        return self.center[:, lamp] + local[0] * self.ex[:, lamp] + local[1] * self.ey[:, lamp]
+def _unit_rows(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=1, keepdims=True) if len(v) else v
 
 
 class LightSampler:
-    """Chooses lights by power and samples them; also gives MIS densities of BSDF-sampled hits."""
+    """Builds the light tables of a scene and samples them (arrays, for tests and tools)."""
 
     def __init__(self, scene, geometry, material_kind, material_radiance):
         lights = scene.lights
-        self.area_lights = AreaLights([l for l in lights if l["kind"] == "area"])
-        points = [l for l in lights if l["kind"] == "point"]
-        suns = [l for l in lights if l["kind"] == "sun"]
-        self.point_pos = np.array([l["position"] for l in points], np.float64).reshape(-1, 3).T
-        self.point_intensity = np.array([l["intensity"] for l in points], np.float64).reshape(-1, 3).T
-        sun_dir = np.array([l["direction"] for l in suns], np.float64).reshape(-1, 3).T
-        self.sun_dir = sun_dir / np.linalg.norm(sun_dir, axis=0) if len(suns) else sun_dir
-        self.sun_irradiance = np.array([l["irradiance"] for l in suns], np.float64).reshape(-1, 3).T
-        self.world = np.asarray(scene.world["color"], np.float64)
+        areas = [light for light in lights if light["kind"] == "area"]
+        points = [light for light in lights if light["kind"] == "point"]
+        suns = [light for light in lights if light["kind"] == "sun"]
+        matrices = np.array([light["matrix"] for light in areas], np.float64).reshape(-1, 4, 4)
+        area_half = _rows([0.5 * np.asarray(light["size"], np.float64) for light in areas], 2)
+        area_ellipse = np.array([AREA_SHAPE_CODES[light["shape"]] == 1 for light in areas], bool)
+        area_area = 4.0 * area_half[:, 0] * area_half[:, 1] * np.where(area_ellipse, np.pi / 4, 1.0)
+        area_radiance = _rows([light["radiance"] for light in areas])
+        point_intensity = _rows([light["intensity"] for light in points])
+        sun_irradiance = _rows([light["irradiance"] for light in suns])
+        world = np.asarray(scene.world["color"], np.float64)
 
         mats = scene.material_ids
         emissive = np.nonzero(material_kind[mats] == bsdf.EMISSION)[0]
-        tri_radiance = material_radiance[mats[emissive]].T                  # (3, E)
-        keep = (luminance(tri_radiance.T) > 0) & (geometry.area[emissive] > 0)
-        self.tri = emissive[keep]
-        self.tri_radiance = np.ascontiguousarray(tri_radiance[:, keep])
-        # The light triangles' own copies, (corner, xyz, E) and (3, E): a handful of lamp
-        # triangles stay in cache, where gathers from the whole mesh's arrays would not.
-        self.tri_corners = np.ascontiguousarray(geometry.corners[self.tri].transpose(1, 2, 0))
-        self.tri_normal = np.ascontiguousarray(geometry.face_normal[:, self.tri])
-        self.tri_area = geometry.area[self.tri]
-        edges = self.tri_corners - np.roll(self.tri_corners, 1, axis=0)
-        self.tri_edge2 = (edges * edges).sum(axis=1).max(axis=0)     # longest edge, squared
-        self.light_of_prim = np.zeros(geometry.count, np.int64)      # 0 also where tri_pmf is 0
-        self.light_of_prim[self.tri] = np.arange(len(self.tri))
+        tri_radiance = material_radiance[mats[emissive]]                    # (E, 3)
+        keep = (luminance(tri_radiance) > 0) & (geometry.area[emissive] > 0)
+        tri = emissive[keep]
+        tri_corners = np.ascontiguousarray(geometry.corners[tri])
+        edges = tri_corners - np.roll(tri_corners, 1, axis=1)
+        light_of_prim = np.zeros(geometry.count, np.int64)      # 0 also where tri_pmf is 0
+        light_of_prim[tri] = np.arange(len(tri))
         radius = 0.5 * geometry.extent if geometry.count else 1.0
         # Power estimates: only the ratios matter, and any positive choice stays unbiased.
-        world_power = luminance(self.world) * 4.0 * np.pi ** 2 * radius ** 2
+        world_power = luminance(world) * 4.0 * np.pi ** 2 * radius ** 2
         power = [
-            (EMISSIVE_TRIANGLE, luminance(self.tri_radiance.T) * geometry.area[self.tri] * 2.0 * np.pi),
-            (AREA, luminance(self.area_lights.radiance.T) * self.area_lights.area * np.pi),
-            (POINT, luminance(self.point_intensity.T) * 4.0 * np.pi),
-            (SUN, luminance(self.sun_irradiance.T) * np.pi * radius ** 2),
+            (EMISSIVE_TRIANGLE, luminance(tri_radiance[keep]) * geometry.area[tri] * 2.0 * np.pi),
+            (AREA, luminance(area_radiance) * area_area * np.pi),
+            (POINT, luminance(point_intensity) * 4.0 * np.pi),
+            (SUN, luminance(sun_irradiance) * np.pi * radius ** 2),
             (WORLD, np.array([world_power]) if world_power > 0 else np.zeros(0)),
         ]
-        self.kind = np.concatenate([np.full(len(p), k) for k, p in power]).astype(np.int64)
-        self.index = np.concatenate([np.arange(len(p)) for _, p in power]).astype(np.int64)
+        kind = np.concatenate([np.full(len(p), k) for k, p in power]).astype(np.int64)
+        index = np.concatenate([np.arange(len(p)) for _, p in power]).astype(np.int64)
         weights = np.concatenate([np.maximum(p, 0.0) for _, p in power])
         total = weights.sum()
         self.count = int((weights > 0).sum())
-        self.pmf = weights / total if total > 0 else weights
-        self.cdf = np.cumsum(self.pmf)
-        # pmf per triangle, per area lamp and of the world, for MIS of BSDF-sampled hits.
-        self.tri_pmf = np.zeros(geometry.count)
-        self.tri_pmf[self.tri] = self.pmf[:len(self.tri)]
-        self.area_pmf = self.pmf[len(self.tri):len(self.tri) + self.area_lights.count]
-        self.world_pmf = float(self.pmf[-1]) if world_power > 0 else 0.0
+        pmf = weights / total if total > 0 else weights
+        tri_pmf = np.zeros(geometry.count)
+        tri_pmf[tri] = pmf[:len(tri)]
+        self.tables = Lights(
+            kind=kind, index=index, pmf=pmf, cdf=np.cumsum(pmf),
+            tri_prim=tri.astype(np.int64), tri_corners=tri_corners,
+            tri_normal=np.ascontiguousarray(geometry.face_normal[tri]),
+            tri_area=geometry.area[tri].copy(), tri_edge2=(edges * edges).sum(axis=2).max(axis=1),
+            tri_radiance=np.ascontiguousarray(tri_radiance[keep]), light_of_prim=light_of_prim,
+            tri_pmf=tri_pmf,
+            area_center=np.ascontiguousarray(matrices[:, :3, 3]),
+            area_ex=_unit_rows(matrices[:, :3, 0]), area_ey=_unit_rows(matrices[:, :3, 1]),
+            area_emit=-_unit_rows(matrices[:, :3, 2]), area_half=area_half,
+            area_ellipse=area_ellipse, area_radiance=area_radiance, area_area=area_area,
+            area_visible_camera=np.array([bool(light.get("visible_camera", True))
+                                          for light in areas], bool),
+            area_pmf=pmf[len(tri):len(tri) + len(areas)].copy(),
+            point_pos=_rows([light["position"] for light in points]),
+            point_intensity=point_intensity,
+            sun_dir=_unit_rows(_rows([light["direction"] for light in suns])),
+            sun_irradiance=sun_irradiance, world=world,
+            world_pmf=float(pmf[-1]) if world_power > 0 else 0.0)
         self.geometry = geometry
 
     @property
@@ -222,121 +147,250 @@ class LightSampler:
         """Whether next-event estimation has anything to sample."""
         return self.count > 0
 
+    @property
+    def area_count(self) -> int:
+        """The number of area lamps."""
+        return len(self.tables.area_area)
+
     def sample(self, p: np.ndarray, u: np.ndarray):
-        """Sample one light for each shading point of p (3, n), with uniform numbers u (3, n):
-        u[0] picks the light, u[1:] the point on it.
-
-        Returns (wi (3, n), the light point (3, n), NaN for lights at infinity, radiance / pdf
-        (3, n), pdf in solid angle for MIS with 0 for delta lights).
-        """
+        """sample_light for shading points p (3, n) and uniform numbers u (3, n): (wi (3, n),
+        light point (3, n) (NaN for lights at infinity), radiance / pdf (3, n), pdf (n))."""
         n = p.shape[1]
-        pick = np.minimum(np.searchsorted(self.cdf, u[0] * self.cdf[-1], side="right"), len(self.cdf) - 1)
-        kind, index, pmf = self.kind[pick], self.index[pick], self.pmf[pick]
-        wi = np.empty((3, n))
-        target = np.full((3, n), np.nan)
-        weight = np.zeros((3, n))
-        pdf = np.zeros(n)
-        geom = self.geometry
-        kinds = np.unique(kind)
-        for k in kinds:
-            sel = np.nonzero(kind == k)[0] if len(kinds) > 1 else slice(None)
-            q, uv, m, idx = p[:, sel], u[1:, sel], pmf[sel], index[sel]
-            if k == EMISSIVE_TRIANGLE:
-                point, normal, density = self.triangle_points(idx, q, uv)
-                radiance = self.tri_radiance.take(idx, axis=1)
-            elif k == AREA:
-                point = self.area_lights.sample_points(idx, uv)
-                normal = self.area_lights.emit[:, idx]
-                density = area_to_solid_angle(point, q, normal, self.area_lights.area[idx], two_sided=False)
-                radiance = self.area_lights.radiance[:, idx]
-            elif k == POINT:
-                target[:, sel] = self.point_pos[:, idx]
-                to = self.point_pos[:, idx] - q
-                d2 = dot(to, to)
-                wi[:, sel] = to / np.sqrt(d2)
-                weight[:, sel] = self.point_intensity[:, idx] / (d2 * m)
-                continue
-            elif k == SUN:
-                wi[:, sel] = -self.sun_dir[:, idx]
-                weight[:, sel] = self.sun_irradiance[:, idx] / m
-                continue
-            else:
-                wi[:, sel] = bsdf.sample_uniform_sphere(uv)
-                pdf[sel] = m / (4.0 * np.pi)
-                weight[:, sel] = self.world[:, None] / pdf[sel]
-                continue
-            w = normalize(point - q)
-            pdf_sa = m * density
-            with np.errstate(divide="ignore", invalid="ignore"):
-                weight[:, sel] = np.where(pdf_sa > 0, radiance / pdf_sa, 0.0)
-            wi[:, sel] = w
-            if k == EMISSIVE_TRIANGLE:
-                # Lift the light point off its triangle towards the shading point, as hit points
-                # are lifted: a shadow ray that ends on the triangle's plane can hit the light
-                # itself (grazing rays to a lamp just under a ceiling did, darkening the ceiling).
-                point = offset_origin(point, normal, hit_offset(geom, self.tri[idx], point), -w)
-            target[:, sel] = point
-            pdf[sel] = pdf_sa
-        return wi, target, weight, pdf
-
-    def triangle_points(self, light, q, u):
-        """Points on the light triangles `light` sampled from shading points q (3, n) with u (2, n):
-        (points (3, n), face normals (3, n), solid-angle density of each point, pick excluded)."""
-        v = self.tri_corners.take(light, axis=2)                # (corner, xyz, n)
-        normal = self.tri_normal.take(light, axis=1)
-        plane = dot(normal, v[0] - q)                           # signed distance to the plane
-        spherical = self._near(light, plane)
-        point = np.empty_like(q)
-        density = np.empty(len(light))
-        s = select(spherical)
-        if count(s, len(light)):
-            qs, vs = q[:, s], v[:, :, s]
-            a, b, c = (_unit_or_zero(vs[i] - qs) for i in range(3))
-            direction, omega = sample_spherical_triangle(a, b, c, u[:, s])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = plane[s] / dot(normal[:, s], direction)      # where it meets the plane
-                ok = (omega > 0.0) & np.isfinite(t) & (t > 0.0)
-                # Triangles seen edge-on give nothing; their points stay finite (a corner).
-                point[:, s] = np.where(ok, qs + np.where(ok, t, 0.0) * direction, vs[0])
-                density[s] = np.where(ok, 1.0 / np.where(ok, omega, 1.0), 0.0)
-        r = select(~spherical)
-        if count(r, len(light)):
-            su = np.sqrt(u[0, r])
-            b2 = u[1, r] * su
-            vr = v[:, :, r]
-            point[:, r] = vr[0] + (su - b2) * (vr[1] - vr[0]) + b2 * (vr[2] - vr[0])
-            density[r] = area_to_solid_angle(point[:, r], q[:, r], normal[:, r],
-                                             self.tri_area.take(light[r]), two_sided=True)
-        return point, normal, density
-
-    def _near(self, light, plane):
-        """Whether points at distances `plane` from light triangles sample them in solid angle."""
-        return self.tri_edge2.take(light) * SOLID_ANGLE_RANGE ** 2 > plane * plane
+        wi, target, weight, pdf = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+        _sample_rows(self.tables, self.geometry.mesh, np.ascontiguousarray(p.T),
+                     np.ascontiguousarray(u), wi, target, weight, pdf)
+        return wi.T, target.T, weight.T, pdf
 
     def pdf_triangle(self, prim, o, d, t):
-        """Solid-angle density with which `sample` would have chosen this emissive-triangle hit
-        of the ray o + t d."""
-        if len(self.tri) == 0:      # emitters of no power: never sampled
-            return np.zeros(len(prim))
-        light = self.light_of_prim.take(prim)
-        v = self.tri_corners.take(light, axis=2)
-        normal = self.tri_normal.take(light, axis=1)
-        spherical = self._near(light, dot(normal, v[0] - o))
-        density = area_to_solid_angle(o + t * d, o, normal, self.tri_area.take(light), two_sided=True)
-        s = np.flatnonzero(spherical)
-        if len(s):
-            omega = solid_angle(*(_unit_or_zero(v[i][:, s] - o[:, s]) for i in range(3)))
-            with np.errstate(divide="ignore"):
-                density[s] = np.where(omega > 0, 1.0 / omega, 0.0)
-        return self.tri_pmf[prim] * density
+        """pdf_triangle for hits prim (n) of rays o + t d ((3, n) and (n))."""
+        out = np.empty(len(prim))
+        _pdf_triangle_rows(self.tables, np.asarray(prim, np.int64), np.ascontiguousarray(o.T),
+                           np.ascontiguousarray(d.T), np.asarray(t, np.float64), out)
+        return out
 
-    def pdf_area(self, lamp, d, t):
-        """Solid-angle density with which `sample` would have chosen this area-lamp hit."""
-        cos_l = -dot(d, self.area_lights.emit[:, lamp])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            pdf = self.area_pmf[lamp] * t * t / (self.area_lights.area[lamp] * cos_l)
-        return np.where(cos_l > 0, pdf, 0.0)
 
-    def pdf_world(self) -> float:
-        """Solid-angle density of sampling the world in a given direction."""
-        return self.world_pmf / (4.0 * np.pi)
+# -- spherical triangles ------------------------------------------------------------------------
+
+@jit
+def spherical_triangle(a, b, c):
+    """Cosines of the sides (b c, a c, a b), |a . (b x c)| and the solid angle (Van Oosterom and
+    Strackee 1983) of the spherical triangle with unit corners a, b, c."""
+    cos_a, cos_b, cos_c = dot(b, c), dot(a, c), dot(a, b)
+    mixed = abs(dot(a, cross(b, c)))
+    return cos_a, cos_b, cos_c, mixed, 2.0 * math.atan2(mixed, 1.0 + cos_a + cos_b + cos_c)
+
+
+@jit
+def solid_angle(a, b, c):
+    """Solid angle of the spherical triangle with unit corners a, b, c."""
+    return spherical_triangle(a, b, c)[4]
+
+
+@jit
+def inverse_sine(cos):
+    """1 / sin of an angle in [0, pi] given its cosine, 0 where the sine vanishes."""
+    sin2 = 1.0 - cos * cos
+    return 1.0 / math.sqrt(sin2) if sin2 > 0.0 else 0.0
+
+
+@jit
+def sample_spherical_triangle(a, b, c, u0, u1):
+    """A direction uniform in solid angle over the spherical triangle with unit corners a, b, c:
+    (direction, solid angle).
+
+    Arvo's method in the form Cycles uses: u0 chooses the sub-triangle a, b, c' of area
+    u0 x the solid angle, u1 a point on the arc from b to c'.
+    """
+    cos_a, cos_b, cos_c, mixed, omega = spherical_triangle(a, b, c)
+    sub_area = u0 * omega
+    sin_sub, cos_sub = math.sin(sub_area), math.cos(sub_area)
+    # cos and sin of the angle at a, both without their common factor sin(b) sin(c).
+    cos_alpha, sin_alpha = cos_a - cos_b * cos_c, mixed
+    sin2_bc = max((1.0 - cos_b * cos_b) * (1.0 - cos_c * cos_c), 1e-300)
+    temp = (cos_c - 1.0) * (cos_sub * cos_alpha + sin_sub * sin_alpha) * cos_alpha / sin2_bc
+    q = (cos_sub - cos_c + temp) / (1.0 - cos_sub * cos_c + temp)
+    # 0 / 0 only for triangles seen edge-on (no solid angle, so no weight): any q will do.
+    q = min(max(q, -1.0), 1.0) if math.isfinite(q) else 1.0
+    # a is orthogonal to the unit vector along c - cos_b a, and c_sub - cos_bc b has length
+    # sin(arc b c_sub): both unit vectors come from cosines, without a normalisation.
+    c_sub = madd(mul(a, q), math.sqrt(1.0 - q * q) * inverse_sine(cos_b), madd(c, -cos_b, a))
+    cos_bc = dot(c_sub, b)
+    z = 1.0 - u1 * (1.0 - cos_bc)
+    scale = math.sqrt(max(1.0 - z * z, 0.0)) * inverse_sine(cos_bc)
+    return madd(mul(b, z), scale, madd(c_sub, -cos_bc, b)), omega
+
+
+@jit
+def area_to_solid_angle(point, q, normal, area, two_sided):
+    """Solid-angle density at q of uniform points on an emitter of this area and normal."""
+    to = sub(point, q)
+    d2 = dot(to, to)
+    cos_l = -dot(to, normal) / math.sqrt(d2)
+    cos_l = abs(cos_l) if two_sided else max(cos_l, 0.0)
+    return d2 / (area * cos_l) if cos_l > 0.0 else 0.0
+
+
+# -- emissive triangles -------------------------------------------------------------------------
+
+@jit_inline
+def near_triangle(lights, light, plane):
+    """Whether a point at signed distance `plane` from light triangle `light` samples it in
+    solid angle (else in area)."""
+    return lights.tri_edge2[light] * SOLID_ANGLE_RANGE ** 2 > plane * plane
+
+
+@jit_inline
+def triangle_light_point(lights, light, q, u0, u1):
+    """A point on light triangle `light` sampled from the shading point q: (point, solid-angle
+    density of that point, selection excluded)."""
+    v = lights.tri_corners[light]
+    v0, v1, v2 = row(v, 0), row(v, 1), row(v, 2)
+    normal = row(lights.tri_normal, light)
+    plane = dot(normal, sub(v0, q))                       # signed distance to the plane
+    if near_triangle(lights, light, plane):
+        direction, omega = sample_spherical_triangle(
+            normalize(sub(v0, q)), normalize(sub(v1, q)), normalize(sub(v2, q)), u0, u1)
+        t = plane / dot(normal, direction)                # where it meets the plane
+        if omega > 0.0 and math.isfinite(t) and t > 0.0:
+            return madd(q, t, direction), 1.0 / omega
+        return v0, 0.0     # seen edge-on: no light, and the point stays finite (a corner)
+    su = math.sqrt(u0)
+    b2 = u1 * su
+    point = madd(madd(v0, su - b2, sub(v1, v0)), b2, sub(v2, v0))
+    return point, area_to_solid_angle(point, q, normal, lights.tri_area[light], True)
+
+
+@jit_inline
+def pdf_triangle(lights, prim, o, d, t):
+    """Solid-angle density with which sample_light would have chosen the point o + t d on mesh
+    triangle prim (0 for emitters of no power)."""
+    if lights.tri_prim.shape[0] == 0:
+        return 0.0
+    light = lights.light_of_prim[prim]
+    v = lights.tri_corners[light]
+    normal = row(lights.tri_normal, light)
+    v0 = row(v, 0)
+    if near_triangle(lights, light, dot(normal, sub(v0, o))):
+        omega = solid_angle(normalize(sub(v0, o)), normalize(sub(row(v, 1), o)),
+                            normalize(sub(row(v, 2), o)))
+        density = 1.0 / omega if omega > 0.0 else 0.0
+    else:
+        density = area_to_solid_angle(madd(o, t, d), o, normal, lights.tri_area[light], True)
+    return lights.tri_pmf[prim] * density
+
+
+# -- area lamps ---------------------------------------------------------------------------------
+
+@jit_inline
+def area_lamp_point(lights, lamp, u0, u1):
+    """A uniform point on area lamp `lamp`."""
+    if lights.area_ellipse[lamp]:
+        x, y = bsdf.sample_uniform_disk(u0, u1)
+    else:
+        x, y = 2.0 * u0 - 1.0, 2.0 * u1 - 1.0
+    x *= lights.area_half[lamp, 0]
+    y *= lights.area_half[lamp, 1]
+    return madd(madd(row(lights.area_center, lamp), x, row(lights.area_ex, lamp)),
+                y, row(lights.area_ey, lamp))
+
+
+@jit_inline
+def intersect_area_lamp(lights, lamp, o, d):
+    """Distance along o + t d at which the ray crosses area lamp `lamp` from its front, or -1."""
+    emit = row(lights.area_emit, lamp)
+    denom = dot(emit, d)
+    if not denom < 0.0:            # the ray must travel against the emission direction
+        return -1.0
+    center = row(lights.area_center, lamp)
+    t = dot(emit, sub(center, o)) / denom
+    if not t > 0.0:
+        return -1.0
+    q = sub(madd(o, t, d), center)
+    a = dot(row(lights.area_ex, lamp), q) / lights.area_half[lamp, 0]
+    b = dot(row(lights.area_ey, lamp), q) / lights.area_half[lamp, 1]
+    inside = a * a + b * b <= 1.0 if lights.area_ellipse[lamp] else abs(a) <= 1.0 and abs(b) <= 1.0
+    return t if inside else -1.0
+
+
+@jit_inline
+def pdf_area(lights, lamp, d, t):
+    """Solid-angle density with which sample_light would have chosen this area-lamp point."""
+    cos_l = -dot(d, row(lights.area_emit, lamp))
+    if not cos_l > 0.0:
+        return 0.0
+    return lights.area_pmf[lamp] * t * t / (lights.area_area[lamp] * cos_l)
+
+
+@jit_inline
+def pdf_world(lights):
+    """Solid-angle density of sampling the uniform world in any direction."""
+    return lights.world_pmf / (4.0 * math.pi)
+
+
+# -- the light sampler --------------------------------------------------------------------------
+
+@jit_inline
+def sample_light(lights, mesh, p, u_pick, u0, u1):
+    """Sample one light for next-event estimation at p: u_pick picks the light, (u0, u1) the point.
+
+    Returns (unit direction to the light, the light point to aim the shadow ray at (finite
+    lights), whether the light is at infinity, radiance / pdf, pdf in solid angle for MIS with 0
+    for delta lights). A zero weight means no light.
+    """
+    zero = (0.0, 0.0, 0.0)
+    cdf = lights.cdf
+    k = min(np.searchsorted(cdf, u_pick * cdf[-1], side="right"), cdf.shape[0] - 1)
+    kind, i, pmf = lights.kind[k], lights.index[k], lights.pmf[k]
+    if kind == POINT:
+        to = sub(row(lights.point_pos, i), p)
+        d2 = dot(to, to)
+        return mul(to, 1.0 / math.sqrt(d2)), row(lights.point_pos, i), False, \
+            mul(row(lights.point_intensity, i), 1.0 / (d2 * pmf)), 0.0
+    if kind == SUN:
+        return mul(row(lights.sun_dir, i), -1.0), p, True, \
+            mul(row(lights.sun_irradiance, i), 1.0 / pmf), 0.0
+    if kind == WORLD:
+        pdf = pmf / (4.0 * math.pi)
+        return bsdf.sample_uniform_sphere(u0, u1), p, True, mul(row_of(lights.world), 1.0 / pdf), pdf
+    if kind == EMISSIVE_TRIANGLE:
+        point, density = triangle_light_point(lights, i, p, u0, u1)
+        radiance = row(lights.tri_radiance, i)
+    else:
+        point = area_lamp_point(lights, i, u0, u1)
+        density = area_to_solid_angle(point, p, row(lights.area_emit, i), lights.area_area[i], False)
+        radiance = row(lights.area_radiance, i)
+    pdf = pmf * density
+    if not pdf > 0.0:
+        return (0.0, 0.0, 1.0), p, True, zero, 0.0
+    wi = normalize(sub(point, p))
+    if kind == EMISSIVE_TRIANGLE:
+        # Lift the light point off its triangle towards the shading point, as hit points are
+        # lifted: a shadow ray that ends on the triangle's plane can hit the light itself
+        # (grazing rays to a lamp just under a ceiling did, darkening the ceiling).
+        prim = lights.tri_prim[i]
+        point = offset_origin(point, row(lights.tri_normal, i), hit_offset(mesh, prim, point),
+                              mul(wi, -1.0))
+    return wi, point, False, mul(radiance, 1.0 / pdf), pdf
+
+
+@jit
+def row_of(vector):
+    """A (3,) array as a vector."""
+    return (vector[0], vector[1], vector[2])
+
+
+@jit
+def _sample_rows(lights, mesh, p, u, wi, target, weight, pdf):
+    for j in range(p.shape[0]):
+        w, point, infinite, f, density = sample_light(lights, mesh, row(p, j), u[0, j], u[1, j], u[2, j])
+        for k in range(3):
+            wi[j, k] = w[k]
+            target[j, k] = np.nan if infinite else point[k]
+            weight[j, k] = f[k]
+        pdf[j] = density
+
+
+@jit
+def _pdf_triangle_rows(lights, prim, o, d, t, out):
+    for j in range(prim.shape[0]):
+        out[j] = pdf_triangle(lights, prim[j], row(o, j), row(d, j), t[j])

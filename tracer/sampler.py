@@ -1,288 +1,205 @@
-"""Per-pixel stratified samples for the camera: Owen-scrambled Sobol (0, 2)-sequences.
+"""Every random number of a path, keyed by (seed, pixel, sample index, dimension).
 
-The pixel position and the lens position of sample i of a pixel come from the first two Sobol
-dimensions, a (0, 2)-sequence, so every power-of-two prefix of a pixel's samples is stratified
-in both 2D projections. Each 2D pair gets its own hash-based Owen scramble and its own shuffled
-sample order per pixel (Burley 2020, "Practical Hash-based Owen Scrambling"), which keeps every
-sample uniformly distributed (the estimate stays unbiased) while the pairs stay uncorrelated.
+Two kinds of uniform 2D points, both a pure function of their key (no random state), so an image
+depends on the seed and the sample count only, never on chunking or threads:
 
-Everything is vectorised over uint32 arrays; multiplication wraps modulo 2^32, as the hashes
-require. The hot path (stratified_2d_keyed) computes in place in per-thread scratch buffers and
-replaces bit loops with table look-ups: at the sizes the integrator uses, numpy's per-call
-overhead and the page faults of fresh temporaries cost more than the arithmetic.
+- stratified_pair: Owen-scrambled Sobol (0, 2)-sequences. Sample i of a pixel in one dimension
+  (a 2D pair: pixel position, lens position, then the light and BSDF pairs of the first bounces)
+  is point i of a Sobol pair, so every power-of-two prefix of a pixel's samples is stratified in
+  both 2D projections. Each pair gets its own hash-based Owen scramble and its own shuffled sample
+  order per pixel (Burley 2020, "Practical Hash-based Owen Scrambling"), which keeps every sample
+  uniformly distributed (the estimate stays unbiased) while different pairs stay uncorrelated.
+- random_pair: a hash of the key, independent between samples and dimensions; used beyond the
+  stratified bounces, and everywhere by the "independent" sampler that the validator needs for
+  honest per-pixel variances.
+
+Integers are 32-bit values held in uint64 with explicit masks, so products wrap modulo 2^32 as
+the hashes require.
 """
 from __future__ import annotations
 
-import threading
-from functools import lru_cache
-
 import numpy as np
 
-U32 = np.uint32
+from .jit import jit
 
-# Sample indices of at most this many bits take the table-driven path of stratified_2d_keyed.
-_TABLE_BITS = 16
-
-
-def _reverse16_table() -> np.ndarray:
-    table = np.arange(1 << 16, dtype=U32)
-    out = np.zeros_like(table)
-    for bit in range(16):
-        out |= ((table >> U32(bit)) & U32(1)) << U32(15 - bit)
-    return out
+U = np.uint64
+M32 = U(0xFFFF_FFFF)
+SHIFT_8, SHIFT_13, SHIFT_16 = U(8), U(13), U(16)
+MIX_1, MIX_2, GOLDEN = U(0x85EBCA6B), U(0xC2B2AE35), U(0x9E3779B9)
+LAINE_KARRAS = (U(0x6C50B47C), U(0xB82F1E52), U(0xC7AFE638), U(0x8D22F6E6))
+# Keys that set random_pair's hashes apart from the stratified pairs' ones.
+RANDOM_DOMAIN = U(0x5EED_0001)
+UNIT_24 = 1.0 / (1 << 24)
 
 
-# Bit reversal by two 16-bit table look-ups: a few numpy calls instead of twenty mask steps.
-_REVERSE16 = _reverse16_table()
-
-# Direction numbers of Sobol's second dimension: v_0 = 2^31, v_j = v_{j-1} ^ (v_{j-1} >> 1).
-_V1 = [1 << 31]
-for _ in range(31):
-    _V1.append(_V1[-1] ^ (_V1[-1] >> 1))
-_V1 = np.array(_V1, dtype=U32)
+def _sobol_second_directions() -> np.ndarray:
+    """Direction numbers of Sobol's second dimension: v_0 = 2^31, v_j = v_{j-1} ^ (v_{j-1} >> 1)."""
+    v = [1 << 31]
+    for _ in range(31):
+        v.append(v[-1] ^ (v[-1] >> 1))
+    return np.array(v, np.uint64)
 
 
-def reverse_bits(x: np.ndarray) -> np.ndarray:
-    """Reverse the 32 bits of each element."""
-    x = x.astype(U32)
-    return (_REVERSE16.take(x & U32(0xFFFF)) << U32(16)) | _REVERSE16.take(x >> U32(16))
+def _reverse32(x: int) -> int:
+    return int(format(x, "032b")[::-1], 2)
 
 
-_V1_REVERSED = reverse_bits(_V1)
+SOBOL_SECOND = _sobol_second_directions()
+SOBOL_SECOND_REVERSED = np.array([_reverse32(int(v)) for v in SOBOL_SECOND], np.uint64)
 
 
-def _sobol_second_reversed_bitwise(index: np.ndarray) -> np.ndarray:
-    """Sobol's second dimension of each index, bit-reversed, one index bit at a time."""
-    # The XOR of the reversed direction numbers of the index's set bits.
-    out = np.zeros_like(index)
-    bits = int(index.max()).bit_length() if index.size else 0
+def _sobol_second_reversed_table(bits: int) -> np.ndarray:
+    """sobol_second_reversed of every index below 2^bits, built by doubling."""
+    table = np.zeros(1, np.uint32)
     for j in range(bits):
-        out ^= np.where((index >> U32(j)) & U32(1), _V1_REVERSED[j], U32(0))
-    return out
+        table = np.concatenate([table, table ^ np.uint32(SOBOL_SECOND_REVERSED[j])])
+    return table
 
 
-# The same for every index below 2^_TABLE_BITS: one look-up instead of a pass per index bit.
-_SOBOL_SECOND_REVERSED = _sobol_second_reversed_bitwise(np.arange(1 << _TABLE_BITS, dtype=U32))
+# Sample indices below 2^16 (all but enormous sample counts) look theirs up: 256 KB.
+TABLE_BITS = 16
+SOBOL_SECOND_REVERSED_TABLE = _sobol_second_reversed_table(TABLE_BITS)
 
 
-def _sobol_second_reversed(index: np.ndarray) -> np.ndarray:
-    """Sobol's second dimension of each (uint32) index, bit-reversed."""
-    if index.size == 0 or int(index.max()) < len(_SOBOL_SECOND_REVERSED):
-        return _SOBOL_SECOND_REVERSED.take(index)
-    return _sobol_second_reversed_bitwise(index)
+@jit
+def mix(h, key):
+    """One round of hash32: xor the key in, murmur3's finaliser, plus the golden ratio."""
+    h = (h ^ key) & M32
+    h ^= h >> SHIFT_16
+    h = (h * MIX_1) & M32
+    h ^= h >> SHIFT_13
+    h = (h * MIX_2) & M32
+    h ^= h >> SHIFT_16
+    return (h + GOLDEN) & M32
 
 
-def to_unit(x: np.ndarray) -> np.ndarray:
-    """32-bit fixed point to floats in [0, 1) (24 bits, so 1.0 is never reached)."""
-    unit = (x >> U32(8)).astype(np.float64)
-    unit *= 1.0 / (1 << 24)
-    return unit
+@jit
+def pixel_key(pixel, seed):
+    """A path's key: hash32(pixel, seed), with both taken modulo 2^32."""
+    return mix(mix(U(0), U(pixel) & M32), U(seed) & M32)
 
 
-# -- scratch memory -----------------------------------------------------------------------------
-
-class _Workspace(threading.local):
-    """This thread's uninitialised scratch buffers for stratified_2d_keyed."""
-    # A fresh temporary of a chunk's size costs more in page faults than the arithmetic done in
-    # it, so the buffers outlive the calls: they grow to the largest n asked for and are handed
-    # out as views of their first n paths. One set per thread: the integrator traces chunks in
-    # parallel.
-    capacity, n = 0, -1
-
-    def __call__(self, n: int) -> _Workspace:
-        """The buffers, as views for n paths."""
-        if n != self.n:
-            if n > self.capacity:
-                self.capacity = n
-                self._u32 = np.empty(9 * n, U32)
-                self._index = np.empty(2 * n, np.intp)
-                self._unit = np.empty(2 * n)
-            self.n = n
-            u32 = self._u32[:9 * n].reshape(9, n)
-            self.base, self.seeds, self.hash, self.fixed = u32[0], u32[1:4], u32[4:7], u32[7:9]
-            self.index = self._index[:2 * n].reshape(2, n)
-            self.unit = self._unit[:2 * n].reshape(2, n)
-        return self
+@jit
+def reverse_bits(x):
+    """The 32 bits of x in reverse order."""
+    x = ((x >> U(1)) & U(0x55555555)) | ((x & U(0x55555555)) << U(1))
+    x = ((x >> U(2)) & U(0x33333333)) | ((x & U(0x33333333)) << U(2))
+    x = ((x >> U(4)) & U(0x0F0F0F0F)) | ((x & U(0x0F0F0F0F)) << U(4))
+    x = ((x >> U(8)) & U(0x00FF00FF)) | ((x & U(0x00FF00FF)) << U(8))
+    return ((x >> SHIFT_16) | (x << SHIFT_16)) & M32
 
 
-_workspace = _Workspace()
-
-
-# -- hashing ------------------------------------------------------------------------------------
-
-# Constants as 0-d arrays: ufuncs take them with less overhead than numpy scalars.
-_MIX_1, _MIX_2 = np.array(0x85EBCA6B, U32), np.array(0xC2B2AE35, U32)
-_GOLDEN = np.array(0x9E3779B9, U32)
-_SHIFT_13, _SHIFT_16 = np.array(13, U32), np.array(16, U32)
-
-
-def _as_u32(key) -> np.ndarray | np.uint32:
-    """The low 32 bits of an integer array or scalar, as uint32."""
-    if isinstance(key, (int, np.integer)):
-        return U32(key & 0xFFFF_FFFF)
-    key = np.asarray(key)
-    # Integer casts to uint32 wrap modulo 2^32 already; other types (floats) keep the uint64
-    # round trip their hashes have always had.
-    if key.dtype.kind in "biu":
-        return key.astype(U32, copy=False)
-    return key.astype(np.uint64).astype(U32)
-
-
-def _mix(h: np.ndarray, scratch: np.ndarray) -> None:
-    """h = fmix32(h) + golden ratio, in place: a round of hash32 once its key is xored in."""
-    np.right_shift(h, _SHIFT_16, out=scratch)
-    h ^= scratch
-    h *= _MIX_1
-    np.right_shift(h, _SHIFT_13, out=scratch)
-    h ^= scratch
-    h *= _MIX_2
-    np.right_shift(h, _SHIFT_16, out=scratch)
-    h ^= scratch
-    h += _GOLDEN
-
-
-def hash32(*keys) -> np.ndarray:
-    """A well-mixed 32-bit hash of integer arrays or scalars (murmur3 finaliser, chained)."""
-    h = np.zeros(np.broadcast(*[np.asarray(k) for k in keys]).shape, U32)
-    scratch = np.empty_like(h)
-    for key in keys:
-        h ^= _as_u32(key)
-        _mix(h, scratch)
-    return h
-
-
-def pixel_key(pixel: np.ndarray, seed: int) -> np.ndarray:
-    """Each path's key for stratified_2d_keyed: hash32's state after its pixel and the seed."""
-    return hash32(pixel, seed)
-
-
-# The keys of the last hash32 of each 2D pair: its sample shuffle and its two dimensions.
-_SEED_KEYS = np.array([[1], [2], [3]], U32)
-
-
-def _scramble_seeds(key: np.ndarray, dimension: int, work: _Workspace) -> np.ndarray:
-    """(3, n) seeds hash32(hash32(pixel, seed, dimension), k), k = 1, 2, 3, from pixel_key."""
-    base, seeds, scratch = work.base, work.seeds, work.hash
-    np.bitwise_xor(key, _as_u32(dimension), out=base)
-    _mix(base, scratch[0])
-    # hash32(base, k) begins with a round on 0 ^ base, the same for every k.
-    _mix(base, scratch[0])
-    np.bitwise_xor(base, _SEED_KEYS, out=seeds)
-    _mix(seeds, scratch)
-    return seeds
-
-
-# -- scrambling ---------------------------------------------------------------------------------
-
-_LAINE_KARRAS = [np.array(c, U32) for c in (0x6C50B47C, 0xB82F1E52, 0xC7AFE638, 0x8D22F6E6)]
-
-
-def _laine_karras_mix(x: np.ndarray, scratch: np.ndarray) -> None:
-    """The Laine-Karras permutation of x, in place, once its seed is added."""
-    for constant in _LAINE_KARRAS:
-        np.multiply(x, constant, out=scratch)
-        x ^= scratch
-
-
-def _laine_karras(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
-    """The Laine-Karras permutation of x keyed by seed (Owen's scramble, bit-reversed)."""
-    x = x + seed
-    _laine_karras_mix(x, np.empty_like(x))
+@jit
+def laine_karras(x, seed):
+    """The Laine-Karras permutation of x keyed by seed: Owen's scramble of the reversed bits."""
+    x = (x + seed) & M32
+    for c in LAINE_KARRAS:
+        x ^= (x * c) & M32
     return x
 
 
-def owen_scramble(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
-    """Nested uniform (Owen) scramble of 32-bit fixed-point values, keyed by seed."""
-    return reverse_bits(_laine_karras(reverse_bits(x), seed))
+@jit
+def owen_scramble(x, seed):
+    """Nested uniform (Owen) scramble of a 32-bit fixed-point value, keyed by seed."""
+    return reverse_bits(laine_karras(reverse_bits(x), seed))
 
 
-def sobol_pair(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The first two Sobol dimensions (32-bit fixed point) of each index."""
-    return reverse_bits(index), reverse_bits(_sobol_second_reversed(index.astype(U32)))
-
-
-# -- the stratified samples ---------------------------------------------------------------------
-
-@lru_cache(maxsize=None)
-def _index_tables(bits: int) -> tuple[np.ndarray, np.ndarray]:
-    """The bit-reversed Sobol pair (2, 2^bits) of each index's bits-digit reversal; the mask."""
-    # The first row is that reversal itself: the first dimension bit-reversed is the index.
-    reverse = _REVERSE16[:1 << bits] >> U32(16 - bits)
-    tables = np.stack([reverse, _SOBOL_SECOND_REVERSED.take(reverse)])
-    return tables, np.array((1 << bits) - 1, U32)
-
-
-def _shuffled_sobol(sample: np.ndarray, seed: np.ndarray, bits: int, out: np.ndarray,
-                    index: np.ndarray) -> None:
-    """Into out (2, n): the bit-reversed Sobol pair of each shuffled sample index."""
-    # index: intp scratch of sample's shape.
-    if not (1 <= bits <= _TABLE_BITS and sample.dtype.kind in "iu"):
-        shift = U32(32 - bits)
-        shuffled = owen_scramble(sample.astype(U32) << shift, seed) >> shift
-        out[0] = shuffled
-        out[1] = _sobol_second_reversed(shuffled)
-        return
-    # The shuffle is owen_scramble(sample << s) >> s = reverse(LK(reverse(sample << s))) >> s,
-    # s = 32 - bits. reverse(sample << s) is the bits-digit reversal of sample's low bits and
-    # reverse(z) >> s that of z's low bits: both 32-bit reversals become 2^bits-entry look-ups.
-    tables, mask = _index_tables(bits)
-    # mode="clip" takes straight into out ("raise" would buffer); masked indices are in range.
-    np.bitwise_and(sample, mask, out=index, casting="unsafe")
-    x = out[0]
-    tables[0].take(index, out=x, mode="clip")
-    x += seed
-    _laine_karras_mix(x, scratch=out[1])
-    np.bitwise_and(x, mask, out=index)
-    tables[0].take(index, out=out[0], mode="clip")
-    tables[1].take(index, out=out[1], mode="clip")
-
-
-# to_unit(reverse_bits(z)) is bits 0..23 of z reversed: bits 0..11 of z make the high 12 bits
-# of the fraction, bits 12..23 the low 12. Two small float tables (L1-sized) hold both halves;
-# their sum is exact, the bits being disjoint.
-_REVERSE12 = _REVERSE16[:1 << 12] >> U32(4)
-_UNIT_HIGH12 = _REVERSE12 * (1.0 / (1 << 12))
-_UNIT_LOW12 = _REVERSE12 * (1.0 / (1 << 24))
-_MASK_12, _SHIFT_12 = np.array(0xFFF, U32), np.array(12, U32)
-
-
-def _unit_of_reversed(z: np.ndarray, out: np.ndarray, work: _Workspace) -> np.ndarray:
-    """to_unit(reverse_bits(z)) into out, by two table look-ups."""
-    index, low = work.index, work.unit
-    np.bitwise_and(z, _MASK_12, out=index)
-    _UNIT_HIGH12.take(index, out=out, mode="clip")
-    np.right_shift(z, _SHIFT_12, out=index)
-    index &= _MASK_12
-    _UNIT_LOW12.take(index, out=low, mode="clip")
-    out += low
+@jit
+def sobol_second(index):
+    """Sobol's second dimension of index, 32-bit fixed point (the first is reverse_bits(index))."""
+    out = U(0)
+    j = 0
+    while index != U(0):
+        if index & U(1):
+            out ^= SOBOL_SECOND[j]
+        index >>= U(1)
+        j += 1
     return out
 
 
-def stratified_2d_keyed(key: np.ndarray, sample: np.ndarray, dimension: int,
-                        bits: int = 16) -> np.ndarray:
-    """stratified_2d(pixel, sample, seed, dimension, bits), given key = pixel_key(pixel, seed)."""
-    # A path draws several dimensions with one pixel and seed: keying it once saves two of the
-    # seven hash rounds of each draw.
-    if np.shape(key) != np.shape(sample):
-        key, sample = np.broadcast_arrays(key, sample)
-    work = _workspace(len(key))
-    seeds, fixed = _scramble_seeds(key, dimension, work), work.fixed
-    _shuffled_sobol(sample, seeds[0], bits, out=fixed, index=work.index[0])
-    # Scramble both dimensions: owen_scramble(v) = reverse(LK(reverse(v))), and the Sobol
-    # dimensions are at hand bit-reversed. Their seeds are spent after the add, so they serve
-    # as the scratch buffer.
-    fixed += seeds[1:]
-    _laine_karras_mix(fixed, scratch=seeds[1:])
-    return _unit_of_reversed(fixed, np.empty(fixed.shape), work)
+@jit
+def sobol_second_reversed(index):
+    """reverse_bits(sobol_second(index)), by table for indices below 2^TABLE_BITS."""
+    if index < U(1 << TABLE_BITS):
+        return U(SOBOL_SECOND_REVERSED_TABLE[index])
+    out = U(0)
+    j = 0
+    while index != U(0):
+        if index & U(1):
+            out ^= SOBOL_SECOND_REVERSED[j]
+        index >>= U(1)
+        j += 1
+    return out
 
 
-def stratified_2d(pixel: np.ndarray, sample: np.ndarray, seed: int, dimension: int,
-                  bits: int = 16) -> np.ndarray:
-    """Uniform (2, n) points for the given pixels and per-pixel sample indices (< 2^bits).
+@jit
+def to_unit(x):
+    """32-bit fixed point to a float in [0, 1) (24 bits, so 1.0 is never reached)."""
+    return float(x >> SHIFT_8) * UNIT_24
 
-    `dimension` tells the 2D pairs of one path apart (0 = pixel position, 1 = lens position,
-    then the pairs of each bounce). The sample order is shuffled within [0, 2^bits): an Owen
-    scramble of the index read as a bits-digit fraction permutes that range, so every
-    power-of-two prefix of a pixel's samples is still a stratified set.
+
+@jit
+def stratified_pair(key, sample, dimension, bits):
+    """Point `sample` (< 2^bits) of the pixel's Owen-scrambled Sobol pair `dimension`.
+
+    The sample order is shuffled within [0, 2^bits): an Owen scramble of the index read as a
+    bits-digit fraction permutes that range, so every power-of-two prefix stays stratified.
     """
-    return stratified_2d_keyed(pixel_key(pixel, seed), sample, dimension, bits)
+    base = mix(key, U(dimension) & M32)
+    hashed = mix(U(0), base)                       # hash32(base, k) = mix(mix(0, base), k)
+    shift = U(32 - bits)
+    # owen_scramble(v, s) = reverse(LK(reverse(v), s)): written out, the reversals that meet
+    # cancel, and the Sobol pair is needed only bit-reversed.
+    index = U(sample) & ((U(1) << U(bits)) - U(1))
+    shuffled = reverse_bits(laine_karras(reverse_bits(index) >> shift, mix(hashed, U(1)))) >> shift
+    first = laine_karras(shuffled, mix(hashed, U(2)))
+    second = laine_karras(sobol_second_reversed(shuffled), mix(hashed, U(3)))
+    return to_unit(reverse_bits(first)), to_unit(reverse_bits(second))
+
+
+@jit
+def random_pair(key, sample, dimension):
+    """Two independent uniform numbers in [0, 1) for this key, sample and dimension."""
+    h = mix(mix(key ^ RANDOM_DOMAIN, U(dimension) & M32), U(sample) & M32)
+    return to_unit(mix(h, U(1))), to_unit(mix(h, U(2)))
+
+
+@jit
+def sample_pair(key, sample, dimension, bits, stratified):
+    """The path's pair `dimension`: stratified_pair if `stratified`, else random_pair."""
+    if stratified:
+        return stratified_pair(key, sample, dimension, bits)
+    return random_pair(key, sample, dimension)
+
+
+# -- arrays, for tests and callers outside compiled code ----------------------------------------
+
+def _as_u32(values) -> np.ndarray:
+    """Integer arrays modulo 2^32 as uint64 (floats keep their old uint64 round trip)."""
+    a = np.asarray(values)
+    if a.dtype.kind not in "biu":
+        a = a.astype(np.uint64)
+    return a.astype(np.uint32).astype(np.uint64)
+
+
+@jit
+def _stratified_rows(key, sample, dimension, bits, out):
+    for i in range(key.shape[0]):
+        out[0, i], out[1, i] = stratified_pair(key[i], sample[i], dimension, bits)
+
+
+@jit
+def _pixel_keys(pixel, seed, out):
+    for i in range(pixel.shape[0]):
+        out[i] = pixel_key(pixel[i], seed)
+
+
+def stratified_2d(pixel, sample, seed: int, dimension: int, bits: int = 16) -> np.ndarray:
+    """(2, n) stratified_pair points for arrays (or scalars) of pixels and sample indices."""
+    pixel, sample = np.broadcast_arrays(_as_u32(pixel), _as_u32(sample))
+    keys = np.empty(pixel.size, np.uint64)
+    _pixel_keys(np.ascontiguousarray(pixel.ravel()), U(int(seed) & 0xFFFF_FFFF), keys)
+    out = np.empty((2, pixel.size))
+    _stratified_rows(keys, np.ascontiguousarray(sample.ravel()), U(int(dimension) & 0xFFFF_FFFF),
+                     int(bits), out)
+    return out

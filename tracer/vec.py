@@ -1,0 +1,81 @@
+"""Three-vectors as tuples (x, y, z) for compiled code: Numba keeps them in registers."""
+from __future__ import annotations
+
+import math
+
+from .jit import jit
+
+
+@jit
+def add(a, b):
+    """a + b."""
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@jit
+def sub(a, b):
+    """a - b."""
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@jit
+def mul(a, s):
+    """a scaled by the number s."""
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+@jit
+def madd(a, s, b):
+    """a + s b."""
+    return (a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2])
+
+
+@jit
+def neg(a):
+    """-a."""
+    return (-a[0], -a[1], -a[2])
+
+
+@jit
+def dot(a, b):
+    """The dot product."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@jit
+def cross(a, b):
+    """The cross product."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@jit
+def length(a):
+    """The Euclidean length."""
+    return math.sqrt(dot(a, a))
+
+
+@jit
+def normalize(a):
+    """a scaled to unit length (a zero vector stays zero)."""
+    n = length(a)
+    return mul(a, 1.0 / n) if n > 0.0 else a
+
+
+@jit
+def row(array, i):
+    """Row i of an (n, 3) array as a vector."""
+    return (array[i, 0], array[i, 1], array[i, 2])
+
+
+@jit
+def store(array, i, a):
+    """Write the vector a into row i of an (n, 3) array."""
+    array[i, 0] = a[0]
+    array[i, 1] = a[1]
+    array[i, 2] = a[2]
+
+
+@jit
+def max3(a):
+    """The largest component."""
+    return max(a[0], max(a[1], a[2]))
