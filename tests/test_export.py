@@ -136,6 +136,41 @@ def test_smooth_and_flat_normals(bl):
         assert np.allclose(s.normals[s.triangles[:, k]], n, atol=1e-4)
 
 
+def test_split_vertices_one_vertex_per_distinct_normal():
+    # Reference: np.unique over (vertex, normal bits), the exporter's former rule.
+    rng = np.random.default_rng(3)
+    palette = np.array([[0, 0, 1], [0, 0, -1], [-0.0, 0, 1], [np.nan, 0, 0], [1, 0, 0]],
+                       np.float32)
+    verts = rng.integers(0, 50, 2000).astype(np.int32)
+    normals = palette[rng.integers(0, len(palette), 2000)]
+    # Vertex 60 carries 20 distinct normals: more than the rounds, so the sort finishes it.
+    verts[:40] = 60
+    normals[:40] = np.repeat(rng.normal(size=(20, 3)).astype(np.float32), 2, axis=0)
+    slot = export._split_vertices(verts, normals, 70)
+    keys = np.empty(len(verts), [("v", np.int32), ("n", np.uint32, 3)])
+    keys["v"], keys["n"] = verts, normals.view(np.uint32)
+    _, inverse = np.unique(keys.view(np.dtype((np.void, 16))), return_inverse=True)
+    inverse = inverse.reshape(-1)
+    # Same partition of the corners: slot and inverse determine each other.
+    assert len(np.unique(slot)) == len(np.unique(inverse))
+    assert len(np.unique(np.stack([slot, inverse]), axis=1).T) == len(np.unique(inverse))
+    triangles, first = export._compact(slot, np.arange(2000).reshape(-1, 2))
+    assert np.array_equal(triangles.ravel(), np.unique(slot, return_inverse=True)[1].reshape(-1))
+    assert np.array_equal(slot[first], np.unique(slot))
+
+
+@pytest.mark.parametrize("tris,closed", [
+    ([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]], True),  # tetrahedron
+    ([[0, 1, 2], [0, 2, 3], [0, 3, 1]], False),  # open
+    ([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2], [1, 2, 4]], False),  # an edge of three
+    ([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2], [1, 2, 3]], False),  # a face twice
+    ([[0, 1, 2], [2, 1, 0]], True),  # two-sided triangle: every edge twice
+    (np.zeros((0, 3), int), False),
+])
+def test_is_closed(tris, closed):
+    assert export._is_closed(np.array(tris, np.int32).reshape(-1, 3), 5) is closed
+
+
 def test_material_slots_per_triangle(bl):
     red = common.material("Red", "diffuse", (1.0, 0.0, 0.0))
     green = common.material("Green", "diffuse", (0.0, 1.0, 0.0))
