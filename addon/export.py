@@ -210,8 +210,7 @@ class _Mesh:
         self.mat_index = mat_index
         self.closed = _is_closed(tris, len(co))
         slot = _split_vertices(corner_verts, corner_n, len(co))
-        triangles, first = _compact(slot, tri_corners)
-        self.triangles = triangles.astype(np.int32)
+        self.triangles, first = _compact(slot, tri_corners)
         self.positions = co[corner_verts[first]]
         self.normals = corner_n[first].astype(np.float64)
 
@@ -305,8 +304,9 @@ def _compact(slot, tri_corners):
     used = np.zeros(int(slot.max(initial=-1)) + 1, bool)
     used[tri_slots] = True
     corner = np.empty(len(used), np.int64)
-    corner[slot] = np.arange(len(slot))  # all corners of a slot have the same vertex and normal
-    return (np.cumsum(used) - 1)[tri_slots], corner[used]
+    corner[tri_slots] = tri_corners  # all corners of a slot have the same vertex and normal
+    renumber = (np.cumsum(used) - 1).astype(np.int32)
+    return renumber[tri_slots], corner[used]
 
 
 # ---------------------------------------------------------------------------------------------
