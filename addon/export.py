@@ -139,7 +139,8 @@ def _principled(name, node, inp, issues):
 #
 # Arrays are read with foreach_get into preallocated arrays. Attributes (positions, corner
 # vertices, material indices) and the normal caches are copied by Blender in one block; the loop
-# triangles' corners have no such layout and are read item by item, the largest single read.
+# triangles' corners have no such layout and are read item by item: 12-20 ms of the 40-50 ms
+# that exporting cornell_dragon's 128k triangles takes.
 
 
 def _read(collection, prop, count, dtype):
@@ -191,6 +192,7 @@ def _mesh_arrays(obj):
 
 def _set_flat_normals(corner_n, tri_corners, tri_faces, sharp, face_n):
     """Give the corners of flat (sharp) faces their face's normal, in place."""
+    # The face's normal, not the triangle's: the two halves of a flat quad share vertices.
     # MeshPolygon.normal is computed afresh and within about 1e-7 of the exact normal; the
     # cached face normals behind corner_normals can be 3e-6 off on a quad.
     flat = sharp[tri_faces]
@@ -215,10 +217,10 @@ class _Mesh:
         self.normals = corner_n[first].astype(np.float64)
 
 
-# NumPy temporaries of 1 MB and more come back from Blender's allocator as fresh pages, and on
-# the 2-core development machine a page fault costs more than the arithmetic on the page:
-# per-triangle work goes in chunks that stay below that size (_nondegenerate on cornell_dragon's
-# 128k triangles: 20 ms whole, 5 ms in chunks).
+# NumPy temporaries of 1 MB and more come back from the allocator bpy brings (tbbmalloc) as
+# fresh pages, and on the 2-core development machine a page fault costs more than the arithmetic
+# on the page: per-triangle work goes in chunks that stay below that size (_nondegenerate on
+# cornell_dragon's 128k triangles: 20 ms whole, 5 ms in chunks).
 CHUNK = 16384
 
 
@@ -274,7 +276,8 @@ def _split_vertices(verts, normals, n_verts, max_rounds=8):
     Most vertices carry one normal on all their corners and the others a few. Each round takes
     the normal of one corner per vertex still without a slot and gives that round's slot to
     that vertex's corners with exactly this normal; the others wait for the next round. Round
-    0's slot is the vertex itself.
+    0's slot is the vertex itself. (np.unique over all (vertex, normal) keys took 85 ms on
+    cornell_dragon's 384k triangle corners; this takes 4 ms on its 256k mesh corners.)
     """
     keys = normals.view(np.dtype((np.void, 12))).ravel()  # exact bits: -0.0 and 0.0 differ
     seen = np.empty(n_verts, keys.dtype)
