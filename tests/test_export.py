@@ -85,6 +85,27 @@ def test_negative_scale_flips_winding(bl):
     assert_outward(s, np.zeros(3))
 
 
+def test_linked_duplicates_each_with_its_own_matrix(bl):
+    # One mesh, three objects (one mirrored) with another mesh in between: transformed together.
+    a = cube("A", location=(-4.0, 0.0, 0.0))
+    common.uv_sphere("Ball", (0.0, 0.0, 4.0), 1.0, common.material("M", "diffuse"), 8, 4)
+    for name, x, scale in (("B", 0.0, (-1.0, 2.0, 1.0)), ("C", 4.0, (0.5, 0.5, 0.5))):
+        dup = a.copy()
+        dup.name, dup.location, dup.scale = name, (x, 0.0, 0.0), scale
+        bl.collection.objects.link(dup)
+    s, _ = run()
+    assert sorted(o["name"] for o in s.objects) == ["A", "B", "Ball", "C"]
+    for i, o in enumerate(s.objects):
+        obj = bpy.data.objects[o["name"]]
+        t = s.triangles[s.object_ids == i]
+        n, centroid = geometric_normals(s)
+        n, centroid = n[s.object_ids == i], centroid[s.object_ids == i]
+        assert np.all(np.sum(n * (centroid - np.array(obj.location)), axis=1) > 0), o["name"]
+        if o["name"] != "Ball":
+            corners = s.positions[t].reshape(-1, 3) - np.array(obj.location)
+            assert np.allclose(np.abs(corners).max(axis=0), np.abs(obj.scale), atol=1e-6)
+
+
 def test_instancing_converts_each_mesh_once(bl, monkeypatch):
     calls = []
     original = export._mesh_arrays
