@@ -2,8 +2,9 @@
 
 Everything goes through the evaluated depsgraph, so modifiers, instances and world matrices are
 the ones Cycles sees. Mesh arrays are read with foreach_get into NumPy; each distinct evaluated
-mesh is converted once and then transformed per instance. Whatever Snell cannot render exactly
-is rendered with a stated fallback and reported in the returned warnings.
+mesh is converted once, and at the end transformed for all its instances in one batch. Whatever
+Snell cannot render exactly is rendered with a stated fallback and reported in the returned
+warnings.
 """
 from __future__ import annotations
 
