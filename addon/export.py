@@ -525,7 +525,9 @@ class _Exporter:
                 light["name"] = name
                 self.lights.append(light)
             return
-        if obj.type not in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
+        # Curves, surfaces, metaballs and text reach the depsgraph twice: as themselves and as
+        # the mesh instance their evaluation makes. Cycles renders the mesh; so does Snell.
+        if obj.type != "MESH":
             return
         # Objects sharing evaluated geometry (linked duplicates, instances) share one conversion;
         # with modifiers each object's evaluated data is its own.

@@ -56,6 +56,24 @@ def assert_outward(s, center):
 # Geometry
 
 
+def test_curves_text_and_metaballs_export_their_mesh_once(bl):
+    """Each reaches the depsgraph as itself and as its evaluated mesh instance: one copy only."""
+    bpy.ops.object.text_add(location=(-3.0, 0.0, 0.0))
+    bpy.ops.curve.primitive_bezier_circle_add(location=(0.0, 0.0, 0.0))
+    bpy.context.active_object.data.bevel_depth = 0.1
+    bpy.ops.object.metaball_add(location=(3.0, 0.0, 0.0))
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    expected = 0
+    for inst in depsgraph.object_instances:
+        if inst.object.type == "MESH":
+            inst.object.data.calc_loop_triangles()
+            # Text has a few zero-area triangles; the exporter drops those.
+            expected += sum(1 for t in inst.object.data.loop_triangles if t.area > 0)
+    s, _ = run()
+    assert expected > 0 and len(s.triangles) == expected
+    assert len(s.objects) == 3
+
+
 def test_cube_world_transform(bl):
     obj = cube(location=(1.0, 2.0, 3.0), rotation=(0.3, 0.5, 0.7))
     obj.scale = (1.0, 2.0, 0.5)
