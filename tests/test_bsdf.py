@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from snell.tracer import bsdf
+from snell.tracer import bsdf, sampling
 
 
 def test_fresnel_test_vectors():
@@ -117,7 +117,7 @@ def _cosine_samples(normal, u):
     n = u.shape[1]
     wi, pdf = np.empty((3, n)), np.empty(n)
     for i in range(n):
-        w, pdf[i] = bsdf.sample_cosine_hemisphere(normal, u[0, i], u[1, i])
+        w, pdf[i] = sampling.sample_cosine_hemisphere(normal, u[0, i], u[1, i])
         wi[0, i], wi[1, i], wi[2, i] = w
     return wi, pdf
 
@@ -127,7 +127,7 @@ def test_cosine_hemisphere_sampling_chi_square():
     n_samples = 1_000_000
     normal = _random_dirs(1, rng)[0]
     wi, pdf = _cosine_samples(tuple(normal), rng.random((2, n_samples)))
-    t, s = (np.array(v) for v in bsdf.orthonormal_basis(tuple(normal)))
+    t, s = (np.array(v) for v in sampling.orthonormal_basis(tuple(normal)))
     z = normal @ wi
     phi = np.mod(np.arctan2(s @ wi, t @ wi), 2 * np.pi)
     assert np.all(z >= 0) and np.allclose(pdf, z / np.pi)
@@ -145,9 +145,9 @@ def _aperture_samples(u, blades, rotation):
     out = np.empty((u.shape[1], 2))
     for i in range(u.shape[1]):
         if blades:
-            out[i] = bsdf.sample_regular_polygon(u[0, i], u[1, i], blades, rotation)
+            out[i] = sampling.sample_regular_polygon(u[0, i], u[1, i], blades, rotation)
         else:
-            out[i] = bsdf.sample_uniform_disk(u[0, i], u[1, i])
+            out[i] = sampling.sample_uniform_disk(u[0, i], u[1, i])
     return out
 
 

@@ -390,34 +390,80 @@ def test_lights(bl):
                      use_temperature=True, temperature=3000.0)
     point = add_light(bl, "Point", "POINT", energy=4 * math.pi * 3, shadow_soft_size=0.0)
     point.location = (1.0, 2.0, 3.0)
-    add_light(bl, "Bulb", "POINT", energy=1.0, shadow_soft_size=0.2)
-    sun = add_light(bl, "Sun", "SUN", energy=3.0)
+    bulb = add_light(bl, "Bulb", "POINT", energy=1.0, shadow_soft_size=0.2)
+    bulb.visible_glossy = False
+    bulb.data.use_soft_falloff = False
+    add_light(bl, "RawBulb", "POINT", energy=2.0, shadow_soft_size=0.5, normalize=False)
+    sun = add_light(bl, "Sun", "SUN", energy=3.0, angle=math.radians(10))
     sun.rotation_euler = (0.0, math.pi / 2, 0.0)
-    add_light(bl, "Spot", "SPOT", energy=1.0)
+    add_light(bl, "RawSun", "SUN", energy=3.0, angle=math.radians(10), normalize=False)
+    spot = add_light(bl, "Spot", "SPOT", energy=1.0, spot_size=math.radians(60), spot_blend=0.5,
+                     use_shadow=False)
+    spot.scale = (2.0, 1.0, 1.0)
+    spread = add_light(bl, "Spread", "AREA", shape="SQUARE", size=1.0, energy=1.0,
+                       spread=math.radians(45))
+    spread.data.cycles.use_multiple_importance_sampling = False
     s, warnings = run()
     lights = {l["name"]: l for l in s.lights}
-    assert set(lights) == {"Rect", "Disk", "Raw", "Warm", "Point", "Bulb", "Sun"}
+    assert set(lights) == {"Rect", "Disk", "Raw", "Warm", "Point", "Bulb", "RawBulb", "Sun",
+                           "RawSun", "Spot", "Spread"}
+    assert not warnings, warnings
 
     r = lights["Rect"]
     assert r["shape"] == "rectangle" and r["size"] == pytest.approx([2.0, 1.5])
     assert np.allclose(r["radiance"], np.array([1.0, 0.5, 0.25]) * 100 * 2 / (math.pi * 3.0))
-    assert r["visible_camera"] is True
+    assert r["visible_camera"] is True and r["spread"] == pytest.approx(math.pi)
     m = np.array(r["matrix"])
     assert np.allclose(np.linalg.norm(m[:3, :3], axis=0), 1)  # scale lives in size only
     assert np.allclose(m[:3, 3], [0, 0, 2]) and np.allclose(m[:3, 2], [0, -math.sin(0.4), math.cos(0.4)])
     d = lights["Disk"]
     assert d["shape"] == "disk" and d["size"] == pytest.approx([2.0, 2.0])
     assert np.allclose(d["radiance"], 10 / (math.pi * math.pi / 4 * 4))
-    assert lights["Disk"]["visible_camera"] is False
+    assert lights["Disk"]["visible_camera"] is False          # Blender 5's default for lights
     assert np.allclose(lights["Raw"]["radiance"], 10 / math.pi)  # normalize off: P / pi
     tc = np.array(bpy.data.lights["Warm"].temperature_color[:3])
     assert np.allclose(lights["Warm"]["radiance"], tc * 10 / math.pi)
-    assert lights["Point"]["position"] == pytest.approx([1, 2, 3])
-    assert np.allclose(lights["Point"]["intensity"], 3.0)
-    assert np.allclose(lights["Sun"]["direction"], [-1, 0, 0], atol=1e-6)
-    assert np.allclose(lights["Sun"]["irradiance"], 3.0)
-    assert any("'Bulb'" in w and "radius" in w for w in warnings)
-    assert any("'Spot'" in w and "not supported" in w for w in warnings)
+    p = lights["Point"]
+    assert p["kind"] == "point" and p["position"] == pytest.approx([1, 2, 3])
+    assert np.allclose(p["intensity"], 3.0) and p["radius"] == 0.0
+    b = lights["Bulb"]                      # I = P / (4 pi) whatever the radius
+    assert b["radius"] == pytest.approx(0.2) and np.allclose(b["intensity"], 1 / (4 * math.pi))
+    assert b["soft_falloff"] is False and b["visible_glossy"] is False and b["visible_diffuse"]
+    rb = lights["RawBulb"]                  # unnormalised: radiance P / pi, so I = P r^2
+    assert rb["soft_falloff"] is True and np.allclose(rb["intensity"], 2.0 * 0.25)
+    sun = lights["Sun"]
+    assert np.allclose(sun["direction"], [-1, 0, 0], atol=1e-6)
+    assert np.allclose(sun["irradiance"], 3.0) and sun["angle"] == pytest.approx(math.radians(10))
+    # Unnormalised, the disc's radiance is the strength: irradiance pi sin^2(5 deg) x 3.
+    assert np.allclose(lights["RawSun"]["irradiance"], 3.0 * math.pi * math.sin(math.radians(5)) ** 2)
+    sp = lights["Spot"]
+    assert sp["kind"] == "spot" and sp["spot_size"] == pytest.approx(math.radians(60))
+    assert sp["spot_blend"] == pytest.approx(0.5) and sp["cast_shadow"] is False
+    assert np.allclose(np.linalg.norm(np.array(sp["matrix"])[:3, :3], axis=0), [2, 1, 1])
+    assert lights["Spread"]["spread"] == pytest.approx(math.radians(45))
+    assert lights["Spread"]["use_mis"] is False and lights["Rect"]["use_mis"] is True
+
+
+def test_light_node_tree_emission_scales_the_light(bl):
+    """Cycles multiplies a lamp by its Emission node's Color x Strength when it uses nodes; any
+    other node is reported by name and ignored."""
+    lamp = add_light(bl, "Lamp", "POINT", energy=4 * math.pi, color=(0.5, 1.0, 1.0))
+    lamp.data.use_nodes = True
+    emission = next(n for n in lamp.data.node_tree.nodes if n.bl_idname == "ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (1.0, 0.5, 0.25, 1.0)
+    emission.inputs["Strength"].default_value = 2.0
+    other = add_light(bl, "Other", "POINT", energy=4 * math.pi)
+    other.data.use_nodes = True
+    tree = other.data.node_tree
+    tree.nodes.clear()
+    node = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    output = tree.nodes.new("ShaderNodeOutputLight")
+    tree.links.new(node.outputs[0], output.inputs["Surface"])
+    s, warnings = run()
+    lights = {l["name"]: l for l in s.lights}
+    assert np.allclose(lights["Lamp"]["intensity"], [1.0, 1.0, 0.5])
+    assert np.allclose(lights["Other"]["intensity"], 1.0)
+    assert any("'Other'" in w and "ShaderNodeBsdfDiffuse" in w for w in warnings), warnings
 
 
 def test_camera(bl):

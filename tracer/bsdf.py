@@ -1,4 +1,4 @@
-"""Scattering functions, one vertex at a time: Fresnel, reflection, refraction and their samplers.
+"""Scattering functions, one vertex at a time: Fresnel, reflection, refraction, specular sampling.
 
 Conventions follow Cycles (docs: shared/reference/cycles-conventions.md): directions are unit
 vectors (tuples, see vec.py), `eta` is the relative index n_transmitted / n_incident, and a
@@ -131,68 +131,3 @@ def sample_specular(kind, d, ng, n, entering, color, trans_color, ior, fresnel_m
     refracts = event == TRANSMITTED
     valid = cos_i > 0.0 and (dot(ng, out) < 0.0) == refracts and (dot(n, out) < 0.0) == refracts
     return out, weight, event, valid
-
-
-@jit
-def orthonormal_basis(n):
-    """Two unit tangents completing the unit normal n (Duff et al. 2017, branchless)."""
-    sign = 1.0 if n[2] >= 0.0 else -1.0
-    a = -1.0 / (sign + n[2])
-    b = n[0] * n[1] * a
-    return ((1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]),
-            (b, sign + n[1] * n[1] * a, -n[1]))
-
-
-@jit
-def sample_cosine_hemisphere(n, u0, u1):
-    """A cosine-weighted direction around the unit normal n and its density (cos / pi)."""
-    r = math.sqrt(u0)
-    phi = 2.0 * math.pi * u1
-    z = math.sqrt(max(0.0, 1.0 - u0))
-    t, s = orthonormal_basis(n)
-    return add(add(mul(t, r * math.cos(phi)), mul(s, r * math.sin(phi))), mul(n, z)), z / math.pi
-
-
-@jit
-def sample_uniform_sphere(u0, u1):
-    """A uniform direction on the unit sphere (density 1 / 4 pi)."""
-    z = 1.0 - 2.0 * u0
-    r = math.sqrt(max(0.0, 1.0 - z * z))
-    phi = 2.0 * math.pi * u1
-    return (r * math.cos(phi), r * math.sin(phi), z)
-
-
-@jit
-def sample_uniform_disk(u0, u1):
-    """A uniform point (x, y) on the unit disk (concentric mapping, so strata stay compact)."""
-    a = 2.0 * u0 - 1.0
-    b = 2.0 * u1 - 1.0
-    if a == 0.0 and b == 0.0:
-        return 0.0, 0.0
-    if abs(a) > abs(b):
-        r, theta = a, (math.pi / 4.0) * (b / a)
-    else:
-        r, theta = b, math.pi / 2.0 - (math.pi / 4.0) * (a / b)
-    return r * math.cos(theta), r * math.sin(theta)
-
-
-@jit
-def sample_regular_polygon(u0, u1, blades, rotation):
-    """A uniform point (x, y) in a regular polygon inscribed in the unit circle, as Cycles' aperture."""
-    corner = math.floor(u0 * blades)
-    s = math.sqrt(u0 * blades - corner)
-    v = u1 * s
-    a = 1.0 - s
-    half = math.pi / blades
-    px, py = (a + v) * math.cos(half), (a - v) * math.sin(half)
-    rot = rotation + corner * 2.0 * math.pi / blades
-    c, sn = math.cos(rot), math.sin(rot)
-    return c * px - sn * py, sn * px + c * py
-
-
-@jit
-def power_heuristic(a, b):
-    """MIS weight of strategy a against b (both densities in solid angle)."""
-    a2, b2 = a * a, b * b
-    return a2 / (a2 + b2) if a2 + b2 > 0.0 else 0.0
-

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .bsdf import sample_regular_polygon, sample_uniform_disk
+from .sampling import sample_regular_polygon, sample_uniform_disk
 from .jit import jit, jit_inline
 from .scene import aperture_radius
 from .vec import madd, mul, normalize

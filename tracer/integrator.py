@@ -151,7 +151,7 @@ class Renderer:
                 break
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.fresnel, self.next_event,
                                               bits, stratified, depth, kept, active, paths, prim,
-                                              u, v, out, shadows, stats)
+                                              u, v, out, shadows, radiance, stats)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])

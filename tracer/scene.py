@@ -15,9 +15,12 @@ import numpy as np
 from .atomic import atomic_path
 
 FORMAT = "snell-scene"
-VERSION = 1
+VERSION = 2
+READS_VERSIONS = (1, 2)   # version 2 added spot lamps and lamp radius, spread, angle and flags
 MATERIAL_KINDS = ("diffuse", "mirror", "glass", "refraction", "emission")
-LIGHT_KINDS = ("area", "point", "sun")
+LIGHT_KINDS = ("area", "point", "spot", "sun")
+LIGHT_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_transmission",
+               "cast_shadow", "use_mis")
 AREA_SHAPES = ("rectangle", "square", "disk", "ellipse")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 FRESNEL_MODELS = ("exact", "schlick")
@@ -171,8 +174,24 @@ def _check_material(i, mat):
         _finite_number(mat.get("strength"), f"{where}.strength", 0.0)
 
 
+def _check_flag(light, key, where):
+    if key in light and not isinstance(light[key], bool):
+        raise SceneError(f"{where}.{key}: expected true or false, got {light[key]!r}")
+
+
+def _check_angle(light, key, where, maximum=math.pi, default=None):
+    value = light.get(key, default)
+    if value is None:
+        raise SceneError(f"{where}.{key}: missing")
+    value = _finite_number(value, f"{where}.{key}", 0.0)
+    if value > maximum * (1.0 + 1e-6):     # Blender's float32 pi is 8.7e-8 above pi
+        raise SceneError(f"{where}.{key}: must be at most {maximum:g} radians, got {value!r}")
+
+
 def _check_light(i, light):
     where, kind = _entry_kind("lights", i, light, LIGHT_KINDS)
+    for key in LIGHT_FLAGS:
+        _check_flag(light, key, where)
     if kind == "area":
         if light.get("shape") not in AREA_SHAPES:
             raise SceneError(f"{where}.shape: unknown area shape {light.get('shape')!r}")
@@ -181,14 +200,26 @@ def _check_light(i, light):
         if np.any(size <= 0) or abs(np.linalg.det(m[:3, :3])) < 1e-300:
             raise SceneError(f"{where}: zero-area emitter (size {size.tolist()})")
         _finite_vec(light.get("radiance"), f"{where}.radiance", positive=True)
-    elif kind == "point":
+        _check_angle(light, "spread", where, default=math.pi)
+    elif kind in ("point", "spot"):
         _finite_vec(light.get("position"), f"{where}.position")
         _finite_vec(light.get("intensity"), f"{where}.intensity", positive=True)
+        _finite_number(light.get("radius", 0.0), f"{where}.radius", 0.0)
+        _check_flag(light, "soft_falloff", where)
+        if kind == "spot":
+            m = _matrix(light.get("matrix"), f"{where}.matrix")
+            if abs(np.linalg.det(m[:3, :3])) < 1e-300:
+                raise SceneError(f"{where}.matrix: singular (zero scale)")
+            _check_angle(light, "spot_size", where)
+            blend = _finite_number(light.get("spot_blend"), f"{where}.spot_blend", 0.0)
+            if blend > 1.0:
+                raise SceneError(f"{where}.spot_blend: must be at most 1, got {blend!r}")
     else:
         d = _finite_vec(light.get("direction"), f"{where}.direction")
         if np.linalg.norm(d) == 0:
             raise SceneError(f"{where}.direction: zero vector")
         _finite_vec(light.get("irradiance"), f"{where}.irradiance", positive=True)
+        _check_angle(light, "angle", where, default=0.0)
 
 
 def _check_camera(cam):
@@ -326,8 +357,9 @@ def load(path: str) -> Scene:
         raise SceneError(f"header: not valid JSON ({exc})") from None
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise SceneError(f"header.format: expected {FORMAT!r}, got {header.get('format')!r}")
-    if header.get("version") != VERSION:
-        raise SceneError(f"header.version: unknown version {header.get('version')!r} (this Snell reads {VERSION})")
+    if header.get("version") not in READS_VERSIONS:
+        raise SceneError(f"header.version: unknown version {header.get('version')!r} "
+                         f"(this Snell reads {', '.join(map(str, READS_VERSIONS))})")
     for key in ("positions", "triangles", "material_ids", "object_ids"):
         if key not in arrays:
             raise SceneError(f"{key}: missing array")

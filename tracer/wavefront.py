@@ -21,12 +21,17 @@ from typing import NamedTuple
 import numpy as np
 
 from . import bsdf
-from .bsdf import DIFFUSE, EMISSION, REFRACTION, power_heuristic
+from .bsdf import DIFFUSE, EMISSION, REFRACTION
 from .camera import camera_ray
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
-from .lights import intersect_area_lamp, pdf_area, pdf_triangle, pdf_world, sample_light
+from .lamps import (USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION,
+                    area_lamp_hit, intersect_area_lamp, intersect_point_lamp, point_lamp_hit,
+                    seen_by, sun_hit)
+from .lights import pdf_world, sample_light
 from .sampler import pixel_key, sample_pair
+from .sampling import power_heuristic, sample_cosine_hemisphere
+from .triangle_lights import pdf_triangle
 from .vec import dot, max3, mul, neg, row, store, sub
 
 STRATIFIED_BOUNCES = 2    # bounces whose light and BSDF samples are stratified (then random)
@@ -51,8 +56,9 @@ class Paths(NamedTuple):
     d32: np.ndarray          # (n, 3)
     tmax: np.ndarray         # (n,) float32: in, the ray's length; out (Embree), the hit distance
     beta: np.ndarray         # (n, 3) throughput
-    specular: np.ndarray     # (n,) bool: the ray left a specular vertex (or the camera)
-    pdf_prev: np.ndarray     # (n,) solid-angle density of the BSDF sample that made the ray
+    ray_kind: np.ndarray     # (n,) int64: the lamps.VISIBLE_* flag of the event that made the ray
+    pdf_prev: np.ndarray     # (n,) solid-angle density of the BSDF sample that made the ray, 0
+    #                          after the camera and specular bounces (no light sample competes)
 
 
 class Shadows(NamedTuple):
@@ -79,7 +85,7 @@ def new_paths(n: int) -> Paths:
     return Paths(np.empty(n, np.int64), np.empty(n, np.uint64), np.empty(n, np.int64),
                  np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3), np.float32),
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
-                 np.empty(n, np.bool_), np.empty(n))
+                 np.empty(n, np.int64), np.empty(n))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -100,10 +106,11 @@ def set_ray(paths, i, o, d, tmax):
 
 
 @jit
-def mis_weight(next_event, specular, pdf_bsdf, pdf_light):
-    """Weight of light found by BSDF sampling: 1 after specular bounces (no light sample could
-    have found it) or without light sampling, else the power heuristic."""
-    if specular or not next_event:
+def mis_weight(next_event, pdf_bsdf, pdf_light):
+    """Weight of light found by BSDF sampling: 1 after the camera and specular bounces (pdf_bsdf
+    0: no light sample could have found it) or without light sampling, else the power
+    heuristic."""
+    if pdf_bsdf == 0.0 or not next_event:
         return 1.0
     return power_heuristic(pdf_bsdf, pdf_light)
 
@@ -135,43 +142,57 @@ def generate(cam, seed, start, in_pass, first_sample, bits, stratified, n, paths
         paths.sample[i] = sample
         for k in range(3):
             paths.beta[i, k] = 1.0
-        paths.specular[i] = True     # what the camera sees directly gets no MIS weight
-        paths.pdf_prev[i] = 0.0
+        paths.ray_kind[i] = VISIBLE_CAMERA
+        paths.pdf_prev[i] = 0.0      # what the camera sees directly gets no MIS weight
 
 
 @jit
-def emitters(lights, mats, next_event, depth, max_depth, m, paths, prim, t, radiance,
-             active, stats):
-    """Lamps, the world and emissive triangles add their light; returns how many paths go on to
-    scatter (their rows in `active`).
+def emitters(lights, mats, next_event, depth, max_depth, m, paths, prim, t, radiance, active,
+             stats):
+    """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
+    on to scatter (their rows in `active`).
 
     Lamps have no surface, as in Cycles: a ray adds the light of every lamp it crosses before its
-    hit (or escape) and goes on as if the lamp were not there. Camera rays skip lamps that are
-    invisible to the camera.
+    hit (or escape) and goes on as if the lamp were not there. A lamp is seen by the rays its
+    visibility flags allow (lamps.seen_by).
     """
     kept = 0
     for i in range(m):
         o, d = row(paths.o, i), row(paths.d, i)
-        beta, path, specular = row(paths.beta, i), paths.path[i], paths.specular[i]
+        beta, path, kind = row(paths.beta, i), paths.path[i], paths.ray_kind[i]
+        pdf_prev = paths.pdf_prev[i]
         t_surface = np.float64(t[i])     # Embree leaves a miss's t at the ray's length
         for lamp in range(lights.area_area.shape[0]):
-            if depth == 0 and not lights.area_visible_camera[lamp]:
+            if not seen_by(lights.area_flags[lamp], kind):
                 continue
             t_lamp = intersect_area_lamp(lights, lamp, o, d)
             if 0.0 < t_lamp < t_surface:
-                w = mis_weight(next_event, specular, paths.pdf_prev[i],
-                               pdf_area(lights, lamp, d, t_lamp))
-                add_light(radiance, path, beta, row(lights.area_radiance, lamp), w)
+                light, density = area_lamp_hit(lights, lamp, d, t_lamp)
+                w = mis_weight(next_event, pdf_prev, lights.area_pmf[lamp] * density)
+                add_light(radiance, path, beta, light, w)
+        for lamp in range(lights.point_radius.shape[0]):
+            if not seen_by(lights.point_flags[lamp], kind):
+                continue
+            t_lamp = intersect_point_lamp(lights, lamp, o, d)
+            if 0.0 < t_lamp < t_surface:
+                light, density = point_lamp_hit(lights, lamp, o, d, t_lamp, pdf_prev)
+                w = mis_weight(next_event, pdf_prev, lights.point_pmf[lamp] * density)
+                add_light(radiance, path, beta, light, w)
         if prim[i] < 0:
             if lights.world[0] > 0.0 or lights.world[1] > 0.0 or lights.world[2] > 0.0:
-                w = mis_weight(next_event, specular, paths.pdf_prev[i], pdf_world(lights))
+                w = mis_weight(next_event, pdf_prev, pdf_world(lights))
                 add_light(radiance, path, beta, lights.world, w)
+            for sun in range(lights.sun_one_minus_cos.shape[0]):
+                # Cycles finds a sun's disc only with its MIS option, camera rays included.
+                flags = lights.sun_flags[sun]
+                if flags & kind and flags & USES_MIS:
+                    light, density = sun_hit(lights, sun, d)
+                    w = mis_weight(next_event, pdf_prev, lights.sun_pmf[sun] * density)
+                    add_light(radiance, path, beta, light, w)
             continue
         mat = mats.of_triangle[prim[i]]
         if mats.kind[mat] == EMISSION:
-            w = 1.0
-            if next_event and not specular:
-                w = power_heuristic(paths.pdf_prev[i], pdf_triangle(lights, prim[i], o, d, t_surface))
+            w = mis_weight(next_event, pdf_prev, pdf_triangle(lights, prim[i], o, d, t_surface))
             add_light(radiance, path, beta, row(mats.radiance, mat), w)
             continue
         if depth == max_depth:
@@ -184,7 +205,7 @@ def emitters(lights, mats, next_event, depth, max_depth, m, paths, prim, t, radi
 
 @jit
 def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, depth,
-              n_active, active, paths, prim, u, v, out, shadows, stats):
+              n_active, active, paths, prim, u, v, out, shadows, radiance, stats):
     """Sample every kept hit: a light sample at diffuse vertices (queued as a shadow ray), then
     the BSDF; after Russian roulette the surviving paths' next rays go into `out`.
 
@@ -215,21 +236,26 @@ def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, d
             albedo = row(mats.color, mat)
             if can_sample_lights:
                 l0, l1 = sample_pair(key, sample, 3 + 3 * depth, bits, strat)
-                wi, target, infinite, weight, pdf_light = sample_light(lights, mesh, p, u_pick, l0, l1)
+                wi, target, infinite, weight, pdf_light, shadowed = sample_light(
+                    lights, mesh, p, ns_f, VISIBLE_DIFFUSE, u_pick, l0, l1)
                 cos = dot(wi, ns_f)
                 if cos > 0.0 and dot(wi, ng_f) > 0.0 and max3(weight) > 0.0:
                     w = power_heuristic(pdf_light, cos / math.pi) if pdf_light > 0.0 else 1.0
                     f = cos / math.pi * w
-                    for k in range(3):
-                        shadows.contrib[n_shadow, k] = beta[k] * albedo[k] * weight[k] * f
-                    queue_shadow(shadows, n_shadow, paths.path[i], offset_origin(p, ng_f, eps, wi),
-                                 wi, target, infinite)
-                    n_shadow += 1
-            wi, pdf = bsdf.sample_cosine_hemisphere(ns_f, u0, u1)
+                    light = (beta[0] * albedo[0] * weight[0] * f, beta[1] * albedo[1] * weight[1] * f,
+                             beta[2] * albedo[2] * weight[2] * f)
+                    if shadowed:
+                        store(shadows.contrib, n_shadow, light)
+                        queue_shadow(shadows, n_shadow, paths.path[i],
+                                     offset_origin(p, ng_f, eps, wi), wi, target, infinite)
+                        n_shadow += 1
+                    else:                 # a lamp that casts no shadow: no shadow ray
+                        add_light(radiance, paths.path[i], light, (1.0, 1.0, 1.0), 1.0)
+            wi, pdf = sample_cosine_hemisphere(ns_f, u0, u1)
             # Shading normals can point a sample into the surface: it carries nothing.
             beta = (0.0, 0.0, 0.0) if dot(wi, ng_f) <= 0.0 else \
                 (beta[0] * albedo[0], beta[1] * albedo[1], beta[2] * albedo[2])
-            new_d, specular, pdf_prev = wi, False, pdf
+            new_d, ray_kind, pdf_prev = wi, VISIBLE_DIFFUSE, pdf
         else:
             n = ns_f
             if has_normals and kind != REFRACTION:
@@ -240,7 +266,8 @@ def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, d
             count_specular(stats, event, valid)
             beta = (beta[0] * weight[0], beta[1] * weight[1], beta[2] * weight[2]) if valid \
                 else (0.0, 0.0, 0.0)
-            specular, pdf_prev = True, 0.0
+            ray_kind = VISIBLE_TRANSMISSION if event == bsdf.TRANSMITTED else VISIBLE_GLOSSY
+            pdf_prev = 0.0
         peak = max3(beta)
         if not peak > 0.0:
             continue
@@ -258,7 +285,7 @@ def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, d
         out.path[n_out] = paths.path[i]
         out.key[n_out] = key
         out.sample[n_out] = sample
-        out.specular[n_out] = specular
+        out.ray_kind[n_out] = ray_kind
         out.pdf_prev[n_out] = pdf_prev
         n_out += 1
     return n_out, n_shadow
