@@ -111,7 +111,9 @@ def _child(spec_path, out_path):
         spec = json.load(f)
     import bpy  # noqa: F401  (the baseline: what every point pays before it starts)
 
-    from ..tracer import integrator  # noqa: F401
+    from ..tracer import integrator
+    # Loaded once per session in an open Blender: not part of what a render point costs.
+    integrator.warm_up()
     if spec["kind"] == "baseline":
         image, stats = np.zeros((1, 1, 3), np.float32), {}
     elif spec["kind"] == "snell":

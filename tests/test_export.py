@@ -561,3 +561,14 @@ def test_scene_scripts_build_and_export(name, tmp_path):
         assert [o["closed"] for o in s.objects] == [False, True]
     if name == "lens":
         assert s.camera["dof"]["use_dof"]
+
+
+def test_blenders_startup_scene_exports_its_lamp_without_warnings():
+    """The default cube, camera and point light (radius 0.1, soft falloff) as Blender starts."""
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    s, warnings = run()
+    assert not warnings, warnings
+    (lamp,) = s.lights
+    assert lamp["kind"] == "point" and lamp["radius"] == pytest.approx(0.1)
+    assert lamp["soft_falloff"] is True and np.allclose(lamp["intensity"], 1000 / (4 * math.pi))
+    assert len(s.triangles) == 12

@@ -1,5 +1,6 @@
 """Accuracy tests of the integrator on scenes with known answers."""
 import math
+import os
 
 import numpy as np
 import pytest
@@ -345,3 +346,44 @@ def test_interreflection_inside_a_diffuse_sphere_with_russian_roulette():
     se = math.sqrt(var[..., 0].sum()) / img[..., 0].size
     # The mesh is inscribed in the unit sphere (faces slightly nearer the light): allow 0.5%.
     assert abs(mean - 1.0) < 4 * se + 0.005, (mean, se)
+
+
+WARM_CHECK = r"""
+import sys
+sys.path.insert(0, "tests")
+import numba
+from snell.tracer import integrator, wavefront
+integrator.warm_up()
+def count():
+    return sum(len(getattr(wavefront, n).overloads) for n in dir(wavefront)
+               if isinstance(getattr(wavefront, n), numba.core.registry.CPUDispatcher))
+before = count()
+from test_integrator import LOSSLESS, WHITE
+from builders import camera, icosphere, make_scene, quad
+pos, tri, nrm = icosphere(2)
+m = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 3], [0, 0, 0, 1]]
+area = {"name": "A", "kind": "area", "shape": "disk", "matrix": m, "size": [1.0, 1.0],
+        "radiance": WHITE, "visible_camera": True}
+sun = {"name": "S", "kind": "sun", "direction": [0, 0, -1], "irradiance": WHITE, "angle": 0.1}
+mats = [LOSSLESS["glass-1.5"], {"name": "D", "kind": "diffuse", "color": [0.5, 0.5, 0.5]},
+        {"name": "E", "kind": "emission", "color": WHITE, "strength": 2.0}]
+scene = make_scene([(pos, tri, 0, nrm), (*quad((0, 0, -1), 3, 3), 1), (*quad((0, 0, 4), 1, 1, -1), 2)],
+                   mats, camera(resolution=(8, 8), dof={"use_dof": True, "aperture_radius": 0.1}),
+                   world=[0.2, 0.2, 0.2], lights=[area, sun], spp=4, max_depth=6)
+for sampler in integrator.SAMPLERS:
+    integrator.Renderer(scene, sampler=sampler).render()
+print(before, count())
+"""
+
+
+def test_warm_up_loads_every_kernel_signature_a_render_uses():
+    """After warm_up, rendering a scene with every feature compiles or loads nothing more: the
+    one-time cost is all in warm_up (the kernels' argument types do not depend on the scene)."""
+    import subprocess
+    import sys
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run([sys.executable, "-c", WARM_CHECK], cwd=root, capture_output=True,
+                         text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    before, after = map(int, out.stdout.split()[-2:])
+    assert before > 0 and after == before

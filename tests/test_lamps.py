@@ -260,3 +260,21 @@ def test_a_hit_reports_the_density_and_radiance_of_the_light_sample(light, p):
     assert sampled.mean() > 0.5
     assert np.allclose(out[sampled, 2], out[sampled, 0], rtol=1e-9, atol=0)
     assert np.allclose(out[sampled, 3], out[sampled, 1], rtol=1e-9, atol=1e-12)
+
+
+def test_light_below_the_surface_but_above_the_shading_normal_lights_it():
+    """Cycles evaluates a light sample with the shading normal alone: a smooth sheet whose normals
+    tilt towards a lamp just below its plane is lit by it, I cos_s / d^2, when the shadow ray
+    (from the sheet's far side) is free."""
+    pos, tri = quad((0, 0, 0), 0.5, 0.5)
+    tilt = np.array([0.6, 0.0, 0.8], np.float32)
+    mats = [{"name": "White", "kind": "diffuse", "color": WHITE}]
+    lamp = _point((3.0, 0.0, -0.3))
+    scene = make_scene([(pos, tri, 0, np.tile(tilt, (4, 1)))], mats,
+                       camera(position=(0, 0, 5), resolution=(9, 9), lens=5000.0),
+                       lights=[lamp], spp=16, max_depth=1)
+    value = render(scene).mean()[4, 4, 0]
+    to_lamp = np.array([3.0, 0.0, -0.3])
+    d2 = to_lamp @ to_lamp
+    expected = (tilt @ to_lamp) / math.sqrt(d2) / d2 / math.pi
+    assert value == pytest.approx(expected, rel=1e-3)

@@ -204,3 +204,28 @@ class Renderer:
 def render(scene: Scene, *, threads: int = 2, progress=None, spp: int | None = None) -> RenderResult:
     """Render a scene with its own settings; see Renderer.render."""
     return Renderer(scene, threads=threads).render(spp=spp, progress=progress)
+
+
+def warm_up() -> float:
+    """Compile (first run) or load (cached) every kernel a render uses; returns the seconds it
+    took. A render calls them anyway; warming up first keeps that one-time cost out of timings
+    and lets a caller say "compiling kernels" before it happens."""
+    start = time.perf_counter()
+    m = np.eye(4)
+    m[:3, 3] = (0.0, 0.0, 2.0)
+    camera = {"matrix": m.tolist(), "lens": 50.0, "sensor_width": 36.0, "sensor_height": 24.0,
+              "clip_start": 0.01, "clip_end": 100.0, "resolution": [2, 2],
+              "dof": {"use_dof": True, "focus_distance": 2.0, "fstop": 1.0}}
+    triangle = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
+    lamp = {"name": "lamp", "kind": "point", "position": [0.0, 0.0, 1.0],
+            "intensity": [1.0, 1.0, 1.0], "radius": 0.1}
+    scene = Scene(positions=triangle, triangles=np.array([[0, 1, 2]], np.int32),
+                  material_ids=np.zeros(1, np.int32), object_ids=np.zeros(1, np.int32),
+                  materials=[{"name": "grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}],
+                  lights=[lamp], camera=camera, world={"color": [0.1, 0.1, 0.1]},
+                  render={"spp": 1, "max_depth": 2, "seed": 0, "fresnel": "exact"},
+                  objects=[{"name": "triangle", "closed": False}],
+                  normals=np.tile(np.array([0, 0, 1], np.float32), (3, 1)))
+    for sampler in SAMPLERS:
+        Renderer(scene, threads=1, sampler=sampler).render()
+    return time.perf_counter() - start

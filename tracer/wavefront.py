@@ -239,7 +239,12 @@ def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, d
                 wi, target, infinite, weight, pdf_light, shadowed = sample_light(
                     lights, mesh, p, ns_f, VISIBLE_DIFFUSE, u_pick, l0, l1)
                 cos = dot(wi, ns_f)
-                if cos > 0.0 and dot(wi, ng_f) > 0.0 and max3(weight) > 0.0:
+                # As in Cycles, the shading normal alone decides: a light below the geometric
+                # surface but above the shading normal's horizon lights the point if the shadow
+                # ray, which starts on the surface's far side, gets through (on a closed smooth
+                # mesh it does only for lamps that cast no shadow). BSDF samples below the
+                # geometric surface carry nothing (below), also as in Cycles.
+                if cos > 0.0 and max3(weight) > 0.0:
                     w = power_heuristic(pdf_light, cos / math.pi) if pdf_light > 0.0 else 1.0
                     f = cos / math.pi * w
                     light = (beta[0] * albedo[0] * weight[0] * f, beta[1] * albedo[1] * weight[1] * f,
