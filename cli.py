@@ -16,7 +16,8 @@ import time
 from .addon.console import stdout_silenced
 from .compare.bench import CLI as BENCH_COMMAND
 from .compare.commands import COMMANDS as COMPARE_COMMANDS
-from .tracer.scene import FRESNEL_MODELS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
+from .tracer.scene import (FRESNEL_MODELS, LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius,
+                           load, save)
 
 SCENE_EXTENSIONS = (".blend", ".snell")
 
@@ -236,7 +237,7 @@ def describe(scene) -> list[str]:
         f"source     {scene.source or '?'}",
         f"geometry   {_plural(len(scene.triangles), 'triangle')}{objects}",
         f"materials  {_counts(scene.materials, MATERIAL_KINDS)}",
-        f"lights     {_counts(scene.lights, ('area', 'point', 'sun'))}",
+        f"lights     {_counts(scene.lights, LIGHT_KINDS)}",
         f"world      {list(scene.world['color'])}",
         f"camera     {cam.get('name', '?')!r}: {resolution}, lens {cam['lens']:g} mm, "
         f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
