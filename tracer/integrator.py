@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import bsdf, wavefront
+from . import bsdf, light_paths, wavefront
 from .camera import Camera
 from .geometry import Geometry
 from .lights import LightSampler
@@ -27,16 +27,26 @@ from .scene import FRESNEL_MODELS, MATERIAL_KINDS, Scene
 CHUNK = 1 << 13           # paths per chunk: measured best (8k-16k) for Python overhead vs cache
 PASS_PATHS = 1 << 17      # aim for about this many paths per progressive pass
 SAMPLERS = ("stratified", "independent")
+# Light paths traced per camera path when the light tracer runs (light_paths.py).
+LIGHT_PATHS_PER_CAMERA_PATH = 0.5
 
 
 @dataclass
 class RenderResult:
-    """Per-pixel sums of the samples and of their squares (row 0 = top), plus counters."""
+    """Per-pixel sums (row 0 = top) of the camera samples and of their squares, of the light
+    tracer's splats, and of each pass's light image (or image) and its square (batch means), plus
+    counters."""
     width: int
     height: int
     sum: np.ndarray
     sum_sq: np.ndarray
+    light_sum: np.ndarray | None = None
+    batch_sum: np.ndarray | None = None
+    batch_sq: np.ndarray | None = None
     spp: int = 0
+    light_paths: int = 0
+    light_in_image: bool = False     # the hybrid: the light tracer's splats are part of the image
+    batches: int = 0
     nan_count: int = 0
     time_s: float = 0.0
     build_s: float = 0.0
@@ -50,15 +60,50 @@ class RenderResult:
         """The image: per-pixel mean radiance, float32 (H, W, 3), linear."""
         if self.spp == 0:
             return np.zeros_like(self.sum, dtype=np.float32)
-        return (self.sum / self.spp).astype(np.float32)
+        image = self.sum / self.spp
+        if self.light_in_image and self.light_paths:
+            image = image + self.light_sum / self.light_paths
+        return image.astype(np.float32)
+
+    def light_image(self) -> np.ndarray:
+        """The light tracer's part of the image (all of pure light tracing's), float64."""
+        return self.light_sum / max(self.light_paths, 1)
 
     def variance_of_mean(self) -> np.ndarray:
-        """Per-pixel variance of the mean (sample variance / n), float64 (H, W, 3)."""
+        """Per-pixel variance of the mean image, float64 (H, W, 3): see variance_and_dof."""
+        return self.variance_and_dof()[0]
+
+    def variance_and_dof(self):
+        """Per-pixel variance of the mean image and its degrees of freedom, (H, W, 3) each.
+
+        The camera samples' part comes from their sums of squares (sample variance / n, n - 1
+        degrees of freedom). The light tracer's splats have no per-sample variance: its part
+        comes from the spread of the passes' light images (independent batches, K - 1), and the
+        degrees of freedom of the sum are Welch-Satterthwaite's.
+        """
         n = self.spp
         if n < 2:
+            return np.full_like(self.sum, np.inf), np.ones_like(self.sum)
+        var = np.maximum((self.sum_sq - self.sum * self.sum / n) / (n - 1), 0.0) / n
+        dof = np.full_like(var, n - 1.0)
+        if self.light_in_image and self.light_paths:
+            light = self.batch_variance_of_mean()
+            total = var + light
+            with np.errstate(divide="ignore", invalid="ignore"):
+                denom = var * var / (n - 1) + light * light / max(self.batches - 1, 1)
+                dof = np.where(denom > 0, total * total / denom, np.inf)
+            var = total
+        return var, dof
+
+    def batch_variance_of_mean(self) -> np.ndarray:
+        """Per-pixel variance of the mean of the passes' batch images, float64 (H, W, 3): the
+        light tracer's images when it runs, else the whole image (Renderer.render(batches=K)).
+        Batches of equal samples are independent, so their spread gives it."""
+        k = self.batches
+        if k < 2 or self.batch_sum is None:
             return np.full_like(self.sum, np.inf)
-        var = (self.sum_sq - self.sum * self.sum / n) / (n - 1)
-        return np.maximum(var, 0.0) / n
+        var = (self.batch_sq - self.batch_sum * self.batch_sum / k) / (k - 1)
+        return np.maximum(var, 0.0) / k
 
     @property
     def rays_per_second(self) -> float:
@@ -82,14 +127,26 @@ class _Buffers(threading.local):
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64))
         return self.buffers
 
+    def light(self):
+        """(light paths, next light paths, camera connections) for CHUNK light paths."""
+        if not hasattr(self, "light_buffers"):
+            self.light_buffers = (light_paths.new_light_paths(CHUNK),
+                                  light_paths.new_light_paths(CHUNK), wavefront.new_shadows(CHUNK))
+        return self.light_buffers
+
 
 class Renderer:
     """A scene prepared for rendering: camera, Embree geometry, materials and lights."""
 
     def __init__(self, scene: Scene, threads: int = 2, next_event: bool = True,
-                 sampler: str = "stratified"):
+                 sampler: str = "stratified", caustics: bool | str | None = None):
         """next_event=False turns light sampling off (BSDF sampling only): a second, independent
-        estimator of the same image, which tests use to check the first one.
+        estimator of the same image, which tests use to check the first one. caustics=False
+        renders with the path tracer alone (default: the scene's render setting); the light
+        tracer runs only where it has something to do (light_paths.caustics_tables).
+        caustics="pure" runs pure light tracing beside a full path tracer, for tests: the
+        result's light image (light_sum / light_paths) is then a second estimate of the image
+        but for emitters seen directly or through specular vertices only.
 
         sampler "stratified" draws each pixel's camera samples (pixel and lens position) and the
         light and BSDF samples of the first bounces from Owen-scrambled Sobol points,
@@ -123,6 +180,12 @@ class Renderer:
         self.max_depth = int(render["max_depth"])
         self.seed = int(render["seed"])
         self.fresnel = FRESNEL_MODELS.index(render["fresnel"])
+        want_caustics = render.get("caustics", True) if caustics is None else caustics
+        self.caustics = (light_paths.caustics_tables(scene, self.lights, self.geometry, kind,
+                                                     pure=want_caustics == "pure")
+                         if want_caustics else None)
+        # The path tracer leaves the light tracer's paths to it (not in the pure test mode).
+        self.split = self.caustics is not None and not self.caustics.pure
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
@@ -145,8 +208,9 @@ class Renderer:
         m = n
         for depth in range(self.max_depth + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            kept = wavefront.emitters(lights, mats, self.next_event, depth, self.max_depth, m,
-                                      paths, prim, t, radiance, active, stats)
+            kept = wavefront.emitters(lights, mats, self.next_event, self.split,
+                                      depth, self.max_depth, m, paths, prim, t, radiance, active,
+                                      stats)
             if kept == 0:
                 break
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.fresnel, self.next_event,
@@ -163,32 +227,93 @@ class Renderer:
             bad = wavefront.film(radiance, n, start, in_pass, total, total_sq)
         return bad, stats.copy()
 
+    def trace_light_chunk(self, pass_index: int, start: int, n: int, film: np.ndarray):
+        """Trace light paths start .. start + n of a pass and add their splats to the film,
+        (pixels, 3) rows. Returns how many connections reached the camera."""
+        geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
+        mesh, cam = geom.mesh, self.camera.params()
+        paths, out, connections = self._buffers.light()
+        m = light_paths.emit_light_paths(caustics, lights, mesh, self.seed, pass_index, start, n,
+                                         paths)
+        splats = 0
+        for _ in range(self.max_depth):
+            if m == 0:
+                break
+            prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
+            m, n_conn = light_paths.light_bounce(caustics, lights, mesh, mats, cam, self.fresnel,
+                                                 self.max_depth, m, paths, prim, u, v, out,
+                                                 connections)
+            if n_conn:
+                blocked = geom.occluded(connections.o32[:n_conn], connections.d32[:n_conn],
+                                        connections.tmax[:n_conn])
+                with self._film_lock:
+                    wavefront.shadow_rays(n_conn, blocked, connections, film)
+                splats += int(np.count_nonzero(blocked))
+            paths, out = out, paths
+        return splats
+
     # -- passes ----------------------------------------------------------------------------
 
-    def render(self, spp: int | None = None, progress=None) -> RenderResult:
-        """Render progressively; `progress(result, pass_index, pass_count)` may return False to stop."""
+    def render(self, spp: int | None = None, progress=None, batches: int | None = None) -> RenderResult:
+        """Render progressively; `progress(result, pass_index, pass_count)` may return False to stop.
+
+        Each pass adds its samples to the image. With the light tracer, or when `batches` asks
+        for a number of passes, each pass's image is also kept as a batch (for the variance of
+        the mean from independent batches); passes then differ by at most one sample.
+        """
         spp = int(spp if spp is not None else self.scene.render["spp"])
         w, h = self.camera.width, self.camera.height
         npix = w * h
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
                               build_s=self.build_s)
-        per_pass = max(1, min(spp, PASS_PATHS // npix))
+        passes = batches or math.ceil(spp / max(1, min(spp, PASS_PATHS // npix)))
+        passes = max(1, min(passes, spp))
         bits = max(1, (spp - 1).bit_length())   # sample indices run over [0, 2^bits)
-        passes = math.ceil(spp / per_pass)
+        keep_batches = self.caustics is not None or batches is not None
+        result.light_in_image = self.split
+        if keep_batches:
+            result.light_sum = np.zeros((h, w, 3))
+            result.batch_sum, result.batch_sq = np.zeros((h, w, 3)), np.zeros((h, w, 3))
+            pass_sum, pass_light = np.zeros((npix, 3)), np.zeros((npix, 3))
         embree_before, rays_before = self.geometry.embree_time, self.geometry.ray_count
         counters = np.zeros(len(wavefront.STATS), np.int64)
         start = time.perf_counter()
         total, total_sq = result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3)
+        first_sample = 0
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             for k in range(passes):
-                in_pass = min(per_pass, spp - k * per_pass)
+                in_pass = spp // passes + (1 if k < spp % passes else 0)
                 count = npix * in_pass
+                film = pass_sum if keep_batches else total
+                if keep_batches:
+                    pass_sum[:] = 0.0
+                    pass_light[:] = 0.0
                 jobs = [(s, min(CHUNK, count - s)) for s in range(0, count, CHUNK)]
                 for bad, stats in pool.map(
-                        lambda job: self.trace_chunk(job[0], job[1], in_pass, k * per_pass, bits,
-                                                     total, total_sq), jobs):
+                        lambda job: self.trace_chunk(job[0], job[1], in_pass, first_sample, bits,
+                                                     film, total_sq), jobs):
                     result.nan_count += bad
                     counters += stats
+                n_light = 0
+                if self.caustics is not None:
+                    n_light = max(1, int(round(LIGHT_PATHS_PER_CAMERA_PATH * count)))
+                    light_jobs = [(s, min(CHUNK, n_light - s)) for s in range(0, n_light, CHUNK)]
+                    for splats in pool.map(
+                            lambda job: self.trace_light_chunk(k, job[0], job[1], pass_light),
+                            light_jobs):
+                        counters[wavefront.STATS.index("caustic_splats")] += splats
+                    result.light_paths += n_light
+                if keep_batches:
+                    result.nan_count += _zero_non_finite(pass_light)
+                    total += pass_sum
+                    result.light_sum.reshape(-1, 3)[:] += pass_light
+                    # The light tracer's image when it runs (its variance comes from these),
+                    # else the whole image.
+                    image = pass_light / n_light if n_light else pass_sum / in_pass
+                    result.batch_sum.reshape(-1, 3)[:] += image
+                    result.batch_sq.reshape(-1, 3)[:] += image * image
+                    result.batches += 1
+                first_sample += in_pass
                 result.spp += in_pass
                 result.time_s = time.perf_counter() - start
                 result.embree_time_s = self.geometry.embree_time - embree_before
@@ -199,6 +324,13 @@ class Renderer:
                     break
         result.time_s = time.perf_counter() - start
         return result
+
+
+def _zero_non_finite(rows: np.ndarray) -> int:
+    """Set non-finite entries' rows to 0; returns how many rows had one."""
+    bad = ~np.isfinite(rows).all(axis=1)
+    rows[bad] = 0.0
+    return int(bad.sum())
 
 
 def render(scene: Scene, *, threads: int = 2, progress=None, spp: int | None = None) -> RenderResult:
