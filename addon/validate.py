@@ -61,16 +61,15 @@ def load_snell_scene(blend_path):
         return export_blend(blend_path)
 
 
-# The light tracer's part of Snell's per-pixel variances comes from this many independent
-# batches (the light images of as many passes): its splats have no per-sample variance. The camera
-# samples' part stays per sample: with heavy tails (rare paths that carry much light) a 16-batch
-# estimate of the variance is far less stable than one from hundreds of samples (measured in the
-# README's validator section).
+# Snell's per-pixel variances come from this many independent batches (the images of as many
+# passes, K - 1 degrees of freedom), not from per-sample sums of squares: the light tracer's splats
+# have no per-sample variance, and where rare paths carry much of the light the per-sample
+# variance underestimates the error (README, validator section).
 BATCHES = 16
 
 
 def snell_render(scene, spp, progress=None, threads=2, caustics=None):
-    """Snell with independent samples in BATCHES passes: the z-tests need honest per-pixel
+    """Snell with independent samples in BATCHES batches: the tests need honest per-pixel
     variances, which the default stratified sampler's correlated samples would over-estimate."""
     from ..tracer.integrator import Renderer
     return Renderer(scene, threads=threads, sampler="independent", caustics=caustics).render(

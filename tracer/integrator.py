@@ -33,9 +33,9 @@ LIGHT_PATHS_PER_CAMERA_PATH = 0.5
 
 @dataclass
 class RenderResult:
-    """Per-pixel sums (row 0 = top) of the camera samples and of their squares, of the light
-    tracer's splats, and of each pass's light image (or image) and its square (batch means), plus
-    counters."""
+    """Per-pixel sums (row 0 = top) of the camera samples and of their squares, and of the light
+    tracer's splats; with batches, sums of each pass's image and light image and their squares;
+    plus counters."""
     width: int
     height: int
     sum: np.ndarray
@@ -43,6 +43,8 @@ class RenderResult:
     light_sum: np.ndarray | None = None
     batch_sum: np.ndarray | None = None
     batch_sq: np.ndarray | None = None
+    light_batch_sum: np.ndarray | None = None
+    light_batch_sq: np.ndarray | None = None
     spp: int = 0
     light_paths: int = 0
     light_in_image: bool = False     # the hybrid: the light tracer's splats are part of the image
@@ -66,7 +68,10 @@ class RenderResult:
         return image.astype(np.float32)
 
     def light_image(self) -> np.ndarray:
-        """The light tracer's part of the image (all of pure light tracing's), float64."""
+        """The light tracer's splats per light path, float64 (H, W, 3): its part of the hybrid's
+        image, or pure light tracing's whole image."""
+        if self.light_sum is None:
+            return np.zeros_like(self.sum)
         return self.light_sum / max(self.light_paths, 1)
 
     def variance_of_mean(self) -> np.ndarray:
@@ -74,36 +79,28 @@ class RenderResult:
         return self.variance_and_dof()[0]
 
     def variance_and_dof(self):
-        """Per-pixel variance of the mean image and its degrees of freedom, (H, W, 3) each.
+        """Per-pixel variance of the mean image and its degrees of freedom, (H, W, 3) and a number.
 
-        The camera samples' part comes from their sums of squares (sample variance / n, n - 1
-        degrees of freedom). The light tracer's splats have no per-sample variance: its part
-        comes from the spread of the passes' light images (independent batches, K - 1), and the
-        degrees of freedom of the sum are Welch-Satterthwaite's.
+        With K >= 2 batches (Renderer.render(batches=K)), from the spread of the K passes'
+        images (K - 1 degrees of freedom): the light tracer's splats have no per-sample variance,
+        and where rare paths carry much of the light the per-sample variance underestimates the
+        error far more than batch means do. Without batches, from the camera samples' sums of
+        squares (n - 1), which then leave the light tracer's part out.
         """
+        if self.batches >= 2 and self.batch_sum is not None:
+            return _variance_of_batch_mean(self.batch_sum, self.batch_sq, self.batches), \
+                self.batches - 1
         n = self.spp
         if n < 2:
-            return np.full_like(self.sum, np.inf), np.ones_like(self.sum)
+            return np.full_like(self.sum, np.inf), 1
         var = np.maximum((self.sum_sq - self.sum * self.sum / n) / (n - 1), 0.0) / n
-        dof = np.full_like(var, n - 1.0)
-        if self.light_in_image and self.light_paths:
-            light = self.batch_variance_of_mean()
-            total = var + light
-            with np.errstate(divide="ignore", invalid="ignore"):
-                denom = var * var / (n - 1) + light * light / max(self.batches - 1, 1)
-                dof = np.where(denom > 0, total * total / denom, np.inf)
-            var = total
-        return var, dof
+        return var, n - 1
 
-    def batch_variance_of_mean(self) -> np.ndarray:
-        """Per-pixel variance of the mean of the passes' batch images, float64 (H, W, 3): the
-        light tracer's images when it runs, else the whole image (Renderer.render(batches=K)).
-        Batches of equal samples are independent, so their spread gives it."""
-        k = self.batches
-        if k < 2 or self.batch_sum is None:
+    def light_variance_of_mean(self) -> np.ndarray:
+        """Per-pixel variance of light_image() from its batches (K - 1 degrees of freedom)."""
+        if self.batches < 2 or self.light_batch_sum is None:
             return np.full_like(self.sum, np.inf)
-        var = (self.batch_sq - self.batch_sum * self.batch_sum / k) / (k - 1)
-        return np.maximum(var, 0.0) / k
+        return _variance_of_batch_mean(self.light_batch_sum, self.light_batch_sq, self.batches)
 
     @property
     def rays_per_second(self) -> float:
@@ -139,7 +136,8 @@ class Renderer:
     """A scene prepared for rendering: camera, Embree geometry, materials and lights."""
 
     def __init__(self, scene: Scene, threads: int = 2, next_event: bool = True,
-                 sampler: str = "stratified", caustics: bool | str | None = None):
+                 sampler: str = "stratified", caustics: bool | str | None = None,
+                 light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH):
         """next_event=False turns light sampling off (BSDF sampling only): a second, independent
         estimator of the same image, which tests use to check the first one. caustics=False
         renders with the path tracer alone (default: the scene's render setting); the light
@@ -184,6 +182,7 @@ class Renderer:
         self.caustics = (light_paths.caustics_tables(scene, self.lights, self.geometry, kind,
                                                      pure=want_caustics == "pure")
                          if want_caustics else None)
+        self.light_paths_per_camera_path = float(light_paths_per_camera_path)
         # The path tracer leaves the light tracer's paths to it (not in the pure test mode).
         self.split = self.caustics is not None and not self.caustics.pure
         self._buffers = _Buffers()
@@ -257,28 +256,34 @@ class Renderer:
     def render(self, spp: int | None = None, progress=None, batches: int | None = None) -> RenderResult:
         """Render progressively; `progress(result, pass_index, pass_count)` may return False to stop.
 
-        Each pass adds its samples to the image. With the light tracer, or when `batches` asks
-        for a number of passes, each pass's image is also kept as a batch (for the variance of
-        the mean from independent batches); passes then differ by at most one sample.
+        Each pass adds its samples to the image, and the light tracer (where it runs) as many
+        light paths per camera path as light_paths_per_camera_path says. `batches=K` renders in K passes (of
+        equal samples, give or take one) and keeps each pass's image as a batch, for variances
+        of the mean from independent batches (RenderResult.variance_and_dof).
         """
         spp = int(spp if spp is not None else self.scene.render["spp"])
         w, h = self.camera.width, self.camera.height
         npix = w * h
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
-                              build_s=self.build_s)
+                              build_s=self.build_s, light_in_image=self.split)
         passes = batches or math.ceil(spp / max(1, min(spp, PASS_PATHS // npix)))
         passes = max(1, min(passes, spp))
         bits = max(1, (spp - 1).bit_length())   # sample indices run over [0, 2^bits)
-        keep_batches = self.caustics is not None or batches is not None
-        result.light_in_image = self.split
-        if keep_batches:
+        traces_light = self.caustics is not None
+        keep_batches = batches is not None
+        total, total_sq = result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3)
+        if traces_light:
             result.light_sum = np.zeros((h, w, 3))
+            pass_light = np.zeros((npix, 3))
+        if keep_batches:
             result.batch_sum, result.batch_sq = np.zeros((h, w, 3)), np.zeros((h, w, 3))
-            pass_sum, pass_light = np.zeros((npix, 3)), np.zeros((npix, 3))
+            pass_sum = np.zeros((npix, 3))
+            if traces_light:
+                result.light_batch_sum = np.zeros((h, w, 3))
+                result.light_batch_sq = np.zeros((h, w, 3))
         embree_before, rays_before = self.geometry.embree_time, self.geometry.ray_count
         counters = np.zeros(len(wavefront.STATS), np.int64)
         start = time.perf_counter()
-        total, total_sq = result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3)
         first_sample = 0
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             for k in range(passes):
@@ -287,7 +292,6 @@ class Renderer:
                 film = pass_sum if keep_batches else total
                 if keep_batches:
                     pass_sum[:] = 0.0
-                    pass_light[:] = 0.0
                 jobs = [(s, min(CHUNK, count - s)) for s in range(0, count, CHUNK)]
                 for bad, stats in pool.map(
                         lambda job: self.trace_chunk(job[0], job[1], in_pass, first_sample, bits,
@@ -295,23 +299,26 @@ class Renderer:
                     result.nan_count += bad
                     counters += stats
                 n_light = 0
-                if self.caustics is not None:
-                    n_light = max(1, int(round(LIGHT_PATHS_PER_CAMERA_PATH * count)))
+                if traces_light:
+                    pass_light[:] = 0.0
+                    n_light = max(1, int(round(self.light_paths_per_camera_path * count)))
                     light_jobs = [(s, min(CHUNK, n_light - s)) for s in range(0, n_light, CHUNK)]
                     for splats in pool.map(
                             lambda job: self.trace_light_chunk(k, job[0], job[1], pass_light),
                             light_jobs):
-                        counters[wavefront.STATS.index("caustic_splats")] += splats
+                        counters[wavefront.CAUSTIC_SPLATS] += splats
+                    result.nan_count += _zero_non_finite(pass_light)
+                    result.light_sum.reshape(-1, 3)[:] += pass_light
                     result.light_paths += n_light
                 if keep_batches:
-                    result.nan_count += _zero_non_finite(pass_light)
                     total += pass_sum
-                    result.light_sum.reshape(-1, 3)[:] += pass_light
-                    # The light tracer's image when it runs (its variance comes from these),
-                    # else the whole image.
-                    image = pass_light / n_light if n_light else pass_sum / in_pass
-                    result.batch_sum.reshape(-1, 3)[:] += image
-                    result.batch_sq.reshape(-1, 3)[:] += image * image
+                    image = pass_sum / in_pass
+                    if traces_light:
+                        light_image = pass_light / n_light
+                        _add_batch(result.light_batch_sum, result.light_batch_sq, light_image)
+                        if self.split:
+                            image += light_image
+                    _add_batch(result.batch_sum, result.batch_sq, image)
                     result.batches += 1
                 first_sample += in_pass
                 result.spp += in_pass
@@ -324,6 +331,17 @@ class Renderer:
                     break
         result.time_s = time.perf_counter() - start
         return result
+
+
+def _add_batch(total, total_sq, image):
+    """Add one batch image, (pixels, 3) rows, to (H, W, 3) sums of batches and of their squares."""
+    total.reshape(-1, 3)[:] += image
+    total_sq.reshape(-1, 3)[:] += image * image
+
+
+def _variance_of_batch_mean(total, total_sq, k):
+    """The variance of the mean of k independent batch images from their sum and sum of squares."""
+    return np.maximum((total_sq - total * total / k) / (k - 1), 0.0) / k
 
 
 def _zero_non_finite(rows: np.ndarray) -> int:

@@ -411,12 +411,13 @@ def diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, albedo, u):
     cos_si, cos_gi = dot(wi, ns_f), dot(wi, ng_f)
     if not cos_si > 0.0:
         return n_out
-    wo, pdf = sample_cosine_hemisphere(ns_f, u[0], u[1])
-    cos_go = dot(wo, ng_f)
-    if not (cos_go > 0.0 and pdf > 0.0):
+    # Around the geometric normal: the camera path that meets this vertex from wo counts it for
+    # every wo above the geometric surface, also below the shading normal's horizon.
+    wo, pdf = sample_cosine_hemisphere(ng_f, u[0], u[1])
+    if not pdf > 0.0:
         return n_out
-    # f |ng . wo| (|ns . wi| / |ng . wi|) / pdf with f = albedo / pi and pdf = |ns . wo| / pi.
-    scale = (cos_si / cos_gi) * cos_go / dot(wo, ns_f)
+    # f |ng . wo| (|ns . wi| / |ng . wi|) / pdf with f = albedo / pi and pdf = |ng . wo| / pi.
+    scale = cos_si / cos_gi
     origin = offset_origin(p, ng_f, eps, wo)
     out.key[n_out] = paths.key[i]
     for k in range(3):

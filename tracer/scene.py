@@ -25,7 +25,7 @@ AREA_SHAPES = ("rectangle", "square", "disk", "ellipse")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 FRESNEL_MODELS = ("exact", "schlick")
 
-DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact"}
+DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact", "caustics": True}
 DEFAULT_DOF = {"use_dof": False, "focus_distance": 10.0, "fstop": 2.8, "blades": 0,
                "rotation": 0.0, "ratio": 1.0}
 
@@ -260,6 +260,8 @@ def _check_render(render):
         v = render.get(key)
         if not isinstance(v, int) or isinstance(v, bool) or v < (1 if key == "spp" else 0):
             raise SceneError(f"render.{key}: expected a {'positive' if key == 'spp' else 'non-negative'} integer, got {v!r}")
+    if not isinstance(render.get("caustics", True), bool):
+        raise SceneError(f"render.caustics: expected true or false, got {render.get('caustics')!r}")
     if render.get("fresnel") not in FRESNEL_MODELS:
         raise SceneError(f"render.fresnel: expected one of {FRESNEL_MODELS}, got {render.get('fresnel')!r}")
 
