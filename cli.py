@@ -150,7 +150,12 @@ def cmd_render(args) -> int:
     scene = load_scene(args.scene).with_render(spp=args.spp, max_depth=args.max_depth,
                                                 seed=args.seed, fresnel=args.fresnel)
     from .tracer import image
-    from .tracer.integrator import render
+    from .tracer.integrator import kernels_compiled, render, warm_up
+
+    if not kernels_compiled():
+        if not args.quiet:
+            print("snell: compiling kernels (first run only)", file=sys.stderr, flush=True)
+        warm_up()
 
     options = {} if args.threads is None else {"threads": args.threads}
     bar = ProgressLine(sys.stderr, scene.render["spp"]) if not args.quiet and sys.stderr.isatty() else None

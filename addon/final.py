@@ -74,13 +74,26 @@ def _export(engine, depsgraph, record):
     return scene
 
 
-def _renderer(scene, threads):
+def _integrator():
     try:
-        from ..tracer.integrator import Renderer
+        from ..tracer import integrator
     except ImportError as exc:
-        raise RenderFailed(f"the Embree bindings (embreex) cannot be loaded: {exc}. "
+        # embreex, numba and llvmlite come as the extension's own wheels.
+        raise RenderFailed(f"the renderer's libraries cannot be loaded: {exc}. "
                            f"Reinstall the Snell extension for this platform.") from None
-    return Renderer(scene, threads=threads)
+    return integrator
+
+
+def _compile_kernels(engine, record):
+    """Compile the kernels on the first render after an install or update, saying so."""
+    integrator = _integrator()
+    record["kernels_compiled_s"] = None
+    if integrator.kernels_compiled():
+        return
+    message = "Snell: compiling kernels (first run only)"
+    engine.update_stats("", message)
+    print(message, file=sys.stderr, flush=True)
+    record["kernels_compiled_s"] = integrator.warm_up()
 
 
 class _Progress:
@@ -138,8 +151,9 @@ def render(engine, depsgraph):
         scene = scene.with_camera(**window.window_camera(scene.camera, x0, y0, w, h))
         spp = int(scene.render["spp"])
         record["target_spp"] = spp
+        _compile_kernels(engine, record)
         engine.update_stats("", f"Snell: building the BVH of {len(scene.triangles)} triangles")
-        renderer = _renderer(scene, _threads(bl_scene))
+        renderer = _integrator().Renderer(scene, threads=_threads(bl_scene))
         if engine.test_break():
             record["cancelled"] = True
             return
