@@ -5,6 +5,9 @@ Each subcommand is two functions, `_setup_<name>(parser)` adding its arguments a
 scene, wrong extension) is raised as CliError, SceneError or OSError and reported by main() as one
 `snell: error: ...` line with exit status 1; anything else is a bug and keeps its traceback.
 Ctrl-C exits with 130 and writes nothing partial (image writes are atomic and happen after the render).
+
+This module is the top of the command tree: it imports the command modules to dispatch to them,
+and nothing in the package imports it; the helpers they share live in errors.py.
 """
 from __future__ import annotations
 
@@ -14,27 +17,20 @@ import sys
 import time
 
 from .addon.console import stdout_silenced
-from .compare.bench import CLI as BENCH_COMMAND
+from .compare.bench_command import CLI as BENCH_COMMAND
 from .compare.commands import COMMANDS as COMPARE_COMMANDS
+from .errors import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, int_at_least, print_error, warn
 from .tracer.scene import (FRESNEL_MODELS, LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius,
                            load, save)
 
 SCENE_EXTENSIONS = (".blend", ".snell")
 
 
-class CliError(Exception):
-    """A user error, reported as one line."""
-
-
 class _Parser(argparse.ArgumentParser):
     """Usage errors as one `snell: error: ...` line too (exit status 2, as argparse does)."""
 
     def error(self, message):
-        self.exit(2, f"snell: error: {message} (see {self.prog} --help)\n")
-
-
-def warn(message: str) -> None:
-    print(f"snell: warning: {message}", file=sys.stderr)
+        self.exit(EXIT_USAGE, f"snell: error: {message} (see {self.prog} --help)\n")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -77,18 +73,6 @@ def _check_output(path: str, ext: str, option: str) -> None:
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         raise CliError(f"{option} {path}: directory {directory} does not exist")
-
-
-def _int_at_least(minimum):
-    def parse(text):
-        try:
-            value = int(text)
-        except ValueError:
-            value = None
-        if value is None or value < minimum:
-            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}")
-        return value
-    return parse
 
 
 def _duration(seconds: float) -> str:
@@ -134,11 +118,11 @@ def _setup_render(p):
     p.add_argument("scene", help="a .blend (exported on the fly) or a .snell scene file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="linear float EXR to write")
     p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit sRGB PNG (Standard view transform)")
-    p.add_argument("--spp", type=_int_at_least(1), help="samples per pixel (default: the scene's)")
-    p.add_argument("--max-depth", type=_int_at_least(0), metavar="M",
+    p.add_argument("--spp", type=int_at_least(1), help="samples per pixel (default: the scene's)")
+    p.add_argument("--max-depth", type=int_at_least(0), metavar="M",
                    help="emission plus up to M bounces; Cycles max_bounces = M - 1 (default: the scene's)")
-    p.add_argument("--seed", type=_int_at_least(0), help="random seed (default: the scene's)")
-    p.add_argument("--threads", type=_int_at_least(1), help="render threads (default: the integrator's)")
+    p.add_argument("--seed", type=int_at_least(0), help="random seed (default: the scene's)")
+    p.add_argument("--threads", type=int_at_least(1), help="render threads (default: the integrator's)")
     p.add_argument("--fresnel", choices=FRESNEL_MODELS, help="Fresnel model for glass (default: the scene's, exact)")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
 
@@ -307,10 +291,10 @@ def main(argv=None) -> int:
         return args.run(args) or 0
     except KeyboardInterrupt:
         print("snell: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     except (CliError, SceneError, OSError) as exc:
-        print(f"snell: error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return 1
+        print_error(exc)
+        return EXIT_ERROR
 
 
 if __name__ == "__main__":
