@@ -19,7 +19,8 @@ import time
 from .addon.console import stdout_silenced
 from .compare.bench_command import CLI as BENCH_COMMAND
 from .compare.commands import COMMANDS as COMPARE_COMMANDS
-from .errors import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, int_at_least, print_error, warn
+from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_writable_directory,
+                     int_at_least, print_error, warn)
 from .tracer.scene import (FRESNEL_MODELS, LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius,
                            load, save)
 
@@ -49,8 +50,14 @@ def load_scene(path: str):
     if not os.path.isfile(path):
         raise CliError(f"{path}: no such file")
     if ext == ".snell":
-        return load(path)
+        try:
+            return load(path)
+        except SceneError as exc:  # name the file too: the loader's message names the field
+            if str(exc).startswith(path):
+                raise
+            raise SceneError(f"{path}: {exc}") from None
     try:
+        from .addon.blendfile import blender_reason
         from .addon.export import export_blend
         with stdout_silenced():
             scene, warnings = export_blend(path)
@@ -59,8 +66,8 @@ def load_scene(path: str):
             raise
         raise CliError(f"{path}: reading .blend files needs Blender's bpy module "
                        "(pip install 'snell[blender]')") from None
-    except RuntimeError as exc:  # what bpy raises for an unreadable .blend
-        raise CliError(f"{path}: cannot export ({str(exc).strip()})") from None
+    except RuntimeError as exc:  # what bpy raises beyond opening the file (addon/blendfile.py)
+        raise CliError(f"{path}: cannot export ({blender_reason(exc)})") from None
     for message in warnings:
         warn(message)
     return scene
@@ -70,9 +77,7 @@ def _check_output(path: str, ext: str, option: str) -> None:
     """Fail before a long render, not after it."""
     if _extension(path) != ext:
         raise CliError(f"{option} {path}: expected a {ext} file name")
-    directory = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(directory):
-        raise CliError(f"{option} {path}: directory {directory} does not exist")
+    check_writable_directory(path, option)
 
 
 def _duration(seconds: float) -> str:
@@ -251,6 +256,8 @@ def _setup_batch(p):
 
 def cmd_batch(args) -> int:
     """Render frames through the registered Snell engine in the bpy module (addon/batch.py)."""
+    if args.output:
+        check_writable_directory(args.output, "-o")
     try:
         from .addon import batch
         return batch.run(args.scene, frames=args.frames, output=args.output)

@@ -7,7 +7,9 @@ commands never need to import cli.py (which imports them to dispatch).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import tempfile
 
 EXIT_ERROR = 1        # a user error: missing or bad file, bad scene, unwritable output
 EXIT_USAGE = 2        # bad options (argparse's status)
@@ -44,3 +46,24 @@ def int_at_least(minimum: int):
             raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}")
         return value
     return parse
+
+
+def check_writable_directory(path: str, option: str, report: bool = False) -> None:
+    """CliError unless `path` can be written: its directory exists and takes new files, and
+    `path` is not a directory (for a report, `report=True`: not a file)."""
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        what = "is not a directory" if os.path.exists(directory) else "does not exist"
+        raise CliError(f"{option} {path}: directory {directory} {what}")
+    if report and os.path.exists(path) and not os.path.isdir(path):
+        raise CliError(f"{option} {path}: is a file, expected a directory for the report")
+    if not report and os.path.isdir(path):
+        raise CliError(f"{option} {path}: is a directory")
+    # os.access ignores read-only file systems and says yes to root: try what the write will do.
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".snell-write-test.", dir=directory)
+    except OSError as exc:
+        raise CliError(f"{option} {path}: cannot write to directory {directory} "
+                       f"({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)

@@ -63,6 +63,7 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
     import bpy
 
     from . import final, registration
+    from .blendfile import BlendFileError, blender_reason, open_blend
 
     if not os.path.isfile(blend_path):
         raise BatchError(f"{blend_path}: no such file")
@@ -70,9 +71,9 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
     registration.ensure_registered()
     try:
         with stdout_silenced():
-            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend_path))
-    except RuntimeError as exc:
-        raise BatchError(f"{blend_path}: cannot open ({' '.join(str(exc).split())})") from None
+            open_blend(blend_path)
+    except BlendFileError as exc:
+        raise BatchError(str(exc)) from None
     scene = bpy.context.scene
     scene.render.engine = "SNELL"
     if output:
@@ -92,7 +93,7 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
             with stdout_silenced():
                 bpy.ops.render.render(write_still=True)
         except RuntimeError as exc:
-            error = final.last_render.get("error") or " ".join(str(exc).split())
+            error = final.last_render.get("error") or blender_reason(exc)
         finally:
             scene.render.filepath = pattern
         record = dict(final.last_render)
@@ -114,5 +115,5 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
         print(f"{head}: {path}: {record.get('spp', 0)} spp in {time.perf_counter() - start:.1f}s "
               f"({rate:.2f} M rays/s)", file=stream, flush=True)
     if failed:
-        print(f"snell: {failed} of {len(frame_list)} frames failed", file=stream)
+        print(f"snell: error: {blend_path}: {failed} of {len(frame_list)} frames failed", file=stream)
     return 1 if failed else 0

@@ -21,6 +21,7 @@ import os
 
 import numpy as np
 
+from ..tracer.atomic import atomic_path
 from . import metrics
 
 SCHEMA = 1
@@ -162,11 +163,10 @@ def cache_load(directory, key):
 def cache_store(directory, key, mean, variance_of_mean, meta):
     os.makedirs(directory, exist_ok=True)
     path = os.path.join(directory, f"ref-{key}.npz")
-    tmp = path + ".tmp.npz"
-    np.savez_compressed(tmp, mean=np.asarray(mean, np.float32),
-                        variance_of_mean=np.asarray(variance_of_mean, np.float32),
-                        meta=np.array(json.dumps(meta, sort_keys=True, default=str)))
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        np.savez_compressed(tmp, mean=np.asarray(mean, np.float32),
+                            variance_of_mean=np.asarray(variance_of_mean, np.float32),
+                            meta=np.array(json.dumps(meta, sort_keys=True, default=str)))
     return path
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 import sys
 
-from ..errors import CliError, int_at_least
+from ..errors import CliError, check_writable_directory, int_at_least
 from . import bench as cb
 
 
@@ -54,9 +54,7 @@ def cmd(args) -> int:
         if not os.path.isfile(s):
             raise CliError(f"{s}: no such file" + (" (build it with scenes/build_all.py)"
                                                    if s in ab.DEFAULT_SCENES else ""))
-    parent = os.path.dirname(os.path.abspath(args.report))
-    if not os.path.isdir(parent):
-        raise CliError(f"--report {args.report}: directory {parent} does not exist")
+    check_writable_directory(args.report, "--report", report=True)
     opts = ab.Options(**(ab.QUICK if args.quick else {}))
     for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),
                        ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"), ("ref_seeds", "ref_seeds"),

@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 import sys
 
-from ..errors import CliError, int_at_least
+from ..errors import CliError, check_writable_directory, int_at_least
 
 
 def _common(p):
@@ -44,9 +44,7 @@ def _check(args):
         raise CliError(f"{args.scene}: expected a .blend file")
     if not os.path.isfile(args.scene):
         raise CliError(f"{args.scene}: no such file")
-    parent = os.path.dirname(os.path.abspath(args.report))
-    if not os.path.isdir(parent):
-        raise CliError(f"--report {args.report}: directory {parent} does not exist")
+    check_writable_directory(args.report, "--report", report=True)
 
 
 def _needs_bpy():
