@@ -19,8 +19,8 @@ import time
 from .addon.console import stdout_silenced
 from .compare.bench_command import CLI as BENCH_COMMAND
 from .compare.commands import COMMANDS as COMPARE_COMMANDS
-from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_writable_directory,
-                     int_at_least, print_error, warn)
+from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
+                     check_writable_directory, int_at_least, print_error, warn)
 from .tracer.scene import (FRESNEL_MODELS, LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius,
                            load, save)
 
@@ -47,8 +47,7 @@ def load_scene(path: str):
     ext = _extension(path)
     if ext not in SCENE_EXTENSIONS:
         raise CliError(f"{path}: unknown scene extension {ext or '(none)'!r} (expected .blend or .snell)")
-    if not os.path.isfile(path):
-        raise CliError(f"{path}: no such file")
+    check_input_file(path, SCENE_EXTENSIONS)
     if ext == ".snell":
         try:
             return load(path)
@@ -247,15 +246,26 @@ def cmd_info(args) -> int:
 
 def _setup_batch(p):
     p.add_argument("scene", metavar="SCENE.blend", help="the Blender file to render")
-    p.add_argument("--frames", metavar="FRAMES",
+    p.add_argument("--frames", metavar="FRAMES", type=_frames,
                    help="frames to render: 1, 1-10, 1-10x2 or 1,5,9 (default: the current frame)")
     p.add_argument("-o", "--output", metavar="OUT_####.exr",
                    help="output path, #### = frame number; .exr (linear float) or .png (view "
                         "transform) (default: the file's Output Properties)")
 
 
+def _frames(text):
+    """--frames checked when the options are parsed (a usage error, status 2)."""
+    from .addon.batch import BatchError, parse_frames
+    try:
+        parse_frames(text)
+    except BatchError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix(f"--frames {text!r}: ")) from None
+    return text
+
+
 def cmd_batch(args) -> int:
     """Render frames through the registered Snell engine in the bpy module (addon/batch.py)."""
+    check_input_file(args.scene)
     if args.output:
         check_writable_directory(args.output, "-o")
     try:

@@ -67,3 +67,13 @@ def check_writable_directory(path: str, option: str, report: bool = False) -> No
                        f"({exc.strerror or exc})") from None
     os.close(fd)
     os.unlink(probe)
+
+
+def check_input_file(path: str, extensions=(".blend",)) -> None:
+    """CliError unless `path` is an existing file with one of the extensions."""
+    if os.path.splitext(path)[1].lower() not in extensions:
+        raise CliError(f"{path}: expected a {' or '.join(extensions)} file")
+    if os.path.isdir(path):
+        raise CliError(f"{path}: is a directory, expected a {' or '.join(extensions)} file")
+    if not os.path.isfile(path):
+        raise CliError(f"{path}: no such file")

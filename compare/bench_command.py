@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 import sys
 
-from ..errors import CliError, check_writable_directory, int_at_least
+from ..errors import CliError, check_input_file, check_writable_directory, int_at_least
 from . import bench as cb
 
 
@@ -49,11 +49,9 @@ def cmd(args) -> int:
         raise CliError("snell bench needs Blender's bpy module (pip install 'snell[blender]')") from None
     scenes = args.scenes or ab.DEFAULT_SCENES
     for s in scenes:
-        if os.path.splitext(s)[1].lower() != ".blend":
-            raise CliError(f"{s}: expected a .blend file")
-        if not os.path.isfile(s):
-            raise CliError(f"{s}: no such file" + (" (build it with scenes/build_all.py)"
-                                                   if s in ab.DEFAULT_SCENES else ""))
+        if s in ab.DEFAULT_SCENES and not os.path.exists(s):
+            raise CliError(f"{s}: no such file (build it with scenes/build_all.py)")
+        check_input_file(s)
     check_writable_directory(args.report, "--report", report=True)
     opts = ab.Options(**(ab.QUICK if args.quick else {}))
     for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),

@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 import sys
 
-from ..errors import CliError, check_writable_directory, int_at_least
+from ..errors import CliError, check_input_file, check_writable_directory, int_at_least
 
 
 def _common(p):
@@ -40,10 +40,7 @@ def setup_study(p):
 
 
 def _check(args):
-    if os.path.splitext(args.scene)[1].lower() != ".blend":
-        raise CliError(f"{args.scene}: expected a .blend file")
-    if not os.path.isfile(args.scene):
-        raise CliError(f"{args.scene}: no such file")
+    check_input_file(args.scene)
     check_writable_directory(args.report, "--report", report=True)
 
 

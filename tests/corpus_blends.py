@@ -32,6 +32,11 @@ def build(directory):
 
     scene = factory()
     tiny(scene)
+    # Snell's samples as the add-on stores them: enough for `snell batch` to render in passes
+    # (Ctrl-C between them); the other commands are given --spp.
+    from snell.addon import registration
+    registration.ensure_registered()
+    scene.snell.spp = 2048
     save(directory, "tiny.blend")
 
     scene = factory(empty=True)   # nothing but a camera
@@ -69,8 +74,8 @@ def build(directory):
 
     scene = factory()
     tiny(scene)
-    scene.camera.location = (math.inf, 0.0, 0.0)
-    save(directory, "inf_camera.blend")
+    scene.camera.location = (math.nan, 0.0, 0.0)
+    save(directory, "nan_camera.blend")
 
     scene = factory()
     tiny(scene)

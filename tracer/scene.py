@@ -403,8 +403,7 @@ def _read_members(path: str) -> dict:
             try:
                 arrays[key] = npz[key]
             except Exception as exc:  # noqa: BLE001  (as above, for one member)
-                raise SceneError(f"{key}: cannot read the array in {path} "
-                                 f"({type(exc).__name__}: {exc})") from None
+                raise SceneError(f"{key}: cannot read the array ({type(exc).__name__}: {exc})") from None
     return arrays
 
 
