@@ -384,6 +384,14 @@ def save(scene: Scene, path: str) -> None:
 def _read_members(path: str) -> dict:
     """{member name: array} of the .npz file, or SceneError naming the file or the member."""
     try:
+        with open(path, "rb") as f:
+            magic = f.read(4)
+    except OSError:
+        magic = b"PK\x03\x04"  # np.load below reports it
+    if magic != b"PK\x03\x04":  # np.load would take any other bytes for a pickle and say so
+        what = "an empty file" if not magic else "not an .npz archive"
+        raise SceneError(f"{path}: not a Snell scene file ({what})")
+    try:
         npz = np.load(path, allow_pickle=False)
     except FileNotFoundError:
         raise SceneError(f"{path}: no such file") from None
@@ -395,8 +403,8 @@ def _read_members(path: str) -> dict:
         # The bytes are the user's: a damaged archive fails in zipfile, zlib, struct or numpy's
         # header parser with whatever exception they raise, and every one means the same thing.
         raise SceneError(f"{path}: not a Snell scene file ({type(exc).__name__}: {exc})") from None
-    if not isinstance(npz, np.lib.npyio.NpzFile):
-        raise SceneError(f"{path}: not a Snell scene file (a single .npy array, not an .npz archive)")
+    if not isinstance(npz, np.lib.npyio.NpzFile):  # pragma: no cover (the magic says zip)
+        raise SceneError(f"{path}: not a Snell scene file (not an .npz archive)")
     arrays = {}
     with npz:
         for key in npz.files:
