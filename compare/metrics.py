@@ -58,6 +58,7 @@ def sidak(alpha: float, m: int) -> float:
 
 def _two_sided_p(t, df):
     from scipy import stats
+    df = np.asarray(df, np.float64)
     df = np.where(np.isfinite(df), df, 1e12)
     return 2.0 * stats.t.sf(np.abs(t), df)
 
@@ -186,10 +187,13 @@ def compare(a, va, dfa, b, vb, dfb, *, halves=None):
     # 3. image means per channel
     npx = h * w
     ma, mb = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
-    sva, svb = va.sum(axis=(0, 1)) / npx ** 2, vb.sum(axis=(0, 1)) / npx ** 2
+    sva, svb = va.sum(axis=(0, 1)) / float(npx) ** 2, vb.sum(axis=(0, 1)) / float(npx) ** 2
+    # Welch-Satterthwaite dof of the mean, df (sum v)^2 / sum v^2, with the 1 / npx^4 of both
+    # sides cancelled: npx ** 4 as a Python int passes uint64 from 256x256 pixels on, and numpy
+    # then divides in object dtype (scipy's t-distribution cannot take that).
     with np.errstate(divide="ignore", invalid="ignore"):
-        cdfa = np.where(sva > 0, sva ** 2 / ((va * va).sum(axis=(0, 1)) / npx ** 4 / dfa), np.inf)
-        cdfb = np.where(svb > 0, svb ** 2 / ((vb * vb).sum(axis=(0, 1)) / npx ** 4 / dfb), np.inf)
+        cdfa = np.where(sva > 0, dfa * va.sum(axis=(0, 1)) ** 2 / (va * va).sum(axis=(0, 1)), np.inf)
+        cdfb = np.where(svb > 0, dfb * vb.sum(axis=(0, 1)) ** 2 / (vb * vb).sum(axis=(0, 1)), np.inf)
     ct, cp, _ = welch(ma - mb, sva, svb, cdfa, cdfb)
     alpha_ch = sidak(ALPHA, 3)
     channel_ok = np.where((sva + svb) > 0, cp >= alpha_ch,
