@@ -5,6 +5,9 @@ Each subcommand is two functions, `_setup_<name>(parser)` adding its arguments a
 scene, wrong extension) is raised as CliError, SceneError or OSError and reported by main() as one
 `snell: error: ...` line with exit status 1; anything else is a bug and keeps its traceback.
 Ctrl-C exits with 130 and writes nothing partial (image writes are atomic and happen after the render).
+
+This module is the top of the command tree: it imports the command modules to dispatch to them,
+and nothing in the package imports it; the helpers they share live in errors.py.
 """
 from __future__ import annotations
 
@@ -14,27 +17,21 @@ import sys
 import time
 
 from .addon.console import stdout_silenced
-from .compare.bench import CLI as BENCH_COMMAND
+from .compare.bench_command import CLI as BENCH_COMMAND
 from .compare.commands import COMMANDS as COMPARE_COMMANDS
+from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
+                     check_writable_directory, int_at_least, print_error, warn)
 from .tracer.scene import (FRESNEL_MODELS, LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius,
                            load, save)
 
 SCENE_EXTENSIONS = (".blend", ".snell")
 
 
-class CliError(Exception):
-    """A user error, reported as one line."""
-
-
 class _Parser(argparse.ArgumentParser):
     """Usage errors as one `snell: error: ...` line too (exit status 2, as argparse does)."""
 
     def error(self, message):
-        self.exit(2, f"snell: error: {message} (see {self.prog} --help)\n")
-
-
-def warn(message: str) -> None:
-    print(f"snell: warning: {message}", file=sys.stderr)
+        self.exit(EXIT_USAGE, f"snell: error: {message} (see {self.prog} --help)\n")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -50,11 +47,16 @@ def load_scene(path: str):
     ext = _extension(path)
     if ext not in SCENE_EXTENSIONS:
         raise CliError(f"{path}: unknown scene extension {ext or '(none)'!r} (expected .blend or .snell)")
-    if not os.path.isfile(path):
-        raise CliError(f"{path}: no such file")
+    check_input_file(path, SCENE_EXTENSIONS)
     if ext == ".snell":
-        return load(path)
+        try:
+            return load(path)
+        except SceneError as exc:  # name the file too: the loader's message names the field
+            if str(exc).startswith(path):
+                raise
+            raise SceneError(f"{path}: {exc}") from None
     try:
+        from .addon.blendfile import blender_reason
         from .addon.export import export_blend
         with stdout_silenced():
             scene, warnings = export_blend(path)
@@ -63,8 +65,8 @@ def load_scene(path: str):
             raise
         raise CliError(f"{path}: reading .blend files needs Blender's bpy module "
                        "(pip install 'snell[blender]')") from None
-    except RuntimeError as exc:  # what bpy raises for an unreadable .blend
-        raise CliError(f"{path}: cannot export ({str(exc).strip()})") from None
+    except RuntimeError as exc:  # what bpy raises beyond opening the file (addon/blendfile.py)
+        raise CliError(f"{path}: cannot export ({blender_reason(exc)})") from None
     for message in warnings:
         warn(message)
     return scene
@@ -74,21 +76,7 @@ def _check_output(path: str, ext: str, option: str) -> None:
     """Fail before a long render, not after it."""
     if _extension(path) != ext:
         raise CliError(f"{option} {path}: expected a {ext} file name")
-    directory = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(directory):
-        raise CliError(f"{option} {path}: directory {directory} does not exist")
-
-
-def _int_at_least(minimum):
-    def parse(text):
-        try:
-            value = int(text)
-        except ValueError:
-            value = None
-        if value is None or value < minimum:
-            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}")
-        return value
-    return parse
+    check_writable_directory(path, option)
 
 
 def _duration(seconds: float) -> str:
@@ -134,11 +122,11 @@ def _setup_render(p):
     p.add_argument("scene", help="a .blend (exported on the fly) or a .snell scene file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="linear float EXR to write")
     p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit sRGB PNG (Standard view transform)")
-    p.add_argument("--spp", type=_int_at_least(1), help="samples per pixel (default: the scene's)")
-    p.add_argument("--max-depth", type=_int_at_least(0), metavar="M",
+    p.add_argument("--spp", type=int_at_least(1), help="samples per pixel (default: the scene's)")
+    p.add_argument("--max-depth", type=int_at_least(0), metavar="M",
                    help="emission plus up to M bounces; Cycles max_bounces = M - 1 (default: the scene's)")
-    p.add_argument("--seed", type=_int_at_least(0), help="random seed (default: the scene's)")
-    p.add_argument("--threads", type=_int_at_least(1), help="render threads (default: the integrator's)")
+    p.add_argument("--seed", type=int_at_least(0), help="random seed (default: the scene's)")
+    p.add_argument("--threads", type=int_at_least(1), help="render threads (default: the integrator's)")
     p.add_argument("--fresnel", choices=FRESNEL_MODELS, help="Fresnel model for glass (default: the scene's, exact)")
     p.add_argument("--caustics", choices=("on", "off"),
                    help="light tracing of caustics (default: the scene's, on); off renders with "
@@ -155,7 +143,12 @@ def cmd_render(args) -> int:
                                                 seed=args.seed, fresnel=args.fresnel,
                                                 caustics=caustics)
     from .tracer import image
-    from .tracer.integrator import render
+    from .tracer.integrator import kernels_compiled, render, warm_up
+
+    if not kernels_compiled():
+        if not args.quiet:
+            print("snell: compiling kernels (first run only)", file=sys.stderr, flush=True)
+        warm_up()
 
     options = {} if args.threads is None else {"threads": args.threads}
     bar = ProgressLine(sys.stderr, scene.render["spp"]) if not args.quiet and sys.stderr.isatty() else None
@@ -277,15 +270,28 @@ def cmd_info(args) -> int:
 
 def _setup_batch(p):
     p.add_argument("scene", metavar="SCENE.blend", help="the Blender file to render")
-    p.add_argument("--frames", metavar="FRAMES",
+    p.add_argument("--frames", metavar="FRAMES", type=_frames,
                    help="frames to render: 1, 1-10, 1-10x2 or 1,5,9 (default: the current frame)")
     p.add_argument("-o", "--output", metavar="OUT_####.exr",
                    help="output path, #### = frame number; .exr (linear float) or .png (view "
                         "transform) (default: the file's Output Properties)")
 
 
+def _frames(text):
+    """--frames checked when the options are parsed (a usage error, status 2)."""
+    from .addon.batch import BatchError, parse_frames
+    try:
+        parse_frames(text)
+    except BatchError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix(f"--frames {text!r}: ")) from None
+    return text
+
+
 def cmd_batch(args) -> int:
     """Render frames through the registered Snell engine in the bpy module (addon/batch.py)."""
+    check_input_file(args.scene)
+    if args.output:
+        check_writable_directory(args.output, "-o")
     try:
         from .addon import batch
         return batch.run(args.scene, frames=args.frames, output=args.output)
@@ -326,10 +332,10 @@ def main(argv=None) -> int:
         return args.run(args) or 0
     except KeyboardInterrupt:
         print("snell: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     except (CliError, SceneError, OSError) as exc:
-        print(f"snell: error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return 1
+        print_error(exc)
+        return EXIT_ERROR
 
 
 if __name__ == "__main__":

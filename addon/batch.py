@@ -8,11 +8,14 @@ any frame failed.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import signal
 import sys
 import time
 
+from .blendfile import BlendFileError, blender_reason, open_blend
 from .console import stdout_silenced
 
 FORMATS = {".exr": "OPEN_EXR", ".png": "PNG"}
@@ -70,31 +73,61 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
     registration.ensure_registered()
     try:
         with stdout_silenced():
-            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend_path))
-    except RuntimeError as exc:
-        raise BatchError(f"{blend_path}: cannot open ({' '.join(str(exc).split())})") from None
+            open_blend(blend_path)
+    except BlendFileError as exc:
+        raise BatchError(str(exc)) from None
     scene = bpy.context.scene
     scene.render.engine = "SNELL"
     if output:
         _set_output(scene, output)
     frame_list = frame_list or [scene.frame_current]
+    with _ctrl_c_stops_the_render(final.stop_requested) as interrupted:
+        return _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, stream)
+
+
+@contextlib.contextmanager
+def _ctrl_c_stops_the_render(stop):
+    """While rendering, Ctrl-C sets `stop` (the engine ends the frame as on Esc) instead of
+    raising inside Blender's render call; the yielded list records it."""
+    interrupted = []
+
+    def handler(signum, frame):
+        interrupted.append(signum)
+        stop.set()
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        yield interrupted
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        stop.clear()
+
+
+def _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, stream):
     pattern = scene.render.filepath
-    failed, seen_warnings = 0, set()
+    failed, seen_warnings, reasons = 0, set(), set()
     for i, frame in enumerate(frame_list, 1):
         head = f"snell: frame {frame} ({i}/{len(frame_list)})"
         path = scene.render.frame_path(frame=frame)
         start = time.perf_counter()
         error = None
+        before = os.stat(path).st_mtime_ns if os.path.exists(path) else None
+        final.last_render.clear()   # Blender may fail before the engine runs (no camera)
         try:
             scene.render.filepath = path   # already numbered and with its extension
             scene.frame_set(frame)
-            before = os.stat(path).st_mtime_ns if os.path.exists(path) else None
             with stdout_silenced():
                 bpy.ops.render.render(write_still=True)
         except RuntimeError as exc:
-            error = final.last_render.get("error") or " ".join(str(exc).split())
+            error = final.last_render.get("error") or blender_reason(exc)
         finally:
             scene.render.filepath = pattern
+        if interrupted:
+            # Blender wrote the image of the samples done before the stop: not the frame asked
+            # for, so it goes (earlier frames are complete and stay).
+            if os.path.exists(path) and os.stat(path).st_mtime_ns != before:
+                os.unlink(path)
+            raise KeyboardInterrupt
         record = dict(final.last_render)
         for message in record.get("warnings", []):
             if message not in seen_warnings:
@@ -108,11 +141,15 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
             error = f"no image written to {path}"
         if error:
             failed += 1
+            reasons.add(error)
             print(f"{head}: FAILED: {error}", file=stream, flush=True)
             continue
         rate = record.get("rays_per_second", 0.0) / 1e6
         print(f"{head}: {path}: {record.get('spp', 0)} spp in {time.perf_counter() - start:.1f}s "
               f"({rate:.2f} M rays/s)", file=stream, flush=True)
     if failed:
-        print(f"snell: {failed} of {len(frame_list)} frames failed", file=stream)
+        # One reason for all (no camera, a NaN matrix) is repeated on the error line.
+        reason = f" ({next(iter(reasons))})" if len(reasons) == 1 else ""
+        print(f"snell: error: {blend_path}: {failed} of {len(frame_list)} frames failed{reason}",
+              file=stream)
     return 1 if failed else 0

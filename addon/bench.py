@@ -26,7 +26,9 @@ import numpy as np
 
 from ..compare import bench as cb
 from ..compare import metrics
+from ..tracer.atomic import atomic_directory
 from . import cycles
+from .console import stdout_silenced
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_SCENES = [os.path.join(REPO, "scenes", "cornell_spheres.blend"),
@@ -90,12 +92,13 @@ def _cycles_point(spec):
     import bpy
 
     from ..tracer.image import read_exr
+    from .blendfile import open_blend
     settings = cycles.forced_settings(spec["max_depth"], spec["spp"], CYCLES_SEED, spec["threads"])
     camera = {"resolution_percentage": spec["scale"]} if spec["scale"] != 100 else None
     with tempfile.TemporaryDirectory(prefix="snell-bench-") as workdir:
         out = os.path.join(workdir, "cycles.exr")
         start = time.perf_counter()
-        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(spec["blend"]))
+        open_blend(spec["blend"])
         scene = bpy.context.scene
         cycles._apply(scene, settings)
         cycles._apply_camera(scene, camera)
@@ -306,8 +309,13 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
     """Run the bench, write bench.json, bench.html and bench.svg into report_dir, return the data."""
     log = log or (lambda s: None)
     cache_dir = cache_dir or default_cache_dir()
-    os.makedirs(report_dir, exist_ok=True)
     start = time.perf_counter()
+    # Each scene is exported once first: a file Blender cannot open or Snell cannot render
+    # fails here, with its name, rather than in a child process minutes into the run.
+    from .export import export_blend
+    for blend in scenes:
+        with stdout_silenced():
+            export_blend(blend)
     _, _, base = run_point("baseline", None, 0, opts)
     baseline_mb = base["peak_rss_mb"]
     out_scenes, maps = [], {}
@@ -358,10 +366,11 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
         "total_s": time.perf_counter() - start,
     }
     svg = cb.svg_plot(out_scenes)
-    with open(os.path.join(report_dir, "bench.svg"), "w") as f:
-        f.write(svg)
-    cb.write_json(os.path.join(report_dir, "bench.json"), data)
-    cb.write_html(os.path.join(report_dir, "bench.html"), data, svg, maps)
+    with atomic_directory(report_dir) as tmp:
+        with open(os.path.join(tmp, "bench.svg"), "w") as f:
+            f.write(svg)
+        cb.write_json(os.path.join(tmp, "bench.json"), data)
+        cb.write_html(os.path.join(tmp, "bench.html"), data, svg, maps)
     return data
 
 

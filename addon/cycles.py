@@ -158,14 +158,15 @@ def _render_one(blend_path, settings, camera, workdir):
     import bpy
 
     from ..tracer.image import read_exr
-    bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend_path))
+    from .blendfile import open_blend, render_still
+    open_blend(blend_path)
     scene = bpy.context.scene
     _apply(scene, settings)
     extra = _apply_camera(scene, camera)
     out = os.path.join(workdir, "cycles.exr")
     scene.render.filepath = out
     start = time.perf_counter()
-    bpy.ops.render.render(write_still=True)
+    render_still(blend_path)
     elapsed = time.perf_counter() - start
     rgb = read_exr(out).astype(np.float64)
     os.remove(out)

@@ -726,14 +726,18 @@ def export_blend(path):
     """Open a .blend file and export its active scene: (Scene, warnings)."""
     import bpy
 
+    from .blendfile import open_blend
     from .properties import ensure_readable
     ensure_readable()  # scene.snell: the render settings the add-on saved in the file
-    bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
+    open_blend(path)
     # Blender offers only the viewport depsgraph outside a render; the file was just opened
     # and is never saved, so switching it to render visibility and levels is harmless.
     _prefer_render_settings()
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    return export_depsgraph(depsgraph, source=os.path.basename(path))
+    try:
+        return export_depsgraph(depsgraph, source=os.path.basename(path))
+    except SceneError as exc:  # name the file too: the message names the object or field
+        raise SceneError(f"{path}: {exc}") from None
 
 
 def export_to_file(blend_path, out_path):

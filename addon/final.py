@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 import time
 import traceback
 
@@ -23,6 +24,14 @@ from . import window
 MAX_REPORTED_WARNINGS = 20
 
 last_render: dict = {}
+
+# Set by `snell batch` on Ctrl-C: the render stops as on Esc. A KeyboardInterrupt raised inside
+# the engine's callback would unwind through Blender's C code, which prints it and can crash.
+stop_requested = threading.Event()
+
+
+def _should_stop(engine) -> bool:
+    return engine.test_break() or stop_requested.is_set()
 
 
 class RenderFailed(Exception):
@@ -74,13 +83,26 @@ def _export(engine, depsgraph, record):
     return scene
 
 
-def _renderer(scene, threads):
+def _integrator():
     try:
-        from ..tracer.integrator import Renderer
+        from ..tracer import integrator
     except ImportError as exc:
-        raise RenderFailed(f"the Embree bindings (embreex) cannot be loaded: {exc}. "
+        # embreex, numba and llvmlite come as the extension's own wheels.
+        raise RenderFailed(f"the renderer's libraries cannot be loaded: {exc}. "
                            f"Reinstall the Snell extension for this platform.") from None
-    return Renderer(scene, threads=threads)
+    return integrator
+
+
+def _compile_kernels(engine, record):
+    """Compile the kernels on the first render after an install or update, saying so."""
+    integrator = _integrator()
+    record["kernels_compiled_s"] = None
+    if integrator.kernels_compiled():
+        return
+    message = "Snell: compiling kernels (first run only)"
+    engine.update_stats("", message)
+    print(message, file=sys.stderr, flush=True)
+    record["kernels_compiled_s"] = integrator.warm_up()
 
 
 class _Progress:
@@ -116,7 +138,7 @@ class _Progress:
         self.engine.update_stats("", f"Remaining {_duration(remaining)} | Sample "
                                      f"{render_result.spp}/{self.spp} | "
                                      f"{render_result.rays_per_second / 1e6:.2f} M rays/s{light}")
-        return not self.engine.test_break()
+        return not _should_stop(self.engine)
 
 
 def render(engine, depsgraph):
@@ -133,17 +155,18 @@ def render(engine, depsgraph):
         engine.update_stats("", "Snell: exporting the scene")
         scene = _export(engine, depsgraph, record)
         record["export_s"] = time.perf_counter() - t_start
-        if engine.test_break():
-            record["cancelled"] = True
+        if _should_stop(engine):
+            _stop_without_image(engine, record)
             return
         x0, y0, w, h = _border(bl_scene.render, engine.resolution_x, engine.resolution_y)
         scene = scene.with_camera(**window.window_camera(scene.camera, x0, y0, w, h))
         spp = int(scene.render["spp"])
         record["target_spp"] = spp
+        _compile_kernels(engine, record)
         engine.update_stats("", f"Snell: building the BVH of {len(scene.triangles)} triangles")
-        renderer = _renderer(scene, _threads(bl_scene))
-        if engine.test_break():
-            record["cancelled"] = True
+        renderer = _integrator().Renderer(scene, threads=_threads(bl_scene))
+        if _should_stop(engine):
+            _stop_without_image(engine, record)
             return
         result = engine.begin_result(0, 0, w, h)
         progress = _Progress(engine, result, w, h, spp, record, t_start)
@@ -169,6 +192,14 @@ def render(engine, depsgraph):
         if result is not None:
             engine.end_result(result, cancel=True)
         record["total_s"] = time.perf_counter() - t_start
+
+
+def _stop_without_image(engine, record):
+    """Esc or Ctrl-C before the first pass: end with a black result. Writing the still of a render
+    that produced no pixels (none begun, or one ended with cancel=True) crashes Blender 5.0 in
+    its EXR writer; `snell batch` deletes the image of an interrupted frame."""
+    record["cancelled"] = True
+    engine.end_result(engine.begin_result(0, 0, engine.resolution_x, engine.resolution_y))
 
 
 def _fail(engine, message, record):

@@ -4,6 +4,8 @@ Order: the property group and `scene.snell`, the render engine, the panels, then
 COMPAT_ENGINES of Blender's own panels. unregister() undoes it in reverse, so enable, disable,
 enable again leaves Blender as it was.
 """
+import os
+
 import bpy
 
 from . import engine, properties, ui
@@ -16,7 +18,19 @@ def is_registered() -> bool:
     return engine.SnellRenderEngine.is_registered
 
 
+def _kernel_cache_in_user_directory():
+    """Installed as an extension, keep compiled kernels in the extension's own user directory
+    (kept across Blender versions and removed with the extension); must run before any kernel
+    module is imported, since Numba fixes a kernel's cache directory when it is defined."""
+    package = __package__.rsplit(".", 1)[0]          # bl_ext.<repository>.snell
+    if not package.startswith("bl_ext.") or os.environ.get("SNELL_KERNEL_CACHE"):
+        return
+    from ..tracer import jit
+    jit.set_cache_dir(bpy.utils.extension_path_user(package, path="kernels", create=True))
+
+
 def register():
+    _kernel_cache_in_user_directory()
     properties.drop_standalone()
     _register_classes()
     properties.register()

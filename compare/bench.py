@@ -21,6 +21,7 @@ import os
 
 import numpy as np
 
+from ..tracer.atomic import atomic_path
 from . import metrics
 
 SCHEMA = 1
@@ -203,11 +204,10 @@ def cache_load(directory, key):
 def cache_store(directory, key, mean, variance_of_mean, meta):
     os.makedirs(directory, exist_ok=True)
     path = os.path.join(directory, f"ref-{key}.npz")
-    tmp = path + ".tmp.npz"
-    np.savez_compressed(tmp, mean=np.asarray(mean, np.float32),
-                        variance_of_mean=np.asarray(variance_of_mean, np.float32),
-                        meta=np.array(json.dumps(meta, sort_keys=True, default=str)))
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        np.savez_compressed(tmp, mean=np.asarray(mean, np.float32),
+                            variance_of_mean=np.asarray(variance_of_mean, np.float32),
+                            meta=np.array(json.dumps(meta, sort_keys=True, default=str)))
     return path
 
 
@@ -326,7 +326,8 @@ def svg_plot(scenes, panel_w=360, panel_h=280) -> str:
 # HTML
 
 
-def _f(x, digits=3):
+def fmt(x, digits=3):
+    """A number for the tables: 3 significant digits, n/a when missing or not finite."""
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "n/a"
     if isinstance(x, float):
@@ -344,9 +345,9 @@ def table_rows(data):
                 parts = (f"export {p['export_s']:.2f} + build {p['build_s']:.2f} + render {p['render_s']:.2f}"
                          if snell else f"load {p['load_s']:.2f} + render {p['render_s']:.2f}")
                 rows.append([sc["name"], LABELS[r], p["spp"],
-                             f"{p['wall_s']:.2f}", parts, _f(p["relmse"]),
-                             _f(p.get("caustic_relmse")), _f(p["rmse"]), _f(p["flip"]),
-                             _f(p["relmse"] * p["wall_s"]),
+                             f"{p['wall_s']:.2f}", parts, fmt(p["relmse"]),
+                             fmt(p.get("caustic_relmse")), fmt(p["rmse"]), fmt(p["flip"]),
+                             fmt(p["relmse"] * p["wall_s"]),
                              f"{p['rays_per_second'] / 1e6:.2f} M" if snell else "n/a",
                              f"{100 * p['embree_share']:.0f}%" if snell else "n/a",
                              f"{p['peak_rss_mb']:.0f} ({p['peak_rss_above_baseline_mb']:+.0f})"])
@@ -368,12 +369,12 @@ def summary_rows(data):
             region = sc.get("caustic_region", {})
             gain = sc.get("caustic_gain_at_equal_time", {}).get("median") if r == "snell" else None
             rows.append([sc["name"], LABELS[r], f"{sc['width']}x{sc['height']}",
-                         _f(eq["target_relmse"]), _f(eq["snell_s"]), _f(eq["cycles_s"]),
-                         _f(eq["ratio"]), _f(eq["fit_ratio"]), _f(eq["snell_slope"]),
-                         _f(eq["cycles_slope"]), _f(sc[r]["efficiency"]["median"]),
-                         _f(sc["cycles"]["efficiency"]["median"]),
-                         _f(sc["reference"]["noise_relmse"]),
-                         f"{100 * region.get('fraction', 0.0):.1f}%", _f(gain)])
+                         fmt(eq["target_relmse"]), fmt(eq["snell_s"]), fmt(eq["cycles_s"]),
+                         fmt(eq["ratio"]), fmt(eq["fit_ratio"]), fmt(eq["snell_slope"]),
+                         fmt(eq["cycles_slope"]), fmt(sc[r]["efficiency"]["median"]),
+                         fmt(sc["cycles"]["efficiency"]["median"]),
+                         fmt(sc["reference"]["noise_relmse"]),
+                         f"{100 * region.get('fraction', 0.0):.1f}%", fmt(gain)])
     return rows
 
 
@@ -427,7 +428,7 @@ def write_html(path, data, svg, maps=None):
         f"<li>{html.escape(sc['name'])}: {sc['reference']['seeds']} Cycles seeds x "
         f"{sc['reference']['spp_per_seed']} spp = {sc['reference']['spp']} spp, "
         f"{sc['reference']['render_s']:.1f} s ({'cached' if sc['reference']['cached'] else 'rendered now'}); "
-        f"own noise: relMSE {_f(sc['reference']['noise_relmse'])}, RMSE {_f(sc['reference']['noise_rmse'])}</li>"
+        f"own noise: relMSE {fmt(sc['reference']['noise_relmse'])}, RMSE {fmt(sc['reference']['noise_rmse'])}</li>"
         for sc in data["scenes"])
     body = (
         f"<h1>Snell vs Cycles: time against error{' (quick)' if data['quick'] else ''}</h1>\n"
@@ -444,88 +445,3 @@ def write_html(path, data, svg, maps=None):
         f"<h2>References</h2><ul>{refs}</ul>\n")
     with open(path, "w") as f:
         f.write(_page("snell bench", body))
-
-
-# ---------------------------------------------------------------------------------------------
-# `snell bench` (wired into cli.py's COMMANDS; the renders run in addon/bench.py, which needs bpy)
-
-
-def setup_cli(p):
-    from ..cli import _int_at_least
-    p.add_argument("scenes", nargs="*", metavar="SCENE.blend",
-                   help="scenes to bench (default: scenes/cornell_spheres.blend and "
-                        "scenes/cornell_dragon.blend)")
-    p.add_argument("--report", required=True, metavar="DIR",
-                   help="directory for bench.json, bench.html and bench.svg (created)")
-    p.add_argument("--quick", action="store_true",
-                   help="smoke test: 25%% resolution, ladder 4, 8, 16 spp, reference 4 seeds x 64 spp")
-    p.add_argument("--threads", type=_int_at_least(1), help="threads for each renderer (default 2)")
-    p.add_argument("--max-depth", type=_int_at_least(1), metavar="M", help="default 8")
-    p.add_argument("--scale", type=_int_at_least(1), metavar="PCT",
-                   help="resolution percentage (default 100, --quick 25)")
-    p.add_argument("--min-spp", type=_int_at_least(1), help="bottom of the ladder (default 1, --quick 4)")
-    p.add_argument("--max-spp", type=_int_at_least(1), help="top of the ladder (default 1024, --quick 16)")
-    p.add_argument("--time-cap", type=float, metavar="S",
-                   help="stop a ladder before a point predicted to take longer (default 60, --quick 20)")
-    p.add_argument("--ref-seeds", type=_int_at_least(2), metavar="K",
-                   help="Cycles seeds of the reference (default 16, --quick 4)")
-    p.add_argument("--ref-spp", type=_int_at_least(1), metavar="N",
-                   help="samples per reference seed (default 256, --quick 64)")
-    p.add_argument("--repeat", type=_int_at_least(1), metavar="N",
-                   help="time every point N times and keep the run of median wall time (default 1)")
-    p.add_argument("--caustics", choices=("on", "off", "both"),
-                   help="Snell's caustics light tracer: on (default), off, or both (a second "
-                        "Snell ladder with the path tracer alone)")
-    p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/snell/bench)")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
-
-
-def cmd(args) -> int:
-    import sys
-
-    from ..cli import CliError
-    try:
-        from ..addon import bench as ab
-    except ModuleNotFoundError as exc:
-        if exc.name != "bpy":
-            raise
-        raise CliError("snell bench needs Blender's bpy module (pip install 'snell[blender]')") from None
-    scenes = args.scenes or ab.DEFAULT_SCENES
-    for s in scenes:
-        if os.path.splitext(s)[1].lower() != ".blend":
-            raise CliError(f"{s}: expected a .blend file")
-        if not os.path.isfile(s):
-            raise CliError(f"{s}: no such file" + (" (build it with scenes/build_all.py)"
-                                                   if s in ab.DEFAULT_SCENES else ""))
-    parent = os.path.dirname(os.path.abspath(args.report))
-    if not os.path.isdir(parent):
-        raise CliError(f"--report {args.report}: directory {parent} does not exist")
-    opts = ab.Options(**(ab.QUICK if args.quick else {}))
-    for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),
-                       ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"), ("ref_seeds", "ref_seeds"),
-                       ("ref_spp", "ref_spp"), ("repeat", "repeat"), ("caustics", "caustics")):
-        if getattr(args, name) is not None:
-            setattr(opts, attr, getattr(args, name))
-    log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr, flush=True))
-    try:
-        data = ab.run(scenes, args.report, opts, cache_dir=args.cache, log=log)
-    except ab.PointError as exc:
-        raise CliError(str(exc)) from None
-    print(markdown_table(data))
-    for sc in data["scenes"]:
-        eq = sc["time_to_equal_error"]
-        print(f"snell bench: {sc['name']}: time to relMSE {eq['target_relmse']:.3g}: Snell / Cycles = "
-              f"{_f(eq['ratio'])} (fits {_f(eq['fit_ratio'])})")
-        if "path_tracer_time_to_equal_error" in sc:
-            pt = sc["path_tracer_time_to_equal_error"]
-            print(f"snell bench: {sc['name']}: path tracer only: time to relMSE "
-                  f"{pt['target_relmse']:.3g}: Snell / Cycles = {_f(pt['ratio'])}")
-        if "caustic_gain_at_equal_time" in sc:
-            print(f"snell bench: {sc['name']}: caustic region relMSE at equal time: path tracer "
-                  f"only / hybrid = {_f(sc['caustic_gain_at_equal_time']['median'])}")
-    print(f"snell bench: {data['total_s']:.1f} s -> {os.path.join(args.report, 'bench.html')}")
-    return 0
-
-
-CLI = ("bench", "Snell and Cycles at a ladder of sample counts: error against time, JSON and HTML",
-       setup_cli, cmd)

@@ -8,31 +8,28 @@ from __future__ import annotations
 import os
 import sys
 
-
-def _int_at_least(minimum):
-    from ..cli import _int_at_least as parse
-    return parse(minimum)
+from ..errors import CliError, check_input_file, check_writable_directory, int_at_least
 
 
 def _common(p):
     p.add_argument("scene", metavar="SCENE.blend", help="the Blender file to render in both renderers")
     p.add_argument("--report", required=True, metavar="DIR",
                    help="directory for report.html, metrics.json and the images (created)")
-    p.add_argument("--spp", type=_int_at_least(2),
+    p.add_argument("--spp", type=int_at_least(2),
                    help="samples per pixel for each renderer (default: the scene's); Cycles renders "
                         "--cycles-seeds seeds of spp / seeds samples")
-    p.add_argument("--seed", type=_int_at_least(0), help="Snell seed; Cycles seeds derive from it")
-    p.add_argument("--scale", type=_int_at_least(1), metavar="PCT",
+    p.add_argument("--seed", type=int_at_least(0), help="Snell seed; Cycles seeds derive from it")
+    p.add_argument("--scale", type=int_at_least(1), metavar="PCT",
                    help="resolution percentage for both renderers (default: the file's)")
-    p.add_argument("--cycles-seeds", type=_int_at_least(2), default=8, metavar="K",
+    p.add_argument("--cycles-seeds", type=int_at_least(2), default=8, metavar="K",
                    help="independent Cycles renders for the per-pixel variance (default 8)")
-    p.add_argument("--threads", type=_int_at_least(1), default=2, help="threads for each renderer")
+    p.add_argument("--threads", type=int_at_least(1), default=2, help="threads for each renderer")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def setup_compare(p):
     _common(p)
-    p.add_argument("--max-depth", type=_int_at_least(0), metavar="M",
+    p.add_argument("--max-depth", type=int_at_least(0), metavar="M",
                    help="emission plus up to M bounces = Cycles max_bounces M - 1 (default: the scene's)")
 
 
@@ -43,18 +40,11 @@ def setup_study(p):
 
 
 def _check(args):
-    from ..cli import CliError
-    if os.path.splitext(args.scene)[1].lower() != ".blend":
-        raise CliError(f"{args.scene}: expected a .blend file")
-    if not os.path.isfile(args.scene):
-        raise CliError(f"{args.scene}: no such file")
-    parent = os.path.dirname(os.path.abspath(args.report))
-    if not os.path.isdir(parent):
-        raise CliError(f"--report {args.report}: directory {parent} does not exist")
+    check_input_file(args.scene)
+    check_writable_directory(args.report, "--report", report=True)
 
 
 def _needs_bpy():
-    from ..cli import CliError
     try:
         import bpy  # noqa: F401
     except ModuleNotFoundError:

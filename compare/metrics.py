@@ -58,6 +58,7 @@ def sidak(alpha: float, m: int) -> float:
 
 def _two_sided_p(t, df):
     from scipy import stats
+    df = np.asarray(df, np.float64)
     df = np.where(np.isfinite(df), df, 1e12)
     return 2.0 * stats.t.sf(np.abs(t), df)
 
@@ -118,7 +119,7 @@ def sharpness_test(a, va, dfa, half_a, half_b, vb_half, dfb_half):
     var = float(wa.sum() + wb.sum())
     if var <= 0:
         return 0.0, 1.0, float("inf")
-    denom = float((wa * wa / dfa).sum() + (wb * wb).sum() / dfb_half)
+    denom = float((wa * wa).sum() / dfa + (wb * wb).sum() / dfb_half)
     df = var * var / denom if denom > 0 else float("inf")
     z = s / math.sqrt(var)
     return z, float(_two_sided_p(np.array(z), np.array(df))), df
@@ -142,8 +143,7 @@ def rmse(image, reference) -> float:
 def compare(a, va, dfa, b, vb, dfb, *, halves=None):
     """All statistics of image a (test, e.g. Snell) against image b (reference, e.g. Cycles).
 
-    a, b: (H, W, 3) means; va, vb: variances of those means; dfa, dfb: their degrees of freedom
-    (numbers, or per-value arrays where a variance sums parts of different degrees of freedom).
+    a, b: (H, W, 3) means; va, vb: variances of those means; dfa, dfb: their degrees of freedom.
     halves: optional (mean A, mean B, variance of mean B, dof of B) of two independent halves
     of the reference for the sharpness test (skipped without them).
     Returns a dict of plain numbers plus the maps under "maps" (z, diff, pass mask).
@@ -171,11 +171,11 @@ def compare(a, va, dfa, b, vb, dfb, *, halves=None):
     n = k * k
     bd, bva, bvb = _blocks(diff, k) / n, _blocks(va, k) / n ** 2, _blocks(vb, k) / n ** 2
     # Welch-Satterthwaite dof of a sum of variances: (sum v)^2 / sum(v^2 / df)
-    bdfa = _blocks(va * va / dfa, k) / n ** 4
-    bdfb = _blocks(vb * vb / dfb, k) / n ** 4
+    bdfa = _blocks(va * va, k) / n ** 4
+    bdfb = _blocks(vb * vb, k) / n ** 4
     with np.errstate(divide="ignore", invalid="ignore"):
-        bdfa = np.where(bdfa > 0, bva * bva / bdfa, np.inf)
-        bdfb = np.where(bdfb > 0, bvb * bvb / bdfb, np.inf)
+        bdfa = np.where(bdfa > 0, bva * bva / (bdfa / dfa), np.inf)
+        bdfb = np.where(bdfb > 0, bvb * bvb / (bdfb / dfb), np.inf)
     bt, bp, _ = welch(bd, bva, bvb, bdfa, bdfb)
     bnoisy = (bva + bvb) > 0
     alpha_blk = sidak(ALPHA, int(bnoisy.sum()))
@@ -187,10 +187,13 @@ def compare(a, va, dfa, b, vb, dfb, *, halves=None):
     # 3. image means per channel
     npx = h * w
     ma, mb = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
-    sva, svb = va.sum(axis=(0, 1)) / npx ** 2, vb.sum(axis=(0, 1)) / npx ** 2
+    sva, svb = va.sum(axis=(0, 1)) / float(npx) ** 2, vb.sum(axis=(0, 1)) / float(npx) ** 2
+    # Welch-Satterthwaite dof of the mean, df (sum v)^2 / sum v^2, with the 1 / npx^4 of both
+    # sides cancelled: npx ** 4 as a Python int passes uint64 from 256x256 pixels on, and numpy
+    # then divides in object dtype (scipy's t-distribution cannot take that).
     with np.errstate(divide="ignore", invalid="ignore"):
-        cdfa = np.where(sva > 0, sva ** 2 / ((va * va / dfa).sum(axis=(0, 1)) / npx ** 4), np.inf)
-        cdfb = np.where(svb > 0, svb ** 2 / ((vb * vb / dfb).sum(axis=(0, 1)) / npx ** 4), np.inf)
+        cdfa = np.where(sva > 0, dfa * va.sum(axis=(0, 1)) ** 2 / (va * va).sum(axis=(0, 1)), np.inf)
+        cdfb = np.where(svb > 0, dfb * vb.sum(axis=(0, 1)) ** 2 / (vb * vb).sum(axis=(0, 1)), np.inf)
     ct, cp, _ = welch(ma - mb, sva, svb, cdfa, cdfb)
     alpha_ch = sidak(ALPHA, 3)
     channel_ok = np.where((sva + svb) > 0, cp >= alpha_ch,

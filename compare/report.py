@@ -17,6 +17,7 @@ import tempfile
 
 import numpy as np
 
+from ..tracer.atomic import atomic_directory
 from ..tracer.image import to_srgb8
 
 DISPLAY_WIDTH = 256  # CSS pixels per image (nearest-neighbour upscaling of small renders)
@@ -287,8 +288,12 @@ def _figures(pngs, limits, prefix=""):
 
 
 def write_comparison(directory, result, title=None):
-    """report.html, metrics.json and the PNGs of one comparison into directory."""
-    os.makedirs(directory, exist_ok=True)
+    """report.html, metrics.json and the PNGs of one comparison into directory (all or nothing)."""
+    with atomic_directory(directory) as tmp:
+        return _write_comparison(tmp, result, title)
+
+
+def _write_comparison(directory, result, title):
     imgs, limits = comparison_images(result)
     pngs = {k: png_bytes(v) for k, v in imgs.items()}
     for name, data in pngs.items():
@@ -339,8 +344,13 @@ def contact_sheet(rows, cell=192):
 
 
 def write_study(directory, name, rows, notes=()):
-    """study report: report.html, contact_sheet.png, metrics.json and per-setting PNGs."""
-    os.makedirs(directory, exist_ok=True)
+    """study report: report.html, contact_sheet.png, metrics.json and per-setting PNGs (all or
+    nothing)."""
+    with atomic_directory(directory) as tmp:
+        return _write_study(tmp, name, rows, notes)
+
+
+def _write_study(directory, name, rows, notes):
     sheet = png_bytes(contact_sheet(rows))
     with open(os.path.join(directory, "contact_sheet.png"), "wb") as f:
         f.write(sheet)

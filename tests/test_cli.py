@@ -47,9 +47,9 @@ def scene_file(tmp_path):
     return path
 
 
-def run(*args, cwd=None):
+def run(*args, cwd=None, env=None):
     return subprocess.run([sys.executable, "-m", "snell.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=600, cwd=cwd)
+                          capture_output=True, text=True, timeout=600, cwd=cwd, env=env)
 
 
 def assert_one_line_error(proc, *fragments):
@@ -195,6 +195,7 @@ def stub_integrator(monkeypatch):
         return result
 
     module.render, module.behaviour, module.calls = render, "ok", calls
+    module.kernels_compiled, module.warm_up = (lambda: True), (lambda: 0.0)
     monkeypatch.setitem(sys.modules, "snell.tracer.integrator", module)
     return module
 
@@ -250,6 +251,9 @@ def test_progress_line():
 
 @pytest.mark.skipif(not HAVE_INTEGRATOR, reason="snell.tracer.integrator has not landed yet")
 def test_render_tiny_scene(scene_file, tmp_path):
+    from snell.tracer import integrator
+    if not integrator.kernels_compiled():
+        integrator.warm_up()             # else the render says it compiles them, on stderr
     out, png = tmp_path / "tiny.exr", tmp_path / "tiny.png"
     proc = run("render", scene_file, "-o", out, "--png", png, "--spp", "4", "--threads", "1")
     assert proc.returncode == 0, proc.stderr
@@ -269,6 +273,18 @@ def test_render_tiny_scene(scene_file, tmp_path):
     finally:
         written.close()
     assert np.array_equal(pixels, srgb) and pixels[0, 0, 0] == 255 and pixels[-1, 0, 0] == 0
+
+
+def test_first_render_says_it_compiles_the_kernels(scene_file, tmp_path):
+    """An empty kernel cache: the first render says it compiles (once), the next one does not."""
+    env = dict(os.environ, SNELL_KERNEL_CACHE=str(tmp_path / "kernels"))
+    out = tmp_path / "tiny.exr"
+    first = run("render", scene_file, "-o", out, "--threads", "1", env=env)
+    assert first.returncode == 0, first.stderr
+    assert first.stderr == "snell: compiling kernels (first run only)\n"
+    second = run("render", scene_file, "-o", out, "--threads", "1", env=env)
+    assert second.returncode == 0 and second.stderr == ""
+    assert os.listdir(tmp_path / "kernels")
 
 
 @pytest.mark.skipif(not HAVE_INTEGRATOR, reason="snell.tracer.integrator has not landed yet")

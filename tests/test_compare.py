@@ -47,6 +47,25 @@ def test_metrics_consistent_and_inconsistent_on_synthetic_images():
     assert bad["mean_ratio"]["r"] == pytest.approx(1.02, abs=0.01)
 
 
+def test_metrics_on_images_past_256x256_pixels():
+    # Blender's startup file at its 1920x1080 failed here: the image-mean test's dof divided by
+    # npx ** 4, a Python int beyond uint64 from 256x256 pixels on, so numpy fell back to object
+    # dtype and scipy's t-distribution raised TypeError.
+    rng = np.random.default_rng(3)
+    truth = rng.uniform(0.1, 1.0, (256, 256, 3))
+    a, va = _noisy(rng, truth, 4)
+    b, vb = _noisy(rng, truth, 4)
+    r = metrics.compare(a, va, 3, b, vb, 3)
+    assert r["verdict"] == "consistent", r["tests"]
+    # The image mean's Welch-Satterthwaite dof is df (sum v)^2 / sum v^2 per channel.
+    sva, svb = va.sum(axis=(0, 1)) / 256.0 ** 4, vb.sum(axis=(0, 1)) / 256.0 ** 4
+    dfa = 3 * va.sum(axis=(0, 1)) ** 2 / (va * va).sum(axis=(0, 1))
+    dfb = 3 * vb.sum(axis=(0, 1)) ** 2 / (vb * vb).sum(axis=(0, 1))
+    t, _, df = metrics.welch(a.mean(axis=(0, 1)) - b.mean(axis=(0, 1)), sva, svb, dfa, dfb)
+    assert r["mean_z"]["g"] == pytest.approx(t[1])
+    assert np.all(np.isfinite(df)) and np.all(df > 1000)
+
+
 def test_zero_variance_pixels_must_match_exactly():
     a = np.full((16, 16, 3), 15.0)
     r = metrics.compare(a, np.zeros_like(a), 10, a * 1.001, np.zeros_like(a), 10)

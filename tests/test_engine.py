@@ -316,7 +316,8 @@ def test_batch_failing_frames_exit_non_zero(blends, tmp_path):
     assert proc.returncode == 1
     assert proc.stderr.count("FAILED") == 2 and "camera" in proc.stderr
     proc = snell_cli("batch", blends / "cornell.blend", "--frames", "3-1", "-o", tmp_path / "x.exr")
-    assert proc.returncode == 1 and "snell: error: --frames" in proc.stderr
+    # a bad option: status 2, as for every command
+    assert proc.returncode == 2 and "snell: error: argument --frames" in proc.stderr
     proc = snell_cli("batch", tmp_path / "missing.blend")
     assert proc.returncode == 1 and "no such file" in proc.stderr
 

@@ -21,17 +21,18 @@ INSTALL_AND_RENDER = textwrap.dedent('''
     import importlib.machinery, json, os, sys
     zip_path, blend, exr, ext_root = sys.argv[1:5]
 
-    class BundledEmbreexOnly:
-        """Import embreex only from the extension's own site-packages (the wheel it bundles)."""
+    class BundledWheelsOnly:
+        """Import embreex, numba and llvmlite only from the extension's own site-packages (the
+        wheels it bundles)."""
         def find_spec(self, name, path=None, target=None):
-            if name != "embreex":
+            if name not in ("embreex", "numba", "llvmlite"):
                 return None
             local = [p for p in sys.path if p.startswith(ext_root)]
             spec = importlib.machinery.PathFinder.find_spec(name, local)
             if spec is None:
-                raise ImportError(f"embreex is not in the extension's site-packages {local}")
+                raise ImportError(f"{name} is not in the extension's site-packages {local}")
             return spec
-    sys.meta_path.insert(0, BundledEmbreexOnly())
+    sys.meta_path.insert(0, BundledWheelsOnly())
 
     import bpy, addon_utils
     out = {}
@@ -47,8 +48,10 @@ INSTALL_AND_RENDER = textwrap.dedent('''
     settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
     scene.render.filepath = exr
     bpy.ops.render.render(write_still=True)
-    import embreex
-    out["embreex"] = embreex.__file__
+    import embreex, numba, llvmlite
+    out["wheels"] = [embreex.__file__, numba.__file__, llvmlite.__file__]
+    out["kernel_cache"] = sys.modules[module + ".tracer.jit"].cache_dir()
+    out["kernels_compiled_s"] = sys.modules[module + ".addon.final"].last_render["kernels_compiled_s"]
     out["snell_module"] = sys.modules[module].__file__
 
     def traces():
@@ -86,14 +89,18 @@ def test_build_makes_one_zip_per_platform_with_its_wheels(built):
     zips = sorted(p.name for p in built.glob("*.zip"))
     assert zips == ["snell-0.1.0-linux_x64.zip", "snell-0.1.0-macos_arm64.zip",
                     "snell-0.1.0-macos_x64.zip", "snell-0.1.0-windows_x64.zip"]
-    tags = {"linux_x64": "manylinux", "windows_x64": "win_amd64", "macos_arm64": "arm64",
-            "macos_x64": "macosx_13_0_x86_64"}
+    tags = {"linux_x64": "manylinux", "windows_x64": "win_amd64", "macos_arm64": "_arm64",
+            "macos_x64": "_x86_64"}
     for name in zips:
         names = zipfile.ZipFile(built / name).namelist()
         wheels = [n for n in names if n.endswith(".whl")]
         platform = name[len("snell-0.1.0-"):-4]
-        assert len(wheels) == 2 and all(tags[platform] in w for w in wheels), wheels
-        assert {"cp311", "cp313"} == {w.split("-")[2] for w in wheels}
+        assert all(tags[platform] in w for w in wheels), wheels
+        if platform.startswith("macos"):
+            assert all("macosx" in w for w in wheels), wheels
+        # Embree and the kernels' compiler, for Blender's Python 3.11 and 3.13.
+        assert sorted((os.path.basename(w).split("-")[0], w.split("-")[-3]) for w in wheels) == [
+            (package, py) for package in ("embreex", "llvmlite", "numba") for py in ("cp311", "cp313")]
         assert "__init__.py" in names and "addon/engine.py" in names and "tracer/integrator.py" in names
         assert not [n for n in names if n.startswith(("tests/", "scenes/", "docs/", "tools/", ".venv/",
                                                       ".git", "dist/"))
@@ -118,7 +125,10 @@ def test_installed_extension_renders_like_snell_render(built, tmp_path):
     out = json.loads(lines[-1][len("RESULT "):])
     assert out["enabled"]
     assert out["snell_module"].startswith(ext_root)
-    assert out["embreex"].startswith(ext_root)          # the bundled wheel, installed by Blender
+    assert all(path.startswith(ext_root) for path in out["wheels"])   # the bundled wheels
+    # Kernels are compiled on the first render after install, into the extension's user directory.
+    assert out["kernel_cache"].startswith(str(resources / "extensions" / ".user"))
+    assert out["kernels_compiled_s"] is not None and out["kernels_compiled_s"] > 0
     panels, names, has_prop = out["enabled_traces"]
     assert "DATA_PT_lens" in panels and names and has_prop
     assert out["disabled_traces"] == [[], [], False]

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import bsdf, light_paths, wavefront
+from . import bsdf, jit, light_paths, wavefront
 from .camera import Camera
 from .geometry import Geometry
 from .lights import LightSampler
@@ -378,4 +378,11 @@ def warm_up() -> float:
                   normals=np.tile(np.array([0, 0, 1], np.float32), (3, 1)))
     for sampler in SAMPLERS:
         Renderer(scene, threads=1, sampler=sampler).render()
+    jit.mark_warm()
     return time.perf_counter() - start
+
+
+def kernels_compiled() -> bool:
+    """Whether the kernels are compiled and cached on disk (else the first render compiles them,
+    which takes a while: callers say so, then call warm_up)."""
+    return jit.is_warm()

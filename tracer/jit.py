@@ -68,5 +68,24 @@ def cache_dir() -> str:
     return numba.config.CACHE_DIR
 
 
+def _warm_marker() -> str:
+    # Numba keys its cache entries by the defining file's path too, so a second checkout of the
+    # same sources compiles its own: the marker is per checkout as well.
+    checkout = hashlib.sha256(TRACER_DIR.encode()).hexdigest()[:12]
+    return os.path.join(cache_dir(), f"warm-{checkout}")
+
+
+def is_warm() -> bool:
+    """Whether every kernel is already compiled in the cache (integrator.warm_up has run)."""
+    return os.path.isfile(_warm_marker())
+
+
+def mark_warm() -> None:
+    """Record that every kernel is compiled in the cache."""
+    os.makedirs(cache_dir(), exist_ok=True)
+    with open(_warm_marker(), "w") as f:
+        f.write(numba.__version__ + "\n")
+
+
 # SNELL_KERNEL_CACHE moves the cache (tests point it at a fresh directory to time compiles).
 set_cache_dir(os.environ.get("SNELL_KERNEL_CACHE") or default_cache_base())

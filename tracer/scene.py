@@ -26,6 +26,12 @@ SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 FRESNEL_MODELS = ("exact", "schlick")
 
 DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact", "caustics": True}
+# Bounds on integers that size arrays or loops: a file may hold any integer, and one past these
+# would end the render with an overflow or an allocation failure instead of a named field.
+MAX_INT = 2 ** 31 - 1
+MAX_RESOLUTION = 65536      # Blender's own limit per side
+MAX_BLADES = 1000
+
 DEFAULT_DOF = {"use_dof": False, "focus_distance": 10.0, "fstop": 2.8, "blades": 0,
                "rotation": 0.0, "ratio": 1.0}
 
@@ -102,34 +108,50 @@ def aperture_radius(camera: dict) -> float:
 # Validation
 
 
+def _short(value, limit=60) -> str:
+    """repr(value) cut to `limit` characters: a message stays one readable line."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def _finite_vec(value, name, n=3, positive=False):
     try:
         arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise SceneError(f"{name}: expected {n} numbers, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an integer beyond float64
+        raise SceneError(f"{name}: expected {n} numbers, got {_short(value)}") from None
     if arr.shape != (n,):
         raise SceneError(f"{name}: expected {n} numbers, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise SceneError(f"{name}: contains NaN or Inf ({value!r})")
+        raise SceneError(f"{name}: contains NaN or Inf ({_short(value)})")
     if positive and np.any(arr < 0):
-        raise SceneError(f"{name}: must not be negative ({value!r})")
+        raise SceneError(f"{name}: must not be negative ({_short(value)})")
     return arr
 
 
 def _finite_number(value, name, minimum=None, exclusive=False):
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SceneError(f"{name}: expected a number, got {value!r}")
+        raise SceneError(f"{name}: expected a number, got {_short(value)}")
+    try:
+        value = float(value)
+    except OverflowError:  # an integer beyond float64
+        raise SceneError(f"{name}: out of range ({_short(value)})") from None
     if not math.isfinite(value):
         raise SceneError(f"{name}: is NaN or Inf")
     if minimum is not None and (value <= minimum if exclusive else value < minimum):
         raise SceneError(f"{name}: must be {'>' if exclusive else '>='} {minimum}, got {value!r}")
-    return float(value)
+    return value
+
+
+def _int_in(value, name, minimum, maximum, what="integer"):
+    if isinstance(value, bool) or not isinstance(value, int) or not minimum <= value <= maximum:
+        raise SceneError(f"{name}: expected {what} from {minimum} to {maximum}, got {_short(value)}")
+    return value
 
 
 def _matrix(value, name):
     try:
         m = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise SceneError(f"{name}: expected a 4x4 matrix") from None
     if m.shape != (4, 4):
         raise SceneError(f"{name}: expected a 4x4 matrix, got shape {m.shape}")
@@ -142,6 +164,8 @@ def _check_array(arrays, key, dtype, ncols):
     if key not in arrays:
         raise SceneError(f"{key}: missing array")
     arr = arrays[key]
+    if not isinstance(arr, np.ndarray):
+        raise SceneError(f"{key}: expected an array, got {type(arr).__name__}")
     if arr.dtype != dtype:
         raise SceneError(f"{key}: expected dtype {np.dtype(dtype).name}, got {arr.dtype.name}")
     want_ndim = 1 if ncols is None else 2
@@ -153,13 +177,13 @@ def _check_array(arrays, key, dtype, ncols):
 
 def _entry_kind(section, i, entry, kinds):
     """The name to report an entry of a header list by, and its checked kind."""
-    where = f"{section}[{i}]" + (f" ({entry.get('name')!r})" if isinstance(entry, dict) else "")
+    where = f"{section}[{i}]" + (f" ({_short(entry.get('name'), 40)})" if isinstance(entry, dict) else "")
     if not isinstance(entry, dict):
         raise SceneError(f"{where}: expected an object")
     kind = entry.get("kind")
     if kind not in kinds:
         what = section[:-1]
-        raise SceneError(f"{where}.kind: unknown {what} kind {kind!r} (known: {', '.join(kinds)})")
+        raise SceneError(f"{where}.kind: unknown {what} kind {_short(kind)} (known: {', '.join(kinds)})")
     return where, kind
 
 
@@ -176,7 +200,7 @@ def _check_material(i, mat):
 
 def _check_flag(light, key, where):
     if key in light and not isinstance(light[key], bool):
-        raise SceneError(f"{where}.{key}: expected true or false, got {light[key]!r}")
+        raise SceneError(f"{where}.{key}: expected true or false, got {_short(light[key])}")
 
 
 def _check_angle(light, key, where, maximum=math.pi, default=None):
@@ -194,7 +218,8 @@ def _check_light(i, light):
         _check_flag(light, key, where)
     if kind == "area":
         if light.get("shape") not in AREA_SHAPES:
-            raise SceneError(f"{where}.shape: unknown area shape {light.get('shape')!r}")
+            raise SceneError(f"{where}.shape: unknown area shape {_short(light.get('shape'))} "
+                             f"(known: {', '.join(AREA_SHAPES)})")
         m = _matrix(light.get("matrix"), f"{where}.matrix")
         size = _finite_vec(light.get("size"), f"{where}.size", n=2)
         if np.any(size <= 0) or abs(np.linalg.det(m[:3, :3])) < 1e-300:
@@ -231,14 +256,15 @@ def _check_camera(cam):
     for key in ("shift_x", "shift_y"):
         _finite_number(cam.get(key, 0.0), f"camera.{key}")
     if cam.get("sensor_fit", "AUTO") not in SENSOR_FITS:
-        raise SceneError(f"camera.sensor_fit: unknown value {cam.get('sensor_fit')!r}")
+        raise SceneError(f"camera.sensor_fit: unknown value {_short(cam.get('sensor_fit'))}")
     res = cam.get("resolution")
     if (not isinstance(res, (list, tuple)) or len(res) != 2
-            or not all(isinstance(r, int) and not isinstance(r, bool) and r > 0 for r in res)):
-        raise SceneError(f"camera.resolution: expected two positive integers, got {res!r}")
+            or not all(isinstance(r, int) and not isinstance(r, bool) and 0 < r <= MAX_RESOLUTION
+                       for r in res)):
+        raise SceneError(f"camera.resolution: expected two integers from 1 to {MAX_RESOLUTION}, "
+                         f"got {_short(res)}")
     pct = cam.get("resolution_percentage", 100)
-    if not isinstance(pct, int) or pct <= 0:
-        raise SceneError(f"camera.resolution_percentage: expected a positive integer, got {pct!r}")
+    _int_in(pct, "camera.resolution_percentage", 1, 32767, "a percentage")
     aspect = _finite_vec(cam.get("pixel_aspect", [1.0, 1.0]), "camera.pixel_aspect", n=2)
     if np.any(aspect <= 0):
         raise SceneError("camera.pixel_aspect: must be positive")
@@ -249,21 +275,31 @@ def _check_camera(cam):
     _finite_number(dof.get("fstop"), "camera.dof.fstop", 0.0, exclusive=True)
     _finite_number(dof.get("rotation", 0.0), "camera.dof.rotation")
     _finite_number(dof.get("ratio", 1.0), "camera.dof.ratio", 0.0, exclusive=True)
-    if not isinstance(dof.get("blades", 0), int):
-        raise SceneError("camera.dof.blades: expected an integer")
+    _int_in(dof.get("blades", 0), "camera.dof.blades", 0, MAX_BLADES)
     if dof.get("aperture_radius") is not None:
         _finite_number(dof["aperture_radius"], "camera.dof.aperture_radius", 0.0)
 
 
 def _check_render(render):
+    if not isinstance(render, dict):
+        raise SceneError(f"render: expected an object, got {_short(render)}")
     for key in ("spp", "max_depth", "seed"):
-        v = render.get(key)
-        if not isinstance(v, int) or isinstance(v, bool) or v < (1 if key == "spp" else 0):
-            raise SceneError(f"render.{key}: expected a {'positive' if key == 'spp' else 'non-negative'} integer, got {v!r}")
+        _int_in(render.get(key), f"render.{key}", 1 if key == "spp" else 0, MAX_INT, "an integer")
     if not isinstance(render.get("caustics", True), bool):
-        raise SceneError(f"render.caustics: expected true or false, got {render.get('caustics')!r}")
+        raise SceneError(f"render.caustics: expected true or false, got {_short(render.get('caustics'))}")
     if render.get("fresnel") not in FRESNEL_MODELS:
-        raise SceneError(f"render.fresnel: expected one of {FRESNEL_MODELS}, got {render.get('fresnel')!r}")
+        raise SceneError(f"render.fresnel: expected one of {', '.join(FRESNEL_MODELS)}, "
+                         f"got {_short(render.get('fresnel'))}")
+
+
+def _check_objects(objects):
+    if not isinstance(objects, list):
+        raise SceneError(f"objects: expected a list, got {_short(objects)}")
+    for i, obj in enumerate(objects):
+        if not isinstance(obj, dict):
+            raise SceneError(f"objects[{i}]: expected an object, got {_short(obj)}")
+        if "closed" in obj and not isinstance(obj["closed"], bool):
+            raise SceneError(f"objects[{i}].closed: expected true or false, got {_short(obj['closed'])}")
 
 
 def validate(scene: Scene) -> Scene:
@@ -282,6 +318,9 @@ def validate(scene: Scene) -> Scene:
             raise SceneError(f"{key}: {len(arr)} entries for {len(tri)} triangles")
     if len(tri) and (tri.min() < 0 or tri.max() >= len(pos)):
         raise SceneError(f"triangles: vertex index out of range [0, {len(pos)})")
+    _check_objects(scene.objects)
+    if not isinstance(scene.source, str):
+        raise SceneError(f"source: expected a string, got {_short(scene.source)}")
     if not isinstance(scene.materials, list):
         raise SceneError("materials: expected a list")
     for i, mat in enumerate(scene.materials):
@@ -300,7 +339,9 @@ def validate(scene: Scene) -> Scene:
         raise SceneError("lights: expected a list")
     for i, light in enumerate(scene.lights):
         _check_light(i, light)
-    _finite_vec((scene.world or {}).get("color"), "world.color", positive=True)
+    if not isinstance(scene.world, dict):
+        raise SceneError(f"world: expected an object, got {_short(scene.world)}")
+    _finite_vec(scene.world.get("color"), "world.color", positive=True)
     _check_camera(scene.camera)
     _check_render(scene.render)
     _check_emitter_areas(scene)
@@ -320,7 +361,7 @@ def _check_emitter_areas(scene):
     for i in emissive:
         sel = scene.material_ids == i
         if sel.any() and triangle_areas(scene.positions, scene.triangles[sel]).sum() <= 0:
-            raise SceneError(f"materials[{i}] ({scene.materials[i]['name']!r}): zero-area emitter "
+            raise SceneError(f"materials[{i}] ({_short(scene.materials[i].get('name'), 40)}): zero-area emitter "
                              "(all its triangles are degenerate)")
 
 
@@ -342,37 +383,71 @@ def save(scene: Scene, path: str) -> None:
             np.savez(f, **arrays)
 
 
-def load(path: str) -> Scene:
-    """Read and validate a scene file."""
+def _read_members(path: str) -> dict:
+    """{member name: array} of the .npz file, or SceneError naming the file or the member."""
     try:
-        with np.load(path, allow_pickle=False) as npz:
-            arrays = {k: npz[k] for k in npz.files}
+        with open(path, "rb") as f:
+            magic = f.read(4)
+    except OSError:
+        magic = b"PK\x03\x04"  # np.load below reports it
+    if magic != b"PK\x03\x04":  # np.load would take any other bytes for a pickle and say so
+        what = "an empty file" if not magic else "not an .npz archive"
+        raise SceneError(f"{path}: not a Snell scene file ({what})")
+    try:
+        npz = np.load(path, allow_pickle=False)
     except FileNotFoundError:
         raise SceneError(f"{path}: no such file") from None
-    except (OSError, ValueError) as exc:
-        raise SceneError(f"{path}: not a Snell scene file ({exc})") from None
+    except IsADirectoryError:
+        raise SceneError(f"{path}: is a directory, not a Snell scene file") from None
+    except PermissionError:
+        raise SceneError(f"{path}: cannot read (permission denied)") from None
+    except Exception as exc:  # noqa: BLE001
+        # The bytes are the user's: a damaged archive fails in zipfile, zlib, struct or numpy's
+        # header parser with whatever exception they raise, and every one means the same thing.
+        raise SceneError(f"{path}: not a Snell scene file ({type(exc).__name__}: {exc})") from None
+    if not isinstance(npz, np.lib.npyio.NpzFile):  # pragma: no cover (the magic says zip)
+        raise SceneError(f"{path}: not a Snell scene file (not an .npz archive)")
+    arrays = {}
+    with npz:
+        for key in npz.files:
+            try:
+                arrays[key] = npz[key]
+            except Exception as exc:  # noqa: BLE001  (as above, for one member)
+                raise SceneError(f"{key}: cannot read the array ({type(exc).__name__}: {exc})") from None
+    return arrays
+
+
+def load(path: str) -> Scene:
+    """Read and validate a scene file."""
+    arrays = _read_members(path)
     if "header" not in arrays:
         raise SceneError(f"{path}: not a Snell scene file (no header)")
     try:
         header = json.loads(arrays["header"].tobytes().decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise SceneError(f"header: not valid JSON ({exc})") from None
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        raise SceneError(f"header.format: expected {FORMAT!r}, got {header.get('format')!r}")
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:  # ValueError: JSONDecodeError, huge ints
+        raise SceneError(f"header: not valid JSON ({_short(str(exc), 100)})") from None
+    if not isinstance(header, dict):
+        raise SceneError(f"header: expected a JSON object, got {_short(header)}")
+    if header.get("format") != FORMAT:
+        raise SceneError(f"header.format: expected {FORMAT!r}, got {_short(header.get('format'))}")
     if header.get("version") not in READS_VERSIONS:
-        raise SceneError(f"header.version: unknown version {header.get('version')!r} "
+        raise SceneError(f"header.version: unknown version {_short(header.get('version'))} "
                          f"(this Snell reads {', '.join(map(str, READS_VERSIONS))})")
     for key in ("positions", "triangles", "material_ids", "object_ids"):
         if key not in arrays:
             raise SceneError(f"{key}: missing array")
+    render = header.get("render")
+    if render is not None and not isinstance(render, dict):
+        raise SceneError(f"render: expected an object, got {_short(render)}")
+    objects = header.get("objects")
     scene = Scene(
         positions=arrays["positions"], triangles=arrays["triangles"],
         material_ids=arrays["material_ids"], object_ids=arrays["object_ids"],
         normals=arrays.get("normals"),
         materials=header.get("materials"), lights=header.get("lights"),
         camera=header.get("camera"), world=header.get("world"),
-        render={**DEFAULT_RENDER, **(header.get("render") or {})},
-        objects=header.get("objects") or [], source=header.get("source", ""))
+        render={**DEFAULT_RENDER, **(render or {})},
+        objects=[] if objects is None else objects, source=header.get("source", ""))
     if isinstance(scene.camera, dict) and isinstance(scene.camera.get("dof"), dict):
         scene.camera["dof"] = {**DEFAULT_DOF, **scene.camera["dof"]}
     return validate(scene)

@@ -1,0 +1,44 @@
+"""Opening and rendering .blend files for the commands, with one error naming the file.
+
+Blender reports an unreadable file or a failed render as RuntimeError("Error: Loading
+\"/abs/path\" failed: ...: Missing DNA block"); the commands turn that into
+`<file>: cannot open (Missing DNA block)`.
+"""
+from __future__ import annotations
+
+import os
+import re
+
+from ..errors import CliError
+
+
+class BlendFileError(CliError):
+    """A .blend file Blender cannot open, or cannot render."""
+
+
+def blender_reason(exc) -> str:
+    """The last, specific part of a Blender error message, without the file's path."""
+    text = " ".join(str(exc).split())
+    text = re.sub(r"^(Error|Warning):\s*", "", text)
+    text = re.sub(r"\s*in file \".*?\"", "", text)
+    return text.rsplit(": ", 1)[-1].strip() or "unknown error"
+
+
+def open_blend(path):
+    """Open path as Blender's current file; BlendFileError naming it if Blender cannot."""
+    import bpy
+    if not os.path.isfile(path):
+        raise BlendFileError(f"{path}: no such file")
+    try:
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
+    except RuntimeError as exc:
+        raise BlendFileError(f"{path}: cannot open as a .blend file ({blender_reason(exc)})") from None
+
+
+def render_still(path, renderer="Cycles"):
+    """bpy.ops.render.render(write_still=True) of the open file; BlendFileError naming it."""
+    import bpy
+    try:
+        bpy.ops.render.render(write_still=True)
+    except RuntimeError as exc:
+        raise BlendFileError(f"{path}: {renderer} cannot render it ({blender_reason(exc)})") from None

@@ -1,0 +1,79 @@
+"""User errors and how they reach the user: CliError, the one-line message, argument types.
+
+Every command module (cli.py, compare/commands.py, compare/bench_command.py, ...) imports these
+from here; this module imports nothing from the package, so it sits below all of them and the
+commands never need to import cli.py (which imports them to dispatch).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+
+EXIT_ERROR = 1        # a user error: missing or bad file, bad scene, unwritable output
+EXIT_USAGE = 2        # bad options (argparse's status)
+EXIT_INTERRUPTED = 130  # Ctrl-C: 128 + SIGINT, as a shell reports it
+
+
+class CliError(Exception):
+    """A user error, reported as one line."""
+
+
+def one_line(message) -> str:
+    """The message with every run of whitespace (newlines included) made one space."""
+    return " ".join(str(message).split())
+
+
+def print_error(message) -> None:
+    """Print `snell: error: <message>` as one line on stderr."""
+    print(f"snell: error: {one_line(message)}", file=sys.stderr, flush=True)
+
+
+def warn(message) -> None:
+    """Print `snell: warning: <message>` as one line on stderr."""
+    print(f"snell: warning: {one_line(message)}", file=sys.stderr)
+
+
+def int_at_least(minimum: int):
+    """An argparse type: an integer >= minimum, else a usage error naming the value."""
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < minimum:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}")
+        return value
+    return parse
+
+
+def check_writable_directory(path: str, option: str, report: bool = False) -> None:
+    """CliError unless `path` can be written: its directory exists and takes new files, and
+    `path` is not a directory (for a report, `report=True`: not a file)."""
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        what = "is not a directory" if os.path.exists(directory) else "does not exist"
+        raise CliError(f"{option} {path}: directory {directory} {what}")
+    if report and os.path.exists(path) and not os.path.isdir(path):
+        raise CliError(f"{option} {path}: is a file, expected a directory for the report")
+    if not report and os.path.isdir(path):
+        raise CliError(f"{option} {path}: is a directory")
+    # os.access ignores read-only file systems and says yes to root: try what the write will do.
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".snell-write-test.", dir=directory)
+    except OSError as exc:
+        raise CliError(f"{option} {path}: cannot write to directory {directory} "
+                       f"({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def check_input_file(path: str, extensions=(".blend",)) -> None:
+    """CliError unless `path` is an existing file with one of the extensions."""
+    if os.path.splitext(path)[1].lower() not in extensions:
+        raise CliError(f"{path}: expected a {' or '.join(extensions)} file")
+    if os.path.isdir(path):
+        raise CliError(f"{path}: is a directory, expected a {' or '.join(extensions)} file")
+    if not os.path.isfile(path):
+        raise CliError(f"{path}: no such file")
