@@ -330,10 +330,10 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
                                                    caustics=False)
         ladders["cycles"] = _ladder("cycles", blend, ref, opts, baseline_mb, log)
         mask, region = _caustic_region(ladders.values(), ref)
-        for points, images in ladders.values():
-            for p, (image, _) in zip(points, images):
-                p["caustic_relmse"] = (metrics.relmse(image[mask], ref[mask])
-                                       if mask is not None and mask.any() else None)
+        if mask is not None and mask.any():
+            for points, images in ladders.values():
+                for p, (image, _) in zip(points, images):
+                    p["caustic_relmse"] = metrics.relmse(image[mask], ref[mask])
         scene = {"name": name, "blend": os.path.abspath(blend),
                  "height": int(ref.shape[0]), "width": int(ref.shape[1]),
                  "reference": ref_info, "caustic_region": region}

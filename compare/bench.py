@@ -145,17 +145,18 @@ def error_at_time(times, errs, t):
 
 def gain_at_equal_time(points, other, key) -> dict:
     """How many times lower `key` is in `points` than in `other` at the same wall time: at each
-    of `points` within the time range of `other`, other's error interpolated at that time over
-    this point's; the median and each one."""
+    of `points`, other's error at that time (log-log interpolation, extrapolated from its two
+    nearest points outside its range) over this point's. The median is over the points inside
+    other's time range, or over all of them when none is."""
     to = [p["wall_s"] for p in other]
     ratios = []
     for p in points:
-        if min(to) <= p["wall_s"] <= max(to) and p[key] > 0:
-            e = error_at_time(to, [q[key] for q in other], p["wall_s"])
-            if e is not None:
-                ratios.append({"wall_s": p["wall_s"], "spp": p["spp"], "ratio": e / p[key]})
-    return {"key": key, "median": float(np.median([r["ratio"] for r in ratios])) if ratios else 0.0,
-            "points": ratios}
+        e = error_at_time(to, [q[key] for q in other], p["wall_s"])
+        if e is not None and p[key] > 0:
+            ratios.append({"wall_s": p["wall_s"], "spp": p["spp"], "ratio": e / p[key],
+                           "extrapolated": not min(to) <= p["wall_s"] <= max(to)})
+    inside = [r["ratio"] for r in ratios if not r["extrapolated"]] or [r["ratio"] for r in ratios]
+    return {"key": key, "median": float(np.median(inside)) if inside else 0.0, "points": ratios}
 
 
 def share_map_png(light, reference) -> bytes:
