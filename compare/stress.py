@@ -12,6 +12,7 @@ import html
 import math
 import os
 import time
+import zlib
 
 import numpy as np
 
@@ -31,6 +32,11 @@ def z_critical(n_statistical: int, alpha: float = ALPHA) -> float:
     from scipy import stats
     per_case = 1.0 - (1.0 - alpha) ** (1.0 / max(n_statistical, 1))
     return float(stats.norm.isf(per_case / 2.0))
+
+
+def case_seed(case_id: str) -> int:
+    """A fixed seed per case, so that cases are independent samples and reruns are identical."""
+    return zlib.crc32(case_id.encode("utf-8")) & 0x7FFFFFFF
 
 
 def judge(case, outcome, z: float) -> dict:
@@ -91,7 +97,7 @@ def run(cases=None, quick=False, threads=2, log=None) -> dict:
     for i, case in enumerate(cases):
         t0 = time.perf_counter()
         try:
-            outcome = case.run(threads) if case.run is not None else None
+            outcome = case.run(threads, case_seed(case.id)) if case.run is not None else None
         except Exception as exc:   # a crash is a finding: it goes into the table, not a traceback
             outcome = None
             row = judge(case, None, z)
