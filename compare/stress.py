@@ -84,13 +84,14 @@ def judge(case, outcome, z: float) -> dict:
     return row
 
 
-def run(cases=None, quick=False, threads=2, log=None) -> dict:
+def run(cases=None, quick=False, threads=2, log=None, family_size=None) -> dict:
     """Run the cases (default: the full matrix or the --quick subset) and judge them.
 
+    family_size: how many statistical cases the Sidak correction spans (default: those run).
     Returns the report data (stable keys) with the worst case's images under "_worst".
     """
     cases = cases if cases is not None else all_cases(quick)
-    n_stat = sum(1 for c in cases if c.check == STATISTICAL)
+    n_stat = family_size or sum(1 for c in cases if c.check == STATISTICAL)
     z = z_critical(n_stat)
     rows, worst, worst_images = [], None, None
     start = time.perf_counter()
