@@ -113,7 +113,7 @@ def run(cases=None, quick=False, threads=2, log=None, family_size=None) -> dict:
         has_images = outcome is not None and outcome.image is not None
         if has_images and (worst is None or _rank(row) > _rank(worst)):
             worst = row
-            worst_images = (outcome.image, outcome.error_map)
+            worst_images = (outcome.image, outcome.error_map, outcome.error_label)
     failed = [r["id"] for r in rows if not r["passed"]]
     data = {
         "version": JSON_VERSION, "quick": bool(quick), "threads": int(threads), "alpha": ALPHA,
@@ -131,8 +131,9 @@ def run(cases=None, quick=False, threads=2, log=None, family_size=None) -> dict:
 
 
 def _rank(row):
-    """Failures first, then by error over bound."""
-    return (not row["passed"], row["severity"] if math.isfinite(row["severity"]) else 1e300)
+    """Failures first, then cases not known to fail, then by error over bound."""
+    return (not row["passed"], not row["expected_failure"],
+            row["severity"] if math.isfinite(row["severity"]) else 1e300)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -243,7 +244,7 @@ def _worst_figures(data):
     images = data.get("_worst")
     if not images or images[0] is None:
         return ""
-    image, error = images
+    image, error, label = images
     parts = [f"<h2>Worst case: {html.escape(data['worst'])}</h2>",
              f"<figure><img alt='image' src='{_data_uri(png_bytes(upscale(to_srgb8(image), 256)))}'>"
              f"<figcaption>image (Standard view)</figcaption></figure>"]
@@ -251,7 +252,7 @@ def _worst_figures(data):
         lim = float(np.nanmax(np.abs(error))) if np.size(error) else 0.0
         lim = lim if lim > 0 and math.isfinite(lim) else 1e-6
         parts.append(f"<figure><img alt='error' src='{_data_uri(png_bytes(upscale(diverging(error, lim), 256)))}'>"
-                     f"<figcaption>error map<br><img class='bar' alt='scale' "
+                     f"<figcaption>{html.escape(label)}<br><img class='bar' alt='scale' "
                      f"src='{_data_uri(png_bytes(colour_bar(lim)))}'><br>"
                      f"<span class='small'>blue {-lim:.3g} · white 0 · red +{lim:.3g}</span>"
                      f"</figcaption></figure>")

@@ -29,7 +29,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..tracer.integrator import CHUNK, Renderer
+from ..tracer.integrator import CHUNK, PASS_PATHS, Renderer
 from .stress_geometry import WHITE, box, camera, icosphere, quad, rotate_x, scene
 
 EXACT, STATISTICAL, AT_MOST, UNSUPPORTED = "exact", "statistical", "at most", "not supported"
@@ -48,6 +48,7 @@ class Outcome:
     nan_count: int = 0            # NaN/Inf samples over all renders of the case
     image: np.ndarray | None = None      # (H, W, 3) linear, for the report
     error_map: np.ndarray | None = None  # (H, W) signed error, for the report
+    error_label: str = "error map"
     note: str = ""
     settings: dict = field(default_factory=dict)
 
@@ -112,6 +113,9 @@ def _image_mean(result):
     return mean, se
 
 
+Z_LABEL = "per-pixel z: (pixel - analytic) / its standard error"
+
+
 def _z_map(result, expected):
     var = result.variance_of_mean()[..., 0]
     diff = result.mean()[..., 0] - expected
@@ -131,7 +135,7 @@ def _furnace_outcome(result, scn, note=""):
     img = result.mean()
     return Outcome(measured=measured if channels_equal else math.nan, tolerance=tolerance,
                    allowance=events / n, events=events, nan_count=result.nan_count, image=img,
-                   error_map=img[..., 0] - 1.0, settings=_settings(scn),
+                   error_map=img[..., 0] - 1.0, error_label="image - 1", settings=_settings(scn),
                    note=(note + "; " if note else "") + _events_note(result.stats))
 
 
@@ -275,7 +279,8 @@ def _slab_value(angle, max_depth, faces="closed"):
 
 
 def _slab_case(thickness, angle, max_depth=100, faces="closed", quick=False, name=None,
-               group="glass slab", failure=None, distance=SLAB_CAMERA_DISTANCE, expected_failure=""):
+               group="glass slab", failure=None, distance=SLAB_CAMERA_DISTANCE, expected_failure="",
+               note=""):
     limit = max_depth >= 100
     expected = _slab_value(angle, None if limit else max_depth, faces)
     name = name or (f"slab {thickness:g} thick at {angle:g} deg, max depth {max_depth}")
@@ -289,8 +294,9 @@ def _slab_case(thickness, angle, max_depth=100, faces="closed", quick=False, nam
         result = _render(scn, threads, seed)
         mean, se = _image_mean(result)
         return Outcome(mean, se=se, nan_count=result.nan_count, image=result.mean(),
-                       error_map=_z_map(result, expected), settings=_settings(scn),
-                       note=f"F = {fresnel_unpolarised(math.cos(math.radians(angle)), SLAB_IOR):.6f}")
+                       error_map=_z_map(result, expected), error_label=Z_LABEL, settings=_settings(scn),
+                       note=(note + "; " if note else "")
+                       + f"F = {fresnel_unpolarised(math.cos(math.radians(angle)), SLAB_IOR):.6f}")
     return Case(name, group, measures,
                 failure or "light is lost or gained crossing a thin or tilted interface (offsets, "
                            "Fresnel, or the depth count)", STATISTICAL, expected, run, quick,
@@ -362,7 +368,7 @@ def _ball_case(inner_radius, quick):
         result = _render(scn, threads, seed)
         mean, se = _image_mean(result)
         return Outcome(mean, se=se, nan_count=result.nan_count, image=result.mean(),
-                       error_map=_z_map(result, expected), settings=_settings(scn))
+                       error_map=_z_map(result, expected), error_label=Z_LABEL, settings=_settings(scn))
     return Case(name, "nested and coincident", measures,
                 "a surface inside glass is not the interface it should be" if inner_radius else
                 "the near-axis ball model itself is off (the nested case would mean nothing)",
@@ -382,6 +388,11 @@ def coplanar_emitters_case():
                 "rays pass between or through coincident faces, or add both", EXACT, 1.0, run, True)
 
 
+# addon/export.py's warning for such a mesh, word for word:
+OPEN_MESH_WARNING = ("exporter warning: object '...': glass material '...' on a mesh that is not "
+                     "closed (its edges are not all shared by two triangles)")
+
+
 def nested_cases():
     """Nested balls, a doubled face, coplanar emitters and an open glass mesh."""
     return [
@@ -393,6 +404,7 @@ def nested_cases():
         coplanar_emitters_case(),
         _slab_case(1e-3, 0.0, faces="sheet", quick=True, group="nested and coincident",
                    name="open glass mesh (one quad; exporter warns 'not closed')",
+                   note=OPEN_MESH_WARNING,
                    failure="an open glass surface is not the one interface Cycles makes of it"),
     ]
 
@@ -472,7 +484,7 @@ def _coc_case(focus, fstop, blades=0, quick=False):
         radius, se = coc_radius(result, half_px)
         return Outcome(radius, se=se, nan_count=result.nan_count, image=result.mean(),
                        error_map=result.mean()[..., 0] - result.mean()[..., 0].mean(),
-                       settings=_settings(scn),
+                       error_label="image - its mean (the blur's shape)", settings=_settings(scn),
                        note=f"lens {lens_mm:.4g} mm, aperture radius {aperture:.3g} m")
     return Case(f"CoC focus {focus:g} f/{fstop:g} {shape}", "thin lens",
                 f"RMS circle-of-confusion radius (px) of a square at twice the focus distance, "
@@ -502,7 +514,7 @@ def _pinhole_limit_case(quick):
         allowed = float(stats.poisson.isf(1e-4, expected_flips))
         return Outcome(differing, allowance=allowed, nan_count=a.nan_count + b.nan_count,
                        image=a.mean(), error_map=(a.mean() - b.mean())[..., 0],
-                       settings=_settings(scn),
+                       error_label="depth of field - pinhole", settings=_settings(scn),
                        note=f"CoC {coc:.2g} px; expected differing samples {expected_flips:.2g}")
     return Case("pinhole limit f/1e6", "thin lens",
                 "samples that differ from the pinhole render (same seed)",
@@ -542,6 +554,7 @@ def _point_light_case(focus, fstop, quick):
         area, se = point_light_area(result, coc, radius_px)
         return Outcome(area, se=se, nan_count=result.nan_count, image=result.mean(),
                        error_map=result.mean()[..., 0] - result.mean()[..., 0].mean(),
+                       error_label="image - its mean (the blur's shape)",
                        settings=_settings(scn), note=f"CoC {coc:.2f} px, lamp radius {radius_px:.2f} px")
     return Case(f"point lamp out of focus, focus {focus:g} f/{fstop:g}", "thin lens",
                 "area (px^2) of the lamp's blurred image: total / plateau = pi R^2",
@@ -596,6 +609,7 @@ def _strength_case(strength, quick):
         tolerance = 2 * (4 * 3 + 2 + a.spp) * UNIT_ROUNDING
         return Outcome(measured, tolerance=tolerance, nan_count=a.nan_count + b.nan_count,
                        image=b.mean() / strength, error_map=(b.sum / strength - ref)[..., 0],
+                       error_label="sums / strength - sums at strength 1",
                        settings=_settings(scaled),
                        note="all sums finite" if finite else "non-finite sums")
     return Case(f"emitters x {strength:g}", "lights",
@@ -624,7 +638,8 @@ def _zero_size_lamp_case(quick):
         img = result.mean()
         return Outcome(float(result.sum[res // 2, res // 2, 0] / result.spp),
                        tolerance=spread + 64 * UNIT_ROUNDING, nan_count=result.nan_count, image=img,
-                       error_map=img[..., 0] - expected, settings=_settings(scn),
+                       error_map=img[..., 0] - expected, error_label="image - analytic (centre)",
+                       settings=_settings(scn),
                        note=f"the pixel spans {spread:.2g} of falloff")
     return Case("zero-size point lamp over a floor", "lights",
                 "radiance of the floor pixel under the lamp: albedo I / (pi h^2)",
@@ -641,7 +656,8 @@ def _lamp_in_glass_case(quick):
         ratio = sa / sb
         se = math.sqrt(va / sb ** 2 + vb * sa ** 2 / sb ** 4)
         return Outcome(float(ratio), se=se, nan_count=a.nan_count + b.nan_count, image=a.mean(),
-                       error_map=(a.mean() - b.mean())[..., 0], settings=_settings(with_glass),
+                       error_map=(a.mean() - b.mean())[..., 0], error_label="with glass - without",
+                       settings=_settings(with_glass),
                        note=f"IOR {SLAB_IOR}; IOR^2 = {SLAB_IOR ** 2:g}")
     return Case("lamp inside a closed glass ball", "lights",
                 "light leaving the ball towards the camera / the same lamp without the ball",
@@ -726,17 +742,20 @@ def _small_image_case(resolution, spp, quick):
 
 
 BIG_SIZE, BIG_SIZE_QUICK = 8192, 1024
-MEMORY_SLACK = 32 << 20   # the allocator's per-thread arenas and Python's own objects
+MEMORY_SLACK = 16 << 20   # the allocator's per-thread arenas and Python's own objects
+JOB_BYTES = 2048          # one chunk job of a pass: its tuple and its Future (measured 1.7 KB)
 
 
 def working_set_bytes(threads: int, npix: int) -> int:
     """What a render needs besides its two (H, W, 3) float64 sums: each thread's chunk buffers
-    (tracer/integrator._Buffers) and one pass's list of chunk jobs, plus MEMORY_SLACK."""
+    (tracer/integrator._Buffers), one pass's chunk jobs (the pool holds a Future per chunk of the
+    pass: at most max(npix, PASS_PATHS) / CHUNK of them, whatever the sample count) and
+    MEMORY_SLACK."""
     from ..tracer import wavefront
     per_thread = (sum(a.nbytes for a in wavefront.new_paths(CHUNK)) * 2
                   + sum(a.nbytes for a in wavefront.new_shadows(CHUNK))
                   + CHUNK * (3 * 8 + 8))
-    jobs = (npix // CHUNK + 1) * 128     # a tuple of two ints and its list slot
+    jobs = (max(npix, PASS_PATHS) // CHUNK + 1) * JOB_BYTES
     return threads * per_thread + jobs + MEMORY_SLACK
 
 
@@ -803,8 +822,9 @@ def _big_cases(quick):
         return Outcome(float(above), allowance=float(working_set_bytes(threads, size * size)),
                        nan_count=one["nan"] + two["nan"],
                        settings={"resolution": f"{size}x{size}", "spp": "1 and 2", "max_depth": 8},
-                       note=(f"peak above a 1x1 render: {one['peak_bytes'] / 2**20 - base['peak_bytes'] / 2**20:.0f} MB "
-                             f"at 1 spp, {two['peak_bytes'] / 2**20 - base['peak_bytes'] / 2**20:.0f} MB at 2 spp"))
+                       note=(f"peak above a 1x1 render: {(one['peak_bytes'] - base['peak_bytes']) / 2**20:.1f} MiB "
+                             f"at 1 spp, {(two['peak_bytes'] - base['peak_bytes']) / 2**20:.1f} MiB at "
+                             f"2 spp; sums {buffers / 2**20:.1f} MiB"))
     return [
         Case(f"{size}x{size} furnace (glass quad)", "image extremes",
              "mean of all samples at 1 and 2 spp (each exactly 1)",
