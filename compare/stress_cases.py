@@ -225,7 +225,7 @@ SLAB_LENS_MM = 1e6     # half field 1.8e-5 rad: F varies by < 1e-7 across the im
 
 
 def slab_scene(thickness, angle, max_depth=100, spp=256, resolution=16, faces="closed",
-               distance=SLAB_CAMERA_DISTANCE):
+               distance=SLAB_CAMERA_DISTANCE, offset=0.0):
     """A glass slab tilted by `angle` degrees under a far, narrow camera, an emitter of radiance 1
     behind it: each sample is 1 if its path reaches the emitter, else 0.
 
@@ -242,16 +242,17 @@ def slab_scene(thickness, angle, max_depth=100, spp=256, resolution=16, faces="c
         pos, tri = _degenerate_top(pos, tri)
     elif faces == "sheet":
         tri = top
-    pos = rotate_x(pos, angle)
+    shift = np.array([offset, 0.0, 0.0])
+    pos = rotate_x(pos, angle) + shift
     lamp_z = -(half + 100.0)
     # Reflected light leaves at 2 * angle from the view axis and lands 36 units beside the
     # emitter at 80 degrees; transmitted light lands within a few units of its centre.
-    lamp = quad((0.0, 0.0, lamp_z), 10.0, 10.0)
+    lamp = quad((offset, 0.0, lamp_z), 10.0, 10.0)
     mats = [_material("glass", SLAB_IOR),
             {"name": "lamp", "kind": "emission", "color": WHITE, "strength": 1.0}]
     # Outside the tilted slab's volume, which reaches up to (t / 2) / cos(angle) on the axis.
     above = 0.5 * thickness / math.cos(math.radians(angle))
-    cam = camera(position=(0, 0, above + distance), resolution=(resolution, resolution),
+    cam = camera(position=shift + (0, 0, above + distance), resolution=(resolution, resolution),
                  lens=SLAB_LENS_MM)
     return scene([(pos, tri, 0), (*lamp, 1)], mats, cam, spp=spp, max_depth=max_depth)
 
@@ -280,7 +281,7 @@ def _slab_value(angle, max_depth, faces="closed"):
 
 def _slab_case(thickness, angle, max_depth=100, faces="closed", quick=False, name=None,
                group="glass slab", failure=None, distance=SLAB_CAMERA_DISTANCE, expected_failure="",
-               note=""):
+               note="", offset=0.0):
     limit = max_depth >= 100
     expected = _slab_value(angle, None if limit else max_depth, faces)
     name = name or (f"slab {thickness:g} thick at {angle:g} deg, max depth {max_depth}")
@@ -290,7 +291,7 @@ def _slab_case(thickness, angle, max_depth=100, faces="closed", quick=False, nam
         measures = "share of samples reaching the emitter through one glass face: 1-F"
 
     def run(threads, seed):
-        scn = slab_scene(thickness, angle, max_depth, faces=faces, distance=distance)
+        scn = slab_scene(thickness, angle, max_depth, faces=faces, distance=distance, offset=offset)
         result = _render(scn, threads, seed)
         mean, se = _image_mean(result)
         return Outcome(mean, se=se, nan_count=result.nan_count, image=result.mean(),
@@ -314,6 +315,23 @@ def slab_cases():
         cases.append(_slab_case(1e-3, 0.0, depth, quick=depth in (2, 4)))
     cases.append(_slab_case(1e-3, 80.0, 3))
     cases.append(_far_slab_case())
+    cases += _offset_slab_cases()
+    return cases
+
+
+def _offset_slab_cases():
+    """Slabs away from the origin, thin in float32 ulps of their coordinates (ulp(1e3) = 6.1e-5,
+    ulp(1e6) = 0.0625): 1e-3 at 1e2 is 131 ulps thick, 1e-3 at 1e3 16, 1 at 1e6 16, 8 at 1e6 128."""
+    reason = ("the self-intersection offset is 2^-18 of the hit's coordinates (about 32 float32 "
+              "ulps; tracer/geometry.py RELATIVE_OFFSET): the ray entering glass thinner than that "
+              "starts beyond its far face, and the slab acts as one interface (1-F = 0.96)")
+    cases = []
+    for thickness, offset, quick in ((1e-3, 1e2, False), (1e-3, 1e3, True), (1.0, 1e6, True),
+                                     (8.0, 1e6, False)):
+        thin = thickness < 32 * np.spacing(np.float32(offset))
+        cases.append(_slab_case(thickness, 0.0, offset=offset, quick=quick,
+                                name=f"slab {thickness:g} thick at offset {offset:g}",
+                                expected_failure=reason if thin else ""))
     return cases
 
 
