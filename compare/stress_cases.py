@@ -665,6 +665,34 @@ def _zero_size_lamp_case(quick):
                 EXACT, expected, run, quick)
 
 
+def _zero_angle_sun_case(quick):
+    albedo, irradiance, elevation = 0.5, 2.0, 30.0
+    cos = math.sin(math.radians(elevation))
+    expected = albedo * irradiance * cos / math.pi     # the same at every pixel of the floor
+
+    def run(threads, seed):
+        floor = quad((0, 0, 0), 50, 50)
+        mats = [{"name": "floor", "kind": "diffuse", "color": [albedo] * 3}]
+        d = [0.0, -math.cos(math.radians(elevation)), -cos]
+        sun = {"name": "sun", "kind": "sun", "direction": d, "irradiance": [irradiance] * 3,
+               "angle": 0.0}
+        scn = scene([(*floor, 0)], mats, camera(position=(0, 0, 5), resolution=(16, 16)),
+                    lights=[sun], spp=16, max_depth=1)
+        result = _render(scn, threads, seed)
+        img = result.mean()
+        values = result.sum[..., 0] / result.spp
+        farthest = float(values.flat[np.argmax(np.abs(values - expected))])
+        # Each sample is albedo * E * cos / pi from a handful of products, then spp are summed.
+        return Outcome(farthest, tolerance=(16 + result.spp) * expected * UNIT_ROUNDING,
+                       nan_count=result.nan_count, image=img, error_map=img[..., 0] - expected,
+                       error_label="image - analytic", settings=_settings(scn),
+                       note="measured: the pixel farthest from the analytic value")
+    return Case("sun of angle 0 over a floor", "lights",
+                "floor radiance, the pixel farthest from albedo E cos(theta) / pi",
+                "a sun of zero angle is not a delta direction (NaN, 0 or a wrong cosine)",
+                EXACT, expected, run, quick)
+
+
 def _lamp_in_glass_case(quick):
     def run(threads, seed):
         with_glass, without = _lamp_in_glass_scene(True), _lamp_in_glass_scene(False)
@@ -695,9 +723,10 @@ def _lamp_in_glass_scene(glass):
 
 
 def light_cases():
-    """Lamp strengths 1e-30 and 1e30, a zero-size lamp, a lamp inside glass."""
+    """Lamp strengths 1e-30 and 1e30, zero-size lamps, a lamp inside glass."""
     return [_strength_case(1e-30, quick=True), _strength_case(1e30, quick=True),
-            _zero_size_lamp_case(quick=True), _lamp_in_glass_case(quick=True)]
+            _zero_size_lamp_case(quick=True), _zero_angle_sun_case(quick=True),
+            _lamp_in_glass_case(quick=True)]
 
 
 # ---------------------------------------------------------------------------------------------
