@@ -189,13 +189,17 @@ def terminal_table(data) -> str:
 
 
 def markdown_table(data) -> str:
-    """The table as Markdown (README), with what a failure would mean."""
+    """The table as Markdown (README), with what a failure would mean ('as above' when repeated)."""
     head = ["case", "measures", "analytic", "measured ± SE", "error / SE", "bound", "NaN/Inf",
             "result", "a failure would mean"]
     out = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
+    previous = (None, None)
     for c, r in zip(data["cases"], table_rows(data)):
-        result = r[9] + (f" ({c['expected_failure']})" if c["expected_failure"] else "")
-        cells = [r[0], r[1], r[2], r[3], r[5], r[6], r[7], result, c["failure_means"]]
+        result = r[9] + (f": {c['expected_failure']}" if c["expected_failure"] else "")
+        measures = "as above" if c["measures"] == previous[0] else c["measures"]
+        failure = "as above" if c["failure_means"] == previous[1] else c["failure_means"]
+        previous = (c["measures"], c["failure_means"])
+        cells = [r[0], measures, r[2], r[3], r[5], r[6], r[7], result, failure]
         out.append("| " + " | ".join(x.replace("|", "/") for x in cells) + " |")
     return "\n".join(out)
 
