@@ -6,7 +6,6 @@ when the render is wrong (a scaled image, a 10% larger aperture), with the same 
 import dataclasses
 import json
 import math
-import os
 
 import numpy as np
 import pytest
@@ -14,6 +13,7 @@ import pytest
 from snell import cli
 from snell.compare import stress
 from snell.compare import stress_cases as sc
+from snell.compare import stress_extremes
 from snell.tracer import integrator
 
 
@@ -159,9 +159,9 @@ def test_a_lost_sample_fails_the_furnace(monkeypatch):
 
 
 def test_memory_bound_counts_the_accumulation_buffers():
-    assert sc.working_set_bytes(2, 1024 * 1024) < 2 * 1024 * 1024 * 3 * 8   # smaller than the sums
+    assert stress_extremes.working_set_bytes(2, 1024 * 1024) < 2 * 1024 * 1024 * 3 * 8   # smaller than the sums
     # A pass's jobs grow with the image (a Future per chunk), 0.25 byte per pixel against 48.
-    grows = sc.working_set_bytes(2, 8192 * 8192) - sc.working_set_bytes(2, 1024 * 1024)
+    grows = stress_extremes.working_set_bytes(2, 8192 * 8192) - stress_extremes.working_set_bytes(2, 1024 * 1024)
     assert grows < 0.01 * 2 * 8192 * 8192 * 3 * 8
 
 
