@@ -223,3 +223,11 @@ def test_full_matrix_passes(tmp_path):
     data = stress.run(quick=False, threads=2)
     stress.write_report(str(tmp_path), data)
     assert data["passed"], data["failed"]
+
+
+def test_poisson_quantile():
+    from scipy import stats
+    from snell.compare.stress_lens import poisson_quantile
+    for mean in (0.0034, 0.5, 3.0, 20.0):
+        for alpha in (1e-2, 1e-4):
+            assert poisson_quantile(mean, alpha) == stats.poisson.isf(alpha, mean)
