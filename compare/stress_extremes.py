@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 
+from ..tracer import wavefront
 from ..tracer.integrator import CHUNK, PASS_PATHS
 from .stress_cases import (AT_MOST, ENDED_EVENTS, EXACT, UNIT_ROUNDING, Case, Outcome,
                            furnace_outcome, material, render)
@@ -35,11 +36,10 @@ JOB_BYTES = 2048          # one chunk job of a pass: its tuple and its Future (m
 
 
 def working_set_bytes(threads: int, npix: int) -> int:
-    """What a render needs besides its two (H, W, 3) float64 sums: each thread's chunk buffers
-    (tracer/integrator._Buffers), one pass's chunk jobs (the pool holds a Future per chunk of the
-    pass: at most max(npix, PASS_PATHS) / CHUNK of them, whatever the sample count) and
-    MEMORY_SLACK."""
-    from ..tracer import wavefront
+    """What a render needs besides its two (H, W, 3) float64 sums and its float32 image: each
+    thread's chunk buffers (tracer/integrator._Buffers), one pass's chunk jobs (the pool holds a
+    Future per chunk of the pass: at most max(npix, PASS_PATHS) / CHUNK of them, whatever the
+    sample count) and MEMORY_SLACK."""
     per_thread = (sum(a.nbytes for a in wavefront.new_paths(CHUNK)) * 2
                   + sum(a.nbytes for a in wavefront.new_shadows(CHUNK))
                   + CHUNK * (3 * 8 + 8))

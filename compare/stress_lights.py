@@ -17,7 +17,8 @@ from .stress_lens import SENSOR_MM
 
 
 def lit_floor_scene(strength=1.0, spp=16):
-    """A diffuse floor under an area lamp and beside an emissive quad, all emitters x strength."""
+    """A diffuse floor under an area lamp and a point lamp, beside an emissive quad: every
+    emitter x strength."""
     floor = quad((0, 0, 0), 5, 5)
     panel = quad((2.0, 0, 1.0), 0.5, 0.5, normal_sign=-1)
     m = np.eye(4)
