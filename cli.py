@@ -291,15 +291,13 @@ def cmd_batch(args) -> int:
 def _setup_stress(p):
     p.add_argument("--report", metavar="DIR", help="write DIR/stress.json and DIR/stress.html (created)")
     p.add_argument("--quick", action="store_true", help="the CI subset (under 2 minutes on 2 cores)")
-    p.add_argument("--threads", type=_int_at_least(1), default=2, help="render threads (default 2)")
+    p.add_argument("--threads", type=int_at_least(1), default=2, help="render threads (default 2)")
 
 
 def cmd_stress(args) -> int:
     """Render scenes with exact answers and judge each against its bound (compare/stress.py)."""
     if args.report:
-        parent = os.path.dirname(os.path.abspath(args.report))
-        if not os.path.isdir(parent):
-            raise CliError(f"--report {args.report}: directory {parent} does not exist")
+        check_writable_directory(args.report, "--report", report=True)
     from .compare import stress
     log = (lambda s: print(f"snell stress: {s}", file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
     data = stress.run(quick=args.quick, threads=args.threads, log=log)

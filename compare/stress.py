@@ -265,7 +265,8 @@ def _worst_figures(data):
 
 
 def write_report(directory, data):
-    """DIR/stress.json and DIR/stress.html."""
-    os.makedirs(directory, exist_ok=True)
-    write_json(os.path.join(directory, "stress.json"), data)
-    write_html(os.path.join(directory, "stress.html"), data)
+    """DIR/stress.json and DIR/stress.html, both or neither."""
+    from ..tracer.atomic import atomic_directory
+    with atomic_directory(directory) as tmp:
+        write_json(os.path.join(tmp, "stress.json"), data)
+        write_html(os.path.join(tmp, "stress.html"), data)
