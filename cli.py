@@ -304,6 +304,32 @@ def cmd_batch(args) -> int:
 
 
 # ---------------------------------------------------------------------------------------------
+# snell stress
+
+
+def _setup_stress(p):
+    p.add_argument("--report", metavar="DIR", help="write DIR/stress.json and DIR/stress.html (created)")
+    p.add_argument("--quick", action="store_true", help="the CI subset (under 2 minutes on 2 cores)")
+    p.add_argument("--threads", type=int_at_least(1), default=2, help="render threads (default 2)")
+
+
+def cmd_stress(args) -> int:
+    """Render scenes with exact answers and judge each against its bound (compare/stress.py)."""
+    if args.report:
+        check_writable_directory(args.report, "--report", report=True)
+    from .compare import stress
+    log = (lambda s: print(f"snell stress: {s}", file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
+    data = stress.run(quick=args.quick, threads=args.threads, log=log)
+    print(stress.terminal_table(data))
+    if args.report:
+        stress.write_report(args.report, data)
+    verdict = "all pass" if data["passed"] else f"FAILED: {', '.join(data['failed'])}"
+    print(f"snell stress: {len(data['cases'])} cases in {_duration(data['total_s'])}, {verdict}"
+          + (f" -> {os.path.join(args.report, 'stress.html')}" if args.report else ""))
+    return 0 if data["passed"] else 1
+
+
+# ---------------------------------------------------------------------------------------------
 
 COMMANDS = [
     # (name, one-line help, add arguments, run)
@@ -311,6 +337,8 @@ COMMANDS = [
     ("export", "export a .blend to a .snell scene file", _setup_export, cmd_export),
     ("info", "summarise a scene: geometry, materials, lights, camera, features", _setup_info, cmd_info),
     ("batch", "render frames of a .blend through the Snell engine, one image per frame", _setup_batch, cmd_batch),
+    ("stress", "render scenes with exact answers; table, JSON and HTML; exit 1 if a case fails",
+     _setup_stress, cmd_stress),
 ]
 COMMANDS += COMPARE_COMMANDS  # compare, study (compare/commands.py)
 COMMANDS.append(BENCH_COMMAND)  # bench (compare/bench.py)

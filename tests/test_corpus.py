@@ -13,8 +13,8 @@ The inputs are built once per module; images are 16x12. The table of every case 
 command, message, status) is written to corpus_table.md in pytest's base temporary directory
 and, with SNELL_CORPUS_TABLE=PATH, to PATH.
 
-A command is one entry of COMMANDS: how to name its output for an input (stress is included
-when `snell stress --help` exists in this tree).
+A command is one entry of COMMANDS: how to name its output for an input. `snell stress` reads no
+input: it is held to the rules through its report path and options (OUTPUT_CASES).
 """
 from __future__ import annotations
 
@@ -52,20 +52,6 @@ COMMANDS = {
 }
 
 
-def _stress_available():
-    proc = subprocess.run([sys.executable, "-m", "snell.cli", "stress", "--help"],
-                          capture_output=True, text=True, timeout=120)
-    return proc.returncode == 0, proc.stdout
-
-
-STRESS, STRESS_HELP = _stress_available()
-if STRESS:   # added by another branch: name its output the way its --help asks
-    if "--report" in STRESS_HELP:
-        COMMANDS["stress"] = lambda src, out: ["stress", src, "--report", os.path.join(out, "report")]
-    elif "-o" in STRESS_HELP:
-        COMMANDS["stress"] = lambda src, out: ["stress", src, "-o", os.path.join(out, "a.exr")]
-    else:
-        COMMANDS["stress"] = lambda src, out: ["stress", src]
 ALL = tuple(COMMANDS)
 BLEND_COMMANDS = ALL   # every command takes a .blend
 
@@ -218,6 +204,10 @@ OUTPUT_CASES = [
     ("--spp 0", "render", lambda s, o: ["render", s, "-o", f"{o}/a.exr", "--spp", "0"], ("--spp",)),
     ("--spp 1", "compare", lambda s, o: ["compare", s, "--report", f"{o}/r", "--spp", "1"], ("--spp",)),
     ("--frames 5-1", "batch", lambda s, o: ["batch", s, "--frames", "5-1"], ("--frames",)),
+    ("output directory missing", "stress", lambda s, o: ["stress", "--report", f"{o}/no/r"], ("does not exist",)),
+    ("output directory unwritable", "stress", lambda s, o: ["stress", "--report", f"{o}/ro/r"], ("cannot write",)),
+    ("report path is a file", "stress", lambda s, o: ["stress", "--report", f"{o}/file.txt"], ("is a file",)),
+    ("--threads 0", "stress", lambda s, o: ["stress", "--threads", "0"], ("--threads",)),
 ]
 
 TABLE = []

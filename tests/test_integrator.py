@@ -387,3 +387,21 @@ def test_warm_up_loads_every_kernel_signature_a_render_uses():
     assert out.returncode == 0, out.stderr[-3000:]
     before, after = map(int, out.stdout.split()[-2:])
     assert before > 0 and after == before
+
+
+def test_mean_rounds_once_into_float32_without_a_float64_copy():
+    """mean() is the float64 quotient rounded to float32, and makes no float64 image on the way
+    (at 8192x8192 that copy was 1.5 GB, found by `snell stress`'s peak-memory case)."""
+    import tracemalloc
+    from snell.tracer.integrator import RenderResult
+    rng = np.random.default_rng(3)
+    total = rng.random((256, 256, 3)) * 1e3
+    result = RenderResult(256, 256, total, total * total, spp=7)
+    tracemalloc.start()
+    try:
+        image = result.mean()
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert image.dtype == np.float32 and np.array_equal(image, (total / 7).astype(np.float32))
+    assert peak < image.nbytes + (1 << 20)

@@ -62,10 +62,16 @@ class RenderResult:
         """The image: per-pixel mean radiance, float32 (H, W, 3), linear."""
         if self.spp == 0:
             return np.zeros_like(self.sum, dtype=np.float32)
-        image = self.sum / self.spp
-        if self.light_in_image and self.light_paths:
-            image = image + self.light_sum / self.light_paths
-        return image.astype(np.float32)
+        # Divided in float64 and rounded once into the float32 image, without a float64 copy of
+        # the image on the way (1.5 GB at 8192x8192); the light tracer's part a band at a time.
+        image = np.empty(self.sum.shape, np.float32)
+        if not (self.light_in_image and self.light_paths):
+            np.divide(self.sum, self.spp, out=image, casting="unsafe")
+            return image
+        for r in range(0, image.shape[0], 256):
+            image[r:r + 256] = (self.sum[r:r + 256] / self.spp
+                                + self.light_sum[r:r + 256] / self.light_paths)
+        return image
 
     def light_image(self) -> np.ndarray:
         """The light tracer's splats per light path, float64 (H, W, 3): its part of the hybrid's
