@@ -15,7 +15,6 @@ import pytest
 from builders import box, camera, icosphere, make_scene, quad
 from snell.addon import window
 from snell.compare import metrics
-from snell.tracer import light_paths
 from snell.tracer.integrator import Renderer
 
 BATCHES = 16
@@ -71,8 +70,9 @@ def smooth_sphere(material, center, radius):
 def pure(scene, spp):
     """(path tracer mean, variance, dof, light tracer mean, variance, dof) of one pure render:
     variances from BATCHES independent batches."""
-    result = Renderer(scene, sampler="independent", caustics="pure").render(spp=spp,
-                                                                           batches=BATCHES)
+    # Pure light tracing carries the whole image: more light paths than the hybrid's share.
+    result = Renderer(scene, sampler="independent", caustics="pure",
+                      light_paths_per_camera_path=0.5).render(spp=spp, batches=BATCHES)
     assert result.light_paths > 0 and result.batches == BATCHES
     return (result.mean().astype(np.float64), result.variance_of_mean(), BATCHES - 1,
             result.light_image(), result.light_variance_of_mean(), BATCHES - 1)

@@ -131,6 +131,19 @@ def lens_point(cam, u0, u1):
 
 
 @jit_inline
+def to_world(cam, o, d):
+    """A camera-space point and direction in world space."""
+    r, t = cam.rotation, cam.position
+    world_o = (r[0, 0] * o[0] + r[0, 1] * o[1] + r[0, 2] * o[2] + t[0],
+               r[1, 0] * o[0] + r[1, 1] * o[1] + r[1, 2] * o[2] + t[1],
+               r[2, 0] * o[0] + r[2, 1] * o[1] + r[2, 2] * o[2] + t[2])
+    world_d = (r[0, 0] * d[0] + r[0, 1] * d[1] + r[0, 2] * d[2],
+               r[1, 0] * d[0] + r[1, 1] * d[1] + r[1, 2] * d[2],
+               r[2, 0] * d[0] + r[2, 1] * d[1] + r[2, 2] * d[2])
+    return world_o, world_d
+
+
+@jit_inline
 def camera_ray(cam, pixel, u0, u1, lens0, lens1):
     """The world-space ray (origin, unit direction, distance to the far clip) through image pixel
     `pixel` (row 0 at the top) at offset (u0, u1) in the pixel, through lens sample (lens0, lens1).
@@ -154,13 +167,7 @@ def camera_ray(cam, pixel, u0, u1, lens0, lens1):
         o = (lx, ly, 0.0)
     o = madd(o, cam.clip_start * z_inv, d)
     far = (cam.clip_end - cam.clip_start) * z_inv
-    r, t = cam.rotation, cam.position
-    world_o = (r[0, 0] * o[0] + r[0, 1] * o[1] + r[0, 2] * o[2] + t[0],
-               r[1, 0] * o[0] + r[1, 1] * o[1] + r[1, 2] * o[2] + t[1],
-               r[2, 0] * o[0] + r[2, 1] * o[1] + r[2, 2] * o[2] + t[2])
-    world_d = (r[0, 0] * d[0] + r[0, 1] * d[1] + r[0, 2] * d[2],
-               r[1, 0] * d[0] + r[1, 1] * d[1] + r[1, 2] * d[2],
-               r[2, 0] * d[0] + r[2, 1] * d[1] + r[2, 2] * d[2])
+    world_o, world_d = to_world(cam, o, d)
     return world_o, world_d, far
 
 
@@ -202,12 +209,7 @@ def camera_connection(cam, x, lens0, lens1):
     if not (near < length <= cam.clip_end * z_inv):
         return none
     o = madd((lx, ly, 0.0), near, d)
-    world_o = (r[0, 0] * o[0] + r[0, 1] * o[1] + r[0, 2] * o[2] + t[0],
-               r[1, 0] * o[0] + r[1, 1] * o[1] + r[1, 2] * o[2] + t[1],
-               r[2, 0] * o[0] + r[2, 1] * o[1] + r[2, 2] * o[2] + t[2])
-    world_d = (r[0, 0] * d[0] + r[0, 1] * d[1] + r[0, 2] * d[2],
-               r[1, 0] * d[0] + r[1, 1] * d[1] + r[1, 2] * d[2],
-               r[2, 0] * d[0] + r[2, 1] * d[1] + r[2, 2] * d[2])
+    world_o, world_d = to_world(cam, o, d)
     return row * cam.width + col, world_o, world_d, length, -d[2], density
 
 

@@ -262,6 +262,19 @@ def emit(caustics, lights, mesh, u_pick, u_point, u_dir, emitter):
 
 # -- the stages ---------------------------------------------------------------------------------
 
+@jit_inline
+def set_light_path(paths, j, key, origin, direction, beta, bounces, lamp):
+    """Light path j leaves origin along direction with weight beta."""
+    paths.key[j] = key
+    for k in range(3):
+        paths.o32[j, k] = origin[k]
+        paths.d32[j, k] = direction[k]
+    paths.tmax[j] = 1e30
+    store(paths.beta, j, beta)
+    paths.bounces[j] = bounces
+    paths.lamp[j] = lamp
+
+
 @jit
 def emit_light_paths(caustics, lights, mesh, seed, pass_index, start, n, paths):
     """Light paths start .. start + n of a pass leave their emitters (zero weight: left out)."""
@@ -280,14 +293,7 @@ def emit_light_paths(caustics, lights, mesh, seed, pass_index, start, n, paths):
         beta = mul(beta, 1.0 / caustics.emitter_pmf[e])
         if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
             continue
-        paths.key[kept] = key
-        for k in range(3):
-            paths.o32[kept, k] = origin[k]
-            paths.d32[kept, k] = w[k]
-        paths.tmax[kept] = 1e30
-        store(paths.beta, kept, beta)
-        paths.bounces[kept] = 0
-        paths.lamp[kept] = e
+        set_light_path(paths, kept, key, origin, w, beta, 0, e)
         kept += 1
     return kept
 
@@ -388,15 +394,8 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
         beta = (beta[0] * weight[0], beta[1] * weight[1], beta[2] * weight[2])
         if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
             continue
-        origin = offset_origin(p, ng, eps, new_d)
-        out.key[n_out] = key
-        for k in range(3):
-            out.o32[n_out, k] = origin[k]
-            out.d32[n_out, k] = new_d[k]
-        out.tmax[n_out] = 1e30
-        store(out.beta, n_out, beta)
-        out.bounces[n_out] = bounces + 1
-        out.lamp[n_out] = paths.lamp[i]
+        set_light_path(out, n_out, key, offset_origin(p, ng, eps, new_d), new_d, beta,
+                       bounces + 1, paths.lamp[i])
         n_out += 1
     return n_out, n_conn
 
@@ -418,13 +417,8 @@ def diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, albedo, u):
         return n_out
     # f |ng . wo| (|ns . wi| / |ng . wi|) / pdf with f = albedo / pi and pdf = |ng . wo| / pi.
     scale = cos_si / cos_gi
-    origin = offset_origin(p, ng_f, eps, wo)
-    out.key[n_out] = paths.key[i]
-    for k in range(3):
-        out.o32[n_out, k] = origin[k]
-        out.d32[n_out, k] = wo[k]
-        out.beta[n_out, k] = paths.beta[i, k] * albedo[k] * scale
-    out.tmax[n_out] = 1e30
-    out.bounces[n_out] = paths.bounces[i] + 1
-    out.lamp[n_out] = paths.lamp[i]
+    beta = (paths.beta[i, 0] * albedo[0] * scale, paths.beta[i, 1] * albedo[1] * scale,
+            paths.beta[i, 2] * albedo[2] * scale)
+    set_light_path(out, n_out, paths.key[i], offset_origin(p, ng_f, eps, wo), wo, beta,
+                   paths.bounces[i] + 1, paths.lamp[i])
     return n_out + 1
