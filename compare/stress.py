@@ -18,7 +18,8 @@ from statistics import NormalDist
 import numpy as np
 
 from .report import _data_uri, _page, colour_bar, diverging, png_bytes, upscale
-from .stress_cases import AT_MOST, EXACT, STATISTICAL, UNSUPPORTED, all_cases
+from . import stress_extremes, stress_glass, stress_lens, stress_lights
+from .stress_cases import AT_MOST, EXACT, STATISTICAL, UNSUPPORTED, Case
 from ..tracer.image import to_srgb8
 
 ALPHA = 0.01
@@ -26,6 +27,14 @@ JSON_VERSION = 1
 CASE_KEYS = ("id", "group", "measures", "failure_means", "check", "analytic", "measured",
              "standard_error", "error", "error_in_se", "bound", "tolerance", "allowance", "events",
              "nan_inf", "time_s", "status", "passed", "expected_failure", "note", "settings")
+
+
+def all_cases(quick: bool = False) -> list[Case]:
+    """Every case of the matrix, or the --quick subset."""
+    cases = (stress_glass.furnace_cases() + stress_glass.slab_cases() + stress_glass.nested_cases()
+             + stress_lens.lens_cases() + stress_lights.light_cases()
+             + stress_glass.degenerate_cases() + stress_extremes.extreme_cases(quick))
+    return [c for c in cases if c.quick] if quick else cases
 
 
 def z_critical(n_statistical: int, alpha: float = ALPHA) -> float:

@@ -155,13 +155,3 @@ def material(kind, ior=1.5):
     if kind != "mirror":
         mat["ior"] = float(ior)
     return mat
-
-
-def all_cases(quick: bool = False) -> list[Case]:
-    """Every case of the matrix, or the --quick subset."""
-    # Imported here: the group modules import this one for Case, Outcome and the measurements.
-    from . import stress_extremes, stress_glass, stress_lens, stress_lights
-    cases = (stress_glass.furnace_cases() + stress_glass.slab_cases() + stress_glass.nested_cases()
-             + stress_lens.lens_cases() + stress_lights.light_cases()
-             + stress_glass.degenerate_cases() + stress_extremes.extreme_cases(quick))
-    return [c for c in cases if c.quick] if quick else cases
