@@ -171,6 +171,18 @@ def test_hybrid_renders_the_path_tracers_image(max_depth):
     assert (splats == 0) if max_depth < 2 else (splats > 0)
 
 
+def test_the_hybrid_image_depends_on_the_seed_only():
+    """Light splats are added in chunk order: one thread or two give the same bits."""
+    # One pass of 64x64 x 64 samples: 4 chunks of light paths, many splats per caustic pixel.
+    scene = caustic_room(8, (64, 64)).with_render(spp=64)
+    a = Renderer(scene, threads=1).render(batches=1)
+    b = Renderer(scene, threads=2).render(batches=1)
+    assert a.light_paths > 3 * 8192 and a.stats["caustic_splats"] > 0
+    # The float64 sums, not only the float32 image (which would round most differences away).
+    assert np.array_equal(a.light_sum, b.light_sum) and np.array_equal(a.sum, b.sum)
+    assert not np.array_equal(a.mean(), Renderer(scene.with_render(seed=1)).render().mean())
+
+
 def test_light_tracing_runs_only_where_it_has_something_to_do():
     """No mirror or glass: no light tracing; a lamp that cannot be hit by BSDF rays (a point
     lamp of radius 0) has no caustics to trace either."""

@@ -235,15 +235,16 @@ class Renderer:
             bad = wavefront.film(radiance, n, start, in_pass, total, total_sq)
         return bad, stats.copy()
 
-    def trace_light_chunk(self, pass_index: int, start: int, n: int, film: np.ndarray):
-        """Trace light paths start .. start + n of a pass and add their splats to the film,
-        (pixels, 3) rows. Returns how many connections reached the camera."""
+    def trace_light_chunk(self, pass_index: int, start: int, n: int):
+        """Trace light paths start .. start + n of a pass; returns their splats that reached the
+        camera, (pixels, contributions). The caller adds them in chunk order, so that the image
+        does not depend on which thread finished first (float sums depend on their order)."""
         geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
         mesh, cam = geom.mesh, self.camera.params()
         paths, out, connections = self._buffers.light()
         m = light_paths.emit_light_paths(caustics, lights, mesh, self.seed, pass_index, start, n,
                                          paths)
-        splats = 0
+        pixels, contributions = [], []
         for _ in range(self.max_depth):
             if m == 0:
                 break
@@ -252,13 +253,14 @@ class Renderer:
                                                  self.max_depth, m, paths, prim, u, v, out,
                                                  connections)
             if n_conn:
-                blocked = geom.occluded(connections.o32[:n_conn], connections.d32[:n_conn],
-                                        connections.tmax[:n_conn])
-                with self._film_lock:
-                    wavefront.shadow_rays(n_conn, blocked, connections, film)
-                splats += int(np.count_nonzero(blocked))
+                visible = geom.occluded(connections.o32[:n_conn], connections.d32[:n_conn],
+                                        connections.tmax[:n_conn]) != 0   # Embree: 0 if blocked
+                pixels.append(connections.path[:n_conn][visible])
+                contributions.append(connections.contrib[:n_conn][visible])
             paths, out = out, paths
-        return splats
+        if not pixels:
+            return np.zeros(0, np.int64), np.zeros((0, 3))
+        return np.concatenate(pixels), np.concatenate(contributions)
 
     # -- passes ----------------------------------------------------------------------------
 
@@ -312,10 +314,10 @@ class Renderer:
                     pass_light[:] = 0.0
                     n_light = max(1, int(round(self.light_paths_per_camera_path * count)))
                     light_jobs = [(s, min(CHUNK, n_light - s)) for s in range(0, n_light, CHUNK)]
-                    for splats in pool.map(
-                            lambda job: self.trace_light_chunk(k, job[0], job[1], pass_light),
-                            light_jobs):
-                        counters[wavefront.CAUSTIC_SPLATS] += splats
+                    for pixels, contributions in pool.map(
+                            lambda job: self.trace_light_chunk(k, job[0], job[1]), light_jobs):
+                        wavefront.splat(pixels, contributions, pass_light)
+                        counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
                     result.nan_count += _zero_non_finite(pass_light)
                     result.light_sum.reshape(-1, 3)[:] += pass_light
                     result.light_paths += n_light
@@ -375,16 +377,19 @@ def warm_up() -> float:
     camera = {"matrix": m.tolist(), "lens": 50.0, "sensor_width": 36.0, "sensor_height": 24.0,
               "clip_start": 0.01, "clip_end": 100.0, "resolution": [2, 2],
               "dof": {"use_dof": True, "focus_distance": 2.0, "fstop": 1.0}}
-    triangle = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
+    # A diffuse triangle and a mirror one under a lamp that rays can hit: the light tracer runs.
+    triangles = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0],
+                          [-1, -1, 0.5], [1, -1, 0.5], [0, 1, 0.5]], np.float32)
     lamp = {"name": "lamp", "kind": "point", "position": [0.0, 0.0, 1.0],
             "intensity": [1.0, 1.0, 1.0], "radius": 0.1}
-    scene = Scene(positions=triangle, triangles=np.array([[0, 1, 2]], np.int32),
-                  material_ids=np.zeros(1, np.int32), object_ids=np.zeros(1, np.int32),
-                  materials=[{"name": "grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}],
+    scene = Scene(positions=triangles, triangles=np.array([[0, 1, 2], [3, 4, 5]], np.int32),
+                  material_ids=np.array([0, 1], np.int32), object_ids=np.array([0, 1], np.int32),
+                  materials=[{"name": "grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]},
+                             {"name": "mirror", "kind": "mirror", "color": [1.0, 1.0, 1.0]}],
                   lights=[lamp], camera=camera, world={"color": [0.1, 0.1, 0.1]},
                   render={"spp": 1, "max_depth": 2, "seed": 0, "fresnel": "exact"},
-                  objects=[{"name": "triangle", "closed": False}],
-                  normals=np.tile(np.array([0, 0, 1], np.float32), (3, 1)))
+                  objects=[{"name": "triangle", "closed": False}, {"name": "mirror", "closed": False}],
+                  normals=np.tile(np.array([0, 0, 1], np.float32), (6, 1)))
     for sampler in SAMPLERS:
         Renderer(scene, threads=1, sampler=sampler).render()
     jit.mark_warm()

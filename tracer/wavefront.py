@@ -351,6 +351,14 @@ def shadow_rays(n, blocked, shadows, radiance):
 
 
 @jit
+def splat(pixels, contributions, film):
+    """Add each contribution to its pixel's row of the film."""
+    for j in range(pixels.shape[0]):
+        for k in range(3):
+            film[pixels[j], k] += contributions[j, k]
+
+
+@jit
 def film(radiance, n, start, in_pass, total, total_sq):
     """Add the chunk's n path radiances to their pixels' sums and sums of squares (rows of
     (pixels, 3)); non-finite samples count as 0. Returns how many there were."""
