@@ -128,6 +128,9 @@ def _setup_render(p):
     p.add_argument("--seed", type=int_at_least(0), help="random seed (default: the scene's)")
     p.add_argument("--threads", type=int_at_least(1), help="render threads (default: the integrator's)")
     p.add_argument("--fresnel", choices=FRESNEL_MODELS, help="Fresnel model for glass (default: the scene's, exact)")
+    p.add_argument("--caustics", choices=("on", "off"),
+                   help="light tracing of caustics (default: the scene's, on); off renders with "
+                        "the path tracer alone")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
 
 
@@ -135,8 +138,10 @@ def cmd_render(args) -> int:
     _check_output(args.output, ".exr", "-o")
     if args.png:
         _check_output(args.png, ".png", "--png")
+    caustics = None if args.caustics is None else args.caustics == "on"
     scene = load_scene(args.scene).with_render(spp=args.spp, max_depth=args.max_depth,
-                                                seed=args.seed, fresnel=args.fresnel)
+                                                seed=args.seed, fresnel=args.fresnel,
+                                                caustics=caustics)
     from .tracer import image
     from .tracer.integrator import kernels_compiled, render, warm_up
 
@@ -172,8 +177,10 @@ def _summary(args, rgb, result, bad_pixels) -> str:
     if bad_pixels:
         nans += f", {bad_pixels} NaN/Inf pixels written as 0"
     written = args.output + (f" + {args.png}" if args.png else "")
+    light = (f", {result.light_paths} light paths ({result.stats.get('caustic_splats', 0)} reached "
+             f"the camera)" if result.light_paths else ", no light tracing")
     return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {result.spp} spp in {_duration(wall)} "
-            f"({rays}, {embree}), {nans}")
+            f"({rays}, {embree}){light}, {nans}")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -236,8 +243,20 @@ def describe(scene) -> list[str]:
         f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
         f"render     {render['spp']} spp, max depth {render['max_depth']}, seed {render['seed']}, "
         f"fresnel {render['fresnel']}",
+        f"caustics   {light_tracing(scene)}",
         f"features   {', '.join(features) or 'none'}",
     ]
+
+
+def light_tracing(scene) -> str:
+    """Whether a render of the scene runs the caustics light tracer, and why not."""
+    from .tracer.integrator import Renderer
+
+    if not scene.render.get("caustics", True):
+        return "path tracer only (caustics off)"
+    if Renderer(scene, threads=1).caustics is None:
+        return "path tracer only (no mirror or glass, or no lamp that rays can hit sees one)"
+    return "light tracing from the lamps through mirrors and glass, path tracing for the rest"
 
 
 def cmd_info(args) -> int:

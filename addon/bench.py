@@ -49,6 +49,7 @@ class Options:
     ref_spp: int = 256        # per seed
     quick: bool = False
     repeat: int = 1           # runs per point; the run of median wall time is kept
+    caustics: str = "on"      # Snell's light tracer: "on", "off", or "both" (a ladder of each)
 
 
 QUICK = dict(scale=25, min_spp=4, max_spp=16, time_cap_s=20.0, ref_seeds=4, ref_spp=64, quick=True)
@@ -73,16 +74,18 @@ def _snell_point(spec):
     if spec["scale"] != 100:
         scene = scene.with_camera(resolution_percentage=spec["scale"])
     t = time.perf_counter()
-    renderer = Renderer(scene, threads=spec["threads"])
+    renderer = Renderer(scene, threads=spec["threads"], caustics=spec["caustics"])
     build_s = time.perf_counter() - t
     result = renderer.render(spp=spec["spp"])
     wall = time.perf_counter() - start
-    return result.mean(), {
+    light = result.light_image().astype(np.float32) if result.light_in_image else None
+    return result.mean(), light, {
         "export_s": export_s, "build_s": build_s, "render_s": result.time_s, "wall_s": wall,
         "rays_per_second": result.rays_per_second, "rays": result.rays,
         "embree_share": result.embree_share,
         "embree_share_of_wall": result.embree_time_s / (wall * result.threads),
-        "nan_samples": result.nan_count, "threads": result.threads}
+        "nan_samples": result.nan_count, "threads": result.threads,
+        "light_paths": result.light_paths, "caustic_splats": result.stats.get("caustic_splats", 0)}
 
 
 def _cycles_point(spec):
@@ -117,14 +120,17 @@ def _child(spec_path, out_path):
     from ..tracer import integrator
     # Loaded once per session in an open Blender: not part of what a render point costs.
     integrator.warm_up()
+    light = None
     if spec["kind"] == "baseline":
         image, stats = np.zeros((1, 1, 3), np.float32), {}
     elif spec["kind"] == "snell":
-        image, stats = _snell_point(spec)
+        image, light, stats = _snell_point(spec)
     else:
         image, stats = _cycles_point(spec)
     stats["peak_rss_mb"] = _own_peak_rss_mb()
     np.save(out_path + ".npy", image)
+    if light is not None:
+        np.save(out_path + "_light.npy", light)
     with open(out_path + ".json", "w") as f:
         json.dump(stats, f)
 
@@ -148,10 +154,12 @@ class PointError(RuntimeError):
     pass
 
 
-def run_point(kind, blend, spp, opts: Options):
-    """(image, stats) of one point in a child process; stats gain peak_rss_mb (the child's)."""
+def run_point(kind, blend, spp, opts: Options, caustics=True):
+    """(image, light tracer's image or None, stats) of one point in a child process; stats gain
+    peak_rss_mb (the child's)."""
     spec = {"kind": kind, "blend": os.path.abspath(blend) if blend else None, "spp": spp,
-            "max_depth": opts.max_depth, "threads": opts.threads, "scale": opts.scale}
+            "max_depth": opts.max_depth, "threads": opts.threads, "scale": opts.scale,
+            "caustics": caustics}
     with tempfile.TemporaryDirectory(prefix="snell-bench-") as tmp:
         spec_path, out = os.path.join(tmp, "spec.json"), os.path.join(tmp, "out")
         with open(spec_path, "w") as f:
@@ -164,9 +172,10 @@ def run_point(kind, blend, spp, opts: Options):
             raise PointError(f"{kind} {spp} spp on {blend}: child exited {proc.returncode}: "
                              + " / ".join(tail))
         image = np.load(out + ".npy")
+        light = np.load(out + "_light.npy") if os.path.exists(out + "_light.npy") else None
         with open(out + ".json") as f:
             stats = json.load(f)
-    return image, stats
+    return image, light, stats
 
 
 # ---------------------------------------------------------------------------------------------
@@ -211,13 +220,15 @@ def reference(blend, opts: Options, cache_dir, log):
 # The bench
 
 
-def _ladder(kind, blend, ref, opts, baseline_mb, log):
-    points, spp = [], opts.min_spp
+def _ladder(kind, blend, ref, opts, baseline_mb, log, caustics=True):
+    """The ladder's points, with each point's image and light tracer's image (or None)."""
+    points, images, spp = [], [], opts.min_spp
     while spp is not None:
         # Repeats of a point render the same image (same seed); only the timings differ.
-        runs = [run_point(kind, blend, spp, opts) for _ in range(opts.repeat)]
+        runs = [run_point(kind, blend, spp, opts, caustics) for _ in range(opts.repeat)]
         image = runs[0][0]
-        stats = cb.median_run([r[1] for r in runs])
+        images.append((image, runs[0][1]))
+        stats = cb.median_run([r[2] for r in runs])
         if image.shape != ref.shape:
             raise PointError(f"{kind} image {image.shape} differs from the reference {ref.shape}")
         p = {"spp": spp, **stats, **cb.errors(image, ref)}
@@ -226,10 +237,31 @@ def _ladder(kind, blend, ref, opts, baseline_mb, log):
         h, w = ref.shape[:2]
         p["samples_per_second"] = h * w * spp / p["render_s"] if p["render_s"] > 0 else 0.0
         points.append(p)
-        log(f"  {kind:6s} {spp:5d} spp  wall {p['wall_s']:7.2f} s  relMSE {p['relmse']:.4g}  "
+        label = kind if caustics or kind != "snell" else "snell-pt"
+        log(f"  {label:8s} {spp:5d} spp  wall {p['wall_s']:7.2f} s  relMSE {p['relmse']:.4g}  "
             f"RMSE {p['rmse']:.4g}  FLIP {p['flip']:.4g}  peak {p['peak_rss_mb']:.0f} MB")
         spp = cb.next_spp(spp, p["wall_s"], max_spp=opts.max_spp, time_cap_s=opts.time_cap_s)
-    return points
+    return points, images
+
+
+def _caustic_region(ladders, ref):
+    """The pixels where the light tracer carries at least CAUSTIC_SHARE of the reference, from
+    the largest hybrid point's light image (None when no ladder traced light), and its summary."""
+    lights = [light for _, images in ladders for _, light in images if light is not None]
+    if not lights:
+        return None, {"pixels": 0, "fraction": 0.0, "light_share_of_image": 0.0,
+                      "share_threshold": CAUSTIC_SHARE}
+    light = lights[-1].astype(np.float64)
+    share = light.sum(axis=2) / np.maximum(ref.sum(axis=2), 1e-6)
+    mask = share >= CAUSTIC_SHARE
+    return mask, {"pixels": int(mask.sum()), "fraction": float(mask.mean()),
+                  "light_share_of_image": float(light.sum() / max(ref.sum(), 1e-300)),
+                  "share_threshold": CAUSTIC_SHARE}
+
+
+# The caustic region: pixels where the light tracer's image is at least this share of the
+# reference (the light that glass and mirrors focus, which a path tracer finds by rare paths).
+CAUSTIC_SHARE = 0.1
 
 
 def definitions(opts: Options) -> dict:
@@ -261,6 +293,12 @@ def definitions(opts: Options) -> dict:
                        "elsewhere): "
                        "Python, numpy, the bpy module and native memory (Embree, Cycles); "
                        "peak_rss_above_baseline_mb subtracts a child that only imports them",
+        "caustic_relmse": f"relMSE over the caustic region only: the pixels where the light "
+                          f"tracer's image (at the largest Snell point) is at least "
+                          f"{CAUSTIC_SHARE:g} of the reference",
+        "caustic_gain_at_equal_time": "for each Snell point, the path tracer alone's caustic "
+                                      "relMSE at the same wall time (log-log interpolation "
+                                      "between its ladder points) over Snell's; median over points",
         "reference_noise": "the reference's own expected contribution to a point's relMSE and RMSE: "
                            "mean of var / (R^2 + eps) and sqrt(mean var), var = its across-seed "
                            "variance of the mean; measured errors include it (not subtracted)",
@@ -278,23 +316,42 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
     for blend in scenes:
         with stdout_silenced():
             export_blend(blend)
-    _, base = run_point("baseline", None, 0, opts)
+    _, _, base = run_point("baseline", None, 0, opts)
     baseline_mb = base["peak_rss_mb"]
-    out_scenes = []
+    out_scenes, maps = [], {}
     for blend in scenes:
         name = os.path.splitext(os.path.basename(blend))[0]
         ref, ref_info = reference(blend, opts, cache_dir, log)
         log(f"{name}: ladder")
-        snell = _ladder("snell", blend, ref, opts, baseline_mb, log)
-        cyc = _ladder("cycles", blend, ref, opts, baseline_mb, log)
-        out_scenes.append({
-            "name": name, "blend": os.path.abspath(blend),
-            "height": int(ref.shape[0]), "width": int(ref.shape[1]),
-            "reference": ref_info,
-            "snell": {"points": snell, "efficiency": cb.efficiency_summary(snell)},
-            "cycles": {"points": cyc, "efficiency": cb.efficiency_summary(cyc)},
-            "time_to_equal_error": cb.equal_error(snell, cyc),
-        })
+        ladders = {"snell": _ladder("snell", blend, ref, opts, baseline_mb, log,
+                                    caustics=opts.caustics != "off")}
+        if opts.caustics == "both":
+            ladders["snell_path_tracer"] = _ladder("snell", blend, ref, opts, baseline_mb, log,
+                                                   caustics=False)
+        ladders["cycles"] = _ladder("cycles", blend, ref, opts, baseline_mb, log)
+        mask, region = _caustic_region(ladders.values(), ref)
+        if mask is not None and mask.any():
+            for points, images in ladders.values():
+                for p, (image, _) in zip(points, images):
+                    p["caustic_relmse"] = metrics.relmse(image[mask], ref[mask])
+        scene = {"name": name, "blend": os.path.abspath(blend),
+                 "height": int(ref.shape[0]), "width": int(ref.shape[1]),
+                 "reference": ref_info, "caustic_region": region}
+        for key, (points, _) in ladders.items():
+            scene[key] = {"points": points, "efficiency": cb.efficiency_summary(points)}
+        scene["time_to_equal_error"] = cb.equal_error(scene["snell"]["points"],
+                                                      scene["cycles"]["points"])
+        if "snell_path_tracer" in scene:
+            scene["path_tracer_time_to_equal_error"] = cb.equal_error(
+                scene["snell_path_tracer"]["points"], scene["cycles"]["points"])
+            if mask is not None and mask.any():
+                scene["caustic_gain_at_equal_time"] = cb.gain_at_equal_time(
+                    scene["snell"]["points"], scene["snell_path_tracer"]["points"],
+                    "caustic_relmse")
+        light = ladders["snell"][1][-1][1]
+        if light is not None:
+            maps[name] = cb.share_map_png(light, ref)
+        out_scenes.append(scene)
     import bpy
     data = {
         "schema": cb.SCHEMA,
@@ -313,7 +370,7 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
         with open(os.path.join(tmp, "bench.svg"), "w") as f:
             f.write(svg)
         cb.write_json(os.path.join(tmp, "bench.json"), data)
-        cb.write_html(os.path.join(tmp, "bench.html"), data, svg)
+        cb.write_html(os.path.join(tmp, "bench.html"), data, svg, maps)
     return data
 
 

@@ -507,6 +507,8 @@ def convert_render(scene):
                 render[key] = int(getattr(props, key))
         if hasattr(props, "fresnel"):
             render["fresnel"] = str(props.fresnel).lower()
+        if hasattr(props, "caustics"):
+            render["caustics"] = bool(props.caustics)
         return render
     stored = scene.get("snell") if hasattr(scene, "get") else None
     if stored is not None and hasattr(stored, "get"):
@@ -516,6 +518,8 @@ def convert_render(scene):
         fresnel = stored.get("fresnel")
         if isinstance(fresnel, int) and 0 <= fresnel < len(scene_mod.FRESNEL_MODELS):
             render["fresnel"] = scene_mod.FRESNEL_MODELS[fresnel]  # items: EXACT, SCHLICK
+        if isinstance(stored.get("caustics"), int):
+            render["caustics"] = bool(stored["caustics"])
     return render
 
 

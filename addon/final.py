@@ -133,9 +133,11 @@ class _Progress:
         remaining = elapsed / done * (total - done)
         self.record.update(spp=render_result.spp, passes=done)
         self.engine.update_progress(done / total)
+        light = (f" | {render_result.light_paths / 1e6:.2f} M light paths"
+                 if render_result.light_paths else "")
         self.engine.update_stats("", f"Remaining {_duration(remaining)} | Sample "
                                      f"{render_result.spp}/{self.spp} | "
-                                     f"{render_result.rays_per_second / 1e6:.2f} M rays/s")
+                                     f"{render_result.rays_per_second / 1e6:.2f} M rays/s{light}")
         return not _should_stop(self.engine)
 
 
@@ -171,7 +173,8 @@ def render(engine, depsgraph):
         engine.update_stats("", f"Snell: rendering, sample 0/{spp}")
         rendered = renderer.render(progress=progress)
         record.update(spp=rendered.spp, cancelled=rendered.cancelled, time_s=rendered.time_s,
-                      rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count)
+                      rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count,
+                      light_paths=rendered.light_paths)
         if rendered.nan_count:
             engine.report({"WARNING"}, f"Snell: {rendered.nan_count} NaN/Inf samples counted as 0")
         state = "Cancelled after" if rendered.cancelled else "Done:"

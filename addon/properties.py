@@ -1,10 +1,10 @@
 """Snell's render settings, stored on every scene as `scene.snell`.
 
-addon/export.py reads spp, max_depth, seed and fresnel from here into the scene file; threads is
+addon/export.py reads spp, max_depth, seed, fresnel and caustics from here into the scene file; threads is
 used by the render engine only.
 """
 import bpy
-from bpy.props import EnumProperty, IntProperty
+from bpy.props import BoolProperty, EnumProperty, IntProperty
 
 
 class SnellRenderSettings(bpy.types.PropertyGroup):
@@ -28,6 +28,12 @@ class SnellRenderSettings(bpy.types.PropertyGroup):
         items=[("EXACT", "Exact", "The exact unpolarised dielectric Fresnel equations, as Cycles"),
                ("SCHLICK", "Schlick", "Schlick's approximation, as the seed project (not Cycles)")],
         description="Fresnel model for glass")
+    caustics: BoolProperty(
+        name="Caustics", default=True,
+        description="Trace light paths from the lamps through mirrors and glass to the surfaces "
+                    "they light (the same image as the path tracer alone, with far less noise in "
+                    "caustics); runs only in scenes with mirrors or glass and a lamp that rays "
+                    "can hit")
 
 
 def register():

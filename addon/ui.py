@@ -60,6 +60,7 @@ class RENDER_PT_snell_light_paths(SnellPanel, bpy.types.Panel):
         col.label(text=f"Cycles: Max Bounces {props.max_depth - 1}" if props.max_depth > 0
                   else "No Cycles equivalent (emitters only)")
         col.prop(props, "fresnel")
+        col.prop(props, "caustics")
 
 
 class RENDER_PT_snell_performance(SnellPanel, bpy.types.Panel):

@@ -61,11 +61,19 @@ def load_snell_scene(blend_path):
         return export_blend(blend_path)
 
 
-def snell_render(scene, spp, progress=None, threads=2):
-    """Snell with independent samples: the z-tests need honest per-pixel variances, which the
-    default stratified sampler's correlated samples would over-estimate."""
+# Snell's per-pixel variances come from this many independent batches (the images of as many
+# passes, K - 1 degrees of freedom), not from per-sample sums of squares: the light tracer's splats
+# have no per-sample variance, and where rare paths carry much of the light the per-sample
+# variance underestimates the error (README, validator section).
+BATCHES = 16
+
+
+def snell_render(scene, spp, progress=None, threads=2, caustics=None):
+    """Snell with independent samples in BATCHES batches: the tests need honest per-pixel
+    variances, which the default stratified sampler's correlated samples would over-estimate."""
     from ..tracer.integrator import Renderer
-    return Renderer(scene, threads=threads, sampler="independent").render(spp=spp, progress=progress)
+    return Renderer(scene, threads=threads, sampler="independent", caustics=caustics).render(
+        spp=spp, progress=progress, batches=min(BATCHES, spp))
 
 
 def cycles_render(blend_path, *, spp, max_depth, seed, n_seeds=DEFAULT_CYCLES_SEEDS, camera=None,
@@ -79,14 +87,14 @@ def cycles_render(blend_path, *, spp, max_depth, seed, n_seeds=DEFAULT_CYCLES_SE
 def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label=""):
     """Statistics of a Snell RenderResult against a CyclesResult; returns the report dict."""
     a = snell_result.mean().astype(np.float64)
-    va = snell_result.variance_of_mean()
+    va, dfa = snell_result.variance_and_dof()
     halves = None
     k = len(cyc.images)
     if k >= 4:
         first, second = np.stack(cyc.images[:k // 2]), np.stack(cyc.images[k // 2:])
         halves = (first.mean(axis=0), second.mean(axis=0),
                   second.var(axis=0, ddof=1) / len(second), len(second) - 1)
-    stats = metrics.compare(a, va, max(snell_result.spp - 1, 1), cyc.mean, cyc.variance_of_mean,
+    stats = metrics.compare(a, va, dfa, cyc.mean, cyc.variance_of_mean,
                             len(cyc.seeds) - 1, halves=halves)
     stats["statistical_verdict"] = stats["verdict"]
     if not_comparable:

@@ -126,6 +126,48 @@ def equal_error(snell_points, cycles_points) -> dict:
     }
 
 
+def error_at_time(times, errs, t):
+    """The log-log curve's error at time t (linear in log-log between the points around it,
+    extended from the nearest two outside them); None without two points."""
+    pts = sorted((float(a), float(e)) for a, e in zip(times, errs) if a > 0 and e > 0)
+    if len(pts) < 2 or t <= 0:
+        return None
+    lt = math.log(t)
+    i = 1
+    while i < len(pts) - 1 and math.log(pts[i][0]) < lt:
+        i += 1
+    (t0, e0), (t1, e1) = pts[i - 1], pts[i]
+    if t1 == t0:
+        return e1
+    f = (lt - math.log(t0)) / (math.log(t1) - math.log(t0))
+    return math.exp(math.log(e0) + f * (math.log(e1) - math.log(e0)))
+
+
+def gain_at_equal_time(points, other, key) -> dict:
+    """How many times lower `key` is in `points` than in `other` at the same wall time: at each
+    of `points`, other's error at that time (log-log interpolation, extrapolated from its two
+    nearest points outside its range) over this point's. The median is over the points inside
+    other's time range, or over all of them when none is."""
+    to = [p["wall_s"] for p in other]
+    ratios = []
+    for p in points:
+        e = error_at_time(to, [q[key] for q in other], p["wall_s"])
+        if e is not None and p[key] > 0:
+            ratios.append({"wall_s": p["wall_s"], "spp": p["spp"], "ratio": e / p[key],
+                           "extrapolated": not min(to) <= p["wall_s"] <= max(to)})
+    inside = [r["ratio"] for r in ratios if not r["extrapolated"]] or [r["ratio"] for r in ratios]
+    return {"key": key, "median": float(np.median(inside)) if inside else 0.0, "points": ratios}
+
+
+def share_map_png(light, reference) -> bytes:
+    """A grey PNG of the light tracer's share of the reference per pixel (black 0, white 1)."""
+    from .report import png_bytes
+    share = np.clip(np.asarray(light, np.float64).sum(axis=2)
+                    / np.maximum(np.asarray(reference, np.float64).sum(axis=2), 1e-6), 0.0, 1.0)
+    grey = np.round(share * 255).astype(np.uint8)
+    return png_bytes(np.repeat(grey[..., None], 3, axis=2))
+
+
 def efficiency_summary(points) -> dict:
     """relMSE x wall time per point; the median over the ladder and the value at the last point."""
     eff = [p["relmse"] * p["wall_s"] for p in points]
@@ -214,7 +256,13 @@ def write_json(path, data):
 # Plot: log-log relMSE against wall time, one panel per scene, one polyline per renderer
 
 
-COLOURS = {"snell": "#d62728", "cycles": "#1f77b4"}
+COLOURS = {"snell": "#d62728", "snell_path_tracer": "#ff9896", "cycles": "#1f77b4"}
+LABELS = {"snell": "Snell", "snell_path_tracer": "Snell, path tracer only", "cycles": "Cycles"}
+
+
+def renderers(scene) -> list:
+    """The ladders a bench scene has, in display order."""
+    return [r for r in ("snell", "snell_path_tracer", "cycles") if r in scene]
 
 
 def _decades(lo, hi):
@@ -230,8 +278,8 @@ def svg_plot(scenes, panel_w=360, panel_h=280) -> str:
     parts = []
     for i, sc in enumerate(scenes):
         pts = {r: [(p["wall_s"], p["relmse"]) for p in sc[r]["points"]
-                   if p["wall_s"] > 0 and p["relmse"] > 0] for r in ("snell", "cycles")}
-        allp = pts["snell"] + pts["cycles"]
+                   if p["wall_s"] > 0 and p["relmse"] > 0] for r in renderers(sc)}
+        allp = [q for p in pts.values() for q in p]
         if not allp:
             continue
         x0, x1 = _decades(min(p[0] for p in allp), max(p[0] for p in allp))
@@ -265,9 +313,9 @@ def svg_plot(scenes, panel_w=360, panel_h=280) -> str:
             g.append(f'<polyline points="{line}" fill="none" stroke="{c}" stroke-width="2"/>')
             g += [f'<circle cx="{X(t):.1f}" cy="{Y(e):.1f}" r="3" fill="{c}"/>' for t, e in p]
             ly = m["t"] + 14 + 16 * k
-            g.append(f'<line x1="{ox + m["l"] + w - 70}" y1="{ly - 4}" x2="{ox + m["l"] + w - 52}" '
+            g.append(f'<line x1="{ox + m["l"] + w - 150}" y1="{ly - 4}" x2="{ox + m["l"] + w - 132}" '
                      f'y2="{ly - 4}" stroke="{c}" stroke-width="2"/>')
-            g.append(f'<text x="{ox + m["l"] + w - 48}" y="{ly}">{"Snell" if r == "snell" else "Cycles"}</text>')
+            g.append(f'<text x="{ox + m["l"] + w - 128}" y="{ly}">{LABELS[r]}</text>')
         parts.append("\n".join(g))
     total_w = panel_w * max(1, len(scenes))
     return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{total_w}" height="{panel_h}" '
@@ -292,38 +340,49 @@ def table_rows(data):
     """One row per ladder point (scene, renderer, spp, wall, parts, errors, throughput, memory)."""
     rows = []
     for sc in data["scenes"]:
-        for r in ("snell", "cycles"):
+        for r in renderers(sc):
+            snell = r != "cycles"
             for p in sc[r]["points"]:
                 parts = (f"export {p['export_s']:.2f} + build {p['build_s']:.2f} + render {p['render_s']:.2f}"
-                         if r == "snell" else f"load {p['load_s']:.2f} + render {p['render_s']:.2f}")
-                rows.append([sc["name"], "Snell" if r == "snell" else "Cycles", p["spp"],
-                             f"{p['wall_s']:.2f}", parts, fmt(p["relmse"]), fmt(p["rmse"]), fmt(p["flip"]),
+                         if snell else f"load {p['load_s']:.2f} + render {p['render_s']:.2f}")
+                rows.append([sc["name"], LABELS[r], p["spp"],
+                             f"{p['wall_s']:.2f}", parts, fmt(p["relmse"]),
+                             fmt(p.get("caustic_relmse")), fmt(p["rmse"]), fmt(p["flip"]),
                              fmt(p["relmse"] * p["wall_s"]),
-                             f"{p['rays_per_second'] / 1e6:.2f} M" if r == "snell" else "n/a",
-                             f"{100 * p['embree_share']:.0f}%" if r == "snell" else "n/a",
+                             f"{p['rays_per_second'] / 1e6:.2f} M" if snell else "n/a",
+                             f"{100 * p['embree_share']:.0f}%" if snell else "n/a",
                              f"{p['peak_rss_mb']:.0f} ({p['peak_rss_above_baseline_mb']:+.0f})"])
     return rows
 
 
-HEADER = ["scene", "renderer", "spp", "wall s", "parts (s)", "relMSE", "RMSE", "FLIP", "relMSE x s",
-          "rays/s", "Embree share", "peak RSS MB (over baseline)"]
+HEADER = ["scene", "renderer", "spp", "wall s", "parts (s)", "relMSE", "caustic relMSE", "RMSE",
+          "FLIP", "relMSE x s", "rays/s", "Embree share", "peak RSS MB (over baseline)"]
 
 
 def summary_rows(data):
     rows = []
     for sc in data["scenes"]:
-        eq = sc["time_to_equal_error"]
-        rows.append([sc["name"], f"{sc['width']}x{sc['height']}", fmt(eq["target_relmse"]),
-                     fmt(eq["snell_s"]), fmt(eq["cycles_s"]), fmt(eq["ratio"]), fmt(eq["fit_ratio"]),
-                     fmt(eq["snell_slope"]), fmt(eq["cycles_slope"]),
-                     fmt(sc["snell"]["efficiency"]["median"]), fmt(sc["cycles"]["efficiency"]["median"]),
-                     fmt(sc["reference"]["noise_relmse"])])
+        for r, key in (("snell", "time_to_equal_error"),
+                       ("snell_path_tracer", "path_tracer_time_to_equal_error")):
+            if key not in sc:
+                continue
+            eq = sc[key]
+            region = sc.get("caustic_region", {})
+            gain = sc.get("caustic_gain_at_equal_time", {}).get("median") if r == "snell" else None
+            rows.append([sc["name"], LABELS[r], f"{sc['width']}x{sc['height']}",
+                         fmt(eq["target_relmse"]), fmt(eq["snell_s"]), fmt(eq["cycles_s"]),
+                         fmt(eq["ratio"]), fmt(eq["fit_ratio"]), fmt(eq["snell_slope"]),
+                         fmt(eq["cycles_slope"]), fmt(sc[r]["efficiency"]["median"]),
+                         fmt(sc["cycles"]["efficiency"]["median"]),
+                         fmt(sc["reference"]["noise_relmse"]),
+                         f"{100 * region.get('fraction', 0.0):.1f}%", fmt(gain)])
     return rows
 
 
-SUMMARY_HEADER = ["scene", "size", "target relMSE", "Snell s", "Cycles s", "Snell / Cycles",
+SUMMARY_HEADER = ["scene", "Snell", "size", "target relMSE", "Snell s", "Cycles s", "Snell / Cycles",
                   "ratio (slope -1 fits)", "Snell LSQ slope", "Cycles LSQ slope", "Snell relMSE x s (median)",
-                  "Cycles relMSE x s (median)", "reference noise relMSE"]
+                  "Cycles relMSE x s (median)", "reference noise relMSE", "caustic region",
+                  "caustic relMSE gain at equal time"]
 
 
 def _table(rows, header):
@@ -340,7 +399,29 @@ def markdown_table(data) -> str:
     return md(summary_rows(data), SUMMARY_HEADER) + "\n\n" + md(table_rows(data), HEADER)
 
 
-def write_html(path, data, svg):
+def _share_maps(data, maps):
+    """The HTML of each scene's light-tracer share map and caustic-region figures."""
+    from .report import _data_uri
+    out = []
+    for sc in data["scenes"]:
+        png = (maps or {}).get(sc["name"])
+        region = sc.get("caustic_region")
+        if png is None or not region:
+            continue
+        out.append(f"<figure><img src='{_data_uri(png)}' width='{2 * sc['width']}'>"
+                   f"<figcaption>{html.escape(sc['name'])}: the light tracer carries "
+                   f"{100 * region['light_share_of_image']:.1f}% of the image; caustic region "
+                   f"(share at least {region['share_threshold']:g}): {region['pixels']} pixels "
+                   f"({100 * region['fraction']:.1f}%)</figcaption></figure>")
+    if not out:
+        return ""
+    return ("<h2>The light tracer's share of the image</h2>\n<p class='small'>Per pixel, the "
+            "light tracer's image over the reference (black 0, white 1), at the largest Snell "
+            "point.</p>\n" + "\n".join(out) + "\n")
+
+
+def write_html(path, data, svg, maps=None):
+    """The bench page; maps: {scene name: PNG of the light tracer's share}."""
     from .report import _page  # the validator's page frame and CSS
     d = data["definitions"]
     s = data["settings"]
@@ -358,6 +439,7 @@ def write_html(path, data, svg):
         f"<h2>Error against wall time</h2>\n{svg}\n"
         f"<h2>Time to equal error</h2>\n{_table(summary_rows(data), SUMMARY_HEADER)}\n"
         f"<p class='small'>{html.escape(d['time_to_equal_error'])}</p>\n"
+        f"{_share_maps(data, maps)}"
         f"<h2>Ladder points</h2>\n{_table(table_rows(data), HEADER)}\n"
         f"<h2>Definitions</h2><ul>" + "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>"
                                                for k, v in d.items()) + "</ul>\n"

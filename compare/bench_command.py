@@ -35,6 +35,9 @@ def setup_cli(p):
                    help="samples per reference seed (default 256, --quick 64)")
     p.add_argument("--repeat", type=int_at_least(1), metavar="N",
                    help="time every point N times and keep the run of median wall time (default 1)")
+    p.add_argument("--caustics", choices=("on", "off", "both"),
+                   help="Snell's caustics light tracer: on (default), off, or both (a second "
+                        "Snell ladder with the path tracer alone)")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/snell/bench)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
@@ -56,7 +59,7 @@ def cmd(args) -> int:
     opts = ab.Options(**(ab.QUICK if args.quick else {}))
     for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),
                        ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"), ("ref_seeds", "ref_seeds"),
-                       ("ref_spp", "ref_spp"), ("repeat", "repeat")):
+                       ("ref_spp", "ref_spp"), ("repeat", "repeat"), ("caustics", "caustics")):
         if getattr(args, name) is not None:
             setattr(opts, attr, getattr(args, name))
     log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr, flush=True))
@@ -69,6 +72,13 @@ def cmd(args) -> int:
         eq = sc["time_to_equal_error"]
         print(f"snell bench: {sc['name']}: time to relMSE {eq['target_relmse']:.3g}: Snell / Cycles = "
               f"{cb.fmt(eq['ratio'])} (fits {cb.fmt(eq['fit_ratio'])})")
+        if "path_tracer_time_to_equal_error" in sc:
+            pt = sc["path_tracer_time_to_equal_error"]
+            print(f"snell bench: {sc['name']}: path tracer only: time to relMSE "
+                  f"{pt['target_relmse']:.3g}: Snell / Cycles = {cb.fmt(pt['ratio'])}")
+        if "caustic_gain_at_equal_time" in sc:
+            print(f"snell bench: {sc['name']}: caustic region relMSE at equal time: path tracer "
+                  f"only / hybrid = {cb.fmt(sc['caustic_gain_at_equal_time']['median'])}")
     print(f"snell bench: {data['total_s']:.1f} s -> {os.path.join(args.report, 'bench.html')}")
     return 0
 

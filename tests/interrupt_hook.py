@@ -57,12 +57,12 @@ def install(stage, marker):
         from snell.tracer import integrator
         original = integrator.Renderer.render
 
-        def render(self, spp=None, progress=None):
+        def render(self, spp=None, progress=None, **options):
             def paused(result, done, total):
                 if done < total:
                     _pause(marker)
                 return progress(result, done, total) if progress else True
-            return original(self, spp=spp, progress=paused)
+            return original(self, spp=spp, progress=paused, **options)
         integrator.Renderer.render = render
     elif stage == "write":
         for name in ("replace", "rename"):

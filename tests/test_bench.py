@@ -96,7 +96,7 @@ def test_quick_bench_fills_every_key(tmp_path):
     pytest.importorskip("flip_evaluator")
     report = tmp_path / "report"
     proc = subprocess.run([sys.executable, "-m", "snell.cli", "bench", "--quick", "--report", str(report),
-                           "--cache", str(tmp_path / "cache"), "--quiet"],
+                           "--cache", str(tmp_path / "cache"), "--caustics", "both", "--quiet"],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     data = json.loads((report / "bench.json").read_text())
@@ -104,21 +104,32 @@ def test_quick_bench_fills_every_key(tmp_path):
     assert data["quick"] is True and len(data["scenes"]) == 2
     for sc in data["scenes"]:
         assert sc["reference"]["cached"] is False and sc["reference"]["spp"] == 4 * 64
-        for r in ("snell", "cycles"):
+        for r in ("snell", "snell_path_tracer", "cycles"):
             pts = sc[r]["points"]
             assert [p["spp"] for p in pts] == [4, 8, 16]
             for p in pts:
                 assert p["wall_s"] > 0 and p["relmse"] > 0 and p["rmse"] > 0 and 0 < p["flip"] < 1
                 assert p["peak_rss_mb"] > 0
                 assert p["efficiency"] == pytest.approx(p["relmse"] * p["wall_s"])
-            if r == "snell":
+            if r != "cycles":
                 assert all(p["wall_s"] >= p["export_s"] + p["build_s"] + p["render_s"] - 1e-6 for p in pts)
                 assert all(p["rays_per_second"] > 0 and 0 < p["embree_share"] <= 1 for p in pts)
         eq = sc["time_to_equal_error"]
         assert eq["ratio"] > 0 and eq["fit_ratio"] > 0
         assert eq["target_relmse"] == pytest.approx(max(min(p["relmse"] for p in sc["snell"]["points"]),
                                                         min(p["relmse"] for p in sc["cycles"]["points"])))
+    # The spheres focus light (the light tracer runs, and the caustic region is measured on
+    # its own); the dragon's box has no mirror or glass.
+    spheres, dragon = data["scenes"]
+    assert spheres["caustic_region"]["pixels"] > 0
+    assert 0 < spheres["caustic_region"]["light_share_of_image"] < 0.5
+    assert all(p["light_paths"] > 0 and p["caustic_relmse"] > 0 for p in spheres["snell"]["points"])
+    assert all(p["light_paths"] == 0 for p in spheres["snell_path_tracer"]["points"])
+    assert spheres["caustic_gain_at_equal_time"]["median"] > 0
+    assert dragon["caustic_region"]["pixels"] == 0
+    assert all("caustic_relmse" not in p and p["light_paths"] == 0 for p in dragon["snell"]["points"])
     html = (report / "bench.html").read_text()
-    assert html.count("<polyline") == 4 and "cornell_dragon" in html
+    assert html.count("<polyline") == 6 and "cornell_dragon" in html
+    assert "The light tracer's share of the image" in html
     assert (report / "bench.svg").read_text().startswith("<svg")
     assert "Snell / Cycles" in proc.stdout

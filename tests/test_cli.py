@@ -11,7 +11,7 @@ import pytest
 
 from snell import cli
 from snell.tracer import image
-from snell.tracer.scene import Scene, save
+from snell.tracer.scene import DEFAULT_RENDER, Scene, save
 
 HAVE_INTEGRATOR = importlib.util.find_spec("snell.tracer.integrator") is not None
 EMISSION = 2.0
@@ -175,6 +175,7 @@ class StubResult:
         self.time_s, self.embree_time_s, self.cancelled = 0.5, 0.25, cancelled
         self.threads = 2
         self.embree_share = self.embree_time_s / (self.time_s * self.threads)
+        self.light_paths, self.stats = 0, {}
 
     def mean(self):
         return self.image
@@ -207,7 +208,8 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
     assert code == 0
     call = stub_integrator.calls[0]
     assert call["threads"] == 3
-    assert call["scene"].render == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick"}
+    assert call["scene"].render == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick",
+                                    "caustics": True}
     rgb = image.read_exr(out)
     assert rgb[0].min() == 1.0 and rgb[1:].max() == 0.0  # top row first, NaN written as 0
     summary = capsys.readouterr().out.strip().splitlines()
@@ -218,7 +220,8 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
 
 def test_render_defaults_come_from_the_scene(scene_file, tmp_path, stub_integrator, capsys):
     assert cli.main(["render", str(scene_file), "-o", str(tmp_path / "a.exr"), "--quiet"]) == 0
-    assert stub_integrator.calls[0]["scene"].render == tiny_scene().render
+    # what the file holds, and the defaults of what it does not (caustics)
+    assert stub_integrator.calls[0]["scene"].render == {**DEFAULT_RENDER, **tiny_scene().render}
     assert stub_integrator.calls[0]["threads"] == 2  # the integrator's own default
     assert capsys.readouterr() == ("", "")
 

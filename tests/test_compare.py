@@ -128,7 +128,7 @@ def _blend(blends, name):
 class Reference:
     """A Cycles reference plus the exported Snell scene at the test resolution."""
 
-    def __init__(self, blend, dof=None, framing=None, max_depth=None, spp=SPP):
+    def __init__(self, blend, dof=None, framing=None, max_depth=None, spp=SPP, cycles_seeds=8):
         from snell.addon import validate
         self.blend, self.spp = blend, spp
         scene, _ = validate.load_snell_scene(blend)
@@ -140,7 +140,8 @@ class Reference:
             scene = scene.with_camera(dof={"use_dof": True, **dof})
         self.scene = scene
         self.cycles = validate.cycles_render(blend, spp=spp, max_depth=scene.render["max_depth"],
-                                             seed=SEED, camera={**dof, **framing})
+                                             seed=SEED, camera={**dof, **framing},
+                                             n_seeds=cycles_seeds)
 
     def compare(self, modify=lambda s: s):
         from snell.addon import validate
@@ -152,6 +153,16 @@ class Reference:
 @pytest.fixture(scope="session")
 def spheres(blends):
     return Reference(_blend(blends, "cornell_spheres"))
+
+
+# With the caustics light tracer Snell converges the light that the spheres focus onto the walls
+# and floor; Cycles finds it by rare paths, so at 256 spp (8 seeds of 32) its mean there runs low
+# by more than its across-seed variance says (measured: one tile 7% under Snell's, z 4.7, where
+# Snell's hybrid and its path tracer alone agree at 2048 spp, z -0.4). Cycles needs more samples
+# and seeds to be a reference there: 16 seeds of 64 spp were consistent with two Cycles seeds.
+@pytest.fixture(scope="session")
+def spheres_converged(blends):
+    return Reference(_blend(blends, "cornell_spheres"), spp=4 * SPP, cycles_seeds=16)
 
 
 # The glass-sphere errors change only the ~5 % of a full frame that shows the glass sphere, too
@@ -192,8 +203,8 @@ def _verdict(result):
     return result["verdict"], detail
 
 
-def test_spheres_consistent(spheres):  # full frame, the scene's max depth 8
-    verdict, detail = _verdict(spheres.compare())
+def test_spheres_consistent(spheres_converged):  # full frame, the scene's max depth 8
+    verdict, detail = _verdict(spheres_converged.compare())
     assert verdict == "consistent", detail
 
 

@@ -7,6 +7,7 @@ in compiled code.
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -130,6 +131,19 @@ def lens_point(cam, u0, u1):
 
 
 @jit_inline
+def to_world(cam, o, d):
+    """A camera-space point and direction in world space."""
+    r, t = cam.rotation, cam.position
+    world_o = (r[0, 0] * o[0] + r[0, 1] * o[1] + r[0, 2] * o[2] + t[0],
+               r[1, 0] * o[0] + r[1, 1] * o[1] + r[1, 2] * o[2] + t[1],
+               r[2, 0] * o[0] + r[2, 1] * o[1] + r[2, 2] * o[2] + t[2])
+    world_d = (r[0, 0] * d[0] + r[0, 1] * d[1] + r[0, 2] * d[2],
+               r[1, 0] * d[0] + r[1, 1] * d[1] + r[1, 2] * d[2],
+               r[2, 0] * d[0] + r[2, 1] * d[1] + r[2, 2] * d[2])
+    return world_o, world_d
+
+
+@jit_inline
 def camera_ray(cam, pixel, u0, u1, lens0, lens1):
     """The world-space ray (origin, unit direction, distance to the far clip) through image pixel
     `pixel` (row 0 at the top) at offset (u0, u1) in the pixel, through lens sample (lens0, lens1).
@@ -153,14 +167,50 @@ def camera_ray(cam, pixel, u0, u1, lens0, lens1):
         o = (lx, ly, 0.0)
     o = madd(o, cam.clip_start * z_inv, d)
     far = (cam.clip_end - cam.clip_start) * z_inv
-    r, t = cam.rotation, cam.position
-    world_o = (r[0, 0] * o[0] + r[0, 1] * o[1] + r[0, 2] * o[2] + t[0],
-               r[1, 0] * o[0] + r[1, 1] * o[1] + r[1, 2] * o[2] + t[1],
-               r[2, 0] * o[0] + r[2, 1] * o[1] + r[2, 2] * o[2] + t[2])
-    world_d = (r[0, 0] * d[0] + r[0, 1] * d[1] + r[0, 2] * d[2],
-               r[1, 0] * d[0] + r[1, 1] * d[1] + r[1, 2] * d[2],
-               r[2, 0] * d[0] + r[2, 1] * d[1] + r[2, 2] * d[2])
+    world_o, world_d = to_world(cam, o, d)
     return world_o, world_d, far
+
+
+@jit_inline
+def camera_connection(cam, x, lens0, lens1):
+    """The camera ray that sees the world point x through lens sample (lens0, lens1), as
+    camera_ray makes it: (pixel, or -1 outside the image or the clip range; the ray's origin on the
+    near clip plane; its unit direction; the distance from the lens point to x; the cosine of the
+    direction to the optical axis; raster pixels per unit of image-plane area at distance 1)."""
+    r, t = cam.rotation, cam.position
+    w = (x[0] - t[0], x[1] - t[1], x[2] - t[2])
+    xc = (r[0, 0] * w[0] + r[1, 0] * w[1] + r[2, 0] * w[2],      # R^T (x - t)
+          r[0, 1] * w[0] + r[1, 1] * w[1] + r[2, 1] * w[2],
+          r[0, 2] * w[0] + r[1, 2] * w[1] + r[2, 2] * w[2])
+    lx, ly = 0.0, 0.0
+    if cam.lens_radius > 0.0:
+        lx, ly = lens_point(cam, lens0, lens1)
+    v = (xc[0] - lx, xc[1] - ly, xc[2])
+    density = (cam.width / (2.0 * cam.half_x)) * (cam.height / (2.0 * cam.half_y))
+    none = (-1, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, 0.0, density)
+    if not v[2] < 0.0:
+        return none
+    if cam.lens_radius > 0.0:
+        # The line from the lens point through x meets the focus plane where the pinhole ray
+        # of the same raster position does.
+        s = cam.focus_distance / -v[2]
+        tx, ty = (lx + v[0] * s) / cam.focus_distance, (ly + v[1] * s) / cam.focus_distance
+    else:
+        tx, ty = xc[0] / -xc[2], xc[1] / -xc[2]
+    rx = (tx - cam.shift_x + cam.half_x) * cam.width / (2.0 * cam.half_x)
+    ry = (ty - cam.shift_y + cam.half_y) * cam.height / (2.0 * cam.half_y)
+    if not (0.0 <= rx < cam.width and 0.0 <= ry < cam.height):
+        return none
+    col, row = int(rx), cam.height - 1 - int(ry)
+    length = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    d = (v[0] / length, v[1] / length, v[2] / length)
+    z_inv = math.sqrt(tx * tx + ty * ty + 1.0)      # -1 / d_pinhole.z, as camera_ray uses it
+    near = cam.clip_start * z_inv
+    if not (near < length <= cam.clip_end * z_inv):
+        return none
+    o = madd((lx, ly, 0.0), near, d)
+    world_o, world_d = to_world(cam, o, d)
+    return row * cam.width + col, world_o, world_d, length, -d[2], density
 
 
 @jit

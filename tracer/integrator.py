@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import bsdf, jit, wavefront
+from . import jit, light_paths, wavefront
 from .camera import Camera
 from .geometry import Geometry
 from .lights import LightSampler
@@ -27,16 +27,31 @@ from .scene import FRESNEL_MODELS, MATERIAL_KINDS, Scene
 CHUNK = 1 << 13           # paths per chunk: measured best (8k-16k) for Python overhead vs cache
 PASS_PATHS = 1 << 17      # aim for about this many paths per progressive pass
 SAMPLERS = ("stratified", "independent")
+# Light paths traced per camera path when the light tracer runs (light_paths.py): the value of
+# least relMSE x time on cornell_spheres at 32 spp (tools/measure_caustics_split.py; README,
+# Caustics). From 1/64 to 1/8 the product is flat within the timing noise; more light paths only
+# cost time, since the camera paths' own noise then dominates even in the caustics.
+LIGHT_PATHS_PER_CAMERA_PATH = 0.125
 
 
 @dataclass
 class RenderResult:
-    """Per-pixel sums of the samples and of their squares (row 0 = top), plus counters."""
+    """Per-pixel sums (row 0 = top) of the camera samples and of their squares, and of the light
+    tracer's splats; with batches, sums of each pass's image and light image and their squares;
+    plus counters."""
     width: int
     height: int
     sum: np.ndarray
     sum_sq: np.ndarray
+    light_sum: np.ndarray | None = None
+    batch_sum: np.ndarray | None = None
+    batch_sq: np.ndarray | None = None
+    light_batch_sum: np.ndarray | None = None
+    light_batch_sq: np.ndarray | None = None
     spp: int = 0
+    light_paths: int = 0
+    light_in_image: bool = False     # the hybrid: the light tracer's splats are part of the image
+    batches: int = 0
     nan_count: int = 0
     time_s: float = 0.0
     build_s: float = 0.0
@@ -51,18 +66,50 @@ class RenderResult:
         if self.spp == 0:
             return np.zeros_like(self.sum, dtype=np.float32)
         # Divided in float64 and rounded once into the float32 image, without a float64 copy of
-        # the image on the way (1.5 GB at 8192x8192).
+        # the image on the way (1.5 GB at 8192x8192); the light tracer's part a band at a time.
         image = np.empty(self.sum.shape, np.float32)
-        np.divide(self.sum, self.spp, out=image, casting="unsafe")
+        if not (self.light_in_image and self.light_paths):
+            np.divide(self.sum, self.spp, out=image, casting="unsafe")
+            return image
+        for r in range(0, image.shape[0], 256):
+            image[r:r + 256] = (self.sum[r:r + 256] / self.spp
+                                + self.light_sum[r:r + 256] / self.light_paths)
         return image
 
+    def light_image(self) -> np.ndarray:
+        """The light tracer's splats per light path, float64 (H, W, 3): its part of the hybrid's
+        image, or pure light tracing's whole image."""
+        if self.light_sum is None:
+            return np.zeros_like(self.sum)
+        return self.light_sum / max(self.light_paths, 1)
+
     def variance_of_mean(self) -> np.ndarray:
-        """Per-pixel variance of the mean (sample variance / n), float64 (H, W, 3)."""
+        """Per-pixel variance of the mean image, float64 (H, W, 3): see variance_and_dof."""
+        return self.variance_and_dof()[0]
+
+    def variance_and_dof(self):
+        """Per-pixel variance of the mean image and its degrees of freedom, (H, W, 3) and a number.
+
+        With K >= 2 batches (Renderer.render(batches=K)), from the spread of the K passes'
+        images (K - 1 degrees of freedom): the light tracer's splats have no per-sample variance,
+        and where rare paths carry much of the light the per-sample variance underestimates the
+        error far more than batch means do. Without batches, from the camera samples' sums of
+        squares (n - 1), which then leave the light tracer's part out.
+        """
+        if self.batches >= 2 and self.batch_sum is not None:
+            return _variance_of_batch_mean(self.batch_sum, self.batch_sq, self.batches), \
+                self.batches - 1
         n = self.spp
         if n < 2:
+            return np.full_like(self.sum, np.inf), 1
+        var = np.maximum((self.sum_sq - self.sum * self.sum / n) / (n - 1), 0.0) / n
+        return var, n - 1
+
+    def light_variance_of_mean(self) -> np.ndarray:
+        """Per-pixel variance of light_image() from its batches (K - 1 degrees of freedom)."""
+        if self.batches < 2 or self.light_batch_sum is None:
             return np.full_like(self.sum, np.inf)
-        var = (self.sum_sq - self.sum * self.sum / n) / (n - 1)
-        return np.maximum(var, 0.0) / n
+        return _variance_of_batch_mean(self.light_batch_sum, self.light_batch_sq, self.batches)
 
     @property
     def rays_per_second(self) -> float:
@@ -86,14 +133,27 @@ class _Buffers(threading.local):
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64))
         return self.buffers
 
+    def light(self):
+        """(light paths, next light paths, camera connections) for CHUNK light paths."""
+        if not hasattr(self, "light_buffers"):
+            self.light_buffers = (light_paths.new_light_paths(CHUNK),
+                                  light_paths.new_light_paths(CHUNK), wavefront.new_shadows(CHUNK))
+        return self.light_buffers
+
 
 class Renderer:
     """A scene prepared for rendering: camera, Embree geometry, materials and lights."""
 
     def __init__(self, scene: Scene, threads: int = 2, next_event: bool = True,
-                 sampler: str = "stratified"):
+                 sampler: str = "stratified", caustics: bool | str | None = None,
+                 light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH):
         """next_event=False turns light sampling off (BSDF sampling only): a second, independent
-        estimator of the same image, which tests use to check the first one.
+        estimator of the same image, which tests use to check the first one. caustics=False
+        renders with the path tracer alone (default: the scene's render setting); the light
+        tracer runs only where it has something to do (light_paths.caustics_tables).
+        caustics="pure" runs pure light tracing beside a full path tracer, for tests: the
+        result's light image (light_sum / light_paths) is then a second estimate of the image
+        but for emitters seen directly or through specular vertices only.
 
         sampler "stratified" draws each pixel's camera samples (pixel and lens position) and the
         light and BSDF samples of the first bounces from Owen-scrambled Sobol points,
@@ -127,6 +187,13 @@ class Renderer:
         self.max_depth = int(render["max_depth"])
         self.seed = int(render["seed"])
         self.fresnel = FRESNEL_MODELS.index(render["fresnel"])
+        want_caustics = render.get("caustics", True) if caustics is None else caustics
+        self.caustics = (light_paths.caustics_tables(scene, self.lights, self.geometry, kind,
+                                                     pure=want_caustics == "pure")
+                         if want_caustics else None)
+        self.light_paths_per_camera_path = float(light_paths_per_camera_path)
+        # The path tracer leaves the light tracer's paths to it (not in the pure test mode).
+        self.split = self.caustics is not None and not self.caustics.pure
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
@@ -149,8 +216,9 @@ class Renderer:
         m = n
         for depth in range(self.max_depth + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            kept = wavefront.emitters(lights, mats, self.next_event, depth, self.max_depth, m,
-                                      paths, prim, t, radiance, active, stats)
+            kept = wavefront.emitters(lights, mats, self.next_event, self.split,
+                                      depth, self.max_depth, m, paths, prim, t, radiance, active,
+                                      stats)
             if kept == 0:
                 break
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.fresnel, self.next_event,
@@ -167,32 +235,103 @@ class Renderer:
             bad = wavefront.film(radiance, n, start, in_pass, total, total_sq)
         return bad, stats.copy()
 
+    def trace_light_chunk(self, pass_index: int, start: int, n: int):
+        """Trace light paths start .. start + n of a pass; returns their splats that reached the
+        camera, (pixels, contributions). The caller adds them in chunk order, so that the image
+        does not depend on which thread finished first (float sums depend on their order)."""
+        geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
+        mesh, cam = geom.mesh, self.camera.params()
+        paths, out, connections = self._buffers.light()
+        m = light_paths.emit_light_paths(caustics, lights, mesh, self.seed, pass_index, start, n,
+                                         paths)
+        pixels, contributions = [], []
+        for _ in range(self.max_depth):
+            if m == 0:
+                break
+            prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
+            m, n_conn = light_paths.light_bounce(caustics, lights, mesh, mats, cam, self.fresnel,
+                                                 self.max_depth, m, paths, prim, u, v, out,
+                                                 connections)
+            if n_conn:
+                visible = geom.occluded(connections.o32[:n_conn], connections.d32[:n_conn],
+                                        connections.tmax[:n_conn]) != 0   # Embree: 0 if blocked
+                pixels.append(connections.path[:n_conn][visible])
+                contributions.append(connections.contrib[:n_conn][visible])
+            paths, out = out, paths
+        if not pixels:
+            return np.zeros(0, np.int64), np.zeros((0, 3))
+        return np.concatenate(pixels), np.concatenate(contributions)
+
     # -- passes ----------------------------------------------------------------------------
 
-    def render(self, spp: int | None = None, progress=None) -> RenderResult:
-        """Render progressively; `progress(result, pass_index, pass_count)` may return False to stop."""
+    def render(self, spp: int | None = None, progress=None, batches: int | None = None) -> RenderResult:
+        """Render progressively; `progress(result, pass_index, pass_count)` may return False to stop.
+
+        Each pass adds its samples to the image, and the light tracer (where it runs) as many
+        light paths per camera path as light_paths_per_camera_path says. `batches=K` renders in K passes (of
+        equal samples, give or take one) and keeps each pass's image as a batch, for variances
+        of the mean from independent batches (RenderResult.variance_and_dof).
+        """
         spp = int(spp if spp is not None else self.scene.render["spp"])
         w, h = self.camera.width, self.camera.height
         npix = w * h
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
-                              build_s=self.build_s)
-        per_pass = max(1, min(spp, PASS_PATHS // npix))
+                              build_s=self.build_s, light_in_image=self.split)
+        passes = batches or math.ceil(spp / max(1, min(spp, PASS_PATHS // npix)))
+        passes = max(1, min(passes, spp))
         bits = max(1, (spp - 1).bit_length())   # sample indices run over [0, 2^bits)
-        passes = math.ceil(spp / per_pass)
+        traces_light = self.caustics is not None
+        keep_batches = batches is not None
+        total, total_sq = result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3)
+        if traces_light:
+            result.light_sum = np.zeros((h, w, 3))
+            pass_light = np.zeros((npix, 3))
+        if keep_batches:
+            result.batch_sum, result.batch_sq = np.zeros((h, w, 3)), np.zeros((h, w, 3))
+            pass_sum = np.zeros((npix, 3))
+            if traces_light:
+                result.light_batch_sum = np.zeros((h, w, 3))
+                result.light_batch_sq = np.zeros((h, w, 3))
         embree_before, rays_before = self.geometry.embree_time, self.geometry.ray_count
         counters = np.zeros(len(wavefront.STATS), np.int64)
         start = time.perf_counter()
-        total, total_sq = result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3)
+        first_sample = 0
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             for k in range(passes):
-                in_pass = min(per_pass, spp - k * per_pass)
+                in_pass = spp // passes + (1 if k < spp % passes else 0)
                 count = npix * in_pass
+                film = pass_sum if keep_batches else total
+                if keep_batches:
+                    pass_sum[:] = 0.0
                 jobs = [(s, min(CHUNK, count - s)) for s in range(0, count, CHUNK)]
                 for bad, stats in pool.map(
-                        lambda job: self.trace_chunk(job[0], job[1], in_pass, k * per_pass, bits,
-                                                     total, total_sq), jobs):
+                        lambda job: self.trace_chunk(job[0], job[1], in_pass, first_sample, bits,
+                                                     film, total_sq), jobs):
                     result.nan_count += bad
                     counters += stats
+                n_light = 0
+                if traces_light:
+                    pass_light[:] = 0.0
+                    n_light = max(1, int(round(self.light_paths_per_camera_path * count)))
+                    light_jobs = [(s, min(CHUNK, n_light - s)) for s in range(0, n_light, CHUNK)]
+                    for pixels, contributions in pool.map(
+                            lambda job: self.trace_light_chunk(k, job[0], job[1]), light_jobs):
+                        wavefront.splat(pixels, contributions, pass_light)
+                        counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+                    result.nan_count += _zero_non_finite(pass_light)
+                    result.light_sum.reshape(-1, 3)[:] += pass_light
+                    result.light_paths += n_light
+                if keep_batches:
+                    total += pass_sum
+                    image = pass_sum / in_pass
+                    if traces_light:
+                        light_image = pass_light / n_light
+                        _add_batch(result.light_batch_sum, result.light_batch_sq, light_image)
+                        if self.split:
+                            image += light_image
+                    _add_batch(result.batch_sum, result.batch_sq, image)
+                    result.batches += 1
+                first_sample += in_pass
                 result.spp += in_pass
                 result.time_s = time.perf_counter() - start
                 result.embree_time_s = self.geometry.embree_time - embree_before
@@ -203,6 +342,24 @@ class Renderer:
                     break
         result.time_s = time.perf_counter() - start
         return result
+
+
+def _add_batch(total, total_sq, image):
+    """Add one batch image, (pixels, 3) rows, to (H, W, 3) sums of batches and of their squares."""
+    total.reshape(-1, 3)[:] += image
+    total_sq.reshape(-1, 3)[:] += image * image
+
+
+def _variance_of_batch_mean(total, total_sq, k):
+    """The variance of the mean of k independent batch images from their sum and sum of squares."""
+    return np.maximum((total_sq - total * total / k) / (k - 1), 0.0) / k
+
+
+def _zero_non_finite(rows: np.ndarray) -> int:
+    """Set non-finite entries' rows to 0; returns how many rows had one."""
+    bad = ~np.isfinite(rows).all(axis=1)
+    rows[bad] = 0.0
+    return int(bad.sum())
 
 
 def render(scene: Scene, *, threads: int = 2, progress=None, spp: int | None = None) -> RenderResult:
@@ -220,16 +377,19 @@ def warm_up() -> float:
     camera = {"matrix": m.tolist(), "lens": 50.0, "sensor_width": 36.0, "sensor_height": 24.0,
               "clip_start": 0.01, "clip_end": 100.0, "resolution": [2, 2],
               "dof": {"use_dof": True, "focus_distance": 2.0, "fstop": 1.0}}
-    triangle = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
+    # A diffuse triangle and a mirror one under a lamp that rays can hit: the light tracer runs.
+    triangles = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0],
+                          [-1, -1, 0.5], [1, -1, 0.5], [0, 1, 0.5]], np.float32)
     lamp = {"name": "lamp", "kind": "point", "position": [0.0, 0.0, 1.0],
             "intensity": [1.0, 1.0, 1.0], "radius": 0.1}
-    scene = Scene(positions=triangle, triangles=np.array([[0, 1, 2]], np.int32),
-                  material_ids=np.zeros(1, np.int32), object_ids=np.zeros(1, np.int32),
-                  materials=[{"name": "grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}],
+    scene = Scene(positions=triangles, triangles=np.array([[0, 1, 2], [3, 4, 5]], np.int32),
+                  material_ids=np.array([0, 1], np.int32), object_ids=np.array([0, 1], np.int32),
+                  materials=[{"name": "grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]},
+                             {"name": "mirror", "kind": "mirror", "color": [1.0, 1.0, 1.0]}],
                   lights=[lamp], camera=camera, world={"color": [0.1, 0.1, 0.1]},
                   render={"spp": 1, "max_depth": 2, "seed": 0, "fresnel": "exact"},
-                  objects=[{"name": "triangle", "closed": False}],
-                  normals=np.tile(np.array([0, 0, 1], np.float32), (3, 1)))
+                  objects=[{"name": "triangle", "closed": False}, {"name": "mirror", "closed": False}],
+                  normals=np.tile(np.array([0, 0, 1], np.float32), (6, 1)))
     for sampler in SAMPLERS:
         Renderer(scene, threads=1, sampler=sampler).render()
     jit.mark_warm()

@@ -25,7 +25,7 @@ AREA_SHAPES = ("rectangle", "square", "disk", "ellipse")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 FRESNEL_MODELS = ("exact", "schlick")
 
-DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact"}
+DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact", "caustics": True}
 # Bounds on integers that size arrays or loops: a file may hold any integer, and one past these
 # would end the render with an overflow or an allocation failure instead of a named field.
 MAX_INT = 2 ** 31 - 1
@@ -285,6 +285,8 @@ def _check_render(render):
         raise SceneError(f"render: expected an object, got {_short(render)}")
     for key in ("spp", "max_depth", "seed"):
         _int_in(render.get(key), f"render.{key}", 1 if key == "spp" else 0, MAX_INT, "an integer")
+    if not isinstance(render.get("caustics", True), bool):
+        raise SceneError(f"render.caustics: expected true or false, got {_short(render.get('caustics'))}")
     if render.get("fresnel") not in FRESNEL_MODELS:
         raise SceneError(f"render.fresnel: expected one of {', '.join(FRESNEL_MODELS)}, "
                          f"got {_short(render.get('fresnel'))}")

@@ -39,10 +39,12 @@ RR_START = 3              # Russian roulette from this bounce on ...
 RR_THRESHOLD = 0.1        # ... for paths whose throughput has fallen below this
 # Event counters (RenderResult.stats), by index.
 STATS = ("tir", "tir_absorbed", "rejected", "transmissions", "reflections", "diffuse",
-         "rr_killed", "depth_limited")
+         "rr_killed", "depth_limited", "caustic_splats")
 (TIR_COUNT, TIR_ABSORBED_COUNT, REJECTED, TRANSMISSIONS, REFLECTIONS, DIFFUSE_HITS, RR_KILLED,
- DEPTH_LIMITED) = range(len(STATS))
+ DEPTH_LIMITED, CAUSTIC_SPLATS) = range(len(STATS))
 FAR32 = np.float32(FAR)
+# A camera path's place in the split of path space with the light tracer (light_paths.py).
+NO_CAUSTIC, FIRST_DIFFUSE, CAUSTIC = range(3)
 
 
 class Paths(NamedTuple):
@@ -59,6 +61,9 @@ class Paths(NamedTuple):
     ray_kind: np.ndarray     # (n,) int64: the lamps.VISIBLE_* flag of the event that made the ray
     pdf_prev: np.ndarray     # (n,) solid-angle density of the BSDF sample that made the ray, 0
     #                          after the camera and specular bounces (no light sample competes)
+    caustic: np.ndarray      # (n,) int64: NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was
+    #                          diffuse) then CAUSTIC (and every vertex since specular): the light
+    #                          tracer's paths, whose emitters the path tracer then skips
 
 
 class Shadows(NamedTuple):
@@ -85,7 +90,7 @@ def new_paths(n: int) -> Paths:
     return Paths(np.empty(n, np.int64), np.empty(n, np.uint64), np.empty(n, np.int64),
                  np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3), np.float32),
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
-                 np.empty(n, np.int64), np.empty(n))
+                 np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -144,17 +149,20 @@ def generate(cam, seed, start, in_pass, first_sample, bits, stratified, n, paths
             paths.beta[i, k] = 1.0
         paths.ray_kind[i] = VISIBLE_CAMERA
         paths.pdf_prev[i] = 0.0      # what the camera sees directly gets no MIS weight
+        paths.caustic[i] = NO_CAUSTIC
 
 
 @jit
-def emitters(lights, mats, next_event, depth, max_depth, m, paths, prim, t, radiance, active,
-             stats):
+def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, prim, t, radiance,
+             active, stats):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
     Lamps have no surface, as in Cycles: a ray adds the light of every lamp it crosses before its
     hit (or escape) and goes on as if the lamp were not there. A lamp is seen by the rays its
-    visibility flags allow (lamps.seen_by).
+    visibility flags allow (lamps.seen_by). With `caustics` (the light tracer runs), paths in the
+    CAUSTIC state get no light from lamps, emissive triangles or suns: those paths are the light
+    tracer's to count.
     """
     kept = 0
     for i in range(m):
@@ -162,7 +170,8 @@ def emitters(lights, mats, next_event, depth, max_depth, m, paths, prim, t, radi
         beta, path, kind = row(paths.beta, i), paths.path[i], paths.ray_kind[i]
         pdf_prev = paths.pdf_prev[i]
         t_surface = np.float64(t[i])     # Embree leaves a miss's t at the ray's length
-        for lamp in range(lights.area_area.shape[0]):
+        emitters_count = not (caustics and paths.caustic[i] == CAUSTIC)
+        for lamp in range(lights.area_area.shape[0] if emitters_count else 0):
             if not seen_by(lights.area_flags[lamp], kind):
                 continue
             t_lamp = intersect_area_lamp(lights, lamp, o, d)
@@ -170,7 +179,7 @@ def emitters(lights, mats, next_event, depth, max_depth, m, paths, prim, t, radi
                 light, density = area_lamp_hit(lights, lamp, d, t_lamp)
                 w = mis_weight(next_event, pdf_prev, lights.area_pmf[lamp] * density)
                 add_light(radiance, path, beta, light, w)
-        for lamp in range(lights.point_radius.shape[0]):
+        for lamp in range(lights.point_radius.shape[0] if emitters_count else 0):
             if not seen_by(lights.point_flags[lamp], kind):
                 continue
             t_lamp = intersect_point_lamp(lights, lamp, o, d)
@@ -182,7 +191,7 @@ def emitters(lights, mats, next_event, depth, max_depth, m, paths, prim, t, radi
             if lights.world[0] > 0.0 or lights.world[1] > 0.0 or lights.world[2] > 0.0:
                 w = mis_weight(next_event, pdf_prev, pdf_world(lights))
                 add_light(radiance, path, beta, lights.world, w)
-            for sun in range(lights.sun_one_minus_cos.shape[0]):
+            for sun in range(lights.sun_one_minus_cos.shape[0] if emitters_count else 0):
                 # Cycles finds a sun's disc only with its MIS option, camera rays included.
                 flags = lights.sun_flags[sun]
                 if flags & kind and flags & USES_MIS:
@@ -192,8 +201,9 @@ def emitters(lights, mats, next_event, depth, max_depth, m, paths, prim, t, radi
             continue
         mat = mats.of_triangle[prim[i]]
         if mats.kind[mat] == EMISSION:
-            w = mis_weight(next_event, pdf_prev, pdf_triangle(lights, prim[i], o, d, t_surface))
-            add_light(radiance, path, beta, row(mats.radiance, mat), w)
+            if emitters_count:
+                w = mis_weight(next_event, pdf_prev, pdf_triangle(lights, prim[i], o, d, t_surface))
+                add_light(radiance, path, beta, row(mats.radiance, mat), w)
             continue
         if depth == max_depth:
             stats[DEPTH_LIMITED] += 1     # the depth limit, not the scene, ends this path
@@ -261,6 +271,7 @@ def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, d
             beta = (0.0, 0.0, 0.0) if dot(wi, ng_f) <= 0.0 else \
                 (beta[0] * albedo[0], beta[1] * albedo[1], beta[2] * albedo[2])
             new_d, ray_kind, pdf_prev = wi, VISIBLE_DIFFUSE, pdf
+            caustic = FIRST_DIFFUSE if depth == 0 else NO_CAUSTIC
         else:
             n = ns_f
             if has_normals and kind != REFRACTION:
@@ -273,6 +284,7 @@ def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, d
                 else (0.0, 0.0, 0.0)
             ray_kind = VISIBLE_TRANSMISSION if event == bsdf.TRANSMITTED else VISIBLE_GLOSSY
             pdf_prev = 0.0
+            caustic = CAUSTIC if paths.caustic[i] != NO_CAUSTIC else NO_CAUSTIC
         peak = max3(beta)
         if not peak > 0.0:
             continue
@@ -291,6 +303,7 @@ def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, d
         out.key[n_out] = key
         out.sample[n_out] = sample
         out.ray_kind[n_out] = ray_kind
+        out.caustic[n_out] = caustic
         out.pdf_prev[n_out] = pdf_prev
         n_out += 1
     return n_out, n_shadow
@@ -335,6 +348,14 @@ def shadow_rays(n, blocked, shadows, radiance):
         if blocked[j] != 0:
             for k in range(3):
                 radiance[shadows.path[j], k] += shadows.contrib[j, k]
+
+
+@jit
+def splat(pixels, contributions, film):
+    """Add each contribution to its pixel's row of the film."""
+    for j in range(pixels.shape[0]):
+        for k in range(3):
+            film[pixels[j], k] += contributions[j, k]
 
 
 @jit

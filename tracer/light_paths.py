@@ -1,0 +1,424 @@
+"""Caustics by light tracing: paths from the lamps through mirrors and glass to the first
+diffuse surface, connected to the camera.
+
+Snell renders with a hybrid of the path tracer and a light tracer that split path space between
+them (LuxCoreRender's hybrid back/forward): the light tracer owns every path "lamp, one or more
+specular vertices, one diffuse vertex, camera" (L S+ D E) and the path tracer skips exactly those
+(wavefront.emitters, the `caustic` state of a path). Both count a path of k bounces alike, so the
+hybrid renders the path tracer's image, with far less noise where glass and mirrors focus light.
+
+A light path starts on an emitter that camera paths can find by BSDF sampling (emissive
+triangles, and lamps with Cycles' MIS option: area lamps with a spread, point and spot lamps with
+a radius, sun discs) and is aimed at the specular objects: its direction is drawn in the cone that
+bounds one of them, seen from the light point (a mixture over objects; the density of a direction
+sums every cone that holds it). Specular bounces use the path tracer's own sample_specular. At
+the first diffuse vertex the path connects to a lens point: the camera ray through that lens
+point that sees the vertex gives the pixel, a shadow ray checks it, and the contribution is
+
+    beta f (|ns . wi| / |ng . wi|) |ng . wo| s / (d^2 cos^3 theta)
+
+(beta the light path's weight, f = albedo / pi, wi towards the light, wo towards the lens, the
+shading-normal factor of Veach's thesis section 5.3 that makes the adjoint agree with the path
+tracer, s raster pixels per unit of image-plane area, d and theta the distance from the lens point
+and the ray's angle to the optical axis). The image's pixel j gets the sum over light paths that
+land in it divided by their number.
+"""
+from __future__ import annotations
+
+import copy
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from . import bsdf
+from .bsdf import DIFFUSE, EMISSION, REFRACTION
+from .camera import camera_connection
+from .geometry import hit_offset, hit_point, offset_origin
+from .jit import jit, jit_inline
+from .lamps import (USES_MIS, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION, area_lamp_point,
+                    intersect_point_lamp, spot_attenuation, spread_attenuation)
+from .lights import AREA, EMISSIVE_TRIANGLE, POINT, SUN
+from .sampler import mix, random_pair
+from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
+                       sample_uniform_disk, sample_uniform_sphere)
+from .vec import add, dot, madd, mul, neg, row, store, sub
+
+LIGHT_DOMAIN = np.uint64(0x11C7_A0C5)   # keys light paths' random numbers apart from camera paths'
+
+
+class Caustics(NamedTuple):
+    """What the light tracer emits from and aims at (pure: the test mode below)."""
+    emitter_kind: np.ndarray     # (E,) lights.AREA, POINT, SUN or EMISSIVE_TRIANGLE
+    emitter_index: np.ndarray    # (E,) its row in its kind's tables
+    emitter_pmf: np.ndarray      # (E,)
+    emitter_cdf: np.ndarray      # (E,)
+    aim_center: np.ndarray       # (K, 3) bounding spheres of the specular objects
+    aim_radius: np.ndarray       # (K,)
+    scene_center: np.ndarray     # (3,) a sphere around all geometry (sun paths start outside)
+    scene_radius: float
+    # Pure light tracing, for tests of the camera connection: emission in every direction and a
+    # connection at every diffuse vertex, diffuse bounces included (the light tracer's image is
+    # then the whole image but for emitters seen directly or through specular vertices only).
+    pure: bool
+
+
+class LightPaths(NamedTuple):
+    """The state of up to n light paths."""
+    key: np.ndarray          # (n,) uint64: the path's random-number key
+    o32: np.ndarray          # (n, 3) float32 ray origin
+    d32: np.ndarray          # (n, 3) float32 unit direction (the light's travel direction)
+    tmax: np.ndarray         # (n,) float32
+    beta: np.ndarray         # (n, 3) radiance x measure / density carried
+    bounces: np.ndarray      # (n,) int64 vertices so far (all specular unless pure)
+    lamp: np.ndarray         # (n,) int64 the emitter's row in Caustics (for its flags)
+
+
+def new_light_paths(n: int) -> LightPaths:
+    """Uninitialised buffers for n light paths."""
+    return LightPaths(np.empty(n, np.uint64), np.empty((n, 3), np.float32),
+                      np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
+                      np.empty(n, np.int64), np.empty(n, np.int64))
+
+
+def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caustics | None:
+    """The light tracer's tables for a scene, or None when it has nothing to do (no mirror or
+    glass, or no emitter that camera paths could reach through them)."""
+    specular = np.isin(material_kind, (bsdf.MIRROR, bsdf.GLASS, bsdf.REFRACTION))
+    tri_specular = specular[scene.material_ids] if len(scene.material_ids) else np.zeros(0, bool)
+    if pure:                       # aim at the whole scene (used by suns only)
+        tri_specular = np.ones(len(scene.material_ids), bool)
+        scene = copy.copy(scene)
+        scene.object_ids = np.zeros(len(scene.material_ids), np.int32)
+    if not tri_specular.any():
+        return None
+    centers, radii = [], []
+    for obj in np.unique(scene.object_ids[tri_specular]):
+        corners = geometry.corners[tri_specular & (scene.object_ids == obj)].reshape(-1, 3)
+        lo, hi = corners.min(axis=0), corners.max(axis=0)
+        center = 0.5 * (lo + hi)
+        centers.append(center)
+        # A little wider than the corners: float32 geometry and the offsets of hit points.
+        radii.append(np.linalg.norm(corners - center, axis=1).max() * (1 + 1e-6) + 1e-6)
+    centers, radii = np.array(centers), np.array(radii)
+    t = lights.tables
+    kinds, indices, power = [], [], []
+    for k in np.flatnonzero(t.pmf > 0):
+        kind, i = int(t.kind[k]), int(t.index[k])
+        if kind == AREA:
+            flags, ok = t.area_flags[i], t.area_spread_tan[i] > 0.0
+            # A one-sided lamp with every specular object behind its plane lights none of them.
+            ok &= pure or bool(np.any((centers - t.area_center[i]) @ t.area_emit[i] > -radii))
+        elif kind == POINT:
+            flags, ok = t.point_flags[i], t.point_radius[i] > 0.0
+        elif kind == SUN:
+            flags, ok = t.sun_flags[i], t.sun_one_minus_cos[i] > 0.0
+        elif kind == EMISSIVE_TRIANGLE:
+            flags, ok = USES_MIS, True
+        else:                      # the world: the path tracer keeps it
+            continue
+        if ok and flags & USES_MIS:
+            kinds.append(kind)
+            indices.append(i)
+            power.append(t.pmf[k])
+    if not kinds:
+        return None
+    pmf = np.array(power) / np.sum(power)
+    extent = geometry.corners.reshape(-1, 3)
+    lo, hi = extent.min(axis=0), extent.max(axis=0)
+    return Caustics(np.array(kinds, np.int64), np.array(indices, np.int64), pmf, np.cumsum(pmf),
+                    np.ascontiguousarray(centers), radii, 0.5 * (lo + hi),
+                    float(0.5 * np.linalg.norm(hi - lo)) + 1.0, bool(pure))
+
+
+# -- aiming -------------------------------------------------------------------------------------
+
+@jit_inline
+def aim_cone(caustics, k, y, margin):
+    """The cone from y that holds sphere k widened by margin: (axis, 1 - cos of its half-angle;
+    2 for the whole sphere of directions when y is inside)."""
+    to = sub(row(caustics.aim_center, k), y)
+    d2 = dot(to, to)
+    r = caustics.aim_radius[k] + margin
+    if d2 <= r * r:
+        return (0.0, 0.0, 1.0), 2.0
+    sin2 = r * r / d2
+    return mul(to, 1.0 / math.sqrt(d2)), sin2 / (1.0 + math.sqrt(1.0 - sin2))
+
+
+@jit_inline
+def aimed_direction(caustics, y, margin, u_pick, u0, u1):
+    """A direction from y towards the specular objects: a cone picked in proportion to its solid
+    angle, then uniform in it. Returns (direction, density: the sum over every cone holding it
+    of 1 / the sum of the cones' solid angles)."""
+    total = 0.0
+    for k in range(caustics.aim_radius.shape[0]):
+        total += aim_cone(caustics, k, y, margin)[1]
+    target = u_pick * total
+    chosen = 0
+    for k in range(caustics.aim_radius.shape[0]):
+        omc = aim_cone(caustics, k, y, margin)[1]
+        if target < omc or k == caustics.aim_radius.shape[0] - 1:
+            chosen = k
+            break
+        target -= omc
+    axis, omc = aim_cone(caustics, chosen, y, margin)
+    w, _ = sample_uniform_cone(axis, omc, u0, u1)
+    return w, aimed_density(caustics, y, margin, w, total)
+
+
+@jit_inline
+def emission_direction(caustics, y, margin, u_pick, u0, u1):
+    """aimed_direction, or uniform over the sphere of directions for pure light tracing."""
+    if caustics.pure:
+        return sample_uniform_sphere(u0, u1), 1.0 / (4.0 * math.pi)
+    return aimed_direction(caustics, y, margin, u_pick, u0, u1)
+
+
+@jit_inline
+def aimed_density(caustics, y, margin, w, total):
+    """The density of aimed_direction at direction w (total: the sum of 1 - cos over cones)."""
+    holding = 0
+    for k in range(caustics.aim_radius.shape[0]):
+        axis, omc = aim_cone(caustics, k, y, margin)
+        if dot(axis, w) >= 1.0 - omc or omc >= 2.0:
+            holding += 1
+    return holding / (2.0 * math.pi * total)
+
+
+# -- emission -----------------------------------------------------------------------------------
+
+@jit_inline
+def emit(caustics, lights, mesh, u_pick, u_point, u_dir, emitter):
+    """A light path leaving emitter `emitter` of the caustics tables: (origin, direction,
+    weight = emitted radiance x measure / density, excluding the emitter's pick)."""
+    kind, i = caustics.emitter_kind[emitter], caustics.emitter_index[emitter]
+    zero = (0.0, 0.0, 0.0)
+    if kind == EMISSIVE_TRIANGLE:
+        v = lights.tri_corners[i]
+        su = math.sqrt(u_point[0])
+        b2 = u_point[1] * su
+        v0 = row(v, 0)
+        y = madd(madd(v0, su - b2, sub(row(v, 1), v0)), b2, sub(row(v, 2), v0))
+        w, density = emission_direction(caustics, y, 0.0, u_pick, u_dir[0], u_dir[1])
+        normal = row(lights.tri_normal, i)
+        cos_y = abs(dot(w, normal))
+        # Off the triangle, as hit points are: Embree reports hits at t = 0.
+        y = offset_origin(y, normal, hit_offset(mesh, lights.tri_prim[i], y), w)
+        return y, w, mul(row(lights.tri_radiance, i), cos_y * lights.tri_area[i] / density)
+    if kind == AREA:
+        y = area_lamp_point(lights, i, u_point[0], u_point[1])
+        w, density = emission_direction(caustics, y, 0.0, u_pick, u_dir[0], u_dir[1])
+        cos_y = dot(w, row(lights.area_emit, i))
+        if not cos_y > 0.0:
+            return y, w, zero
+        att = spread_attenuation(lights, i, cos_y)
+        return y, w, mul(row(lights.area_radiance, i), att * cos_y * lights.area_area[i] / density)
+    if kind == POINT:
+        # Lines of direction w that pass within the radius of the centre (a disk across w),
+        # aimed from the centre with the cones widened by the radius so that no line that
+        # reaches a specular object is missed; the path tracer's own test of the lamp is made
+        # where the line meets its first specular vertex (light_bounce).
+        c = row(lights.point_pos, i)
+        r = lights.point_radius[i]
+        w, density = emission_direction(caustics, c, r, u_pick, u_dir[0], u_dir[1])
+        x, y2 = sample_uniform_disk(u_point[0], u_point[1])
+        t_axis, s_axis = orthonormal_basis(w)
+        q = add(c, add(mul(t_axis, x * r), mul(s_axis, y2 * r)))
+        att = spot_attenuation(lights, i, w)
+        # Start where the light leaves: the disk's centre plane, or the sphere's far side.
+        rho2 = (x * x + y2 * y2) * r * r
+        origin = q if not lights.point_sphere[i] else madd(q, math.sqrt(max(r * r - rho2, 0.0)), w)
+        radiance = mul(row(lights.point_intensity, i), att / (math.pi * r * r))
+        return origin, w, mul(radiance, math.pi * r * r / density)
+    # A sun disc: a direction in its cone, then a line through a disk across one aim sphere.
+    travel = row(lights.sun_dir, i)
+    w, cone_density = sample_uniform_cone(travel, lights.sun_one_minus_cos[i], u_dir[0], u_dir[1])
+    total = 0.0
+    for k in range(caustics.aim_radius.shape[0]):
+        total += caustics.aim_radius[k] ** 2
+    target = u_pick * total
+    chosen = caustics.aim_radius.shape[0] - 1
+    for k in range(caustics.aim_radius.shape[0]):
+        if target < caustics.aim_radius[k] ** 2:
+            chosen = k
+            break
+        target -= caustics.aim_radius[k] ** 2
+    x, y2 = sample_uniform_disk(u_point[0], u_point[1])
+    t_axis, s_axis = orthonormal_basis(w)
+    r = caustics.aim_radius[chosen]
+    q = add(row(caustics.aim_center, chosen), add(mul(t_axis, x * r), mul(s_axis, y2 * r)))
+    # The line's density in area across w: every aim disk it crosses.
+    area_density = 0.0
+    for k in range(caustics.aim_radius.shape[0]):
+        off = sub(q, row(caustics.aim_center, k))
+        along = dot(off, w)
+        miss2 = dot(off, off) - along * along
+        if miss2 <= caustics.aim_radius[k] ** 2:
+            area_density += 1.0 / (math.pi * total)
+    far = dot(sub(q, caustics.scene_center), w) + caustics.scene_radius
+    return madd(q, -far, w), w, mul(row(lights.sun_radiance, i), 1.0 / (cone_density * area_density))
+
+
+# -- the stages ---------------------------------------------------------------------------------
+
+@jit_inline
+def set_light_path(paths, j, key, origin, direction, beta, bounces, lamp):
+    """Light path j leaves origin along direction with weight beta."""
+    paths.key[j] = key
+    for k in range(3):
+        paths.o32[j, k] = origin[k]
+        paths.d32[j, k] = direction[k]
+    paths.tmax[j] = 1e30
+    store(paths.beta, j, beta)
+    paths.bounces[j] = bounces
+    paths.lamp[j] = lamp
+
+
+@jit
+def emit_light_paths(caustics, lights, mesh, seed, pass_index, start, n, paths):
+    """Light paths start .. start + n of a pass leave their emitters (zero weight: left out)."""
+    # Chained hashes: a single mix of seed ^ pass would give (seed 0, pass 1) the keys of
+    # (seed 1, pass 0).
+    base = mix(mix(mix(np.uint64(0), np.uint64(seed)), LIGHT_DOMAIN), np.uint64(pass_index))
+    kept = 0
+    for j in range(n):
+        key = mix(base, np.uint64(start + j))
+        u_pick, u_aim = random_pair(key, 0, 0)
+        u_point = random_pair(key, 0, 1)
+        u_dir = random_pair(key, 0, 2)
+        cdf = caustics.emitter_cdf
+        e = min(np.searchsorted(cdf, u_pick * cdf[-1], side="right"), cdf.shape[0] - 1)
+        origin, w, beta = emit(caustics, lights, mesh, u_aim, u_point, u_dir, e)
+        beta = mul(beta, 1.0 / caustics.emitter_pmf[e])
+        if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
+            continue
+        set_light_path(paths, kept, key, origin, w, beta, 0, e)
+        kept += 1
+    return kept
+
+
+@jit_inline
+def lamp_sees(caustics, lights, e, w, s1, kind):
+    """Whether the path tracer's ray from the first specular vertex s1 back along the light path
+    (a ray of kind `kind`) would find the emitter: its visibility to that kind of ray and, for
+    point and spot lamps, the lamp's own shape seen from s1."""
+    lamp_kind, i = caustics.emitter_kind[e], caustics.emitter_index[e]
+    if lamp_kind == AREA:
+        return (lights.area_flags[i] & kind) != 0
+    if lamp_kind == SUN:
+        return (lights.sun_flags[i] & kind) != 0
+    if lamp_kind == POINT:
+        if not lights.point_flags[i] & kind:
+            return False
+        return intersect_point_lamp(lights, i, s1, neg(w)) > 0.0
+    return True
+
+
+@jit
+def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m, paths, prim, u,
+                 v, out, connections):
+    """Scatter light paths at specular hits (into `out`); at the first diffuse vertex after one
+    or more specular ones, queue the connection to the camera. Returns (paths in out,
+    connections queued)."""
+    n_out = 0
+    n_conn = 0
+    has_normals = mesh.corner_normals.shape[0] > 0
+    for i in range(m):
+        tri = prim[i]
+        if tri < 0:
+            continue
+        mat = mats.of_triangle[tri]
+        kind = mats.kind[mat]
+        if kind == EMISSION:
+            continue
+        d = (np.float64(paths.d32[i, 0]), np.float64(paths.d32[i, 1]), np.float64(paths.d32[i, 2]))
+        p, ng, ns, eps = hit_point(mesh, tri, np.float64(u[i]), np.float64(v[i]))
+        entering = dot(d, ng) < 0.0
+        side = 1.0 if entering else -1.0
+        ng_f, ns_f = mul(ng, side), mul(ns, side)
+        beta = row(paths.beta, i)
+        bounces = paths.bounces[i]
+        key = paths.key[i]
+        if kind == DIFFUSE:
+            # This vertex is bounce `bounces + 1` of the camera path that ends here.
+            if (bounces == 0 and not caustics.pure) or bounces + 1 > max_depth:
+                continue          # no specular vertex: the path tracer's path; or too long
+            if bounces == 0 and not lamp_sees(caustics, lights, paths.lamp[i], d, p,
+                                              VISIBLE_DIFFUSE):
+                continue
+            lens0, lens1 = random_pair(key, 1 + bounces, 3)
+            if caustics.pure and bounces + 2 <= max_depth:
+                n_out = diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d,
+                                       row(mats.color, mat), random_pair(key, 1 + bounces, 4))
+            pixel, o_cam, d_cam, lens_dist, cos_theta, s = camera_connection(cam, p, lens0, lens1)
+            if pixel < 0:
+                continue
+            wo = neg(d_cam)                        # towards the lens
+            wi = neg(d)                            # towards where the light came from
+            # Normals facing the camera, as the camera path that sees p has them.
+            face = 1.0 if dot(wo, ng) > 0.0 else -1.0
+            ngc, nsc = mul(ng, face), mul(ns, face)
+            cos_gi, cos_si, cos_go = dot(wi, ngc), dot(wi, nsc), dot(wo, ngc)
+            if not (cos_gi > 0.0 and cos_si > 0.0 and cos_go > 0.0):
+                continue          # a BSDF sample from p could not have produced wi
+            albedo = row(mats.color, mat)
+            f = (cos_si / cos_gi) * cos_go * s / (math.pi * lens_dist * lens_dist * cos_theta ** 3)
+            for k in range(3):
+                connections.contrib[n_conn, k] = beta[k] * albedo[k] * f
+            origin = offset_origin(p, ngc, eps, wo)
+            segment = sub(o_cam, origin)
+            length = math.sqrt(dot(segment, segment))
+            connections.path[n_conn] = pixel
+            for k in range(3):
+                connections.o32[n_conn, k] = origin[k]
+                connections.d32[n_conn, k] = segment[k] / length
+            connections.tmax[n_conn] = length
+            n_conn += 1
+            continue
+        if bounces + 1 >= max_depth:
+            continue              # a further diffuse vertex would exceed the depth
+        n = ns_f
+        if has_normals and kind != REFRACTION:
+            n = bsdf.valid_reflection_normal(ng_f, neg(d), ns_f)
+        u_choice, _ = random_pair(key, 1 + bounces, 5)
+        new_d, weight, event, valid = bsdf.sample_specular(
+            kind, d, ng_f, n, entering, row(mats.color, mat), row(mats.trans_color, mat),
+            mats.ior[mat], fresnel_model, u_choice)
+        if not valid or event == bsdf.TIR_ABSORBED:
+            continue
+        if bounces == 0:
+            ray_kind = VISIBLE_TRANSMISSION if event == bsdf.TRANSMITTED else VISIBLE_GLOSSY
+            if not lamp_sees(caustics, lights, paths.lamp[i], d, p, ray_kind):
+                continue
+        beta = (beta[0] * weight[0], beta[1] * weight[1], beta[2] * weight[2])
+        if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
+            continue
+        set_light_path(out, n_out, key, offset_origin(p, ng, eps, new_d), new_d, beta,
+                       bounces + 1, paths.lamp[i])
+        n_out += 1
+    return n_out, n_conn
+
+
+@jit_inline
+def diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, albedo, u):
+    """Pure light tracing: continue light path i from diffuse vertex p in a cosine-weighted
+    direction, with the adjoint's shading-normal factor; returns the new count in `out`."""
+    wi = neg(d)                                   # towards where the light came from
+    side = 1.0 if dot(wi, ng) > 0.0 else -1.0
+    ng_f, ns_f = mul(ng, side), mul(ns, side)
+    cos_si, cos_gi = dot(wi, ns_f), dot(wi, ng_f)
+    if not cos_si > 0.0:
+        return n_out
+    # Around the geometric normal: the camera path that meets this vertex from wo counts it for
+    # every wo above the geometric surface, also below the shading normal's horizon.
+    wo, pdf = sample_cosine_hemisphere(ng_f, u[0], u[1])
+    if not pdf > 0.0:
+        return n_out
+    # f |ng . wo| (|ns . wi| / |ng . wi|) / pdf with f = albedo / pi and pdf = |ng . wo| / pi.
+    scale = cos_si / cos_gi
+    beta = (paths.beta[i, 0] * albedo[0] * scale, paths.beta[i, 1] * albedo[1] * scale,
+            paths.beta[i, 2] * albedo[2] * scale)
+    set_light_path(out, n_out, paths.key[i], offset_origin(p, ng_f, eps, wo), wo, beta,
+                   paths.bounces[i] + 1, paths.lamp[i])
+    return n_out + 1
