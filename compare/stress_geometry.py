@@ -1,7 +1,7 @@
 """Meshes, cameras and scene assembly for `snell stress`: tracer Scenes built in Python, no bpy.
 
-The same shapes as tests/builders.py (which the installed package cannot import), plus the
-rotations and degenerate meshes the stress cases need.
+tests/builders.py builds its test scenes from these shapes too; the rotations and degenerate
+meshes are the stress cases' own.
 """
 from __future__ import annotations
 

@@ -3,58 +3,25 @@ from __future__ import annotations
 
 import numpy as np
 
+from snell.compare import stress_geometry  # the package's own meshes (snell stress)
 from snell.tracer.scene import Scene, validate
 
 
 def icosphere(subdivisions: int = 3, radius: float = 1.0, center=(0.0, 0.0, 0.0)):
     """A closed, outward-wound sphere mesh: (positions float32, triangles int32, normals float32)."""
-    t = (1.0 + 5 ** 0.5) / 2.0
-    verts = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t),
-             (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
-    faces = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4),
-             (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8),
-             (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
-    v = [np.array(p, float) / np.linalg.norm(p) for p in verts]
-    for _ in range(subdivisions):
-        cache, new_faces = {}, []
-
-        def mid(a, b):
-            key = (min(a, b), max(a, b))
-            if key not in cache:
-                m = v[a] + v[b]
-                v.append(m / np.linalg.norm(m))
-                cache[key] = len(v) - 1
-            return cache[key]
-        for a, b, c in faces:
-            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
-            new_faces += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
-        faces = new_faces
-    unit = np.array(v)
-    pos = (unit * radius + np.asarray(center)).astype(np.float32)
-    return pos, np.array(faces, np.int32), unit.astype(np.float32)
+    return stress_geometry.icosphere(subdivisions, radius, center)
 
 
 def quad(center, half_x, half_y, normal_sign=1.0):
-    """An axis-aligned quad in the z = center[2] plane facing +Z (or -Z)."""
-    cx, cy, cz = center
-    pos = np.array([[cx - half_x, cy - half_y, cz], [cx + half_x, cy - half_y, cz],
-                    [cx + half_x, cy + half_y, cz], [cx - half_x, cy + half_y, cz]], np.float32)
-    tri = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
-    if normal_sign < 0:
-        tri = tri[:, ::-1].copy()
-    return pos, tri
+    """An axis-aligned quad in the z = center[2] plane facing +Z (or -Z), float32 positions."""
+    pos, tri = stress_geometry.quad(center, half_x, half_y, normal_sign)
+    return pos.astype(np.float32), tri
 
 
 def box(lo, hi):
-    """A closed axis-aligned box with outward winding."""
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    c = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
-    pos = (lo + c * (hi - lo)).astype(np.float32)
-    faces = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
-    tri = []
-    for a, b, c2, d in faces:
-        tri += [(a, b, c2), (a, c2, d)]
-    return pos, np.array(tri, np.int32)
+    """A closed axis-aligned box with outward winding, float32 positions."""
+    pos, tri = stress_geometry.box(lo, hi)
+    return pos.astype(np.float32), tri
 
 
 def camera(position=(0.0, 0.0, 5.0), resolution=(32, 32), lens=50.0, dof=None, **extra):
