@@ -179,8 +179,12 @@ def _summary(args, rgb, result, bad_pixels) -> str:
     written = args.output + (f" + {args.png}" if args.png else "")
     light = (f", {result.light_paths} light paths ({result.stats.get('caustic_splats', 0)} reached "
              f"the camera)" if result.light_paths else ", no light tracing")
+    skipped = ""
+    if getattr(result, "stages", None):
+        from .tracer.integrator import describe_stages
+        skipped = f"; skipped: {describe_stages(result.stages)[1]}"
     return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {result.spp} spp in {_duration(wall)} "
-            f"({rays}, {embree}){light}, {nans}")
+            f"({rays}, {embree}){light}, {nans}{skipped}")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -223,6 +227,10 @@ def _counts(items, order) -> str:
 
 def describe(scene) -> list[str]:
     """The lines `snell info` prints."""
+    from .tracer.integrator import Renderer, describe_stages
+
+    stages = Renderer(scene, threads=1).stages()    # the stages a render of it would run
+    run, skipped = describe_stages(stages)
     cam, dof, render = scene.camera, scene.camera["dof"], scene.render
     pct = cam.get("resolution_percentage", 100)
     width, height = (int(r * pct / 100) for r in cam["resolution"])
@@ -243,19 +251,18 @@ def describe(scene) -> list[str]:
         f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
         f"render     {render['spp']} spp, max depth {render['max_depth']}, seed {render['seed']}, "
         f"fresnel {render['fresnel']}",
-        f"caustics   {light_tracing(scene)}",
+        f"caustics   {light_tracing(stages)}",
+        f"runs       {run}",
+        f"skips      {skipped}",
         f"features   {', '.join(features) or 'none'}",
     ]
 
 
-def light_tracing(scene) -> str:
-    """Whether a render of the scene runs the caustics light tracer, and why not."""
-    from .tracer.integrator import Renderer
-
-    if not scene.render.get("caustics", True):
-        return "path tracer only (caustics off)"
-    if Renderer(scene, threads=1).caustics is None:
-        return "path tracer only (no mirror or glass, or no lamp that rays can hit sees one)"
+def light_tracing(stages) -> str:
+    """Whether a render runs the caustics light tracer, and why not, from Renderer.stages()."""
+    runs, why = stages["light tracing"]
+    if not runs:
+        return f"path tracer only ({why})"
     return "light tracing from the lamps through mirrors and glass, path tracing for the rest"
 
 

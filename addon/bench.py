@@ -85,7 +85,8 @@ def _snell_point(spec):
         "embree_share": result.embree_share,
         "embree_share_of_wall": result.embree_time_s / (wall * result.threads),
         "nan_samples": result.nan_count, "threads": result.threads,
-        "light_paths": result.light_paths, "caustic_splats": result.stats.get("caustic_splats", 0)}
+        "light_paths": result.light_paths, "caustic_splats": result.stats.get("caustic_splats", 0),
+        "skipped_stages": sorted(name for name, (runs, _) in result.stages.items() if not runs)}
 
 
 def _cycles_point(spec):
@@ -293,6 +294,10 @@ def definitions(opts: Options) -> dict:
                        "elsewhere): "
                        "Python, numpy, the bpy module and native memory (Embree, Cycles); "
                        "peak_rss_above_baseline_mb subtracts a child that only imports them",
+        "skipped_stages": "Snell only: the optional stages the scene does not need and Snell does not "
+                          "run (lens sampling without depth of field, dielectric sampling without "
+                          "glass, next-event estimation without lamps or world light, the world "
+                          "when it is black, light tracing without mirror or glass and a lamp)",
         "caustic_relmse": f"relMSE over the caustic region only: the pixels where the light "
                           f"tracer's image (at the largest Snell point) is at least "
                           f"{CAUSTIC_SHARE:g} of the reference",

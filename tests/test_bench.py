@@ -127,6 +127,10 @@ def test_quick_bench_fills_every_key(tmp_path):
     assert all(p["light_paths"] == 0 for p in spheres["snell_path_tracer"]["points"])
     assert spheres["caustic_gain_at_equal_time"]["median"] > 0
     assert dragon["caustic_region"]["pixels"] == 0
+    # What each scene skips: the dragon has no glass; neither has a world light.
+    assert "dielectric sampling" in dragon["snell"]["points"][0]["skipped_stages"]
+    assert "world" in spheres["snell"]["points"][0]["skipped_stages"]
+    assert "dielectric sampling" not in spheres["snell"]["points"][0]["skipped_stages"]
     assert all("caustic_relmse" not in p and p["light_paths"] == 0 for p in dragon["snell"]["points"])
     html = (report / "bench.html").read_text()
     assert html.count("<polyline") == 6 and "cornell_dragon" in html

@@ -226,3 +226,21 @@ def test_the_command_line_says_whether_light_tracing_runs(tmp_path):
         return proc.stdout
     assert "light paths" in render()
     assert "no light tracing" in render("--caustics", "off")
+
+
+def test_a_render_skips_what_the_scene_does_not_need():
+    """No glass: the dielectric code is never entered; no depth of field: no lens samples;
+    each skip is named, with its reason."""
+    plain = Renderer(pure_room()).render(spp=2)          # diffuse only, pinhole, no world
+    assert plain.stats["dielectric_samples"] == 0 and plain.stats["lens_samples"] == 0
+    assert plain.stages["dielectric sampling"] == (False, "no glass")
+    assert plain.stages["lens sampling"] == (False, "no depth of field")
+    assert plain.stages["world"] == (False, "black world")
+    assert plain.stages["light tracing"][0] is False
+    assert plain.stages["next-event estimation"][0] is True
+    dof = {"use_dof": True, "focus_distance": 1.2, "fstop": 0.5}
+    glass = Renderer(caustic_room(3, (16, 16)).with_camera(dof=dof)).render(spp=2)
+    assert glass.stats["dielectric_samples"] > 0 and glass.stats["lens_samples"] == 16 * 16 * 2
+    assert glass.stages["dielectric sampling"] == (True, "glass")
+    assert glass.stages["lens sampling"] == (True, "depth of field")
+    assert glass.stages["light tracing"][0] is True

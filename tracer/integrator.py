@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import jit, light_paths, wavefront
+from . import bsdf, jit, light_paths, wavefront
 from .camera import Camera
 from .geometry import Geometry
 from .lights import LightSampler
@@ -60,6 +60,7 @@ class RenderResult:
     threads: int = 1
     cancelled: bool = False
     stats: dict = field(default_factory=dict)
+    stages: dict = field(default_factory=dict)   # Renderer.stages(): what the scene runs, skips
 
     def mean(self) -> np.ndarray:
         """The image: per-pixel mean radiance, float32 (H, W, 3), linear."""
@@ -198,6 +199,30 @@ class Renderer:
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
 
+    def stages(self) -> dict:
+        """Which optional stages this scene runs: {stage: (runs, why)}."""
+        kinds = np.unique(self.materials.kind[self.materials.of_triangle]) \
+            if len(self.materials.of_triangle) else np.zeros(0, np.int64)
+        dielectric = bool(np.isin(kinds, (bsdf.GLASS, bsdf.REFRACTION)).any())
+        lights = self.lights.tables
+        next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
+        if not self.scene.render.get("caustics", True):
+            why_no_light = "caustics off"
+        else:
+            why_no_light = "no mirror or glass, or no lamp that rays can hit sees one"
+        return {
+            "lens sampling": (self.camera.has_lens, "depth of field" if self.camera.has_lens
+                              else "no depth of field"),
+            "dielectric sampling": (dielectric, "glass" if dielectric else "no glass"),
+            "next-event estimation": (next_event, "lamps or world light to sample" if next_event
+                                      else "no lamps and a black world"),
+            "world": (bool(np.any(lights.world > 0.0)),
+                      "world light" if np.any(lights.world > 0.0) else "black world"),
+            "light tracing": (self.caustics is not None,
+                              "lamps through mirrors and glass" if self.caustics is not None
+                              else why_no_light),
+        }
+
     # -- one chunk of paths ---------------------------------------------------------------
 
     def trace_chunk(self, start: int, n: int, in_pass: int, first_sample: int, bits: int,
@@ -212,7 +237,7 @@ class Renderer:
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
         wavefront.generate(self.camera.params(), self.seed, start, in_pass, first_sample, bits,
-                           stratified, n, paths)
+                           stratified, n, paths, stats)
         m = n
         for depth in range(self.max_depth + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
@@ -276,7 +301,8 @@ class Renderer:
         w, h = self.camera.width, self.camera.height
         npix = w * h
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
-                              build_s=self.build_s, light_in_image=self.split)
+                              build_s=self.build_s, light_in_image=self.split,
+                              stages=self.stages())
         passes = batches or math.ceil(spp / max(1, min(spp, PASS_PATHS // npix)))
         passes = max(1, min(passes, spp))
         bits = max(1, (spp - 1).bit_length())   # sample indices run over [0, 2^bits)
@@ -348,6 +374,13 @@ def _add_batch(total, total_sq, image):
     """Add one batch image, (pixels, 3) rows, to (H, W, 3) sums of batches and of their squares."""
     total.reshape(-1, 3)[:] += image
     total_sq.reshape(-1, 3)[:] += image * image
+
+
+def describe_stages(stages: dict) -> tuple[str, str]:
+    """('stage (why), ...' of the stages run, the same of those skipped) for a summary line."""
+    run = ", ".join(f"{name} ({why})" for name, (runs, why) in stages.items() if runs)
+    skipped = ", ".join(f"{name} ({why})" for name, (runs, why) in stages.items() if not runs)
+    return run or "none", skipped or "none"
 
 
 def _variance_of_batch_mean(total, total_sq, k):

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import bsdf
-from .bsdf import DIFFUSE, EMISSION, REFRACTION
+from .bsdf import DIFFUSE, EMISSION, MIRROR, REFRACTION
 from .camera import camera_ray
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
@@ -39,9 +39,9 @@ RR_START = 3              # Russian roulette from this bounce on ...
 RR_THRESHOLD = 0.1        # ... for paths whose throughput has fallen below this
 # Event counters (RenderResult.stats), by index.
 STATS = ("tir", "tir_absorbed", "rejected", "transmissions", "reflections", "diffuse",
-         "rr_killed", "depth_limited", "caustic_splats")
+         "rr_killed", "depth_limited", "caustic_splats", "lens_samples", "dielectric_samples")
 (TIR_COUNT, TIR_ABSORBED_COUNT, REJECTED, TRANSMISSIONS, REFLECTIONS, DIFFUSE_HITS, RR_KILLED,
- DEPTH_LIMITED, CAUSTIC_SPLATS) = range(len(STATS))
+ DEPTH_LIMITED, CAUSTIC_SPLATS, LENS_SAMPLES, DIELECTRIC_SAMPLES) = range(len(STATS))
 FAR32 = np.float32(FAR)
 # A camera path's place in the split of path space with the light tracer (light_paths.py).
 NO_CAUSTIC, FIRST_DIFFUSE, CAUSTIC = range(3)
@@ -128,7 +128,7 @@ def add_light(radiance, path, beta, light, w):
 
 
 @jit
-def generate(cam, seed, start, in_pass, first_sample, bits, stratified, n, paths):
+def generate(cam, seed, start, in_pass, first_sample, bits, stratified, n, paths, stats):
     """Camera rays for the chunk's paths start .. start + n of a pass of in_pass samples per
     pixel (pixel = path // in_pass, sample = first_sample + path % in_pass)."""
     for i in range(n):
@@ -140,6 +140,7 @@ def generate(cam, seed, start, in_pass, first_sample, bits, stratified, n, paths
         l0, l1 = 0.0, 0.0
         if cam.lens_radius > 0.0:
             l0, l1 = sample_pair(key, sample, 1, bits, stratified)
+            stats[LENS_SAMPLES] += 1
         o, d, far = camera_ray(cam, pixel, u0, u1, l0, l1)
         set_ray(paths, i, o, d, far)
         paths.path[i] = i
@@ -280,6 +281,8 @@ def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, d
                 kind, d, ng_f, n, entering, row(mats.color, mat),
                 row(mats.trans_color, mat), mats.ior[mat], fresnel_model, u0)
             count_specular(stats, event, valid)
+            if kind != MIRROR:
+                stats[DIELECTRIC_SAMPLES] += 1
             beta = (beta[0] * weight[0], beta[1] * weight[1], beta[2] * weight[2]) if valid \
                 else (0.0, 0.0, 0.0)
             ray_kind = VISIBLE_TRANSMISSION if event == bsdf.TRANSMITTED else VISIBLE_GLOSSY
