@@ -245,24 +245,19 @@ def _ladder(kind, blend, ref, opts, baseline_mb, log, caustics=True):
     return points, images
 
 
-def _caustic_region(ladders, ref):
-    """The pixels where the light tracer carries at least CAUSTIC_SHARE of the reference, from
-    the largest hybrid point's light image (None when no ladder traced light), and its summary."""
-    lights = [light for _, images in ladders for _, light in images if light is not None]
-    if not lights:
-        return None, {"pixels": 0, "fraction": 0.0, "light_share_of_image": 0.0,
-                      "share_threshold": CAUSTIC_SHARE}
-    light = lights[-1].astype(np.float64)
-    share = light.sum(axis=2) / np.maximum(ref.sum(axis=2), 1e-6)
-    mask = share >= CAUSTIC_SHARE
+def _caustic_region(light, ref):
+    """The pixels where the light tracer's image `light` (None: it did not run) carries at least
+    CAUSTIC_SHARE (compare/bench.py) of the reference, and their summary."""
+    if light is None:
+        return np.zeros(ref.shape[:2], bool), {"pixels": 0, "fraction": 0.0,
+                                               "light_share_of_image": 0.0,
+                                               "share_threshold": cb.CAUSTIC_SHARE}
+    mask = cb.light_share(light, ref) >= cb.CAUSTIC_SHARE
     return mask, {"pixels": int(mask.sum()), "fraction": float(mask.mean()),
-                  "light_share_of_image": float(light.sum() / max(ref.sum(), 1e-300)),
-                  "share_threshold": CAUSTIC_SHARE}
+                  "light_share_of_image": float(light.sum(dtype=np.float64)
+                                                / max(ref.sum(), 1e-300)),
+                  "share_threshold": cb.CAUSTIC_SHARE}
 
-
-# The caustic region: pixels where the light tracer's image is at least this share of the
-# reference (the light that glass and mirrors focus, which a path tracer finds by rare paths).
-CAUSTIC_SHARE = 0.1
 
 
 def definitions(opts: Options) -> dict:
@@ -300,7 +295,7 @@ def definitions(opts: Options) -> dict:
                           "when it is black, light tracing without mirror or glass and a lamp)",
         "caustic_relmse": f"relMSE over the caustic region only: the pixels where the light "
                           f"tracer's image (at the largest Snell point) is at least "
-                          f"{CAUSTIC_SHARE:g} of the reference",
+                          f"{cb.CAUSTIC_SHARE:g} of the reference",
         "caustic_gain_at_equal_time": "for each Snell point, the path tracer alone's caustic "
                                       "relMSE at the same wall time (log-log interpolation "
                                       "between its ladder points) over Snell's; median over points",
@@ -334,8 +329,11 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
             ladders["snell_path_tracer"] = _ladder("snell", blend, ref, opts, baseline_mb, log,
                                                    caustics=False)
         ladders["cycles"] = _ladder("cycles", blend, ref, opts, baseline_mb, log)
-        mask, region = _caustic_region(ladders.values(), ref)
-        if mask is not None and mask.any():
+        # The light tracer's image at the largest point of the Snell ladder (None if it did not
+        # run): it defines the caustic region and the share map.
+        light = ladders["snell"][1][-1][1]
+        mask, region = _caustic_region(light, ref)
+        if mask.any():
             for points, images in ladders.values():
                 for p, (image, _) in zip(points, images):
                     p["caustic_relmse"] = metrics.relmse(image[mask], ref[mask])
@@ -349,11 +347,10 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
         if "snell_path_tracer" in scene:
             scene["path_tracer_time_to_equal_error"] = cb.equal_error(
                 scene["snell_path_tracer"]["points"], scene["cycles"]["points"])
-            if mask is not None and mask.any():
+            if mask.any():
                 scene["caustic_gain_at_equal_time"] = cb.gain_at_equal_time(
                     scene["snell"]["points"], scene["snell_path_tracer"]["points"],
                     "caustic_relmse")
-        light = ladders["snell"][1][-1][1]
         if light is not None:
             maps[name] = cb.share_map_png(light, ref)
         out_scenes.append(scene)

@@ -159,12 +159,21 @@ def gain_at_equal_time(points, other, key) -> dict:
     return {"key": key, "median": float(np.median(inside)) if inside else 0.0, "points": ratios}
 
 
+# The caustic region: pixels where the light tracer's image is at least this share of the
+# reference (the light that glass and mirrors focus, which a path tracer finds by rare paths).
+CAUSTIC_SHARE = 0.1
+
+
+def light_share(light, reference) -> np.ndarray:
+    """The light tracer's image over the reference per pixel (channels summed), (H, W)."""
+    return (np.asarray(light, np.float64).sum(axis=2)
+            / np.maximum(np.asarray(reference, np.float64).sum(axis=2), 1e-6))
+
+
 def share_map_png(light, reference) -> bytes:
     """A grey PNG of the light tracer's share of the reference per pixel (black 0, white 1)."""
     from .report import png_bytes
-    share = np.clip(np.asarray(light, np.float64).sum(axis=2)
-                    / np.maximum(np.asarray(reference, np.float64).sum(axis=2), 1e-6), 0.0, 1.0)
-    grey = np.round(share * 255).astype(np.uint8)
+    grey = np.round(np.clip(light_share(light, reference), 0.0, 1.0) * 255).astype(np.uint8)
     return png_bytes(np.repeat(grey[..., None], 3, axis=2))
 
 

@@ -34,11 +34,15 @@ def _noisy(rng, truth, n, scale=0.3):
     return samples.mean(0), samples.var(0, ddof=1) / n
 
 
+def _two_estimates(seed, shape, n):
+    """Two independent noisy estimates (mean, variance of the mean) of one random image."""
+    rng = np.random.default_rng(seed)
+    truth = rng.uniform(0.1, 1.0, shape)
+    return (*_noisy(rng, truth, n), *_noisy(rng, truth, n))
+
+
 def test_metrics_consistent_and_inconsistent_on_synthetic_images():
-    rng = np.random.default_rng(1)
-    truth = rng.uniform(0.1, 1.0, (32, 32, 3))
-    a, va = _noisy(rng, truth, 64)
-    b, vb = _noisy(rng, truth, 64)
+    a, va, b, vb = _two_estimates(1, (32, 32, 3), 64)
     ok = metrics.compare(a, va, 63, b, vb, 63)
     assert ok["verdict"] == "consistent", ok["tests"]
     assert ok["z_pass_fraction"] > 0.997
@@ -51,10 +55,7 @@ def test_metrics_on_images_past_256x256_pixels():
     # Blender's startup file at its 1920x1080 failed here: the image-mean test's dof divided by
     # npx ** 4, a Python int beyond uint64 from 256x256 pixels on, so numpy fell back to object
     # dtype and scipy's t-distribution raised TypeError.
-    rng = np.random.default_rng(3)
-    truth = rng.uniform(0.1, 1.0, (256, 256, 3))
-    a, va = _noisy(rng, truth, 4)
-    b, vb = _noisy(rng, truth, 4)
+    a, va, b, vb = _two_estimates(3, (256, 256, 3), 4)
     r = metrics.compare(a, va, 3, b, vb, 3)
     assert r["verdict"] == "consistent", r["tests"]
     # The image mean's Welch-Satterthwaite dof is df (sum v)^2 / sum v^2 per channel.

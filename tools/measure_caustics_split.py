@@ -34,6 +34,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     from snell.addon.export import export_blend
+    from snell.compare.bench import CAUSTIC_SHARE, light_share
     from snell.compare.metrics import relmse
     from snell.tracer import integrator
     from snell.tracer.integrator import Renderer
@@ -44,8 +45,7 @@ def main(argv=None):
     ref_result = Renderer(scene.with_render(seed=12345), threads=args.threads).render(
         spp=args.reference_spp)
     ref = ref_result.mean().astype(np.float64)
-    share = ref_result.light_image().sum(axis=2) / np.maximum(ref.sum(axis=2), 1e-6)
-    region = share >= 0.1
+    region = light_share(ref_result.light_image(), ref) >= CAUSTIC_SHARE
     print(f"caustic region: {region.mean():.1%} of the pixels")
     print("| light paths per camera path | render s (median) | relMSE | relMSE x s | "
           "caustic relMSE | caustic relMSE x s |")

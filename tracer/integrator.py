@@ -98,19 +98,18 @@ class RenderResult:
         squares (n - 1), which then leave the light tracer's part out.
         """
         if self.batches >= 2 and self.batch_sum is not None:
-            return _variance_of_batch_mean(self.batch_sum, self.batch_sq, self.batches), \
+            return _variance_of_mean(self.batch_sum, self.batch_sq, self.batches), \
                 self.batches - 1
         n = self.spp
         if n < 2:
             return np.full_like(self.sum, np.inf), 1
-        var = np.maximum((self.sum_sq - self.sum * self.sum / n) / (n - 1), 0.0) / n
-        return var, n - 1
+        return _variance_of_mean(self.sum, self.sum_sq, n), n - 1
 
     def light_variance_of_mean(self) -> np.ndarray:
         """Per-pixel variance of light_image() from its batches (K - 1 degrees of freedom)."""
         if self.batches < 2 or self.light_batch_sum is None:
             return np.full_like(self.sum, np.inf)
-        return _variance_of_batch_mean(self.light_batch_sum, self.light_batch_sq, self.batches)
+        return _variance_of_mean(self.light_batch_sum, self.light_batch_sq, self.batches)
 
     @property
     def rays_per_second(self) -> float:
@@ -201,11 +200,11 @@ class Renderer:
 
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
-        kinds = np.unique(self.materials.kind[self.materials.of_triangle]) \
-            if len(self.materials.of_triangle) else np.zeros(0, np.int64)
-        dielectric = bool(np.isin(kinds, (bsdf.GLASS, bsdf.REFRACTION)).any())
+        dielectric = bool(np.isin(self.materials.kind[self.materials.of_triangle],
+                                  (bsdf.GLASS, bsdf.REFRACTION)).any())
         lights = self.lights.tables
         next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
+        world = bool(np.any(lights.world > 0.0))
         if not self.scene.render.get("caustics", True):
             why_no_light = "caustics off"
         else:
@@ -216,8 +215,7 @@ class Renderer:
             "dielectric sampling": (dielectric, "glass" if dielectric else "no glass"),
             "next-event estimation": (next_event, "lamps or world light to sample" if next_event
                                       else "no lamps and a black world"),
-            "world": (bool(np.any(lights.world > 0.0)),
-                      "world light" if np.any(lights.world > 0.0) else "black world"),
+            "world": (world, "world light" if world else "black world"),
             "light tracing": (self.caustics is not None,
                               "lamps through mirrors and glass" if self.caustics is not None
                               else why_no_light),
@@ -383,8 +381,9 @@ def describe_stages(stages: dict) -> tuple[str, str]:
     return run or "none", skipped or "none"
 
 
-def _variance_of_batch_mean(total, total_sq, k):
-    """The variance of the mean of k independent batch images from their sum and sum of squares."""
+def _variance_of_mean(total, total_sq, k):
+    """The variance of the mean of k independent values (samples, or batch images) per pixel,
+    from their sum and sum of squares."""
     return np.maximum((total_sq - total * total / k) / (k - 1), 0.0) / k
 
 
