@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import bsdf, jit, light_paths, wavefront
+from . import adaptive, bsdf, jit, light_paths, wavefront
 from .camera import Camera
 from .geometry import Geometry
 from .lights import LightSampler
@@ -61,21 +61,51 @@ class RenderResult:
     cancelled: bool = False
     stats: dict = field(default_factory=dict)
     stages: dict = field(default_factory=dict)   # Renderer.stages(): what the scene runs, skips
+    # Adaptive sampling (tracer/adaptive.py): each pixel's samples (None: spp everywhere), the
+    # settings, the share of pixels still sampling, and the light tracer's half A and per-pass
+    # sums for its variance.
+    spp_budget: int = 0
+    noise_threshold: float = 0.0
+    min_spp: int = 0
+    sample_count: np.ndarray | None = None
+    active_share: float = 1.0
+    light_paths_a: int = 0
+    light_pass_sq: np.ndarray | None = None
+    light_passes: int = 0
 
     def mean(self) -> np.ndarray:
-        """The image: per-pixel mean radiance, float32 (H, W, 3), linear."""
+        """The image: per-pixel mean radiance (each pixel's sum over its own sample count),
+        float32 (H, W, 3), linear."""
         if self.spp == 0:
             return np.zeros_like(self.sum, dtype=np.float32)
-        # Divided in float64 and rounded once into the float32 image, without a float64 copy of
-        # the image on the way (1.5 GB at 8192x8192); the light tracer's part a band at a time.
+        # Divided in float64 and rounded once into the float32 image, a band at a time, without
+        # a float64 copy of the image on the way (1.5 GB at 8192x8192).
         image = np.empty(self.sum.shape, np.float32)
-        if not (self.light_in_image and self.light_paths):
-            np.divide(self.sum, self.spp, out=image, casting="unsafe")
-            return image
-        for r in range(0, image.shape[0], 256):
-            image[r:r + 256] = (self.sum[r:r + 256] / self.spp
-                                + self.light_sum[r:r + 256] / self.light_paths)
+        light = self.light_in_image and self.light_paths
+        rows = max(1, (1 << 14) // self.width)
+        for r in range(0, image.shape[0], rows):
+            band = slice(r, r + rows)
+            count = self.spp if self.sample_count is None else \
+                np.maximum(self.sample_count[band], 1)[..., None]
+            part = self.sum[band] / count
+            if light:
+                part += self.light_sum[band] / self.light_paths
+            image[band] = part
         return image
+
+    def samples(self) -> np.ndarray:
+        """Each pixel's camera samples, int32 (H, W)."""
+        if self.sample_count is not None:
+            return self.sample_count
+        return np.full((self.height, self.width), self.spp, np.int32)
+
+    @property
+    def saved_share(self) -> float:
+        """The share of the sample budget (spp_budget in every pixel) adaptive sampling saved."""
+        budget = self.spp_budget * self.width * self.height
+        if self.sample_count is None or budget == 0:
+            return 0.0
+        return 1.0 - float(self.sample_count.sum(dtype=np.int64)) / budget
 
     def light_image(self) -> np.ndarray:
         """The light tracer's splats per light path, float64 (H, W, 3): its part of the hybrid's
@@ -100,13 +130,34 @@ class RenderResult:
         if self.batches >= 2 and self.batch_sum is not None:
             return _variance_of_mean(self.batch_sum, self.batch_sq, self.batches), \
                 self.batches - 1
+        if self.sample_count is not None:
+            return self._adaptive_variance_and_dof()
         n = self.spp
         if n < 2:
             return np.full_like(self.sum, np.inf), 1
         return _variance_of_mean(self.sum, self.sum_sq, n), n - 1
 
+    def _adaptive_variance_and_dof(self):
+        """With per-pixel sample counts n: the camera samples' variance over each pixel's own n
+        (n - 1 degrees of freedom) plus, in the hybrid, the light tracer's from its passes; the
+        degrees of freedom are the smallest of any pixel's (conservative for the tests)."""
+        n = np.maximum(self.sample_count, 2)[..., None].astype(np.float64)
+        variance = np.maximum((self.sum_sq - self.sum * self.sum / n) / (n - 1), 0.0) / n
+        dof = int(self.sample_count.min()) - 1
+        if self.light_in_image and self.light_passes >= 2:
+            variance = variance + self.light_variance_of_mean()
+            dof = min(dof, self.light_passes - 1)
+        return variance, max(dof, 1)
+
     def light_variance_of_mean(self) -> np.ndarray:
         """Per-pixel variance of light_image() from its batches (K - 1 degrees of freedom)."""
+        if self.light_pass_sq is not None and self.light_passes >= 2:
+            # Passes of unequal light path counts L_k and sums S_k: the variance of one light
+            # path's splats is sum_k (S_k - L_k mean)^2 / L_k / (K - 1), that of the mean
+            # that over L.
+            total, k = self.light_paths, self.light_passes
+            spread = self.light_pass_sq - self.light_sum * self.light_sum / total
+            return np.maximum(spread, 0.0) / (k - 1) / total
         if self.batches < 2 or self.light_batch_sum is None:
             return np.full_like(self.sum, np.inf)
         return _variance_of_mean(self.light_batch_sum, self.light_batch_sq, self.batches)
@@ -223,19 +274,20 @@ class Renderer:
 
     # -- one chunk of paths ---------------------------------------------------------------
 
-    def trace_chunk(self, start: int, n: int, in_pass: int, first_sample: int, bits: int,
-                    total: np.ndarray, total_sq: np.ndarray):
-        """Trace paths start .. start + n of a pass (in_pass samples per pixel, the first being
-        sample first_sample) and add them to the (pixels, 3) sums. Returns (NaN/Inf samples,
-        event counters)."""
+    def trace_chunk(self, start: int, n: int, in_pass: int, first_sample: int, pixels: np.ndarray,
+                    bits: int, total: np.ndarray, total_sq: np.ndarray, half: np.ndarray):
+        """Trace paths start .. start + n of a pass (in_pass samples per pixel of `pixels`, or of
+        every pixel when it is empty; the first sample being first_sample) and add them to the
+        (pixels, 3) sums, class-A samples also to `half` if it has rows (adaptive.py). Returns
+        (NaN/Inf samples, event counters)."""
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
         paths, out, shadows, radiance, active, stats = self._buffers.get()
         stats[:] = 0
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
-        wavefront.generate(self.camera.params(), self.seed, start, in_pass, first_sample, bits,
-                           stratified, n, paths, stats)
+        wavefront.generate(self.camera.params(), self.seed, start, in_pass, first_sample, pixels,
+                           bits, stratified, n, paths, stats)
         m = n
         for depth in range(self.max_depth + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
@@ -255,7 +307,8 @@ class Renderer:
             if m == 0:
                 break
         with self._film_lock:
-            bad = wavefront.film(radiance, n, start, in_pass, total, total_sq)
+            bad = wavefront.film(radiance, n, start, in_pass, first_sample, pixels, total,
+                                 total_sq, half)
         return bad, stats.copy()
 
     def trace_light_chunk(self, pass_index: int, start: int, n: int):
@@ -287,64 +340,108 @@ class Renderer:
 
     # -- passes ----------------------------------------------------------------------------
 
-    def render(self, spp: int | None = None, progress=None, batches: int | None = None) -> RenderResult:
-        """Render progressively; `progress(result, pass_index, pass_count)` may return False to stop.
+    def render(self, spp: int | None = None, progress=None, batches: int | None = None,
+               noise_threshold: float | None = None, min_spp: int | None = None) -> RenderResult:
+        """Render progressively; `progress(result, pass_index, pass_count)` may return False to
+        stop (with adaptive sampling pass_count is an estimate: result.spp / spp is the share of
+        the budget done).
 
         Each pass adds its samples to the image, and the light tracer (where it runs) as many
-        light paths per camera path as light_paths_per_camera_path says. `batches=K` renders in K passes (of
-        equal samples, give or take one) and keeps each pass's image as a batch, for variances
-        of the mean from independent batches (RenderResult.variance_and_dof).
+        light paths per camera path as light_paths_per_camera_path says. `batches=K` renders in
+        K passes (of equal samples, give or take one) and keeps each pass's image as a batch, for
+        variances of the mean from independent batches (RenderResult.variance_and_dof).
+
+        noise_threshold > 0 (default: the scene's noise_threshold) samples adaptively
+        (tracer/adaptive.py): spp is then each pixel's most, min_spp (default the scene's; 0 =
+        Cycles' automatic minimum) its least. Batches need equal samples in every pixel: with
+        batches adaptive sampling is off.
         """
-        spp = int(spp if spp is not None else self.scene.render["spp"])
+        render = self.scene.render
+        spp = int(spp if spp is not None else render["spp"])
+        threshold = 0.0 if batches is not None else float(
+            noise_threshold if noise_threshold is not None else render.get("noise_threshold", 0.0))
+        least = int(min_spp if min_spp is not None else render.get("min_spp", 0))
+        if threshold > 0.0 and least <= 0:
+            least = adaptive.auto_min_spp(threshold)
+        adapt = threshold > 0.0 and least < spp
         w, h = self.camera.width, self.camera.height
         npix = w * h
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
                               build_s=self.build_s, light_in_image=self.split,
-                              stages=self.stages())
-        passes = batches or math.ceil(spp / max(1, min(spp, PASS_PATHS // npix)))
-        passes = max(1, min(passes, spp))
+                              stages=self.stages(), spp_budget=spp,
+                              noise_threshold=threshold if adapt else 0.0,
+                              min_spp=least if adapt else spp)
         bits = max(1, (spp - 1).bit_length())   # sample indices run over [0, 2^bits)
         traces_light = self.caustics is not None
         keep_batches = batches is not None
         total, total_sq = result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3)
+        no_rows = np.zeros((0, 3))
+        all_pixels = np.zeros(0, np.int64)      # film and generate: every pixel, in order
+        sampling = all_pixels
+        half = no_rows
+        if adapt:
+            result.sample_count = np.zeros((h, w), np.int32)
+            half = np.zeros((npix, 3))
+            sampling = np.arange(npix, dtype=np.int64)
         if traces_light:
             result.light_sum = np.zeros((h, w, 3))
             pass_light = np.zeros((npix, 3))
+            if adapt:
+                light_half, pass_light_a = np.zeros((npix, 3)), np.zeros((npix, 3))
+                result.light_pass_sq = np.zeros((h, w, 3))
         if keep_batches:
             result.batch_sum, result.batch_sq = np.zeros((h, w, 3)), np.zeros((h, w, 3))
             pass_sum = np.zeros((npix, 3))
             if traces_light:
                 result.light_batch_sum = np.zeros((h, w, 3))
                 result.light_batch_sq = np.zeros((h, w, 3))
+            passes = max(1, min(batches, spp))
         embree_before, rays_before = self.geometry.embree_time, self.geometry.ray_count
         counters = np.zeros(len(wavefront.STATS), np.int64)
         start = time.perf_counter()
-        first_sample = 0
+        light_share = 1.0
+        k = 0
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
-            for k in range(passes):
-                in_pass = spp // passes + (1 if k < spp % passes else 0)
-                count = npix * in_pass
+            while result.spp < spp:
+                done = result.spp
+                n_rows = npix if sampling is all_pixels else sampling.shape[0]
+                if keep_batches:
+                    in_pass = spp // passes + (1 if k < spp % passes else 0)
+                else:
+                    # Enough paths per pass to fill the threads' chunks; no more samples than
+                    # reach the budget or adaptive sampling's next check.
+                    in_pass = max(1, min(PASS_PATHS // n_rows, CHUNK, spp - done))
+                    if adapt:
+                        in_pass = min(in_pass, _next_check(done, least) - done)
+                count = n_rows * in_pass
                 film = pass_sum if keep_batches else total
                 if keep_batches:
                     pass_sum[:] = 0.0
-                jobs = [(s, min(CHUNK, count - s)) for s in range(0, count, CHUNK)]
+                # Chunks hold whole pixels' samples, so that each pixel's sum is added in the same
+                # order with any number of threads (float addition is not associative).
+                size = max(1, CHUNK // in_pass) * in_pass
+                jobs = [(s, min(size, count - s)) for s in range(0, count, size)]
                 for bad, stats in pool.map(
-                        lambda job: self.trace_chunk(job[0], job[1], in_pass, first_sample, bits,
-                                                     film, total_sq), jobs):
+                        lambda job: self.trace_chunk(job[0], job[1], in_pass, done, sampling,
+                                                     bits, film, total_sq, half), jobs):
                     result.nan_count += bad
                     counters += stats
                 n_light = 0
                 if traces_light:
-                    pass_light[:] = 0.0
-                    n_light = max(1, int(round(self.light_paths_per_camera_path * count)))
-                    light_jobs = [(s, min(CHUNK, n_light - s)) for s in range(0, n_light, CHUNK)]
-                    for pixels, contributions in pool.map(
-                            lambda job: self.trace_light_chunk(k, job[0], job[1]), light_jobs):
-                        wavefront.splat(pixels, contributions, pass_light)
-                        counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+                    n_light = max(2, int(round(self.light_paths_per_camera_path * npix * in_pass
+                                               * light_share)))
+                    n_a = n_light // 2 if adapt else n_light
+                    self._trace_light_pass(pool, k, n_light, n_a, pass_light,
+                                           pass_light_a if adapt else None, counters)
                     result.nan_count += _zero_non_finite(pass_light)
                     result.light_sum.reshape(-1, 3)[:] += pass_light
                     result.light_paths += n_light
+                    if adapt:
+                        result.nan_count += _zero_non_finite(pass_light_a)
+                        light_half += pass_light_a
+                        result.light_paths_a += n_a
+                        result.light_pass_sq.reshape(-1, 3)[:] += pass_light * pass_light / n_light
+                        result.light_passes += 1
                 if keep_batches:
                     total += pass_sum
                     image = pass_sum / in_pass
@@ -355,17 +452,61 @@ class Renderer:
                             image += light_image
                     _add_batch(result.batch_sum, result.batch_sq, image)
                     result.batches += 1
-                first_sample += in_pass
                 result.spp += in_pass
+                if adapt:
+                    result.sample_count.reshape(-1)[sampling] += in_pass
+                    if result.spp == _next_check(done, least) and result.spp < spp:
+                        error = adaptive.errors(
+                            sampling, total, half, result.spp,
+                            *((result.light_sum.reshape(-1, 3), light_half, result.light_paths,
+                               result.light_paths_a) if self.split else ()))
+                        sampling = adaptive.still_sampling(sampling, error, threshold, w, h)
+                        result.active_share = sampling.shape[0] / npix
+                        if traces_light:
+                            light_share = _share_on(pass_light, sampling)
                 result.time_s = time.perf_counter() - start
                 result.embree_time_s = self.geometry.embree_time - embree_before
                 result.rays = self.geometry.ray_count - rays_before
                 result.stats = dict(zip(wavefront.STATS, counters.tolist()))
-                if progress is not None and progress(result, k + 1, passes) is False:
-                    result.cancelled = k + 1 < passes
+                k += 1
+                if sampling.shape[0] == 0 and sampling is not all_pixels:
+                    break                 # every pixel has converged
+                estimate = (passes if keep_batches
+                            else k + math.ceil((spp - result.spp) / max(in_pass, 1)))
+                if progress is not None and progress(result, k, estimate) is False:
+                    result.cancelled = result.spp < spp
                     break
         result.time_s = time.perf_counter() - start
         return result
+
+    def _trace_light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters):
+        """Trace a pass's n_light light paths into film (rows of (pixels, 3)); film_a (if not
+        None) gets those of the first n_a, adaptive sampling's half A of the light tracer."""
+        film[:] = 0.0
+        if film_a is not None:
+            film_a[:] = 0.0
+        # Jobs never straddle n_a, so each job's splats belong to one half.
+        jobs = [(s, min(CHUNK, end - s)) for begin, end in ((0, n_a), (n_a, n_light))
+                for s in range(begin, end, CHUNK)]
+        for (first, _), (pixels, contributions) in zip(jobs, pool.map(
+                lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs)):
+            wavefront.splat(pixels, contributions, film)
+            if film_a is not None and first < n_a:
+                wavefront.splat(pixels, contributions, film_a)
+            counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+
+
+def _next_check(done: int, least: int) -> int:
+    """Adaptive sampling's next check after `done` samples: at `least`, then every STEP."""
+    if done < least:
+        return least
+    return least + ((done - least) // adaptive.STEP + 1) * adaptive.STEP
+
+
+def _share_on(light, pixels) -> float:
+    """The share of a light image's energy (rows of (pixels, 3)) on the given pixels."""
+    whole = float(light.sum())
+    return float(light[pixels].sum()) / whole if whole > 0.0 else 1.0
 
 
 def _add_batch(total, total_sq, image):

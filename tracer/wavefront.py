@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import bsdf
+from .adaptive import is_class_a
 from .bsdf import DIFFUSE, EMISSION, MIRROR, REFRACTION
 from .camera import camera_ray
 from .geometry import FAR, hit_point, offset_origin
@@ -128,13 +129,14 @@ def add_light(radiance, path, beta, light, w):
 
 
 @jit
-def generate(cam, seed, start, in_pass, first_sample, bits, stratified, n, paths, stats):
+def generate(cam, seed, start, in_pass, first_sample, pixels, bits, stratified, n, paths, stats):
     """Camera rays for the chunk's paths start .. start + n of a pass of in_pass samples per
-    pixel (pixel = path // in_pass, sample = first_sample + path % in_pass)."""
+    pixel (pixel = pixel_of(path // in_pass), sample = first_sample + path % in_pass)."""
     for i in range(n):
         g = start + i
-        pixel = g // in_pass
-        sample = first_sample + g - pixel * in_pass
+        row = g // in_pass
+        pixel = pixel_of(pixels, row)
+        sample = first_sample + g - row * in_pass
         key = pixel_key(pixel, seed)
         u0, u1 = sample_pair(key, sample, 0, bits, stratified)
         l0, l1 = 0.0, 0.0
@@ -362,20 +364,34 @@ def splat(pixels, contributions, film):
 
 
 @jit
-def film(radiance, n, start, in_pass, total, total_sq):
+def pixel_of(pixels, row):
+    """The image pixel of a pass's row of pixels: all pixels in order when `pixels` is empty,
+    else those it lists (adaptive sampling's pixels that still sample)."""
+    return row if pixels.shape[0] == 0 else pixels[row]
+
+
+@jit
+def film(radiance, n, start, in_pass, first_sample, pixels, total, total_sq, half):
     """Add the chunk's n path radiances to their pixels' sums and sums of squares (rows of
-    (pixels, 3)); non-finite samples count as 0. Returns how many there were."""
+    (pixels, 3)), and those of class-A samples to `half` (when it has rows: adaptive sampling's
+    second image); non-finite samples count as 0. Returns how many there were."""
     bad = 0
+    with_half = half.shape[0] > 0
     for i in range(n):
         if not (math.isfinite(radiance[i, 0]) and math.isfinite(radiance[i, 1])
                 and math.isfinite(radiance[i, 2])):
             bad += 1
             continue
-        pixel = (start + i) // in_pass
+        g = start + i
+        row = g // in_pass
+        pixel = pixel_of(pixels, row)
+        class_a = with_half and is_class_a(first_sample + g - row * in_pass)
         for k in range(3):
             value = radiance[i, k]
             total[pixel, k] += value
             total_sq[pixel, k] += value * value
+            if class_a:
+                half[pixel, k] += value
     return bad
 
 
