@@ -383,6 +383,7 @@ class Renderer:
             result.sample_count = np.zeros((h, w), np.int32)
             half = np.zeros((npix, 3))
             sampling = np.arange(npix, dtype=np.int64)
+            noise_level = np.zeros(npix)
         if traces_light:
             result.light_sum = np.zeros((h, w, 3))
             pass_light = np.zeros((npix, 3))
@@ -460,7 +461,8 @@ class Renderer:
                             sampling, total, half, result.spp,
                             *((result.light_sum.reshape(-1, 3), light_half, result.light_paths,
                                result.light_paths_a) if self.split else ()))
-                        sampling = adaptive.still_sampling(sampling, error, threshold, w, h)
+                        sampling = adaptive.still_sampling(sampling, error, result.spp, threshold,
+                                                           noise_level, w, h)
                         result.active_share = sampling.shape[0] / npix
                         if traces_light:
                             light_share = _share_on(pass_light, sampling)
