@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 import time
+import types
 
 import numpy as np
 import pytest
@@ -127,6 +128,40 @@ def test_settings_tooltips_and_defaults():
     assert [i.identifier for i in props["fresnel"].enum_items] == ["EXACT", "SCHLICK"]
     assert props["fresnel"].default == "EXACT"
     assert {"spp", "max_depth", "seed", "threads", "fresnel"} <= set(props.keys())
+
+
+class Layout:
+    """Records what a panel draws: (property, label) of every prop() in any row or column."""
+
+    def __init__(self, drawn=None):
+        self.drawn = [] if drawn is None else drawn
+
+    def column(self, **options):
+        return Layout(self.drawn)
+
+    row = column
+
+    def prop(self, data, name, text=None):
+        self.drawn.append((name, text))
+
+
+@pytest.mark.parametrize("adaptive, drawn", [
+    (True, [("use_adaptive_sampling", ""), ("noise_threshold", ""), ("spp", "Max Samples"),
+            ("min_spp", "Min Samples"), ("seed", None)]),
+    (False, [("use_adaptive_sampling", ""), ("noise_threshold", ""), ("spp", "Samples"),
+             ("seed", None)]),
+])
+def test_sampling_panel_is_laid_out_as_cycles(adaptive, drawn):
+    """Noise Threshold's checkbox and value, then Max and Min Samples (Samples when off)."""
+    props = bpy.types.Scene.bl_rna.properties["snell"].fixed_type.properties
+    assert (props["use_adaptive_sampling"].default, props["noise_threshold"].default,
+            props["min_spp"].default) == (True, pytest.approx(0.01), 0)
+    panel = types.SimpleNamespace(layout=Layout())
+    panel.column = lambda **options: ui.SnellPanel.column(panel, **options)
+    context = types.SimpleNamespace(scene=types.SimpleNamespace(
+        snell=types.SimpleNamespace(use_adaptive_sampling=adaptive)))
+    ui.RENDER_PT_snell_sampling.draw(panel, context)
+    assert panel.layout.drawn == drawn
 
 
 # ---------------------------------------------------------------------------------------------
