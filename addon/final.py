@@ -121,6 +121,7 @@ class _Progress:
         self.rgba = np.ones((height, width, 4), np.float32)
         self.spp, self.record, self.t_start = spp, record, t_start
         self.t_loop = time.perf_counter()
+        self.written_spp = 0
 
     def write(self, render_result):
         # The tracer's row 0 is the top; Blender's is the bottom.
@@ -130,6 +131,7 @@ class _Progress:
             self.counts.rect.foreach_set(
                 np.ascontiguousarray(render_result.samples()[::-1], np.float32).ravel())
         self.engine.update_result(self.result)
+        self.written_spp = render_result.spp
 
     def __call__(self, render_result, done, total):
         # Progress is samples over the budget, not passes: adaptive sampling's pass count is an
@@ -178,11 +180,16 @@ def render(engine, depsgraph):
         if _should_stop(engine):
             _stop_without_image(engine, record)
             return
+        # Before begin_result, so that the result has the pass (as Cycles adds its passes).
         engine.add_pass(SAMPLE_COUNT_PASS, 1, "X", layer=depsgraph.view_layer.name)
         result = engine.begin_result(0, 0, w, h)
         progress = _Progress(engine, result, w, h, spp, record, t_start)
         engine.update_stats("", f"Snell: rendering, sample 0/{spp}")
         rendered = renderer.render(progress=progress)
+        # The integrator ends without a callback when every pixel has converged: the last
+        # pass's samples (or, converged at the minimum, all of them) reach the result here.
+        if rendered.spp != progress.written_spp:
+            progress.write(rendered)
         adaptive = describe_adaptive(rendered)
         record.update(spp=rendered.spp, cancelled=rendered.cancelled, time_s=rendered.time_s,
                       rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count,

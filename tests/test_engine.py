@@ -243,6 +243,27 @@ def test_f12_adaptive_progress_status_and_sample_count_pass(blends, tmp_path):
     assert np.array_equal(counts[-1], expected[::-1])
 
 
+def test_f12_keeps_the_last_pass_when_every_pixel_converges(blends, tmp_path):
+    """A threshold so high that every pixel stops at the minimum: the integrator returns without
+    calling back, and the image and the Sample Count pass still hold those samples."""
+    scene = open_scene(blends / "cornell.blend", tmp_path / "converged.exr")
+    scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 8, 0.5, 4
+    counts = []
+
+    class Recording(Spy):
+        def update_result(self, result):
+            rect = np.empty(SIZE * SIZE, np.float32)
+            result.layers[0].passes[final.SAMPLE_COUNT_PASS].rect.foreach_get(rect)
+            counts.append(rect)
+            self.engine.update_result(result)
+
+    with spying(Recording):
+        bpy.ops.render.render(write_still=True)
+    assert final.last_render["spp"] == 4 and np.all(counts[-1] == 4)
+    np.testing.assert_allclose(read_exr(tmp_path / "converged.exr"), tracer_image(),
+                               rtol=1e-6, atol=1e-7)
+
+
 def test_esc_after_the_first_pass_keeps_that_pass(blends, tmp_path, small_passes):
     scene = open_scene(blends / "cornell.blend", tmp_path / "cancel.exr")
     scene.snell.spp = 64
