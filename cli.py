@@ -20,9 +20,10 @@ from .addon.console import stdout_silenced
 from .compare.bench_command import CLI as BENCH_COMMAND
 from .compare.commands import COMMANDS as COMPARE_COMMANDS
 from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
-                     check_writable_directory, int_at_least, print_error, warn)
-from .tracer.scene import (FRESNEL_MODELS, LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius,
-                           load, save)
+                     check_writable_directory, int_at_least, number_at_least, print_error, warn)
+from .tracer.progress import describe_adaptive, pixels_sampling, time_left
+from .tracer.scene import (DEFAULT_RENDER, FRESNEL_MODELS, LIGHT_KINDS, MATERIAL_KINDS, SceneError,
+                           aperture_radius, load, save)
 
 SCENE_EXTENSIONS = (".blend", ".snell")
 
@@ -92,17 +93,17 @@ def _duration(seconds: float) -> str:
 class ProgressLine:
     """The integrator's progress callback: one updating line on a terminal."""
 
-    def __init__(self, stream, spp=None):
+    def __init__(self, stream):
         self.stream = stream
-        self.target = f"/{spp}" if spp else ""
         self.start = time.monotonic()
         self.width = 0
 
     def __call__(self, result, passes_done, passes_total):
+        # Samples over the budget, not passes: with adaptive sampling the pass count is a guess.
         elapsed = time.monotonic() - self.start
-        eta = elapsed / passes_done * (passes_total - passes_done) if passes_done else float("nan")
-        line = (f"snell: pass {passes_done}/{passes_total}, {result.spp}{self.target} spp, "
-                f"elapsed {_duration(elapsed)}, ETA {_duration(eta)}")
+        sampling = pixels_sampling(result)
+        line = (f"snell: {result.spp}/{result.spp_budget} spp{', ' + sampling if sampling else ''}, "
+                f"elapsed {_duration(elapsed)}, ETA {_duration(time_left(result, elapsed))}")
         self.stream.write("\r" + line.ljust(self.width))
         self.stream.flush()
         self.width = len(line)
@@ -131,7 +132,18 @@ def _setup_render(p):
     p.add_argument("--caustics", choices=("on", "off"),
                    help="light tracing of caustics (default: the scene's, on); off renders with "
                         "the path tracer alone")
+    _add_adaptive_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
+
+
+def _add_adaptive_options(p):
+    """--noise-threshold and --min-spp, for `snell render` and `snell batch`."""
+    p.add_argument("--noise-threshold", type=number_at_least(0.0), metavar="T",
+                   help="adaptive sampling: a pixel stops once its noise is below T, and --spp is "
+                        "each pixel's maximum; 0 turns it off (default: the scene's, Cycles' 0.01)")
+    p.add_argument("--min-spp", type=int_at_least(0), metavar="N",
+                   help="samples every pixel takes before it may stop; 0 chooses from the "
+                        "threshold as Cycles does (default: the scene's, 0)")
 
 
 def cmd_render(args) -> int:
@@ -141,7 +153,9 @@ def cmd_render(args) -> int:
     caustics = None if args.caustics is None else args.caustics == "on"
     scene = load_scene(args.scene).with_render(spp=args.spp, max_depth=args.max_depth,
                                                 seed=args.seed, fresnel=args.fresnel,
-                                                caustics=caustics)
+                                                caustics=caustics,
+                                                noise_threshold=args.noise_threshold,
+                                                min_spp=args.min_spp)
     from .tracer import image
     from .tracer.integrator import kernels_compiled, render, warm_up
 
@@ -151,7 +165,7 @@ def cmd_render(args) -> int:
         warm_up()
 
     options = {} if args.threads is None else {"threads": args.threads}
-    bar = ProgressLine(sys.stderr, scene.render["spp"]) if not args.quiet and sys.stderr.isatty() else None
+    bar = ProgressLine(sys.stderr) if not args.quiet and sys.stderr.isatty() else None
     try:
         result = render(scene, progress=bar, **options)
     finally:
@@ -160,7 +174,8 @@ def cmd_render(args) -> int:
     if result.cancelled:
         raise KeyboardInterrupt
     rgb = result.mean()
-    bad_pixels = image.write_exr(args.output, rgb)
+    # Each pixel's samples as an extra channel: where adaptive sampling stopped early.
+    bad_pixels = image.write_exr(args.output, rgb, channels={"samples": result.samples()})
     if args.png:
         image.write_png(args.png, rgb)
     if not args.quiet:
@@ -183,7 +198,8 @@ def _summary(args, rgb, result, bad_pixels) -> str:
     if getattr(result, "stages", None):
         from .tracer.integrator import describe_stages
         skipped = f"; skipped: {describe_stages(result.stages)[1]}"
-    return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {result.spp} spp in {_duration(wall)} "
+    samples = describe_adaptive(result) or f"{result.spp} spp"
+    return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {samples} in {_duration(wall)} "
             f"({rays}, {embree}){light}, {nans}{skipped}")
 
 
@@ -251,11 +267,28 @@ def describe(scene) -> list[str]:
         f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
         f"render     {render['spp']} spp, max depth {render['max_depth']}, seed {render['seed']}, "
         f"fresnel {render['fresnel']}",
+        f"sampling   {adaptive_sampling(render)}",
         f"caustics   {light_tracing(stages)}",
         f"runs       {run}",
         f"skips      {skipped}",
         f"features   {', '.join(features) or 'none'}",
     ]
+
+
+def adaptive_sampling(render) -> str:
+    """What a render's noise_threshold and min_spp do, in words."""
+    from .tracer.adaptive import auto_min_spp
+
+    render = {**DEFAULT_RENDER, **render}     # a scene built in memory may leave them out
+    threshold, least = render["noise_threshold"], render["min_spp"]
+    if threshold <= 0:
+        return f"every pixel {render['spp']} spp (noise threshold 0: adaptive sampling off)"
+    minimum = f"{least} spp" if least else f"{auto_min_spp(threshold)} spp (automatic)"
+    if (least or auto_min_spp(threshold)) >= render["spp"]:
+        return (f"every pixel {render['spp']} spp (noise threshold {threshold:g}, but its minimum "
+                f"{minimum} is not below that)")
+    return (f"adaptive, noise threshold {threshold:g}: each pixel from {minimum} up to "
+            f"{render['spp']} spp")
 
 
 def light_tracing(stages) -> str:
@@ -282,6 +315,7 @@ def _setup_batch(p):
     p.add_argument("-o", "--output", metavar="OUT_####.exr",
                    help="output path, #### = frame number; .exr (linear float) or .png (view "
                         "transform) (default: the file's Output Properties)")
+    _add_adaptive_options(p)
 
 
 def _frames(text):
@@ -301,7 +335,8 @@ def cmd_batch(args) -> int:
         check_writable_directory(args.output, "-o")
     try:
         from .addon import batch
-        return batch.run(args.scene, frames=args.frames, output=args.output)
+        return batch.run(args.scene, frames=args.frames, output=args.output,
+                         noise_threshold=args.noise_threshold, min_spp=args.min_spp)
     except ModuleNotFoundError as exc:
         if exc.name != "bpy":
             raise

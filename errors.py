@@ -7,6 +7,7 @@ commands never need to import cli.py (which imports them to dispatch).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import tempfile
@@ -44,6 +45,19 @@ def int_at_least(minimum: int):
             value = None
         if value is None or value < minimum:
             raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}")
+        return value
+    return parse
+
+
+def number_at_least(minimum: float):
+    """An argparse type: a finite number >= minimum, else a usage error naming the value."""
+    def parse(text):
+        try:
+            value = float(text)
+        except ValueError:
+            value = None
+        if value is None or not math.isfinite(value) or value < minimum:
+            raise argparse.ArgumentTypeError(f"expected a number >= {minimum:g}, got {text!r}")
         return value
     return parse
 

@@ -61,8 +61,9 @@ def _set_output(scene, output):
 
 
 def run(blend_path: str, frames: str | None = None, output: str | None = None,
-        stream=sys.stderr) -> int:
-    """Render the frames of blend_path; returns the exit status (0, or 1 if a frame failed)."""
+        stream=sys.stderr, noise_threshold: float | None = None, min_spp: int | None = None) -> int:
+    """Render the frames of blend_path; returns the exit status (0, or 1 if a frame failed).
+    noise_threshold and min_spp (None: the file's) set the Sampling panel's settings."""
     import bpy
 
     from . import final, registration
@@ -80,9 +81,20 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
     scene.render.engine = "SNELL"
     if output:
         _set_output(scene, output)
+    _set_sampling(scene.snell, noise_threshold, min_spp)
     frame_list = frame_list or [scene.frame_current]
     with _ctrl_c_stops_the_render(final.stop_requested) as interrupted:
         return _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, stream)
+
+
+def _set_sampling(props, noise_threshold, min_spp):
+    """The Sampling panel's Noise Threshold (a threshold of 0 unchecks it) and Min Samples."""
+    if noise_threshold is not None:
+        props.use_adaptive_sampling = noise_threshold > 0
+        if noise_threshold > 0:
+            props.noise_threshold = noise_threshold
+    if min_spp is not None:
+        props.min_spp = min_spp
 
 
 @contextlib.contextmanager
@@ -145,7 +157,8 @@ def _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, strea
             print(f"{head}: FAILED: {error}", file=stream, flush=True)
             continue
         rate = record.get("rays_per_second", 0.0) / 1e6
-        print(f"{head}: {path}: {record.get('spp', 0)} spp in {time.perf_counter() - start:.1f}s "
+        samples = record.get("adaptive") or f"{record.get('spp', 0)} spp"
+        print(f"{head}: {path}: {samples} in {time.perf_counter() - start:.1f}s "
               f"({rate:.2f} M rays/s)", file=stream, flush=True)
     if failed:
         # One reason for all (no camera, a NaN matrix) is repeated on the error line.

@@ -13,3 +13,8 @@ class SnellRenderEngine(bpy.types.RenderEngine):
 
     def render(self, depsgraph):
         final.render(self, depsgraph)
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        """The passes a render fills, for the compositor's Render Layers node."""
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        self.register_pass(scene, renderlayer, final.SAMPLE_COUNT_PASS, 1, "X", "VALUE")

@@ -497,29 +497,32 @@ def convert_render(scene):
 
     Without the add-on registered (`snell render file.blend`), the settings the add-on saved in
     the file are still there as ID properties (only non-default values; the Fresnel enum as its
-    item index), so they are read from there.
+    item index, booleans as integers), so they are read from there.
     """
     render = dict(scene_mod.DEFAULT_RENDER)
     props = getattr(scene, "snell", None)
     if props is not None:
-        for key in ("spp", "max_depth", "seed"):
-            if hasattr(props, key):
-                render[key] = int(getattr(props, key))
-        if hasattr(props, "fresnel"):
-            render["fresnel"] = str(props.fresnel).lower()
-        if hasattr(props, "caustics"):
-            render["caustics"] = bool(props.caustics)
-        return render
-    stored = scene.get("snell") if hasattr(scene, "get") else None
-    if stored is not None and hasattr(stored, "get"):
-        for key in ("spp", "max_depth", "seed"):
-            if isinstance(stored.get(key), int):
-                render[key] = int(stored[key])
-        fresnel = stored.get("fresnel")
-        if isinstance(fresnel, int) and 0 <= fresnel < len(scene_mod.FRESNEL_MODELS):
-            render["fresnel"] = scene_mod.FRESNEL_MODELS[fresnel]  # items: EXACT, SCHLICK
-        if isinstance(stored.get("caustics"), int):
-            render["caustics"] = bool(stored["caustics"])
+        get = lambda key: getattr(props, key, None)  # noqa: E731
+    else:
+        stored = scene.get("snell") if hasattr(scene, "get") else None
+        if stored is None or not hasattr(stored, "get"):
+            return render
+        get = stored.get
+    for key in ("spp", "max_depth", "seed", "min_spp"):
+        if isinstance(get(key), int):
+            render[key] = int(get(key))
+    fresnel = get("fresnel")
+    if isinstance(fresnel, str):
+        render["fresnel"] = fresnel.lower()
+    elif isinstance(fresnel, int) and 0 <= fresnel < len(scene_mod.FRESNEL_MODELS):
+        render["fresnel"] = scene_mod.FRESNEL_MODELS[fresnel]  # items: EXACT, SCHLICK
+    if isinstance(get("caustics"), int):
+        render["caustics"] = bool(get("caustics"))
+    if isinstance(get("noise_threshold"), (int, float)):
+        # Blender keeps the value as a 32-bit float: 7 digits give back the 0.01 typed in.
+        render["noise_threshold"] = float(f"{float(get('noise_threshold')):.7g}")
+    if isinstance(get("use_adaptive_sampling"), int) and not get("use_adaptive_sampling"):
+        render["noise_threshold"] = 0.0     # unchecked: the threshold is kept, not used
     return render
 
 

@@ -18,10 +18,12 @@ import traceback
 
 import numpy as np
 
+from ..tracer.progress import describe_adaptive, fraction_done, pixels_sampling, time_left
 from ..tracer.scene import SceneError
 from . import window
 
 MAX_REPORTED_WARNINGS = 20
+SAMPLE_COUNT_PASS = "Sample Count"   # Cycles' name for its pass of each pixel's samples
 
 last_render: dict = {}
 
@@ -110,34 +112,44 @@ class _Progress:
 
     def __init__(self, engine, result, width, height, spp, record, t_start):
         self.engine, self.result = engine, result
-        self.combined = result.layers[0].passes["Combined"]
+        passes = result.layers[0].passes
+        self.combined = passes["Combined"]
+        self.counts = passes.get(SAMPLE_COUNT_PASS)   # None if Blender did not add it
         if len(self.combined.rect) != width * height:
             raise RenderFailed(f"render result is {len(self.combined.rect)} pixels, "
                                f"expected {width}x{height}")
         self.rgba = np.ones((height, width, 4), np.float32)
         self.spp, self.record, self.t_start = spp, record, t_start
         self.t_loop = time.perf_counter()
+        self.written_spp = 0
 
     def write(self, render_result):
         # The tracer's row 0 is the top; Blender's is the bottom.
         self.rgba[:, :, :3] = render_result.mean()[::-1]
         self.combined.rect.foreach_set(self.rgba.ravel())
+        if self.counts is not None:
+            self.counts.rect.foreach_set(
+                np.ascontiguousarray(render_result.samples()[::-1], np.float32).ravel())
         self.engine.update_result(self.result)
+        self.written_spp = render_result.spp
 
     def __call__(self, render_result, done, total):
+        # Progress is samples over the budget, not passes: adaptive sampling's pass count is an
+        # estimate, and the share of pixels still sampling says how much is left to do.
         self.write(render_result)
         now = time.perf_counter()
         if done == 1:
             self.record["first_pass_s"] = now - self.t_start
-        elapsed = now - self.t_loop
-        remaining = elapsed / done * (total - done)
+        remaining = time_left(render_result, now - self.t_loop)
         self.record.update(spp=render_result.spp, passes=done)
-        self.engine.update_progress(done / total)
+        self.engine.update_progress(fraction_done(render_result))
+        sampling = pixels_sampling(render_result)
         light = (f" | {render_result.light_paths / 1e6:.2f} M light paths"
                  if render_result.light_paths else "")
         self.engine.update_stats("", f"Remaining {_duration(remaining)} | Sample "
                                      f"{render_result.spp}/{self.spp} | "
-                                     f"{render_result.rays_per_second / 1e6:.2f} M rays/s{light}")
+                                     + (f"{sampling} | " if sampling else "")
+                                     + f"{render_result.rays_per_second / 1e6:.2f} M rays/s{light}")
         return not _should_stop(self.engine)
 
 
@@ -168,19 +180,29 @@ def render(engine, depsgraph):
         if _should_stop(engine):
             _stop_without_image(engine, record)
             return
+        # Before begin_result, so that the result has the pass (as Cycles adds its passes).
+        engine.add_pass(SAMPLE_COUNT_PASS, 1, "X", layer=depsgraph.view_layer.name)
         result = engine.begin_result(0, 0, w, h)
         progress = _Progress(engine, result, w, h, spp, record, t_start)
         engine.update_stats("", f"Snell: rendering, sample 0/{spp}")
         rendered = renderer.render(progress=progress)
+        # The integrator ends without a callback when every pixel has converged: the last
+        # pass's samples (or, converged at the minimum, all of them) reach the result here.
+        if rendered.spp != progress.written_spp:
+            progress.write(rendered)
+        adaptive = describe_adaptive(rendered)
         record.update(spp=rendered.spp, cancelled=rendered.cancelled, time_s=rendered.time_s,
                       rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count,
-                      light_paths=rendered.light_paths)
+                      light_paths=rendered.light_paths, adaptive=adaptive,
+                      saved_share=rendered.saved_share,
+                      mean_spp=float(rendered.samples().mean()))
         if rendered.nan_count:
             engine.report({"WARNING"}, f"Snell: {rendered.nan_count} NaN/Inf samples counted as 0")
         state = "Cancelled after" if rendered.cancelled else "Done:"
         engine.update_stats("", f"Snell: {state} {rendered.spp}/{spp} samples in "
                                 f"{_duration(time.perf_counter() - t_start)} "
-                                f"({rendered.rays_per_second / 1e6:.2f} M rays/s)")
+                                f"({rendered.rays_per_second / 1e6:.2f} M rays/s)"
+                                + (f" | {adaptive}" if adaptive else ""))
         engine.end_result(result)
         result = None
     except RenderFailed as exc:

@@ -1,16 +1,31 @@
 """Snell's render settings, stored on every scene as `scene.snell`.
 
-addon/export.py reads spp, max_depth, seed, fresnel and caustics from here into the scene file; threads is
-used by the render engine only.
+addon/export.py reads spp, max_depth, seed, fresnel, caustics and the adaptive sampling settings from
+here into the scene file; threads is used by the render engine only.
 """
 import bpy
-from bpy.props import BoolProperty, EnumProperty, IntProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 
 class SnellRenderSettings(bpy.types.PropertyGroup):
     spp: IntProperty(
         name="Samples", default=64, min=1, soft_max=4096,
-        description="Samples per pixel of a final render")
+        description="Samples per pixel of a final render; with a noise threshold, the most any "
+                    "pixel takes")
+    # Adaptive sampling as Cycles' Sampling panel has it: names, defaults and ranges.
+    use_adaptive_sampling: BoolProperty(
+        name="Noise Threshold", default=True,
+        description="Stop sampling each pixel once its noise is below the threshold (adaptive "
+                    "sampling, as Cycles')")
+    noise_threshold: FloatProperty(
+        name="Noise Threshold", default=0.01, min=0.0, max=1.0, soft_min=0.001, step=0.1,
+        precision=4,
+        description="Noise level at which a pixel stops sampling: lower is less noise and more "
+                    "samples (Cycles' default 0.01)")
+    min_spp: IntProperty(
+        name="Min Samples", default=0, min=0, max=4096,
+        description="Samples every pixel takes before it may stop; 0 chooses from the noise "
+                    "threshold as Cycles does (64 at 0.01)")
     max_depth: IntProperty(
         name="Max Depth", default=8, min=0, soft_max=64,
         description="Emission plus up to this many bounces (the seed project's max_ray_depth). "

@@ -32,12 +32,12 @@ class SnellPanel:
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
 
-    def column(self):
-        """A property column laid out like Cycles' render panels."""
+    def column(self, **options):
+        """A property column laid out like Cycles' render panels (options: heading, align)."""
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
-        return layout.column()
+        return layout.column(**options)
 
 
 class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
@@ -45,9 +45,21 @@ class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
 
     def draw(self, context):
         props = context.scene.snell
-        col = self.column()
-        col.prop(props, "spp")
-        col.prop(props, "seed")
+        # Cycles' layout: the checkbox and the value on one row under a "Noise Threshold" heading,
+        # the value greyed out when off; the samples then are a maximum, with a minimum.
+        col = self.column(heading="Noise Threshold", align=True)
+        row = col.row(align=True)
+        row.prop(props, "use_adaptive_sampling", text="")
+        sub = row.row()
+        sub.active = props.use_adaptive_sampling
+        sub.prop(props, "noise_threshold", text="")
+        col = self.column(align=True)
+        if props.use_adaptive_sampling:
+            col.prop(props, "spp", text="Max Samples")
+            col.prop(props, "min_spp", text="Min Samples")
+        else:
+            col.prop(props, "spp", text="Samples")
+        self.column().prop(props, "seed")
 
 
 class RENDER_PT_snell_light_paths(SnellPanel, bpy.types.Panel):

@@ -123,7 +123,9 @@ def scene(meshes, materials, cam, world=(0.0, 0.0, 0.0), lights=(), spp=16, max_
         material_ids=np.concatenate(mid).astype(np.int32) if mid else np.zeros(0, np.int32),
         object_ids=np.concatenate(oid).astype(np.int32) if oid else np.zeros(0, np.int32),
         materials=list(materials), lights=list(lights), camera=cam, world={"color": list(world)},
-        render={"spp": int(spp), "max_depth": int(max_depth), "seed": int(seed), "fresnel": "exact"},
+        # Fixed samples in every pixel: the cases' bounds count spp samples per pixel.
+        render={"spp": int(spp), "max_depth": int(max_depth), "seed": int(seed), "fresnel": "exact",
+                "noise_threshold": 0.0},
         objects=[{"name": f"object{i}", "closed": True} for i in range(len(meshes))],
         normals=np.concatenate(out_nrm).astype(np.float32) if smooth else None)
     return validate(result)

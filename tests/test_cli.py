@@ -11,7 +11,7 @@ import pytest
 
 from snell import cli
 from snell.tracer import image
-from snell.tracer.scene import DEFAULT_RENDER, Scene, save
+from snell.tracer.scene import DEFAULT_RENDER, Scene, load, save
 
 HAVE_INTEGRATOR = importlib.util.find_spec("snell.tracer.integrator") is not None
 EMISSION = 2.0
@@ -127,6 +127,21 @@ def test_bad_outputs_fail_before_rendering(scene_file, tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
 
 
+@pytest.mark.parametrize("option, value, fragment", [
+    ("--noise-threshold", "-0.1", "expected a number >= 0"),
+    ("--noise-threshold", "nan", "expected a number >= 0"),
+    ("--noise-threshold", "low", "expected a number >= 0"),
+    ("--min-spp", "-1", "expected an integer >= 0"),
+    ("--min-spp", "2.5", "expected an integer >= 0"),
+])
+@pytest.mark.parametrize("command", ["render", "batch"])
+def test_bad_adaptive_options_are_usage_errors(scene_file, tmp_path, command, option, value, fragment):
+    args = ["-o", tmp_path / "a.exr"] if command == "render" else []
+    proc = run(command, scene_file, *args, option, value)
+    assert proc.returncode == 2
+    assert_one_line_error(proc, option, fragment, repr(value))
+
+
 def test_usage_errors_are_one_line_too(scene_file, tmp_path):
     proc = run("render", scene_file, "-o", tmp_path / "a.exr", "--spp", "0")
     assert proc.returncode == 2
@@ -149,7 +164,21 @@ def test_info(scene_file):
     assert "lights     none" in out
     assert "8x8" in out and "lens 50 mm" in out and "no depth of field" in out
     assert "features   emissive meshes" in out
+    # 4 spp: the automatic minimum at the default threshold, 64, leaves nothing to adapt
+    assert ("sampling   every pixel 4 spp (noise threshold 0.01, but its minimum 64 spp "
+            "(automatic) is not below that)") in out
     assert proc.stderr == ""
+
+
+@pytest.mark.parametrize("render, line", [
+    ({"spp": 1024}, "adaptive, noise threshold 0.01: each pixel from 64 spp (automatic) up to 1024 spp"),
+    ({"spp": 1024, "noise_threshold": 0.1, "min_spp": 8},
+     "adaptive, noise threshold 0.1: each pixel from 8 spp up to 1024 spp"),
+    ({"spp": 1024, "noise_threshold": 0.0}, "every pixel 1024 spp (noise threshold 0: adaptive sampling off)"),
+])
+def test_info_states_adaptive_sampling(render, line):
+    out = {text.split()[0]: text for text in cli.describe(tiny_scene(**render))}
+    assert out["sampling"] == f"sampling   {line}"
 
 
 def test_info_reports_depth_of_field(tmp_path):
@@ -176,9 +205,13 @@ class StubResult:
         self.threads = 2
         self.embree_share = self.embree_time_s / (self.time_s * self.threads)
         self.light_paths, self.stats = 0, {}
+        self.spp_budget, self.sample_count = self.spp, None
 
     def mean(self):
         return self.image
+
+    def samples(self):
+        return np.full(self.image.shape[:2], self.spp, np.int32)
 
 
 @pytest.fixture
@@ -204,14 +237,16 @@ def stub_integrator(monkeypatch):
 def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrator, capsys):
     out, png = tmp_path / "a.exr", tmp_path / "a.png"
     code = cli.main(["render", str(scene_file), "-o", str(out), "--png", str(png), "--spp", "9",
-                     "--max-depth", "0", "--seed", "5", "--fresnel", "schlick", "--threads", "3"])
+                     "--max-depth", "0", "--seed", "5", "--fresnel", "schlick", "--threads", "3",
+                     "--noise-threshold", "0.05", "--min-spp", "3"])
     assert code == 0
     call = stub_integrator.calls[0]
     assert call["threads"] == 3
     assert call["scene"].render == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick",
-                                    "caustics": True}
+                                    "caustics": True, "noise_threshold": 0.05, "min_spp": 3}
     rgb = image.read_exr(out)
     assert rgb[0].min() == 1.0 and rgb[1:].max() == 0.0  # top row first, NaN written as 0
+    assert np.all(image.read_channel(out, "samples") == 9)
     summary = capsys.readouterr().out.strip().splitlines()
     assert len(summary) == 1
     assert "8x8" in summary[0] and "9 spp" in summary[0] and "0.00 Mrays/s" in summary[0]
@@ -236,20 +271,73 @@ def test_interrupted_render_writes_nothing(scene_file, tmp_path, stub_integrator
     assert capsys.readouterr().err.strip() == "snell: interrupted"
 
 
+def progress_state(spp, budget=16, counts=None, active=1.0):
+    """What ProgressLine reads of a RenderResult while it renders."""
+    return types.SimpleNamespace(spp=spp, spp_budget=budget, sample_count=counts, active_share=active)
+
+
 def test_progress_line():
     import io
     stream = io.StringIO()
-    bar = cli.ProgressLine(stream, spp=16)
-    assert bar(types.SimpleNamespace(spp=4), 1, 4) is True
-    bar(types.SimpleNamespace(spp=8), 2, 4)
+    bar = cli.ProgressLine(stream)
+    assert bar(progress_state(4), 1, 4) is True
+    bar(progress_state(8), 2, 4)
     bar.close()
     text = stream.getvalue()
     assert text.count("\n") == 1 and text.endswith("\n")
-    assert "pass 2/4, 8/16 spp" in text.split("\r")[-1] and "ETA" in text
+    assert text.split("\r")[-1].startswith("snell: 8/16 spp, elapsed ") and "ETA" in text
+
+
+def test_progress_line_of_adaptive_sampling():
+    """Samples over the budget and the share of pixels still sampling, never passes (with
+    adaptive sampling their count is a guess); the ETA assumes the sampling pixels run on."""
+    from snell.tracer.progress import time_left
+    import io
+    stream = io.StringIO()
+    counts = np.array([[128, 128], [64, 64]], np.int32)
+    cli.ProgressLine(stream)(progress_state(128, 1024, counts, 0.5), 3, 17)
+    assert "snell: 128/1024 spp, 50% of pixels sampling, elapsed" in stream.getvalue()
+    assert "pass" not in stream.getvalue()
+    # 96 samples a pixel took 10 s; half the pixels have 896 left: 896 / 2 / 96 x 10 s
+    assert time_left(progress_state(128, 1024, counts, 0.5), 10.0) == pytest.approx(896 / 2 / 96 * 10)
 
 
 # ---------------------------------------------------------------------------------------------
 # render through the real integrator
+
+
+def edge_scene(spp=256):
+    """tiny_scene at 16x16 with the quad's lower edge slanted across pixel rows: only pixels near
+    the edge are noisy (partly covered), the rest converge at the minimum."""
+    scene = tiny_scene(spp=spp).with_camera(resolution=[16, 16])
+    scene.positions = np.array([[-2, 0.1, -2], [2, 0.5, -2], [2, 2, -2], [-2, 2, -2]], np.float32)
+    return scene
+
+
+def test_render_samples_adaptively_and_writes_the_counts(tmp_path):
+    """--noise-threshold and --min-spp end to end: the EXR's "samples" channel is the tracer's own
+    counts (the same with 1 and 2 threads), at least the minimum, more at the edge; the summary
+    says what was saved; --noise-threshold 0 samples every pixel --spp times."""
+    from snell.tracer import integrator
+    if not integrator.kernels_compiled():
+        integrator.warm_up()
+    path, out = tmp_path / "edge.snell", tmp_path / "edge.exr"
+    save(edge_scene(), str(path))
+    proc = run("render", path, "-o", out, "--noise-threshold", "0.01", "--min-spp", "16",
+               "--threads", "1")
+    assert proc.returncode == 0, proc.stderr
+    counts = image.read_channel(out, "samples")
+    result = integrator.Renderer(load(str(path))).render(noise_threshold=0.01, min_spp=16)
+    assert np.array_equal(counts, result.samples())
+    assert counts.min() == 16 and counts.max() > 16 and result.saved_share > 0.5
+    assert (f"adaptive 0.01: {counts.mean():.0f} spp mean, {counts.max():.0f} max, "
+            f"{100 * result.saved_share:.0f}% of samples saved in ") in proc.stdout
+    assert image.read_exr(out).shape == (16, 16, 3)
+
+    proc = run("render", path, "-o", out, "--noise-threshold", "0", "--threads", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert np.all(image.read_channel(out, "samples") == 256)
+    assert "16x16, 256 spp in " in proc.stdout and "spp mean" not in proc.stdout
 
 
 @pytest.mark.skipif(not HAVE_INTEGRATOR, reason="snell.tracer.integrator has not landed yet")
@@ -297,7 +385,9 @@ def test_ctrl_c_during_a_real_render(scene_file, tmp_path):
     import time
     proc = subprocess.Popen(
         [sys.executable, "-m", "snell.cli", "render", str(scene_file), "-o", str(tmp_path / "a.exr"),
-         "--png", str(tmp_path / "a.png"), "--spp", "2000000"],
+         "--png", str(tmp_path / "a.png"), "--spp", "2000000",
+         # every pixel all the samples: adaptive sampling would stop this flat image at 64
+         "--noise-threshold", "0"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         # A background job may inherit SIGINT ignored: restore Python's usual handler.
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))

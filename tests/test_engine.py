@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 import time
+import types
 
 import numpy as np
 import pytest
@@ -129,6 +130,40 @@ def test_settings_tooltips_and_defaults():
     assert {"spp", "max_depth", "seed", "threads", "fresnel"} <= set(props.keys())
 
 
+class Layout:
+    """Records what a panel draws: (property, label) of every prop() in any row or column."""
+
+    def __init__(self, drawn=None):
+        self.drawn = [] if drawn is None else drawn
+
+    def column(self, **options):
+        return Layout(self.drawn)
+
+    row = column
+
+    def prop(self, data, name, text=None):
+        self.drawn.append((name, text))
+
+
+@pytest.mark.parametrize("adaptive, drawn", [
+    (True, [("use_adaptive_sampling", ""), ("noise_threshold", ""), ("spp", "Max Samples"),
+            ("min_spp", "Min Samples"), ("seed", None)]),
+    (False, [("use_adaptive_sampling", ""), ("noise_threshold", ""), ("spp", "Samples"),
+             ("seed", None)]),
+])
+def test_sampling_panel_is_laid_out_as_cycles(adaptive, drawn):
+    """Noise Threshold's checkbox and value, then Max and Min Samples (Samples when off)."""
+    props = bpy.types.Scene.bl_rna.properties["snell"].fixed_type.properties
+    assert (props["use_adaptive_sampling"].default, props["noise_threshold"].default,
+            props["min_spp"].default) == (True, pytest.approx(0.01), 0)
+    panel = types.SimpleNamespace(layout=Layout())
+    panel.column = lambda **options: ui.SnellPanel.column(panel, **options)
+    context = types.SimpleNamespace(scene=types.SimpleNamespace(
+        snell=types.SimpleNamespace(use_adaptive_sampling=adaptive)))
+    ui.RENDER_PT_snell_sampling.draw(panel, context)
+    assert panel.layout.drawn == drawn
+
+
 # ---------------------------------------------------------------------------------------------
 # F12
 
@@ -166,6 +201,67 @@ def test_f12_render_matches_the_tracer_and_updates_progressively(blends, tmp_pat
     # The same exporter and tracer with the same seed: the same image, rows the same way up.
     np.testing.assert_allclose(written, tracer_image(), rtol=1e-6, atol=1e-7)
     assert written[0].mean() > 1.5 * written[-1].mean() or written[: SIZE // 4].max() > 1.0  # lamp at the top
+
+
+def test_f12_adaptive_progress_status_and_sample_count_pass(blends, tmp_path):
+    """Noise threshold on: the bar follows samples over the budget, the status says how many
+    pixels still sample and, at the end, how many samples were saved; the Sample Count pass
+    holds the tracer's own counts (rows bottom first)."""
+    scene = open_scene(blends / "cornell.blend", tmp_path / "adaptive.exr")
+    # A minimum that is no multiple of the 16 samples between checks: the first pass's share of
+    # the samples (24/256) differs from its share of the passes (1/16).
+    scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 256, 0.05, 24
+    calls, counts = [], []
+
+    class Recording(Spy):
+        def update_result(self, result):
+            rect = np.empty(SIZE * SIZE, np.float32)
+            result.layers[0].passes[final.SAMPLE_COUNT_PASS].rect.foreach_get(rect)
+            counts.append(rect.reshape(SIZE, SIZE))
+            self.engine.update_result(result)
+
+        def update_progress(self, value):
+            calls.append(("progress", value))
+            self.engine.update_progress(value)
+
+        def update_stats(self, stats, info):
+            calls.append(("stats", info))
+            self.engine.update_stats(stats, info)
+
+    with spying(Recording):
+        bpy.ops.render.render(write_still=True)
+    record = dict(final.last_render)
+    assert record["error"] is None and record["adaptive"].startswith("adaptive 0.05: ")
+    progress = [c[1] for c in calls if c[0] == "progress"]
+    assert progress[0] == pytest.approx(24 / 256) and progress == sorted(progress)
+    stats = [c[1] for c in calls if c[0] == "stats"]
+    assert any("Sample 40/256 | " in s and "% of pixels sampling | " in s for s in stats), stats
+    assert stats[-1].endswith(record["adaptive"]) and "% of samples saved" in stats[-1]
+    exported, _ = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    expected = Renderer(exported).render().samples()
+    assert expected.min() == 24 and expected.max() > 24 and record["saved_share"] > 0.3
+    assert np.array_equal(counts[-1], expected[::-1])
+
+
+def test_f12_keeps_the_last_pass_when_every_pixel_converges(blends, tmp_path):
+    """A threshold so high that every pixel stops at the minimum: the integrator returns without
+    calling back, and the image and the Sample Count pass still hold those samples."""
+    scene = open_scene(blends / "cornell.blend", tmp_path / "converged.exr")
+    scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 8, 0.5, 4
+    counts = []
+
+    class Recording(Spy):
+        def update_result(self, result):
+            rect = np.empty(SIZE * SIZE, np.float32)
+            result.layers[0].passes[final.SAMPLE_COUNT_PASS].rect.foreach_get(rect)
+            counts.append(rect)
+            self.engine.update_result(result)
+
+    with spying(Recording):
+        bpy.ops.render.render(write_still=True)
+    assert final.last_render["spp"] == 4 and np.all(counts[-1] == 4)
+    np.testing.assert_allclose(read_exr(tmp_path / "converged.exr"), tracer_image(),
+                               rtol=1e-6, atol=1e-7)
 
 
 def test_esc_after_the_first_pass_keeps_that_pass(blends, tmp_path, small_passes):
@@ -309,6 +405,22 @@ def test_batch_png_goes_through_colour_management(blends, tmp_path):
     assert proc.returncode == 0, proc.stderr
     img = oiio.ImageBuf(str(tmp_path / "still_0001.png"))
     assert img.spec().format == oiio.UINT8 and img.spec().width == SIZE
+
+
+def test_batch_adaptive_options_set_the_sampling_panel(blends, tmp_path):
+    """--noise-threshold and --min-spp reach the engine (the file has 8 samples, no minimum set),
+    and the frame line says what adaptive sampling saved; a threshold of 0 unchecks it."""
+    proc = snell_cli("batch", blends / "cornell.blend", "-o", tmp_path / "a_####.exr",
+                     "--noise-threshold", "0.05", "--min-spp", "4")
+    assert proc.returncode == 0, proc.stderr
+    line = next(line for line in proc.stderr.splitlines() if line.startswith("snell: frame"))
+    assert "adaptive 0.05: " in line and ", 8 max, " in line and "% of samples saved in " in line
+    from snell.addon import batch
+    props = types.SimpleNamespace(use_adaptive_sampling=True, noise_threshold=0.01, min_spp=0)
+    batch._set_sampling(props, 0.0, None)
+    assert (props.use_adaptive_sampling, props.noise_threshold, props.min_spp) == (False, 0.01, 0)
+    batch._set_sampling(props, 0.02, 32)
+    assert (props.use_adaptive_sampling, props.noise_threshold, props.min_spp) == (True, 0.02, 32)
 
 
 def test_batch_failing_frames_exit_non_zero(blends, tmp_path):

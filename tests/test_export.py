@@ -518,6 +518,35 @@ def test_render_settings_default(bl):
     assert s.render == scene_mod.DEFAULT_RENDER
 
 
+@pytest.mark.parametrize("use_adaptive, threshold", [(True, 0.05), (False, 0.0)])
+def test_sampling_panel_settings_reach_the_scene_file(bl, tmp_path, use_adaptive, threshold):
+    """Noise Threshold (checkbox and value) and Min Samples, through a saved file; unchecked the
+    threshold is exported as 0 (off)."""
+    from snell.addon import registration
+    registration.ensure_registered()
+    props = bl.snell
+    props.spp, props.use_adaptive_sampling, props.noise_threshold, props.min_spp = \
+        512, use_adaptive, 0.05, 24
+    path = str(tmp_path / "adaptive.blend")
+    common.save(path)
+    s, _ = export.export_blend(path)
+    assert (s.render["spp"], s.render["noise_threshold"], s.render["min_spp"]) == \
+        (512, threshold, 24)
+
+
+def test_sampling_settings_stored_without_the_addon():
+    """A file read without the add-on registered: its ID properties hold only what was set
+    (booleans as integers); what is missing keeps Cycles' defaults."""
+    class Stored(dict):
+        """Stands in for a bpy Scene: scene.get("snell") and no scene.snell."""
+    stored = Stored(snell={"noise_threshold": 0.0020000000949949026, "min_spp": 8})
+    render = export.convert_render(stored)
+    assert (render["noise_threshold"], render["min_spp"]) == (0.002, 8)
+    stored["snell"]["use_adaptive_sampling"] = 0
+    assert export.convert_render(stored)["noise_threshold"] == 0.0
+    assert export.convert_render(Stored(snell={}))["noise_threshold"] == 0.01
+
+
 # ---------------------------------------------------------------------------------------------
 # Files and scene scripts
 

@@ -23,6 +23,23 @@ def test_exr_round_trip_is_exact_float32(tmp_path):
     assert np.array_equal(back, rgb)
 
 
+def test_exr_extra_channels_are_kept_and_rgb_reads_alone(tmp_path):
+    """A "samples" channel (`snell render`'s sample counts) after R, G, B: read_exr still reads
+    the RGB, read_channel the counts, and a fourth channel is not taken for alpha."""
+    rng = np.random.default_rng(1)
+    rgb = rng.random((4, 6, 3)).astype(np.float32)
+    counts = rng.integers(16, 1025, (4, 6))
+    path = tmp_path / "a.exr"
+    image.write_exr(path, rgb, channels={"samples": counts})
+    assert np.array_equal(image.read_exr(path), rgb)
+    assert np.array_equal(image.read_channel(path, "samples"), counts)
+    with pytest.raises(OSError, match="no channel 'depth'"):
+        image.read_channel(path, "depth")
+    with pytest.raises(ValueError, match="channel 'samples'"):
+        image.write_exr(tmp_path / "b.exr", rgb, channels={"samples": counts[:2]})
+    assert not (tmp_path / "b.exr").exists()
+
+
 def test_exr_top_row_first(tmp_path):
     rgb = np.zeros((4, 3, 3), np.float32)
     rgb[0] = [1.0, 0.0, 0.0]  # top row red

@@ -70,6 +70,12 @@ def _set(path, value):
     (dict(header=_set(["camera", "resolution"], [0, 10])), "camera.resolution"),
     (dict(header=_set(["render", "fresnel"], "fast")), "render.fresnel"),
     (dict(header=_set(["world", "color"], [0, -1, 0])), "world.color"),
+    (dict(header=_set(["render", "noise_threshold"], -0.01)), "render.noise_threshold: must be >= 0"),
+    (dict(header=_set(["render", "noise_threshold"], float("nan"))), "render.noise_threshold: is NaN"),
+    (dict(header=_set(["render", "noise_threshold"], "low")), "render.noise_threshold: expected a number"),
+    (dict(header=_set(["render", "min_spp"], -1)), "render.min_spp: expected an integer"),
+    (dict(header=_set(["render", "min_spp"], 2.5)), "render.min_spp: expected an integer"),
+    (dict(header=_set(["render", "min_spp"], True)), "render.min_spp: expected an integer"),
     (dict(positions=np.zeros((4, 3), np.float64)), "positions: expected dtype float32"),
     (dict(triangles=np.zeros((3, 4), np.int32)), "triangles: expected shape"),
     (dict(material_ids=np.full(10, 7, np.int32)), "material_ids"),
@@ -82,6 +88,23 @@ def test_bad_data_is_rejected_naming_the_field(good, tmp_path, edit, message):
     with pytest.raises(S.SceneError) as err:
         S.load(bad)
     assert message in str(err.value)
+
+
+def test_adaptive_settings_default_to_cycles_and_are_checked(good, tmp_path):
+    """A file without them (written before adaptive sampling) gets Cycles' defaults; overrides are
+    checked like the file's own fields."""
+    _, path = good
+
+    def drop(h):
+        h["render"].pop("noise_threshold", None)
+        h["render"].pop("min_spp", None)
+    old = S.load(_rewrite(path, tmp_path / "old.npz", header=drop))
+    assert (old.render["noise_threshold"], old.render["min_spp"]) == (0.01, 0)
+    assert old.with_render(noise_threshold=0, min_spp=16).render["min_spp"] == 16
+    with pytest.raises(S.SceneError, match="render.noise_threshold"):
+        old.with_render(noise_threshold=float("inf"))
+    with pytest.raises(S.SceneError, match="render.min_spp"):
+        old.with_render(min_spp=-3)
 
 
 def test_nan_vertex_and_out_of_range_index(good, tmp_path):

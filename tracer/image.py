@@ -9,6 +9,7 @@ over the destination, so an interrupted or failed write never leaves a partial i
 """
 from __future__ import annotations
 
+import contextlib
 import os
 
 import numpy as np
@@ -49,7 +50,8 @@ def to_srgb8(rgb) -> np.ndarray:
     return np.rint(encoded * 255.0).astype(np.uint8)
 
 
-def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict) -> None:
+def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict,
+                  channel_names=None) -> None:
     import OpenImageIO as oiio
 
     path = os.fspath(path)
@@ -63,6 +65,9 @@ def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict) -> 
             raise OSError(f"{path}: cannot write image ({reason})")
         height, width, channels = pixels.shape
         spec = oiio.ImageSpec(width, height, channels, typedesc)
+        if channel_names is not None:
+            spec.channelnames = tuple(channel_names)
+            spec.alpha_channel = -1     # a fourth channel is data, not alpha
         for name, value in attributes.items():
             spec.attribute(name, value)
         ok = out.open(tmp, spec) and out.write_image(pixels)
@@ -73,13 +78,23 @@ def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict) -> 
             raise OSError(f"{path}: cannot write image ({reason})")
 
 
-def write_exr(path, rgb) -> int:
-    """Write linear RGB as a 32-bit float EXR (lossless ZIP compression), top row first.
+def write_exr(path, rgb, channels=None) -> int:
+    """Write linear RGB as a 32-bit float EXR (lossless ZIP compression), top row first, plus
+    any extra named (H, W) float channels, e.g. {"samples": counts}.
 
-    NaN/Inf are written as 0; returns how many pixels that affected.
+    NaN/Inf in the RGB are written as 0; returns how many pixels that affected.
     """
     clean, bad = sanitize(rgb)
-    _write_atomic(path, np.ascontiguousarray(clean), "float", {"compression": "zip"})
+    names = ["R", "G", "B"]
+    layers = [clean]
+    for name, values in (channels or {}).items():
+        values = np.asarray(values, dtype=np.float32)
+        if values.shape != clean.shape[:2]:
+            raise ValueError(f"channel {name!r}: expected shape {clean.shape[:2]}, got {values.shape}")
+        names.append(name)
+        layers.append(values[..., None])
+    pixels = np.ascontiguousarray(np.concatenate(layers, axis=2))
+    _write_atomic(path, pixels, "float", {"compression": "zip"}, names)
     return bad
 
 
@@ -91,7 +106,27 @@ def write_png(path, rgb) -> int:
 
 
 def read_exr(path) -> np.ndarray:
-    """Read an image's first three channels as an (H, W, 3) float32 array, top row first."""
+    """Read an image's first three channels as an (H, W, 3) float32 array, top row first (OpenImageIO
+    puts R, G, B first whatever other channels an EXR holds)."""
+    with _opened(path) as (inp, path):
+        if inp.spec().nchannels < 3:
+            raise OSError(f"{path}: expected RGB, the image has {inp.spec().nchannels} channel(s)")
+        return _read(inp, path, 0, 3)
+
+
+def read_channel(path, name) -> np.ndarray:
+    """Read one named channel of an image (e.g. "samples") as an (H, W) float32 array."""
+    with _opened(path) as (inp, path):
+        names = list(inp.spec().channelnames)
+        if name not in names:
+            raise OSError(f"{path}: no channel {name!r} (it has {', '.join(names)})")
+        index = names.index(name)
+        return _read(inp, path, index, index + 1)[..., 0]
+
+
+@contextlib.contextmanager
+def _opened(path):
+    """(an open OpenImageIO ImageInput, the path as a string), closed afterwards."""
     import OpenImageIO as oiio
 
     path = os.fspath(path)
@@ -101,12 +136,15 @@ def read_exr(path) -> np.ndarray:
     if inp is None:
         raise OSError(f"{path}: cannot read image ({oiio.geterror() or 'unknown format'})")
     try:
-        spec = inp.spec()
-        if spec.nchannels < 3:
-            raise OSError(f"{path}: expected RGB, the image has {spec.nchannels} channel(s)")
-        pixels = inp.read_image(0, 0, 0, 3, "float")
-        if pixels is None:
-            raise OSError(f"{path}: cannot read image ({inp.geterror() or 'unknown error'})")
+        yield inp, path
     finally:
         inp.close()
-    return np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, 3)
+
+
+def _read(inp, path, begin, end) -> np.ndarray:
+    """Channels begin .. end - 1 of an open image as an (H, W, end - begin) float32 array."""
+    spec = inp.spec()
+    pixels = inp.read_image(0, 0, begin, end, "float")
+    if pixels is None:
+        raise OSError(f"{path}: cannot read image ({inp.geterror() or 'unknown error'})")
+    return np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, end - begin)

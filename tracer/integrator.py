@@ -22,7 +22,7 @@ from . import adaptive, bsdf, jit, light_paths, wavefront
 from .camera import Camera
 from .geometry import Geometry
 from .lights import LightSampler
-from .scene import FRESNEL_MODELS, MATERIAL_KINDS, Scene
+from .scene import DEFAULT_RENDER, FRESNEL_MODELS, MATERIAL_KINDS, Scene
 
 CHUNK = 1 << 13           # paths per chunk: measured best (8k-16k) for Python overhead vs cache
 PASS_PATHS = 1 << 17      # aim for about this many paths per progressive pass
@@ -359,8 +359,10 @@ class Renderer:
         render = self.scene.render
         spp = int(spp if spp is not None else render["spp"])
         threshold = 0.0 if batches is not None else float(
-            noise_threshold if noise_threshold is not None else render.get("noise_threshold", 0.0))
-        least = int(min_spp if min_spp is not None else render.get("min_spp", 0))
+            noise_threshold if noise_threshold is not None
+            else render.get("noise_threshold", DEFAULT_RENDER["noise_threshold"]))
+        least = int(min_spp if min_spp is not None
+                    else render.get("min_spp", DEFAULT_RENDER["min_spp"]))
         if threshold > 0.0 and least <= 0:
             least = adaptive.auto_min_spp(threshold)
         adapt = threshold > 0.0 and least < spp

@@ -25,7 +25,10 @@ AREA_SHAPES = ("rectangle", "square", "disk", "ellipse")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 FRESNEL_MODELS = ("exact", "schlick")
 
-DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact", "caustics": True}
+# noise_threshold and min_spp: adaptive sampling (tracer/adaptive.py) with Cycles' defaults;
+# a threshold of 0 turns it off, a min_spp of 0 is Cycles' automatic minimum.
+DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact", "caustics": True,
+                  "noise_threshold": 0.01, "min_spp": 0}
 # Bounds on integers that size arrays or loops: a file may hold any integer, and one past these
 # would end the render with an overflow or an allocation failure instead of a named field.
 MAX_INT = 2 ** 31 - 1
@@ -285,6 +288,11 @@ def _check_render(render):
         raise SceneError(f"render: expected an object, got {_short(render)}")
     for key in ("spp", "max_depth", "seed"):
         _int_in(render.get(key), f"render.{key}", 1 if key == "spp" else 0, MAX_INT, "an integer")
+    # Optional: files written before adaptive sampling have neither (load fills in the defaults).
+    if "noise_threshold" in render:
+        _finite_number(render["noise_threshold"], "render.noise_threshold", minimum=0.0)
+    if "min_spp" in render:
+        _int_in(render["min_spp"], "render.min_spp", 0, MAX_INT, "an integer")
     if not isinstance(render.get("caustics", True), bool):
         raise SceneError(f"render.caustics: expected true or false, got {_short(render.get('caustics'))}")
     if render.get("fresnel") not in FRESNEL_MODELS:
