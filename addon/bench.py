@@ -1,4 +1,5 @@
-"""`snell bench`: Snell and Cycles at a ladder of sample counts against a converged reference.
+"""`snell bench`: Snell and Cycles at a ladder of sample counts against a converged reference,
+then both adaptive at the same noise thresholds ("as users render", _adaptive_comparison).
 
 For each scene: a reference (a long Cycles render as K seeds, cached on disk, see
 compare/bench.py cache_key), then for each renderer the ladder 1, 2, 4, ... spp until max_spp or
@@ -343,7 +344,8 @@ def definitions(opts: Options) -> dict:
         "embree_share": "Snell only: Embree query time / (render time x threads); "
                         "embree_share_of_wall divides by the point's whole wall time instead",
         "rays_per_second": "Snell only: camera, bounce and shadow rays per second of render time "
-                           "(Cycles reports no ray count; samples_per_second is given for both)",
+                           "(Cycles reports no ray count; samples_per_second, pixels x mean_spp "
+                           "per second of render time, is given for both)",
         "peak_rss_mb": "the point's child process peak resident set size (Linux VmHWM; ru_maxrss "
                        "elsewhere): "
                        "Python, numpy, the bpy module and native memory (Embree, Cycles); "

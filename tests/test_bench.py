@@ -97,7 +97,9 @@ def test_quick_bench_fills_every_key(tmp_path):
     pytest.importorskip("flip_evaluator")
     report = tmp_path / "report"
     proc = subprocess.run([sys.executable, "-m", "snell.cli", "bench", "--quick", "--report", str(report),
-                           "--cache", str(tmp_path / "cache"), "--caustics", "both", "--quiet"],
+                           "--cache", str(tmp_path / "cache"), "--caustics", "both", "--quiet",
+                           # one adaptive point per renderer and scene keeps the test short
+                           "--thresholds", "0.1"],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     data = json.loads((report / "bench.json").read_text())
@@ -108,6 +110,9 @@ def test_quick_bench_fills_every_key(tmp_path):
         for r in ("snell", "snell_path_tracer", "cycles"):
             pts = sc[r]["points"]
             assert [p["spp"] for p in pts] == [4, 8, 16]
+            # ladder points sample every pixel equally, whatever the scene's noise threshold
+            assert all(p["mean_spp"] == p["spp"] == p["pixel_spp_min"] and p["saved_share"] == 0
+                       for p in pts)
             for p in pts:
                 assert p["wall_s"] > 0 and p["relmse"] > 0 and p["rmse"] > 0 and 0 < p["flip"] < 1
                 assert p["peak_rss_mb"] > 0
@@ -119,6 +124,18 @@ def test_quick_bench_fills_every_key(tmp_path):
         assert eq["ratio"] > 0 and eq["fit_ratio"] > 0
         assert eq["target_relmse"] == pytest.approx(max(min(p["relmse"] for p in sc["snell"]["points"]),
                                                         min(p["relmse"] for p in sc["cycles"]["points"])))
+        # as users render: both adaptive at 0.1, at most 256 (--quick) samples per pixel
+        from snell.tracer.adaptive import auto_min_spp
+        ad = sc["adaptive"]
+        for r in ("snell", "cycles"):
+            (p,) = ad[r]["points"]
+            assert p["threshold"] == 0.1 and p["spp"] == 256 and p["relmse"] > 0
+            assert auto_min_spp(0.1) <= p["pixel_spp_min"] <= p["mean_spp"] <= p["pixel_spp_max"] <= 256
+            assert p["saved_share"] == pytest.approx(1 - p["mean_spp"] / 256, abs=1e-6)
+        (eq,) = ad["equal_threshold"]
+        assert eq["ratio"] > 0 and ad["map_threshold"] == 0.1
+        assert eq["time_ratio"] == pytest.approx(ad["snell"]["points"][0]["wall_s"]
+                                                 / ad["cycles"]["points"][0]["wall_s"])
     # The spheres focus light (the light tracer runs, and the caustic region is measured on
     # its own); the dragon's box has no mirror or glass.
     spheres, dragon = data["scenes"]
@@ -136,6 +153,8 @@ def test_quick_bench_fills_every_key(tmp_path):
     html = (report / "bench.html").read_text()
     assert html.count("<polyline") == 6 and "cornell_dragon" in html
     assert "The light tracer's share of the image" in html
+    assert "As users render" in html and html.count("samples per pixel at threshold 0.1") == 4
+    assert "adaptive at threshold 0.1" in proc.stdout
     assert (report / "bench.svg").read_text().startswith("<svg")
     assert "Snell / Cycles" in proc.stdout
 
