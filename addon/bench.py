@@ -250,9 +250,8 @@ def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, thresho
     h, w = ref.shape[:2]
     if counts is None:  # a ladder point: spp in every pixel
         counts = np.full((h, w), spp, np.int32)
-    p = {"spp": spp, **stats, **cb.errors(image, ref), **cb.sample_summary(counts, spp)}
-    if "saved_share" in stats:  # Snell's own count (RenderResult.saved_share)
-        p["saved_share"] = stats["saved_share"]
+    # The child's stats last: Snell's saved_share is its own (RenderResult.saved_share).
+    p = {"spp": spp, **cb.errors(image, ref), **cb.sample_summary(counts, spp), **stats}
     p["peak_rss_above_baseline_mb"] = p["peak_rss_mb"] - baseline_mb
     p["efficiency"] = p["relmse"] * p["wall_s"]
     p["samples_per_second"] = h * w * p["mean_spp"] / p["render_s"] if p["render_s"] > 0 else 0.0

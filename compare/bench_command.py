@@ -34,7 +34,8 @@ def setup_cli(p):
     p.add_argument("--report", required=True, metavar="DIR",
                    help="directory for bench.json, bench.html and bench.svg (created)")
     p.add_argument("--quick", action="store_true",
-                   help="smoke test: 25%% resolution, ladder 4, 8, 16 spp, reference 4 seeds x 64 spp")
+                   help="smoke test: 25%% resolution, ladder 4, 8, 16 spp, reference 4 seeds x 64 spp, "
+                        "thresholds 0.1 and 0.03 with at most 256 spp")
     p.add_argument("--threads", type=int_at_least(1), help="threads for each renderer (default 2)")
     p.add_argument("--max-depth", type=int_at_least(1), metavar="M", help="default 8")
     p.add_argument("--scale", type=int_at_least(1), metavar="PCT",
