@@ -1,4 +1,5 @@
-"""`snell bench`: Snell and Cycles at a ladder of sample counts against a converged reference.
+"""`snell bench`: Snell and Cycles at a ladder of sample counts against a converged reference,
+then both adaptive at the same noise thresholds ("as users render", _adaptive_comparison).
 
 For each scene: a reference (a long Cycles render as K seeds, cached on disk, see
 compare/bench.py cache_key), then for each renderer the ladder 1, 2, 4, ... spp until max_spp or
@@ -26,6 +27,7 @@ import numpy as np
 
 from ..compare import bench as cb
 from ..compare import metrics
+from ..compare.sample_map import sample_map_png
 from ..tracer.atomic import atomic_directory
 from . import cycles
 from .console import stdout_silenced
@@ -50,9 +52,14 @@ class Options:
     quick: bool = False
     repeat: int = 1           # runs per point; the run of median wall time is kept
     caustics: str = "on"      # Snell's light tracer: "on", "off", or "both" (a ladder of each)
+    # "As users render": both renderers adaptive at these noise thresholds, each pixel capped at
+    # adaptive_max_spp samples (empty: no such comparison).
+    thresholds: tuple = (0.1, 0.03, 0.01, 0.003)
+    adaptive_max_spp: int = 1024
 
 
-QUICK = dict(scale=25, min_spp=4, max_spp=16, time_cap_s=20.0, ref_seeds=4, ref_spp=64, quick=True)
+QUICK = dict(scale=25, min_spp=4, max_spp=16, time_cap_s=20.0, ref_seeds=4, ref_spp=64, quick=True,
+             thresholds=(0.1, 0.03), adaptive_max_spp=256)
 
 
 def default_cache_dir() -> str:
@@ -76,11 +83,13 @@ def _snell_point(spec):
     t = time.perf_counter()
     renderer = Renderer(scene, threads=spec["threads"], caustics=spec["caustics"])
     build_s = time.perf_counter() - t
-    result = renderer.render(spp=spec["spp"])
+    # Ladder points sample every pixel equally (threshold 0, whatever the scene says); adaptive
+    # points use Cycles' automatic minimum (min_spp 0), as Cycles does beside them.
+    result = renderer.render(spp=spec["spp"], noise_threshold=spec["threshold"] or 0.0, min_spp=0)
     wall = time.perf_counter() - start
     light = result.light_image().astype(np.float32) if result.light_in_image else None
-    return result.mean(), light, {
-        "export_s": export_s, "build_s": build_s, "render_s": result.time_s, "wall_s": wall,
+    return result.mean(), light, result.samples(), {
+        "saved_share": result.saved_share, "export_s": export_s, "build_s": build_s, "render_s": result.time_s, "wall_s": wall,
         "rays_per_second": result.rays_per_second, "rays": result.rays,
         "embree_share": result.embree_share,
         "embree_share_of_wall": result.embree_time_s / (wall * result.threads),
@@ -94,7 +103,12 @@ def _cycles_point(spec):
 
     from ..tracer.image import read_exr
     from .blendfile import open_blend
-    settings = cycles.forced_settings(spec["max_depth"], spec["spp"], CYCLES_SEED, spec["threads"])
+    if spec["threshold"]:
+        settings = cycles.adaptive_settings(spec["max_depth"], spec["threshold"], spec["spp"],
+                                            CYCLES_SEED, spec["threads"])
+    else:
+        settings = cycles.forced_settings(spec["max_depth"], spec["spp"], CYCLES_SEED,
+                                          spec["threads"])
     camera = {"resolution_percentage": spec["scale"]} if spec["scale"] != 100 else None
     with tempfile.TemporaryDirectory(prefix="snell-bench-") as workdir:
         out = os.path.join(workdir, "cycles.exr")
@@ -110,7 +124,8 @@ def _cycles_point(spec):
         render_s = time.perf_counter() - t
         wall = time.perf_counter() - start
         rgb = read_exr(out).astype(np.float32)
-    return rgb, {"load_s": load_s, "render_s": render_s, "wall_s": wall, "threads": spec["threads"]}
+        counts = cycles.read_sample_count(out, spec["spp"]) if spec["threshold"] else None
+    return rgb, counts, {"load_s": load_s, "render_s": render_s, "wall_s": wall, "threads": spec["threads"]}
 
 
 def _child(spec_path, out_path):
@@ -121,17 +136,18 @@ def _child(spec_path, out_path):
     from ..tracer import integrator
     # Loaded once per session in an open Blender: not part of what a render point costs.
     integrator.warm_up()
-    light = None
+    light = counts = None
     if spec["kind"] == "baseline":
         image, stats = np.zeros((1, 1, 3), np.float32), {}
     elif spec["kind"] == "snell":
-        image, light, stats = _snell_point(spec)
+        image, light, counts, stats = _snell_point(spec)
     else:
-        image, stats = _cycles_point(spec)
+        image, counts, stats = _cycles_point(spec)
     stats["peak_rss_mb"] = _own_peak_rss_mb()
     np.save(out_path + ".npy", image)
-    if light is not None:
-        np.save(out_path + "_light.npy", light)
+    for suffix, array in (("_light", light), ("_samples", counts)):
+        if array is not None:
+            np.save(out_path + suffix + ".npy", array)
     with open(out_path + ".json", "w") as f:
         json.dump(stats, f)
 
@@ -155,12 +171,13 @@ class PointError(RuntimeError):
     pass
 
 
-def run_point(kind, blend, spp, opts: Options, caustics=True):
-    """(image, light tracer's image or None, stats) of one point in a child process; stats gain
-    peak_rss_mb (the child's)."""
+def run_point(kind, blend, spp, opts: Options, caustics=True, threshold=None):
+    """(image, light tracer's image or None, per-pixel samples or None, stats) of one point in a
+    child process; stats gain peak_rss_mb (the child's). threshold: adaptive sampling at that
+    noise threshold with at most spp samples per pixel (None: spp in every pixel)."""
     spec = {"kind": kind, "blend": os.path.abspath(blend) if blend else None, "spp": spp,
             "max_depth": opts.max_depth, "threads": opts.threads, "scale": opts.scale,
-            "caustics": caustics}
+            "caustics": caustics, "threshold": threshold}
     with tempfile.TemporaryDirectory(prefix="snell-bench-") as tmp:
         spec_path, out = os.path.join(tmp, "spec.json"), os.path.join(tmp, "out")
         with open(spec_path, "w") as f:
@@ -172,11 +189,12 @@ def run_point(kind, blend, spp, opts: Options, caustics=True):
             tail = err.decode(errors="replace").strip().splitlines()[-5:]
             raise PointError(f"{kind} {spp} spp on {blend}: child exited {proc.returncode}: "
                              + " / ".join(tail))
-        image = np.load(out + ".npy")
-        light = np.load(out + "_light.npy") if os.path.exists(out + "_light.npy") else None
+        image, light, counts = (np.load(out + suffix + ".npy")
+                                if os.path.exists(out + suffix + ".npy") else None
+                                for suffix in ("", "_light", "_samples"))
         with open(out + ".json") as f:
             stats = json.load(f)
-    return image, light, stats
+    return image, light, counts, stats
 
 
 # ---------------------------------------------------------------------------------------------
@@ -221,28 +239,69 @@ def reference(blend, opts: Options, cache_dir, log):
 # The bench
 
 
+def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, threshold=None):
+    """(point, image, light tracer's image or None, per-pixel samples) of one measured point."""
+    # Repeats of a point render the same image (same seed); only the timings differ.
+    runs = [run_point(kind, blend, spp, opts, caustics, threshold) for _ in range(opts.repeat)]
+    image, light, counts, _ = runs[0]
+    stats = cb.median_run([r[3] for r in runs])
+    if image.shape != ref.shape:
+        raise PointError(f"{kind} image {image.shape} differs from the reference {ref.shape}")
+    h, w = ref.shape[:2]
+    if counts is None:  # a ladder point: spp in every pixel
+        counts = np.full((h, w), spp, np.int32)
+    # The child's stats last: Snell's saved_share is its own (RenderResult.saved_share).
+    p = {"spp": spp, **cb.errors(image, ref), **cb.sample_summary(counts, spp), **stats}
+    p["peak_rss_above_baseline_mb"] = p["peak_rss_mb"] - baseline_mb
+    p["efficiency"] = p["relmse"] * p["wall_s"]
+    p["samples_per_second"] = h * w * p["mean_spp"] / p["render_s"] if p["render_s"] > 0 else 0.0
+    label = kind if caustics or kind != "snell" else "snell-pt"
+    at = f"T {threshold:<6g}" if threshold else f"{spp:5d} spp"
+    log(f"  {label:8s} {at}  wall {p['wall_s']:7.2f} s  relMSE {p['relmse']:.4g}  "
+        f"RMSE {p['rmse']:.4g}  FLIP {p['flip']:.4g}  mean {p['mean_spp']:.1f} spp  "
+        f"peak {p['peak_rss_mb']:.0f} MB")
+    return p, image, light, counts
+
+
 def _ladder(kind, blend, ref, opts, baseline_mb, log, caustics=True):
     """The ladder's points, with each point's image and light tracer's image (or None)."""
     points, images, spp = [], [], opts.min_spp
     while spp is not None:
-        # Repeats of a point render the same image (same seed); only the timings differ.
-        runs = [run_point(kind, blend, spp, opts, caustics) for _ in range(opts.repeat)]
-        image = runs[0][0]
-        images.append((image, runs[0][1]))
-        stats = cb.median_run([r[2] for r in runs])
-        if image.shape != ref.shape:
-            raise PointError(f"{kind} image {image.shape} differs from the reference {ref.shape}")
-        p = {"spp": spp, **stats, **cb.errors(image, ref)}
-        p["peak_rss_above_baseline_mb"] = p["peak_rss_mb"] - baseline_mb
-        p["efficiency"] = p["relmse"] * p["wall_s"]
-        h, w = ref.shape[:2]
-        p["samples_per_second"] = h * w * spp / p["render_s"] if p["render_s"] > 0 else 0.0
+        p, image, light, _ = _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics)
         points.append(p)
-        label = kind if caustics or kind != "snell" else "snell-pt"
-        log(f"  {label:8s} {spp:5d} spp  wall {p['wall_s']:7.2f} s  relMSE {p['relmse']:.4g}  "
-            f"RMSE {p['rmse']:.4g}  FLIP {p['flip']:.4g}  peak {p['peak_rss_mb']:.0f} MB")
+        images.append((image, light))
         spp = cb.next_spp(spp, p["wall_s"], max_spp=opts.max_spp, time_cap_s=opts.time_cap_s)
     return points, images
+
+
+def _as_users_render(kind, blend, ref, opts, baseline_mb, log, caustics=True):
+    """The adaptive points at each of opts.thresholds (loosest first), and each one's per-pixel
+    samples."""
+    points, counts = [], []
+    for threshold in sorted(opts.thresholds, reverse=True):
+        p, _, _, c = _point(kind, blend, opts.adaptive_max_spp, ref, opts, baseline_mb, log,
+                            caustics, threshold)
+        points.append({"threshold": threshold, **p})
+        counts.append(c)
+    return points, counts
+
+
+def _adaptive_comparison(blend, ref, opts, baseline_mb, log):
+    """(the scene's "adaptive" entry, {renderer: sample map PNG}): Snell and Cycles adaptive at
+    opts.thresholds, their equal-threshold ratios, and the maps at the threshold nearest 0.01."""
+    entry, pngs = {}, {}
+    at = cb.nearest_threshold(opts.thresholds)
+    for kind in cb.ADAPTIVE_RENDERERS:
+        points, counts = _as_users_render(kind, blend, ref, opts, baseline_mb, log,
+                                          caustics=opts.caustics != "off")
+        entry[kind] = {"points": points}
+        i = [p["threshold"] for p in points].index(at)
+        # One scale for both renderers' maps (the cap), so their colours compare.
+        pngs[kind] = sample_map_png(counts[i], vmax=opts.adaptive_max_spp)
+    entry["equal_threshold"] = cb.equal_threshold(entry["snell"]["points"],
+                                                  entry["cycles"]["points"])
+    entry["map_threshold"] = at
+    return entry, pngs
 
 
 def _caustic_region(light, ref):
@@ -284,7 +343,8 @@ def definitions(opts: Options) -> dict:
         "embree_share": "Snell only: Embree query time / (render time x threads); "
                         "embree_share_of_wall divides by the point's whole wall time instead",
         "rays_per_second": "Snell only: camera, bounce and shadow rays per second of render time "
-                           "(Cycles reports no ray count; samples_per_second is given for both)",
+                           "(Cycles reports no ray count; samples_per_second, pixels x mean_spp "
+                           "per second of render time, is given for both)",
         "peak_rss_mb": "the point's child process peak resident set size (Linux VmHWM; ru_maxrss "
                        "elsewhere): "
                        "Python, numpy, the bpy module and native memory (Embree, Cycles); "
@@ -299,6 +359,29 @@ def definitions(opts: Options) -> dict:
         "caustic_gain_at_equal_time": "for each Snell point, the path tracer alone's caustic "
                                       "relMSE at the same wall time (log-log interpolation "
                                       "between its ladder points) over Snell's; median over points",
+        "as_users_render": "both renderers sample adaptively as a user renders with a noise "
+                           f"threshold: thresholds {', '.join(f'{t:g}' for t in opts.thresholds)}; "
+                           f"max samples {opts.adaptive_max_spp} is the per-pixel cap for both "
+                           "(Cycles' samples, Snell's spp; a point's spp is that cap), automatic "
+                           "min samples for both (Cycles' adaptive_min_samples 0, Snell's min_spp "
+                           "0: max(4, ceil(16 / threshold^0.3))), same threads and max depth, "
+                           "timed as the ladder points and measured against the same reference. "
+                           "Cycles renders every sample (no sample subset: with one Cycles scales "
+                           "the threshold by sqrt(subset / samples)), so its sample 0 goes through "
+                           "the pixel centre; its sample counts come from its Debug Sample Count "
+                           "pass (an extra pass in its EXR)",
+        "mean_spp": "samples per pixel averaged over the image (pixel_spp_min, pixel_spp_max: "
+                    "the fewest and most of any pixel)",
+        "saved_share": "1 - the samples taken / (the cap x pixels): the share of the budget "
+                       "adaptive sampling did not spend (Snell: RenderResult.saved_share)",
+        "equal_threshold": "per threshold: target = Cycles' relMSE there; Snell's time to it by "
+                           "piecewise-linear interpolation of log time against log relMSE along "
+                           "Snell's points, loosest threshold first (the ladder's rule: if Snell's "
+                           "loosest point is already as low, its time, not extrapolated); ratio = "
+                           "that time / Cycles' wall time. When Snell's curve never gets that low "
+                           "(along = cycles), the target is Snell's relMSE and Cycles' time to it "
+                           "is interpolated along Cycles' curve. time_ratio, relmse_ratio, "
+                           "mean_spp_ratio: Snell / Cycles at the same threshold",
         "reference_noise": "the reference's own expected contribution to a point's relMSE and RMSE: "
                            "mean of var / (R^2 + eps) and sqrt(mean var), var = its across-seed "
                            "variance of the mean; measured errors include it (not subtracted)",
@@ -316,9 +399,9 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
     for blend in scenes:
         with stdout_silenced():
             export_blend(blend)
-    _, _, base = run_point("baseline", None, 0, opts)
+    *_, base = run_point("baseline", None, 0, opts)
     baseline_mb = base["peak_rss_mb"]
-    out_scenes, maps = [], {}
+    out_scenes, maps, sample_maps = [], {}, {}
     for blend in scenes:
         name = os.path.splitext(os.path.basename(blend))[0]
         ref, ref_info = reference(blend, opts, cache_dir, log)
@@ -353,6 +436,10 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
                     "caustic_relmse")
         if light is not None:
             maps[name] = cb.share_map_png(light, ref)
+        if opts.thresholds:
+            log(f"{name}: as users render (adaptive)")
+            scene["adaptive"], sample_maps[name] = _adaptive_comparison(
+                blend, ref, opts, baseline_mb, log)
         out_scenes.append(scene)
     import bpy
     data = {
@@ -372,7 +459,7 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
         with open(os.path.join(tmp, "bench.svg"), "w") as f:
             f.write(svg)
         cb.write_json(os.path.join(tmp, "bench.json"), data)
-        cb.write_html(os.path.join(tmp, "bench.html"), data, svg, maps)
+        cb.write_html(os.path.join(tmp, "bench.html"), data, svg, maps, sample_maps)
     return data
 
 

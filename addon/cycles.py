@@ -83,9 +83,73 @@ def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2):
     ]
 
 
+# The settings forced_settings uses to render exactly samples 1..spp, which adaptive_settings
+# drops: a user renders all the samples, and with a subset Cycles scales the noise threshold by
+# sqrt(subset / samples) (scene/integrator.cpp, get_adaptive_sampling).
+_SUBSET_KEYS = ("cycles.use_sample_subset", "cycles.sample_offset", "cycles.sample_subset_length")
+SAMPLE_COUNT_PASS = "Debug Sample Count"
+MULTILAYER = "OPEN_EXR_MULTILAYER 32-bit, Combined and Debug Sample Count"
+
+
+def adaptive_settings(max_depth: int, threshold: float, max_spp: int, seed: int, threads: int = 2):
+    """[(setting, value, reason)] for Cycles' adaptive sampling as a user renders with it: the
+    forced settings, but noise threshold `threshold`, automatic minimum samples, at most
+    `max_spp` per pixel, all samples (no subset), and the per-pixel sample count pass."""
+    if threshold <= 0:
+        raise ValueError(f"noise threshold {threshold}: adaptive sampling needs one above 0")
+    replaced = {
+        "cycles.samples": (max_spp, "the per-pixel cap (Snell's spp), as a user sets it"),
+        "cycles.use_adaptive_sampling": (True, "as users render: each pixel stops at the noise "
+                                         "threshold (Snell samples adaptively by the same rule)"),
+        "output": (MULTILAYER, "the render and each pixel's sample count, read back"),
+    }
+    out = []
+    for key, value, why in forced_settings(max_depth, max_spp, seed, threads):
+        if key in _SUBSET_KEYS:
+            continue
+        out.append((key, *replaced[key]) if key in replaced else (key, value, why))
+    out += [
+        ("cycles.use_sample_subset", False, "a user renders every sample (with a subset Cycles "
+         "scales the threshold by sqrt(subset / samples)); sample 0 goes through the pixel "
+         "centre, a weight of 1 / (pixel's samples) at most 1/32 at the automatic minimum"),
+        ("cycles.adaptive_threshold", threshold, "the noise threshold (Snell's noise_threshold)"),
+        ("cycles.adaptive_min_samples", 0, "0 = Cycles' automatic minimum, "
+         "max(4, ceil(16 / threshold^0.3)), Snell's too"),
+        ("view_layers.cycles.pass_debug_sample_count", True, "each pixel's samples, for the "
+         "mean samples per pixel and the sample map"),
+    ]
+    return out
+
+
+def read_sample_count(path, samples: int) -> np.ndarray:
+    """Each pixel's samples, int32 (H, W), from the Debug Sample Count pass of a multilayer EXR
+    (Cycles stores the count over the samples setting)."""
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        raise OSError(f"{path}: cannot read image ({oiio.geterror()})")
+    try:
+        part = 0
+        while inp.seek_subimage(part, 0):
+            spec = inp.spec()
+            for channel, name in enumerate(spec.channelnames):
+                if f".{SAMPLE_COUNT_PASS}." in f".{name}":
+                    pixels = inp.read_image(part, 0, channel, channel + 1, "float")
+                    share = np.asarray(pixels, np.float64).reshape(spec.height, spec.width)
+                    return np.rint(share * samples).astype(np.int32)
+            part += 1
+    finally:
+        inp.close()
+    raise OSError(f"{path}: no {SAMPLE_COUNT_PASS} pass")
+
+
 def _apply(scene, settings):
     for key, value, _ in settings:
         if key == "output":
+            continue
+        if key.startswith("view_layers.cycles."):
+            for layer in scene.view_layers:
+                setattr(layer.cycles, key.rsplit(".", 1)[1], value)
             continue
         if key.startswith("objects."):
             for obj in scene.objects:
@@ -98,10 +162,11 @@ def _apply(scene, settings):
         owner = {"render": scene.render, "cycles": scene.cycles,
                  "view_settings": scene.view_settings}[owner_name]
         setattr(owner, attr, value)
+    multilayer = any(k == "output" and v == MULTILAYER for k, v, _ in settings)
     img = scene.render.image_settings
-    if hasattr(img, "media_type"):
-        img.media_type = "IMAGE"
-    img.file_format = "OPEN_EXR"
+    if hasattr(img, "media_type"):  # Blender 5: the multilayer format is a media type
+        img.media_type = "MULTI_LAYER_IMAGE" if multilayer else "IMAGE"
+    img.file_format = "OPEN_EXR_MULTILAYER" if multilayer else "OPEN_EXR"
     img.color_depth = "32"
     img.color_mode = "RGB"
     img.exr_codec = "ZIP"
@@ -209,5 +274,5 @@ def seeds_for(k: int, base: int = 0):
     return [base * 1000 + i + 1 for i in range(k)]
 
 
-__all__ = ["forced_settings", "render_seeds", "CyclesResult", "NoCyclesEquivalent",
+__all__ = ["forced_settings", "adaptive_settings", "read_sample_count", "render_seeds", "CyclesResult", "NoCyclesEquivalent",
            "fstop_for_radius", "seeds_for"]

@@ -10,6 +10,9 @@ Definitions (stated again in bench.json under "definitions"):
 - time to equal error: per renderer, log(time) is interpolated piecewise-linearly in log(relMSE)
   along the ladder, at the first point where the curve reaches the target; the target is the
   larger of the two renderers' smallest reached relMSE, so both curves reach it.
+- as users render: both renderers adaptive at the same noise thresholds; at each threshold,
+  Snell's time to Cycles' relMSE along Snell's threshold curve (the same interpolation) over
+  Cycles' time, and the plain time and relMSE ratios (equal_threshold).
 """
 from __future__ import annotations
 
@@ -88,6 +91,15 @@ def time_at_error(times, errs, target):
     return None
 
 
+def sample_summary(counts, cap) -> dict:
+    """Mean, smallest and largest samples per pixel of an (H, W) count array, and the share of
+    the budget (cap in every pixel) left unused (RenderResult.saved_share's definition)."""
+    counts = np.asarray(counts, np.int64)
+    mean = float(counts.mean())
+    return {"mean_spp": mean, "pixel_spp_min": int(counts.min()),
+            "pixel_spp_max": int(counts.max()), "saved_share": 1.0 - mean / cap}
+
+
 def loglog_fit(times, errs):
     """Least-squares line log(error) = intercept + slope log(time); slope near -1 when unbiased."""
     x = np.log(np.asarray(times, np.float64))
@@ -124,6 +136,44 @@ def equal_error(snell_points, cycles_points) -> dict:
         # slope -1 fits: the ratio of geometric-mean relMSE x time, the same at every target
         "fit_ratio": math.exp(us["intercept"] - uc["intercept"]),
     }
+
+
+def equal_threshold(snell_points, cycles_points) -> list:
+    """At each noise threshold both renderers ran (points with "threshold", "wall_s", "relmse"):
+    Snell / Cycles time to equal error, and the plain time and relMSE ratios.
+
+    The target is Cycles' relMSE at the threshold; Snell's time to it is interpolated along
+    Snell's threshold curve (time_at_error, loosest threshold first). Where Snell's curve never
+    gets that low, the roles swap: Snell's relMSE at the threshold, Cycles' time to it along
+    Cycles' curve (which reaches it, having gone lower), so the ratio is always one of equal error."""
+    def curve(points):
+        ordered = sorted(points, key=lambda p: -p["threshold"])
+        return [p["wall_s"] for p in ordered], [p["relmse"] for p in ordered]
+
+    ts, es = curve(snell_points)
+    tc, ec = curve(cycles_points)
+    snell_at = {p["threshold"]: p for p in snell_points}
+    out = []
+    for c in sorted(cycles_points, key=lambda p: -p["threshold"]):
+        s = snell_at.get(c["threshold"])
+        if s is None:
+            continue
+        t_s, t_c, target = time_at_error(ts, es, c["relmse"]), c["wall_s"], c["relmse"]
+        along = "snell"
+        if t_s is None:
+            t_s, target, along = s["wall_s"], s["relmse"], "cycles"
+            t_c = time_at_error(tc, ec, target)
+        out.append({"threshold": c["threshold"], "target_relmse": target, "along": along,
+                    "snell_s": t_s, "cycles_s": t_c, "ratio": t_s / t_c,
+                    "time_ratio": s["wall_s"] / c["wall_s"],
+                    "relmse_ratio": s["relmse"] / c["relmse"],
+                    "mean_spp_ratio": s["mean_spp"] / c["mean_spp"]})
+    return out
+
+
+def nearest_threshold(thresholds, wanted=0.01):
+    """The threshold nearest `wanted` in log scale (the summary's and the sample maps' point)."""
+    return min(thresholds, key=lambda t: abs(math.log(t / wanted)))
 
 
 def error_at_time(times, errs, t):
@@ -394,6 +444,35 @@ SUMMARY_HEADER = ["scene", "Snell", "size", "target relMSE", "Snell s", "Cycles 
                   "caustic relMSE gain at equal time"]
 
 
+ADAPTIVE_RENDERERS = ("snell", "cycles")
+
+
+def adaptive_rows(data):
+    """One row per "as users render" point, both renderers side by side at each threshold."""
+    rows = []
+    for sc in data["scenes"]:
+        ad = sc.get("adaptive")
+        if not ad:
+            continue
+        by = {r: {p["threshold"]: p for p in ad[r]["points"]} for r in ADAPTIVE_RENDERERS}
+        for eq in ad["equal_threshold"]:
+            s, c = by["snell"][eq["threshold"]], by["cycles"][eq["threshold"]]
+            rows.append([sc["name"], f"{eq['threshold']:g}",
+                         f"{s['wall_s']:.2f}", f"{c['wall_s']:.2f}",
+                         fmt(s["relmse"]), fmt(c["relmse"]), fmt(s["flip"]), fmt(c["flip"]),
+                         f"{s['mean_spp']:.1f}", f"{c['mean_spp']:.1f}",
+                         f"{100 * s['saved_share']:.0f}%",
+                         "n/a" if c.get("saved_share") is None else f"{100 * c['saved_share']:.0f}%",
+                         fmt(eq["ratio"]), fmt(eq["time_ratio"]), fmt(eq["relmse_ratio"])])
+    return rows
+
+
+ADAPTIVE_HEADER = ["scene", "threshold", "Snell s", "Cycles s", "Snell relMSE", "Cycles relMSE",
+                   "Snell FLIP", "Cycles FLIP", "Snell mean spp", "Cycles mean spp",
+                   "Snell saved", "Cycles saved", "Snell / Cycles at equal error",
+                   "time ratio", "relMSE ratio"]
+
+
 def _table(rows, header):
     out = ["<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>"]
     out += ["<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows]
@@ -405,7 +484,10 @@ def markdown_table(data) -> str:
     def md(rows, header):
         lines = ["| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
         return "\n".join(lines + ["| " + " | ".join(str(c) for c in r) + " |" for r in rows])
-    return md(summary_rows(data), SUMMARY_HEADER) + "\n\n" + md(table_rows(data), HEADER)
+    out = md(summary_rows(data), SUMMARY_HEADER) + "\n\n" + md(table_rows(data), HEADER)
+    if adaptive_rows(data):
+        out += "\n\n" + md(adaptive_rows(data), ADAPTIVE_HEADER)
+    return out
 
 
 def _share_maps(data, maps):
@@ -429,8 +511,30 @@ def _share_maps(data, maps):
             "point.</p>\n" + "\n".join(out) + "\n")
 
 
-def write_html(path, data, svg, maps=None):
-    """The bench page; maps: {scene name: PNG of the light tracer's share}."""
+def _adaptive_section(data, sample_maps):
+    """The HTML of the "as users render" comparison: its table and each scene's sample maps."""
+    from .report import _data_uri
+    rows = adaptive_rows(data)
+    if not rows:
+        return ""
+    figures = []
+    for sc in data["scenes"]:
+        for r, png in (sample_maps or {}).get(sc["name"], {}).items():
+            figures.append(f"<figure><img src='{_data_uri(png)}'><figcaption>"
+                           f"{html.escape(sc['name'])}: {LABELS[r]}'s samples per pixel at "
+                           f"threshold {sc['adaptive']['map_threshold']:g}</figcaption></figure>")
+    s, d = data["settings"], data["definitions"]
+    return (f"<h2>As users render: adaptive sampling at equal noise thresholds</h2>\n"
+            f"<p class='small'>{html.escape(d['as_users_render'])}</p>\n"
+            f"{_table(rows, ADAPTIVE_HEADER)}\n"
+            f"<p class='small'>{html.escape(d['equal_threshold'])}</p>\n"
+            + ("<p class='small'>Samples per pixel (dark: 0, yellow: the cap of "
+               f"{s['adaptive_max_spp']}).</p>\n" + "\n".join(figures) + "\n" if figures else ""))
+
+
+def write_html(path, data, svg, maps=None, sample_maps=None):
+    """The bench page; maps: {scene name: PNG of the light tracer's share}; sample_maps: {scene
+    name: {renderer: PNG of its samples per pixel}}."""
     from .report import _page  # the validator's page frame and CSS
     d = data["definitions"]
     s = data["settings"]
@@ -449,6 +553,7 @@ def write_html(path, data, svg, maps=None):
         f"<h2>Time to equal error</h2>\n{_table(summary_rows(data), SUMMARY_HEADER)}\n"
         f"<p class='small'>{html.escape(d['time_to_equal_error'])}</p>\n"
         f"{_share_maps(data, maps)}"
+        f"{_adaptive_section(data, sample_maps)}"
         f"<h2>Ladder points</h2>\n{_table(table_rows(data), HEADER)}\n"
         f"<h2>Definitions</h2><ul>" + "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>"
                                                for k, v in d.items()) + "</ul>\n"

@@ -5,11 +5,25 @@ compare/bench.py; this module sits above both so that neither imports the other'
 """
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 
 from ..errors import CliError, check_input_file, check_writable_directory, int_at_least
 from . import bench as cb
+
+
+def thresholds(text):
+    """A --thresholds value: comma-separated numbers above 0, or 'none' (no thresholds)."""
+    if text.strip().lower() == "none":
+        return ()
+    try:
+        values = tuple(float(t) for t in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected numbers like 0.1,0.01") from None
+    if not all(0 < v < 1 for v in values):  # Cycles' adaptive_threshold is a positive share
+        raise argparse.ArgumentTypeError(f"{text!r}: each threshold must be above 0 and below 1")
+    return values
 
 
 def setup_cli(p):
@@ -20,7 +34,8 @@ def setup_cli(p):
     p.add_argument("--report", required=True, metavar="DIR",
                    help="directory for bench.json, bench.html and bench.svg (created)")
     p.add_argument("--quick", action="store_true",
-                   help="smoke test: 25%% resolution, ladder 4, 8, 16 spp, reference 4 seeds x 64 spp")
+                   help="smoke test: 25%% resolution, ladder 4, 8, 16 spp, reference 4 seeds x 64 spp, "
+                        "thresholds 0.1 and 0.03 with at most 256 spp")
     p.add_argument("--threads", type=int_at_least(1), help="threads for each renderer (default 2)")
     p.add_argument("--max-depth", type=int_at_least(1), metavar="M", help="default 8")
     p.add_argument("--scale", type=int_at_least(1), metavar="PCT",
@@ -38,6 +53,12 @@ def setup_cli(p):
     p.add_argument("--caustics", choices=("on", "off", "both"),
                    help="Snell's caustics light tracer: on (default), off, or both (a second "
                         "Snell ladder with the path tracer alone)")
+    p.add_argument("--thresholds", type=thresholds, metavar="T,T,...",
+                   help="noise thresholds of the 'as users render' comparison, both renderers "
+                        "adaptive (default 0.1,0.03,0.01,0.003, --quick 0.1,0.03; 'none': skip it)")
+    p.add_argument("--adaptive-max-spp", type=int_at_least(1), metavar="N",
+                   help="per-pixel sample cap of both renderers in that comparison "
+                        "(default 1024, --quick 256)")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/snell/bench)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
@@ -59,7 +80,8 @@ def cmd(args) -> int:
     opts = ab.Options(**(ab.QUICK if args.quick else {}))
     for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),
                        ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"), ("ref_seeds", "ref_seeds"),
-                       ("ref_spp", "ref_spp"), ("repeat", "repeat"), ("caustics", "caustics")):
+                       ("ref_spp", "ref_spp"), ("repeat", "repeat"), ("caustics", "caustics"),
+                       ("thresholds", "thresholds"), ("adaptive_max_spp", "adaptive_max_spp")):
         if getattr(args, name) is not None:
             setattr(opts, attr, getattr(args, name))
     log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr, flush=True))
@@ -79,6 +101,12 @@ def cmd(args) -> int:
         if "caustic_gain_at_equal_time" in sc:
             print(f"snell bench: {sc['name']}: caustic region relMSE at equal time: path tracer "
                   f"only / hybrid = {cb.fmt(sc['caustic_gain_at_equal_time']['median'])}")
+        if "adaptive" in sc:
+            at = sc["adaptive"]["map_threshold"]
+            eq = next(e for e in sc["adaptive"]["equal_threshold"] if e["threshold"] == at)
+            print(f"snell bench: {sc['name']}: adaptive at threshold {at:g}: Snell / Cycles at "
+                  f"equal error = {cb.fmt(eq['ratio'])} (time {cb.fmt(eq['time_ratio'])}, "
+                  f"relMSE {cb.fmt(eq['relmse_ratio'])} at equal threshold)")
     print(f"snell bench: {data['total_s']:.1f} s -> {os.path.join(args.report, 'bench.html')}")
     return 0
 

@@ -7,6 +7,7 @@ import math
 import os
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -96,7 +97,9 @@ def test_quick_bench_fills_every_key(tmp_path):
     pytest.importorskip("flip_evaluator")
     report = tmp_path / "report"
     proc = subprocess.run([sys.executable, "-m", "snell.cli", "bench", "--quick", "--report", str(report),
-                           "--cache", str(tmp_path / "cache"), "--caustics", "both", "--quiet"],
+                           "--cache", str(tmp_path / "cache"), "--caustics", "both", "--quiet",
+                           # one adaptive point per renderer and scene keeps the test short
+                           "--thresholds", "0.1"],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     data = json.loads((report / "bench.json").read_text())
@@ -107,6 +110,9 @@ def test_quick_bench_fills_every_key(tmp_path):
         for r in ("snell", "snell_path_tracer", "cycles"):
             pts = sc[r]["points"]
             assert [p["spp"] for p in pts] == [4, 8, 16]
+            # ladder points sample every pixel equally, whatever the scene's noise threshold
+            assert all(p["mean_spp"] == p["spp"] == p["pixel_spp_min"] and p["saved_share"] == 0
+                       for p in pts)
             for p in pts:
                 assert p["wall_s"] > 0 and p["relmse"] > 0 and p["rmse"] > 0 and 0 < p["flip"] < 1
                 assert p["peak_rss_mb"] > 0
@@ -118,6 +124,18 @@ def test_quick_bench_fills_every_key(tmp_path):
         assert eq["ratio"] > 0 and eq["fit_ratio"] > 0
         assert eq["target_relmse"] == pytest.approx(max(min(p["relmse"] for p in sc["snell"]["points"]),
                                                         min(p["relmse"] for p in sc["cycles"]["points"])))
+        # as users render: both adaptive at 0.1, at most 256 (--quick) samples per pixel
+        from snell.tracer.adaptive import auto_min_spp
+        ad = sc["adaptive"]
+        for r in ("snell", "cycles"):
+            (p,) = ad[r]["points"]
+            assert p["threshold"] == 0.1 and p["spp"] == 256 and p["relmse"] > 0
+            assert auto_min_spp(0.1) <= p["pixel_spp_min"] <= p["mean_spp"] <= p["pixel_spp_max"] <= 256
+            assert p["saved_share"] == pytest.approx(1 - p["mean_spp"] / 256, abs=1e-6)
+        (eq,) = ad["equal_threshold"]
+        assert eq["ratio"] > 0 and ad["map_threshold"] == 0.1
+        assert eq["time_ratio"] == pytest.approx(ad["snell"]["points"][0]["wall_s"]
+                                                 / ad["cycles"]["points"][0]["wall_s"])
     # The spheres focus light (the light tracer runs, and the caustic region is measured on
     # its own); the dragon's box has no mirror or glass.
     spheres, dragon = data["scenes"]
@@ -135,5 +153,114 @@ def test_quick_bench_fills_every_key(tmp_path):
     html = (report / "bench.html").read_text()
     assert html.count("<polyline") == 6 and "cornell_dragon" in html
     assert "The light tracer's share of the image" in html
+    assert "As users render" in html and html.count("samples per pixel at threshold 0.1") == 4
+    assert "adaptive at threshold 0.1" in proc.stdout
     assert (report / "bench.svg").read_text().startswith("<svg")
     assert "Snell / Cycles" in proc.stdout
+
+
+def _adaptive_points(thresholds, times, errs, mean_spp):
+    return [{"threshold": t, "wall_s": w, "relmse": e, "mean_spp": m}
+            for t, w, e, m in zip(thresholds, times, errs, mean_spp)]
+
+
+def test_equal_threshold_interpolates_along_snells_curve():
+    # Snell: relMSE = 0.1 / t; Cycles at each threshold reaches relMSE 0.05 and 0.0125.
+    snell = _adaptive_points([0.01, 0.1], [8.0, 1.0], [0.0125, 0.1], [400, 50])
+    cycles = _adaptive_points([0.1, 0.01], [1.0, 2.0], [0.05, 0.0125], [100, 800])
+    eq = cb.equal_threshold(snell, cycles)
+    assert [e["threshold"] for e in eq] == [0.1, 0.01]          # loosest first
+    loose, tight = eq
+    # Snell needs t = 0.1 / 0.05 = 2 s for Cycles' 0.05, Cycles took 1 s
+    assert loose["along"] == "snell" and loose["target_relmse"] == pytest.approx(0.05)
+    assert loose["snell_s"] == pytest.approx(2.0) and loose["ratio"] == pytest.approx(2.0)
+    assert loose["time_ratio"] == pytest.approx(1.0) and loose["relmse_ratio"] == pytest.approx(2.0)
+    assert loose["mean_spp_ratio"] == pytest.approx(0.5)
+    assert tight["snell_s"] == pytest.approx(8.0) and tight["ratio"] == pytest.approx(4.0)
+
+
+def test_equal_threshold_swaps_roles_when_snell_never_gets_as_low():
+    # Cycles goes lower than any Snell point: Snell's relMSE 0.02 at 0.01, Cycles' time to it
+    # along its curve (relMSE = 0.04 / t: 2 s), Snell took 3 s.
+    snell = _adaptive_points([0.1, 0.01], [1.0, 3.0], [0.05, 0.02], [50, 400])
+    cycles = _adaptive_points([0.1, 0.01], [1.0, 4.0], [0.04, 0.01], [60, 500])
+    tight = cb.equal_threshold(snell, cycles)[1]
+    assert tight["along"] == "cycles" and tight["target_relmse"] == pytest.approx(0.02)
+    assert tight["cycles_s"] == pytest.approx(2.0) and tight["ratio"] == pytest.approx(1.5)
+    # the summary's and the maps' threshold: nearest 0.01 in log scale
+    assert cb.nearest_threshold([0.1, 0.03, 0.003]) == 0.03    # log10 distances 0.48 < 0.52
+    assert cb.nearest_threshold([0.1, 0.005]) == 0.005         # 0.30 < 1
+
+
+def test_sample_summary():
+    s = cb.sample_summary(np.array([[4, 8], [16, 4]]), 16)
+    assert s == {"mean_spp": 8.0, "pixel_spp_min": 4, "pixel_spp_max": 16, "saved_share": 0.5}
+
+
+def test_sample_map_ramp_and_vmax():
+    from snell.compare import sample_map as sm
+    counts = np.arange(12).reshape(3, 4) * 10            # 0 .. 110
+    rgb = sm.sample_map_rgb(counts)
+    assert rgb.shape == (3, 4, 3) and rgb.dtype == np.uint8
+    # more samples are always lighter (viridis' lightness rises), ends at the ramp's ends
+    lum = (rgb.astype(float) @ [0.2126, 0.7152, 0.0722]).ravel()
+    assert np.all(np.diff(lum) > 0)
+    assert (rgb[0, 0] == sm.VIRIDIS[0]).all() and (rgb[-1, -1] == sm.VIRIDIS[-1]).all()
+    # vmax: the scale's top; counts above it clip to the bright end
+    half = sm.sample_map_rgb(counts, vmax=220)
+    assert (half[-1, -1] == sm.ramp(0.5)).all() and not (half[-1, -1] == rgb[-1, -1]).all()
+    clipped = sm.sample_map_rgb(counts, vmax=55)
+    assert (clipped[-1] == sm.VIRIDIS[-1]).all()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                    # no division by 0
+        assert (sm.sample_map_rgb(np.zeros((2, 2))) == sm.VIRIDIS[0]).all()
+    with pytest.raises(ValueError):
+        sm.sample_map_rgb(np.zeros((2, 2, 3)))
+
+
+def test_sample_map_png_has_map_bar_and_caption(tmp_path):
+    oiio = pytest.importorskip("OpenImageIO")
+    from snell.compare import sample_map as sm
+    counts = np.full((32, 64), 40)
+    counts[:16] = 200
+    path = tmp_path / "map.png"
+    path.write_bytes(sm.sample_map_png(counts, vmax=256))
+    inp = oiio.ImageInput.open(str(path))
+    spec = inp.spec()
+    pixels = np.asarray(inp.read_image(0, 0, 0, 3, "uint8")).reshape(spec.height, spec.width, 3)
+    inp.close()
+    k = sm.DISPLAY_WIDTH // 64                            # whole-pixel upscale
+    assert spec.width == 64 * k and spec.height > 32 * k + sm.BAR_HEIGHT
+    assert (pixels[0, 0] == sm.ramp(200 / 256)).all()
+    assert (pixels[32 * k - 1, 0] == sm.ramp(40 / 256)).all()
+    assert (pixels[32 * k, 0] == sm.VIRIDIS[0]).all() and (pixels[32 * k, -1] == sm.VIRIDIS[-1]).all()
+
+
+def test_cycles_adaptive_settings():
+    from snell.addon import cycles
+    settings = {k: v for k, v, _ in cycles.adaptive_settings(8, 0.01, 1024, 5, 2)}
+    assert settings["cycles.use_adaptive_sampling"] is True
+    assert settings["cycles.adaptive_threshold"] == 0.01
+    assert settings["cycles.adaptive_min_samples"] == 0            # Cycles' automatic minimum
+    assert settings["cycles.samples"] == 1024                       # the cap, all of it rendered
+    assert settings["cycles.use_sample_subset"] is False
+    assert "cycles.sample_offset" not in settings and "cycles.sample_subset_length" not in settings
+    assert settings["view_layers.cycles.pass_debug_sample_count"] is True
+    assert settings["output"] == cycles.MULTILAYER
+    # everything else is the validator's forced setting, which stays non-adaptive
+    forced = {k: v for k, v, _ in cycles.forced_settings(8, 1024, 5, 2)}
+    assert forced["cycles.use_adaptive_sampling"] is False and forced["cycles.use_sample_subset"]
+    changed = {k for k in forced if settings.get(k, object()) != forced[k]}
+    assert changed == {"cycles.samples", "cycles.use_adaptive_sampling", "cycles.use_sample_subset",
+                       "cycles.sample_offset", "cycles.sample_subset_length", "output"}
+    with pytest.raises(ValueError):
+        cycles.adaptive_settings(8, 0.0, 1024, 5)
+
+
+def test_thresholds_argument():
+    import argparse
+    from snell.compare.bench_command import thresholds
+    assert thresholds("0.1,0.01") == (0.1, 0.01) and thresholds("none") == ()
+    for bad in ("0.1,x", "0", "1.5"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            thresholds(bad)
