@@ -186,10 +186,6 @@ def render(engine, depsgraph):
         progress = _Progress(engine, result, w, h, spp, record, t_start)
         engine.update_stats("", f"Snell: rendering, sample 0/{spp}")
         rendered = renderer.render(progress=progress)
-        # The integrator ends without a callback when every pixel has converged: the last
-        # pass's samples (or, converged at the minimum, all of them) reach the result here.
-        if rendered.spp != progress.written_spp:
-            progress.write(rendered)
         adaptive = describe_adaptive(rendered)
         record.update(spp=rendered.spp, cancelled=rendered.cancelled, time_s=rendered.time_s,
                       rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count,

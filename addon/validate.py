@@ -68,12 +68,16 @@ def load_snell_scene(blend_path):
 BATCHES = 16
 
 
-def snell_render(scene, spp, progress=None, threads=2, caustics=None):
-    """Snell with independent samples in BATCHES batches: the tests need honest per-pixel
-    variances, which the default stratified sampler's correlated samples would over-estimate."""
+def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_threshold=0.0):
+    """Snell with independent samples: the tests need honest per-pixel variances, which the
+    default stratified sampler's correlated samples would over-estimate. In BATCHES batches, or
+    with noise_threshold > 0 adaptively (each pixel's variance from its own samples, the light
+    tracer's from its passes: RenderResult.variance_and_dof)."""
     from ..tracer.integrator import Renderer
-    return Renderer(scene, threads=threads, sampler="independent", caustics=caustics).render(
-        spp=spp, progress=progress, batches=min(BATCHES, spp))
+    renderer = Renderer(scene, threads=threads, sampler="independent", caustics=caustics)
+    if noise_threshold > 0.0:
+        return renderer.render(spp=spp, progress=progress, noise_threshold=noise_threshold)
+    return renderer.render(spp=spp, progress=progress, batches=min(BATCHES, spp))
 
 
 def cycles_render(blend_path, *, spp, max_depth, seed, n_seeds=DEFAULT_CYCLES_SEEDS, camera=None,
@@ -101,7 +105,12 @@ def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label=
         stats["verdict"] = metrics.NOT_COMPARABLE
     stats["not_comparable"] = list(not_comparable)
     stats["snell"] = {"time_s": snell_result.time_s, "spp": snell_result.spp,
-                      "nan_samples": snell_result.nan_count, "image": a}
+                      "nan_samples": snell_result.nan_count, "image": a,
+                      "noise_threshold": snell_result.noise_threshold,
+                      "mean_spp": float(snell_result.samples().mean()),
+                      "saved_share": snell_result.saved_share}
+    if snell_result.sample_count is not None:
+        stats["snell"]["samples"] = snell_result.sample_count
     stats["cycles"] = {"time_s": cyc.time_s, "spp": cyc.spp, "seeds": list(cyc.seeds),
                        "spp_per_seed": cyc.spp // len(cyc.seeds), "image": cyc.mean}
     stats["cycles_settings"] = [list(s) for s in cyc.settings]
@@ -129,10 +138,11 @@ def snell_settings(scene):
 
 def compare_blend(blend_path, *, spp=None, max_depth=None, seed=None, scale=None,
                   n_seeds=DEFAULT_CYCLES_SEEDS, threads=2, progress=None, snell_scene=None,
-                  camera=None):
+                  camera=None, noise_threshold=0.0):
     """Render blend_path with both renderers and compare.
 
-    scale: resolution percentage for both. camera: {"focus_distance", "aperture_radius"}
+    scale: resolution percentage for both. noise_threshold > 0: Snell samples adaptively
+    (spp its most per pixel), Cycles renders its usual fixed samples. camera: {"focus_distance", "aperture_radius"}
     overrides for both. snell_scene: optional function Scene -> Scene applied to Snell only (to
     inject a deliberate error).
     """
@@ -154,7 +164,8 @@ def compare_blend(blend_path, *, spp=None, max_depth=None, seed=None, scale=None
     if snell_scene is not None:
         scene = snell_scene(scene)
     r = scene.render
-    snell_result = snell_render(scene, r["spp"], progress.snell(), threads)
+    snell_result = snell_render(scene, r["spp"], progress.snell(), threads,
+                                noise_threshold=noise_threshold)
     not_comparable = [f"exporter: {w}" for w in warnings]
     try:
         cyc = cycles_render(blend_path, spp=r["spp"], max_depth=r["max_depth"], seed=r["seed"],

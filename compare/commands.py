@@ -8,7 +8,8 @@ from __future__ import annotations
 import os
 import sys
 
-from ..errors import CliError, check_input_file, check_writable_directory, int_at_least
+from ..errors import (CliError, check_input_file, check_writable_directory, int_at_least,
+                      number_at_least)
 
 
 def _common(p):
@@ -31,6 +32,9 @@ def setup_compare(p):
     _common(p)
     p.add_argument("--max-depth", type=int_at_least(0), metavar="M",
                    help="emission plus up to M bounces = Cycles max_bounces M - 1 (default: the scene's)")
+    p.add_argument("--noise-threshold", type=number_at_least(0.0), default=0.0, metavar="T",
+                   help="Snell samples adaptively at this threshold, --spp at most per pixel "
+                        "(default 0: the same samples in every pixel); Cycles does not")
 
 
 def setup_study(p):
@@ -59,8 +63,13 @@ def cmd_compare(args) -> int:
     progress = validate.Progress(sys.stderr, enabled=not args.quiet)
     result = validate.compare_blend(args.scene, spp=args.spp, max_depth=args.max_depth, seed=args.seed,
                                     scale=args.scale, n_seeds=args.cycles_seeds, threads=args.threads,
-                                    progress=progress)
-    data = report.write_comparison(args.report, result)
+                                    progress=progress, noise_threshold=args.noise_threshold)
+    figures = []
+    if "samples" in result["snell"]:
+        from .sample_map import sample_map_png
+        figures.append(("samples", sample_map_png(result["snell"]["samples"]),
+                        "Snell's samples per pixel (adaptive sampling)"))
+    data = report.write_comparison(args.report, result, figures=figures)
     html = os.path.join(args.report, "report.html")
     if result.get("cycles"):
         print(f"snell compare: {data['verdict']}: z-pass {data['z_pass_fraction']:.4f}, "

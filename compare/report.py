@@ -252,8 +252,12 @@ def _numbers_table(result):
             ["Cycles time", f"{result['cycles']['time_s']:.2f} s ({len(result['cycles']['seeds'])} seeds x "
                             f"{result['cycles']['spp_per_seed']} spp)"],
         ]
-    rows.append(["Snell time", f"{result['snell']['time_s']:.2f} s ({result['snell']['spp']} spp, "
-                               f"{result['snell']['nan_samples']} NaN/Inf samples)"])
+    snell = result["snell"]
+    samples = (f"adaptive {snell['noise_threshold']:g}: {snell['mean_spp']:.0f} spp mean, "
+               f"{snell['spp']} max, {100 * snell['saved_share']:.0f}% saved"
+               if snell.get("noise_threshold") else f"{snell['spp']} spp")
+    rows.append(["Snell time", f"{snell['time_s']:.2f} s ({samples}, "
+                               f"{snell['nan_samples']} NaN/Inf samples)"])
     return _table(rows, ["quantity", "value"])
 
 
@@ -287,15 +291,17 @@ def _figures(pngs, limits, prefix=""):
     return "\n".join(parts)
 
 
-def write_comparison(directory, result, title=None):
-    """report.html, metrics.json and the PNGs of one comparison into directory (all or nothing)."""
+def write_comparison(directory, result, title=None, figures=()):
+    """report.html, metrics.json and the PNGs of one comparison into directory (all or nothing);
+    figures: more (name, PNG bytes, caption) to show, such as the map of Snell's samples."""
     with atomic_directory(directory) as tmp:
-        return _write_comparison(tmp, result, title)
+        return _write_comparison(tmp, result, title, figures)
 
 
-def _write_comparison(directory, result, title):
+def _write_comparison(directory, result, title, figures):
     imgs, limits = comparison_images(result)
     pngs = {k: png_bytes(v) for k, v in imgs.items()}
+    pngs.update({name: png for name, png, _ in figures})
     for name, data in pngs.items():
         with open(os.path.join(directory, f"{name}.png"), "wb") as f:
             f.write(data)
@@ -304,7 +310,10 @@ def _write_comparison(directory, result, title):
     body = (f"<h1>{html.escape(title)}</h1>\n"
             f"<div class='verdict {_verdict_class(v)}'>{html.escape(v)}</div>\n"
             f"<p class='small'>Rule: {html.escape(result['rule'])}.</p>\n"
-            f"<div>{_figures(pngs, limits)}</div>\n"
+            f"<div>{_figures(pngs, limits)}"
+            + "".join(f"<figure>{_img(png, name)}<figcaption>{html.escape(caption)}</figcaption>"
+                      f"</figure>" for name, png, caption in figures)
+            + "</div>\n"
             f"<p class='small'>Both images: linear result through Blender's Standard view transform, "
             f"exposure 0, shown at {DISPLAY_WIDTH} px wide (nearest neighbour).</p>\n"
             f"<h2>Numbers</h2>\n{_numbers_table(result)}\n{_settings_tables(result)}")

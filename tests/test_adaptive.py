@@ -118,13 +118,18 @@ def test_a_pixel_of_known_noise_stops_where_the_rule_says():
     assert 12 < np.median(louder) / np.median(counts) < 20
 
 
+def scene_panel():
+    """A diffuse panel (material 0) filling the left half of split_scene's view."""
+    return (*quad((-1.0, 0.0, 0.0), 1.0, 1.2), 0)
+
+
 def split_scene(resolution=(32, 16)):
     """A diffuse panel filling the left half of the view, lit by a small lamp that (rendered
     without light sampling) only BSDF samples find; the right half sees the black world: noise
     on the left, none on the right."""
     materials = [{"name": "Panel", "kind": "diffuse", "color": [0.8, 0.8, 0.8]},
                  {"name": "Lamp", "kind": "emission", "color": [1.0, 1.0, 1.0], "strength": 8.0}]
-    panel = (*quad((-1.0, 0.0, 0.0), 1.0, 1.2), 0)
+    panel = scene_panel()
     lamp = (*quad((-1.0, 0.0, 1.0), 0.1, 0.1, normal_sign=-1), 1)
     cam = camera((0.0, 0.0, 3.0), resolution, lens=35.0)
     return make_scene([panel, lamp], materials, cam, max_depth=2)
@@ -132,13 +137,22 @@ def split_scene(resolution=(32, 16)):
 
 def test_the_converged_region_gets_the_minimum_and_the_noisy_one_more():
     scene = split_scene()
-    result = Renderer(scene, next_event=False).render(spp=512, noise_threshold=0.01, min_spp=32)
+    shown = []
+    result = Renderer(scene, next_event=False).render(
+        spp=512, noise_threshold=0.01, min_spp=32,
+        progress=lambda r, done, total: shown.append((r.spp, done, total)))
     counts = result.samples()
     assert result.sample_count is not None and counts.shape == (16, 32)
     assert (counts[:, -8:] == 32).all()              # black: converged at the minimum
     assert np.median(counts[:, :8]) > 128            # the lit panel samples on
     assert 0.3 < result.saved_share < 0.9
     assert result.spp == counts.max()
+    # The last pass is shown too, also when every pixel converged before the budget.
+    assert shown[-1][0] == result.spp and shown[-1][1] == shown[-1][2]
+    unlit = make_scene([scene_panel()], scene.materials, scene.camera)
+    converged = Renderer(unlit).render(spp=512, noise_threshold=0.01, min_spp=32,
+                                       progress=lambda r, *_: shown.append(r.spp))
+    assert converged.spp == 32 and shown[-1] == 32 and not converged.cancelled
     off = Renderer(scene).render(spp=64, noise_threshold=0.0)
     assert off.sample_count is None and (off.samples() == 64).all()
 

@@ -144,10 +144,10 @@ class Reference:
                                              seed=SEED, camera={**dof, **framing},
                                              n_seeds=cycles_seeds)
 
-    def compare(self, modify=lambda s: s):
+    def compare(self, modify=lambda s: s, noise_threshold=0.0, spp=None):
         from snell.addon import validate
         scene = modify(self.scene)
-        result = validate.snell_render(scene, self.spp)
+        result = validate.snell_render(scene, spp or self.spp, noise_threshold=noise_threshold)
         return validate.compare_renders(result, self.cycles, settings=validate.snell_settings(scene))
 
 
@@ -212,6 +212,30 @@ def test_spheres_consistent(spheres_converged):  # full frame, the scene's max d
 def test_dragon_consistent(dragon):
     verdict, detail = _verdict(dragon.compare())
     assert verdict == "consistent", detail
+
+
+def _lamps(scale):
+    """The scene with every emissive material's strength times scale."""
+    def modify(scene):
+        other = copy.copy(scene)
+        other.materials = [dict(m, strength=m["strength"] * scale) if m["kind"] == "emission"
+                           else m for m in scene.materials]
+        return other
+    return modify
+
+
+# Adaptive sampling at Cycles' default threshold against the fixed-sample Cycles references:
+# each pixel's variance from its own samples (RenderResult.variance_and_dof); the stopping rule
+# must leave no bias the tests can see, and a 2% error must still be seen.
+@pytest.mark.parametrize("scene", ["spheres_converged", "dragon"])
+def test_adaptive_sampling_is_consistent(scene, request):
+    reference = request.getfixturevalue(scene)
+    result = reference.compare(noise_threshold=0.01, spp=1024)
+    assert 0.1 < result["snell"]["saved_share"] < 0.95, result["snell"]["saved_share"]
+    verdict, detail = _verdict(result)
+    assert verdict == "consistent", detail
+    verdict, detail = _verdict(reference.compare(_lamps(0.98), noise_threshold=0.01, spp=1024))
+    assert verdict == "inconsistent", detail
 
 
 # This once failed (sharpness z -2.4 at 256 spp, -3.0 at 512, growing with samples): Snell kept

@@ -473,13 +473,14 @@ class Renderer:
                 result.rays = self.geometry.ray_count - rays_before
                 result.stats = dict(zip(wavefront.STATS, counters.tolist()))
                 k += 1
-                if sampling.shape[0] == 0 and sampling is not all_pixels:
-                    break                 # every pixel has converged
-                estimate = (passes if keep_batches
+                converged = sampling.shape[0] == 0 and sampling is not all_pixels
+                estimate = (passes if keep_batches else k if converged
                             else k + math.ceil((spp - result.spp) / max(in_pass, 1)))
                 if progress is not None and progress(result, k, estimate) is False:
-                    result.cancelled = result.spp < spp
+                    result.cancelled = result.spp < spp and not converged
                     break
+                if converged:
+                    break                 # every pixel has converged
         result.time_s = time.perf_counter() - start
         return result
 
