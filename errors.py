@@ -36,30 +36,27 @@ def warn(message) -> None:
     print(f"snell: warning: {one_line(message)}", file=sys.stderr)
 
 
-def int_at_least(minimum: int):
-    """An argparse type: an integer >= minimum, else a usage error naming the value."""
+def _at_least(convert, minimum, what):
+    """An argparse type: convert(text), finite and >= minimum, else a usage error naming it."""
     def parse(text):
         try:
-            value = int(text)
+            value = convert(text)
         except ValueError:
             value = None
-        if value is None or value < minimum:
-            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}")
+        if value is None or not math.isfinite(value) or value < minimum:
+            raise argparse.ArgumentTypeError(f"expected {what} >= {minimum:g}, got {text!r}")
         return value
     return parse
+
+
+def int_at_least(minimum: int):
+    """An argparse type: an integer >= minimum, else a usage error naming the value."""
+    return _at_least(int, minimum, "an integer")
 
 
 def number_at_least(minimum: float):
     """An argparse type: a finite number >= minimum, else a usage error naming the value."""
-    def parse(text):
-        try:
-            value = float(text)
-        except ValueError:
-            value = None
-        if value is None or not math.isfinite(value) or value < minimum:
-            raise argparse.ArgumentTypeError(f"expected a number >= {minimum:g}, got {text!r}")
-        return value
-    return parse
+    return _at_least(float, minimum, "a number")
 
 
 def check_writable_directory(path: str, option: str, report: bool = False) -> None:

@@ -80,6 +80,33 @@ class Spy:
         return getattr(self.engine, name)
 
 
+def recording(calls, on_result=None):
+    """A Spy class that appends ("result",), ("progress", value) and ("stats", info) to calls
+    for the engine's updates; on_result(result), if given, sees each result first."""
+    class Recording(Spy):
+        def update_result(self, result):
+            calls.append(("result",))
+            if on_result is not None:
+                on_result(result)
+            self.engine.update_result(result)
+
+        def update_progress(self, value):
+            calls.append(("progress", value))
+            self.engine.update_progress(value)
+
+        def update_stats(self, stats, info):
+            calls.append(("stats", info))
+            self.engine.update_stats(stats, info)
+    return Recording
+
+
+def sample_count_pass(result):
+    """The Sample Count pass of a render result, (SIZE * SIZE,) float32, bottom row first."""
+    rect = np.empty(SIZE * SIZE, np.float32)
+    result.layers[0].passes[final.SAMPLE_COUNT_PASS].rect.foreach_get(rect)
+    return rect
+
+
 @contextlib.contextmanager
 def spying(spy_class):
     """The SNELL engine renders through spy_class(engine) while the context is active."""
@@ -171,21 +198,7 @@ def test_sampling_panel_is_laid_out_as_cycles(adaptive, drawn):
 def test_f12_render_matches_the_tracer_and_updates_progressively(blends, tmp_path, small_passes):
     scene = open_scene(blends / "cornell.blend", tmp_path / "f12.exr")
     calls = []
-
-    class Recording(Spy):
-        def update_result(self, result):
-            calls.append(("result",))
-            self.engine.update_result(result)
-
-        def update_progress(self, value):
-            calls.append(("progress", value))
-            self.engine.update_progress(value)
-
-        def update_stats(self, stats, info):
-            calls.append(("stats", info))
-            self.engine.update_stats(stats, info)
-
-    with spying(Recording):
+    with spying(recording(calls)):
         bpy.ops.render.render(write_still=True)
     record = dict(final.last_render)
     assert record["error"] is None and not record["cancelled"]
@@ -212,23 +225,7 @@ def test_f12_adaptive_progress_status_and_sample_count_pass(blends, tmp_path):
     # the samples (24/256) differs from its share of the passes (1/16).
     scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 256, 0.05, 24
     calls, counts = [], []
-
-    class Recording(Spy):
-        def update_result(self, result):
-            rect = np.empty(SIZE * SIZE, np.float32)
-            result.layers[0].passes[final.SAMPLE_COUNT_PASS].rect.foreach_get(rect)
-            counts.append(rect.reshape(SIZE, SIZE))
-            self.engine.update_result(result)
-
-        def update_progress(self, value):
-            calls.append(("progress", value))
-            self.engine.update_progress(value)
-
-        def update_stats(self, stats, info):
-            calls.append(("stats", info))
-            self.engine.update_stats(stats, info)
-
-    with spying(Recording):
+    with spying(recording(calls, lambda r: counts.append(sample_count_pass(r).reshape(SIZE, SIZE)))):
         bpy.ops.render.render(write_still=True)
     record = dict(final.last_render)
     assert record["error"] is None and record["adaptive"].startswith("adaptive 0.05: ")
@@ -244,20 +241,12 @@ def test_f12_adaptive_progress_status_and_sample_count_pass(blends, tmp_path):
 
 
 def test_f12_keeps_the_last_pass_when_every_pixel_converges(blends, tmp_path):
-    """A threshold so high that every pixel stops at the minimum: the integrator returns without
-    calling back, and the image and the Sample Count pass still hold those samples."""
+    """A threshold so high that every pixel stops at the minimum: the last (and only) pass still
+    reaches the image and the Sample Count pass (the integrator calls back after it too)."""
     scene = open_scene(blends / "cornell.blend", tmp_path / "converged.exr")
     scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 8, 0.5, 4
     counts = []
-
-    class Recording(Spy):
-        def update_result(self, result):
-            rect = np.empty(SIZE * SIZE, np.float32)
-            result.layers[0].passes[final.SAMPLE_COUNT_PASS].rect.foreach_get(rect)
-            counts.append(rect)
-            self.engine.update_result(result)
-
-    with spying(Recording):
+    with spying(recording([], lambda r: counts.append(sample_count_pass(r)))):
         bpy.ops.render.render(write_still=True)
     assert final.last_render["spp"] == 4 and np.all(counts[-1] == 4)
     np.testing.assert_allclose(read_exr(tmp_path / "converged.exr"), tracer_image(),

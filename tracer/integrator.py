@@ -66,7 +66,6 @@ class RenderResult:
     # sums for its variance.
     spp_budget: int = 0
     noise_threshold: float = 0.0
-    min_spp: int = 0
     sample_count: np.ndarray | None = None
     active_share: float = 1.0
     light_paths_a: int = 0
@@ -371,16 +370,14 @@ class Renderer:
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
                               build_s=self.build_s, light_in_image=self.split,
                               stages=self.stages(), spp_budget=spp,
-                              noise_threshold=threshold if adapt else 0.0,
-                              min_spp=least if adapt else spp)
+                              noise_threshold=threshold if adapt else 0.0)
         bits = max(1, (spp - 1).bit_length())   # sample indices run over [0, 2^bits)
         traces_light = self.caustics is not None
         keep_batches = batches is not None
         total, total_sq = result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3)
-        no_rows = np.zeros((0, 3))
         all_pixels = np.zeros(0, np.int64)      # film and generate: every pixel, in order
         sampling = all_pixels
-        half = no_rows
+        half = np.zeros((0, 3))    # film: no class-A image
         if adapt:
             result.sample_count = np.zeros((h, w), np.int32)
             half = np.zeros((npix, 3))
