@@ -6,17 +6,17 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from snell.tracer import bsdf, sampling
+from snell.tracer import bsdf, fresnel, sampling
 
 
 def test_fresnel_test_vectors():
-    f0, _ = bsdf.fresnel_dielectric(1.0, 1.5)
+    f0, _ = fresnel.fresnel_dielectric(1.0, 1.5)
     assert f0 == pytest.approx(0.04, abs=1e-12)
     c80 = math.cos(math.radians(80.0))
-    f80, cos_t = bsdf.fresnel_dielectric(c80, 1.5)
+    f80, cos_t = fresnel.fresnel_dielectric(c80, 1.5)
     assert f80 == pytest.approx(0.387704354691473, rel=1e-12)
     assert math.degrees(math.acos(cos_t)) == pytest.approx(41.03641052520335, rel=1e-12)
-    f60, _ = bsdf.fresnel_dielectric(0.5, 1.5)
+    f60, _ = fresnel.fresnel_dielectric(0.5, 1.5)
     assert f60 == pytest.approx(0.08919, abs=5e-6)
 
 
@@ -24,19 +24,19 @@ def test_total_internal_reflection_is_exact_and_finite():
     # Leaving glass (eta = 1/1.5): the critical angle is asin(1/1.5) = 41.81 degrees.
     crit = math.asin(1 / 1.5)
     angles = [crit - 1e-6, crit + 1e-6, math.radians(60), math.radians(89.999)]
-    exact = [bsdf.fresnel_dielectric(math.cos(a), 1 / 1.5) for a in angles]
+    exact = [fresnel.fresnel_dielectric(math.cos(a), 1 / 1.5) for a in angles]
     assert exact[0][0] < 1.0 and all(f == 1.0 and cos_t == 0.0 for f, cos_t in exact[1:])
-    schlick = [bsdf.fresnel_schlick(math.cos(a), 1 / 1.5)[0] for a in angles]
+    schlick = [fresnel.fresnel_schlick(math.cos(a), 1 / 1.5)[0] for a in angles]
     assert all(f == 1.0 for f in schlick[1:]) and all(math.isfinite(f) for f in schlick)
 
 
 def test_schlick_matches_at_normal_incidence_and_differs_at_60_degrees():
-    assert bsdf.fresnel_schlick(1.0, 1.5)[0] == pytest.approx(0.04, abs=1e-12)
-    fs = bsdf.fresnel_schlick(0.5, 1.5)[0]
+    assert fresnel.fresnel_schlick(1.0, 1.5)[0] == pytest.approx(0.04, abs=1e-12)
+    fs = fresnel.fresnel_schlick(0.5, 1.5)[0]
     assert fs == pytest.approx(0.04 + 0.96 * 0.5 ** 5, abs=1e-12)   # 0.070, the doc's figure
-    assert bsdf.fresnel_dielectric(0.5, 1.5)[0] - fs > 0.018
-    assert bsdf.fresnel(bsdf.SCHLICK, 0.5, 1.5) == bsdf.fresnel_schlick(0.5, 1.5)
-    assert bsdf.fresnel(bsdf.EXACT, 0.5, 1.5) == bsdf.fresnel_dielectric(0.5, 1.5)
+    assert fresnel.fresnel_dielectric(0.5, 1.5)[0] - fs > 0.018
+    assert fresnel.fresnel(fresnel.SCHLICK, 0.5, 1.5) == fresnel.fresnel_schlick(0.5, 1.5)
+    assert fresnel.fresnel(fresnel.EXACT, 0.5, 1.5) == fresnel.fresnel_dielectric(0.5, 1.5)
 
 
 def _random_dirs(n, rng):
@@ -53,13 +53,13 @@ def test_reflect_and_refract_round_trips():
         assert np.allclose(bsdf.reflect(r, n), d, atol=1e-14)
         assert np.linalg.norm(r) == pytest.approx(1.0)
         cos_i = -d[2]
-        f, cos_t = bsdf.fresnel_dielectric(cos_i, 1.5)
+        f, cos_t = fresnel.fresnel_dielectric(cos_i, 1.5)
         t = bsdf.refract(d, n, 1.5, cos_i, cos_t)
         assert np.linalg.norm(t) == pytest.approx(1.0, abs=1e-12)
         # Snell's law, then back out through the same interface gives the original direction.
         sin_i, sin_t = np.linalg.norm(np.cross(d, n)), np.linalg.norm(np.cross(t, n))
         assert sin_i == pytest.approx(1.5 * sin_t, abs=1e-12)
-        back_f, back_cos_t = bsdf.fresnel_dielectric(-t[2], 1 / 1.5)
+        back_f, back_cos_t = fresnel.fresnel_dielectric(-t[2], 1 / 1.5)
         back = bsdf.refract(tuple(-np.array(t)), (0.0, 0.0, -1.0), 1 / 1.5, -t[2], back_cos_t)
         assert np.allclose(back, -np.array(d), atol=1e-12)
         assert back_f == pytest.approx(f, abs=1e-12)   # Fresnel is reciprocal
@@ -71,24 +71,24 @@ def test_specular_sampling_events_and_cycles_rejections():
     up = (0.0, 0.0, 1.0)
     c = math.cos(math.radians(60))
     d = (math.sin(math.radians(60)), 0.0, -c)
-    f, _ = bsdf.fresnel_dielectric(c, 1.5)
+    f, _ = fresnel.fresnel_dielectric(c, 1.5)
     white, tint = (1.0, 1.0, 1.0), (0.5, 0.6, 0.7)
     out, w, event, valid = bsdf.sample_specular(bsdf.GLASS, d, up, up, True, white, tint, 1.5,
-                                                bsdf.EXACT, 0.999 * f)
+                                                fresnel.EXACT, 0.999 * f)
     assert event == bsdf.REFLECTED and valid and w == white and out[2] > 0
     out, w, event, valid = bsdf.sample_specular(bsdf.GLASS, d, up, up, True, white, tint, 1.5,
-                                                bsdf.EXACT, 1.001 * f)
+                                                fresnel.EXACT, 1.001 * f)
     assert event == bsdf.TRANSMITTED and valid and w == tint and out[2] < 0
     inside = (math.sin(math.radians(60)), 0.0, -c)    # leaving the glass beyond the critical angle
     _, w, event, _ = bsdf.sample_specular(bsdf.REFRACTION, inside, up, up, False, white, white,
-                                          1.5, bsdf.EXACT, 0.5)
+                                          1.5, fresnel.EXACT, 0.5)
     assert event == bsdf.TIR_ABSORBED and w == (0.0, 0.0, 0.0)
     _, _, event, valid = bsdf.sample_specular(bsdf.GLASS, inside, up, up, False, white, white,
-                                              1.5, bsdf.EXACT, 0.5)
+                                              1.5, fresnel.EXACT, 0.5)
     assert event == bsdf.TIR and valid
     away = (0.0, 0.0, -1.0)                           # shading normal facing away from the viewer
     _, _, _, valid = bsdf.sample_specular(bsdf.MIRROR, d, up, away, True, white, white, 1.0,
-                                          bsdf.EXACT, 0.5)
+                                          fresnel.EXACT, 0.5)
     assert not valid
 
 

@@ -1,4 +1,4 @@
-"""Scattering functions, one vertex at a time: Fresnel, reflection, refraction, specular sampling.
+"""Smooth scattering, one vertex at a time: mirror reflection, refraction, specular sampling.
 
 Conventions follow Cycles (docs: shared/reference/cycles-conventions.md): directions are unit
 vectors (tuples, see vec.py), `eta` is the relative index n_transmitted / n_incident, and a
@@ -9,57 +9,14 @@ from __future__ import annotations
 
 import math
 
+from .fresnel import fresnel
 from .jit import jit
 from .vec import add, dot, madd, mul, sub
 
 # Material kind codes, per triangle in the integrator (order matches scene.MATERIAL_KINDS).
-DIFFUSE, MIRROR, GLASS, REFRACTION, EMISSION = range(5)
-# Fresnel models (order matches scene.FRESNEL_MODELS).
-EXACT, SCHLICK = range(2)
+DIFFUSE, MIRROR, GLASS, REFRACTION, EMISSION, GLOSSY, PRINCIPLED = range(7)
 # What a specular vertex did (for the integrator's counters).
 REFLECTED, TRANSMITTED, TIR, TIR_ABSORBED = range(4)
-
-
-@jit
-def fresnel_dielectric(cos_i, eta):
-    """Exact unpolarised Fresnel reflectance and the cosine of the refracted ray.
-
-    cos_i is clamped to [0, 1], eta = n_t / n_i. Total internal reflection gives F = 1 and
-    cos_t = 0 (tested before any square root, so it never makes a NaN).
-    """
-    cos_i = min(max(cos_i, 0.0), 1.0)
-    g2 = eta * eta - 1.0 + cos_i * cos_i
-    if g2 <= 0.0:
-        return 1.0, 0.0
-    cos_t = math.sqrt(g2) / eta
-    r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
-    r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
-    return 0.5 * (r_s * r_s + r_p * r_p), cos_t
-
-
-@jit
-def fresnel_schlick(cos_i, eta):
-    """Schlick's approximation (the seed's choice) and the refracted cosine.
-
-    R0 = ((eta - 1) / (eta + 1))^2 and the cosine taken on the less dense side, as Schlick's
-    approximation requires (for exits that is the refracted cosine). TIR gives F = 1.
-    """
-    cos_i = min(max(cos_i, 0.0), 1.0)
-    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
-    if sin2_t >= 1.0:
-        return 1.0, 0.0
-    cos_t = math.sqrt(1.0 - sin2_t)
-    r0 = ((eta - 1.0) / (eta + 1.0)) ** 2
-    c = cos_i if eta >= 1.0 else cos_t
-    return r0 + (1.0 - r0) * (1.0 - c) ** 5, cos_t
-
-
-@jit
-def fresnel(model, cos_i, eta):
-    """Reflectance and refracted cosine by the scene's Fresnel model (EXACT or SCHLICK)."""
-    if model == SCHLICK:
-        return fresnel_schlick(cos_i, eta)
-    return fresnel_dielectric(cos_i, eta)
 
 
 @jit
