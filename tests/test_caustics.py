@@ -233,7 +233,7 @@ def test_a_render_skips_what_the_scene_does_not_need():
     each skip is named, with its reason."""
     plain = Renderer(pure_room()).render(spp=2)          # diffuse only, pinhole, no world
     assert plain.stats["dielectric_samples"] == 0 and plain.stats["lens_samples"] == 0
-    assert plain.stages["dielectric sampling"] == (False, "no glass")
+    assert plain.stages["dielectric sampling"] == (False, "no smooth glass")
     assert plain.stages["lens sampling"] == (False, "no depth of field")
     assert plain.stages["world"] == (False, "black world")
     assert plain.stages["light tracing"][0] is False

@@ -13,8 +13,9 @@ from .fresnel import fresnel
 from .jit import jit
 from .vec import add, dot, madd, mul, sub
 
-# Material kind codes, per triangle in the integrator (order matches scene.MATERIAL_KINDS).
-DIFFUSE, MIRROR, GLASS, REFRACTION, EMISSION, GLOSSY, PRINCIPLED = range(7)
+# Material kind codes in the integrator (materials.kind_code: LAYERED is every rough or
+# Principled material, whose lobes are built per hit by lobes.py).
+DIFFUSE, MIRROR, GLASS, REFRACTION, EMISSION, LAYERED = range(6)
 # What a specular vertex did (for the integrator's counters).
 REFLECTED, TRANSMITTED, TIR, TIR_ABSORBED = range(4)
 

@@ -18,11 +18,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import adaptive, bsdf, jit, light_paths, wavefront
+from . import adaptive, bsdf, jit, light_paths, lobes, wavefront
 from .camera import Camera
 from .geometry import Geometry
 from .lights import LightSampler
-from .scene import DEFAULT_RENDER, FRESNEL_MODELS, MATERIAL_KINDS, Scene
+from .materials import material_tables
+from .microfacet_tables import shipped_tables
+from .scene import DEFAULT_RENDER, FRESNEL_MODELS, Scene
 
 CHUNK = 1 << 13           # paths per chunk: measured best (8k-16k) for Python overhead vs cache
 PASS_PATHS = 1 << 17      # aim for about this many paths per progressive pass
@@ -176,11 +178,13 @@ class _Buffers(threading.local):
     """This thread's chunk buffers, made once and reused by every chunk it runs."""
 
     def get(self):
-        """(paths, next paths, shadow rays, radiance, active rows, counters) for CHUNK paths."""
+        """(paths, next paths, shadow rays, radiance, active rows, counters, lobe scratch) for
+        CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
                             wavefront.new_shadows(CHUNK), np.empty((CHUNK, 3)),
-                            np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64))
+                            np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64),
+                            np.empty((lobes.MAX_LOBES, lobes.FIELDS)))
         return self.buffers
 
     def light(self):
@@ -221,18 +225,10 @@ class Renderer:
         self.next_event = next_event
         self.camera = Camera(scene.camera)
         self.geometry = Geometry(scene.positions, scene.triangles, scene.normals)
-        mats = scene.materials
-        kind = np.array([MATERIAL_KINDS.index(m["kind"]) for m in mats], np.int64)
-        color = np.array([m["color"] for m in mats], np.float64).reshape(-1, 3)
-        strength = np.array([m.get("strength", 0.0) if m["kind"] == "emission" else 0.0 for m in mats])
-        self.materials = wavefront.Materials(
-            kind=kind, color=color,
-            trans_color=np.array([m.get("transmission_color", m["color"]) for m in mats],
-                                 np.float64).reshape(-1, 3),
-            ior=np.array([m.get("ior", 1.0) for m in mats], np.float64),
-            radiance=np.ascontiguousarray(color * strength[:, None]),
-            of_triangle=scene.material_ids.astype(np.int64))
-        self.lights = LightSampler(scene, self.geometry, kind, self.materials.radiance)
+        self.materials = material_tables(scene.materials, scene.material_ids)
+        self.tables = shipped_tables()
+        kind = self.materials.kind
+        self.lights = LightSampler(scene, self.geometry, self.materials.radiance)
         render = scene.render
         self.max_depth = int(render["max_depth"])
         self.seed = int(render["seed"])
@@ -250,8 +246,9 @@ class Renderer:
 
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
-        dielectric = bool(np.isin(self.materials.kind[self.materials.of_triangle],
-                                  (bsdf.GLASS, bsdf.REFRACTION)).any())
+        used = self.materials.kind[self.materials.of_triangle]
+        dielectric = bool(np.isin(used, (bsdf.GLASS, bsdf.REFRACTION)).any())
+        layered = bool((used == bsdf.LAYERED).any())
         lights = self.lights.tables
         next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
         world = bool(np.any(lights.world > 0.0))
@@ -262,7 +259,9 @@ class Renderer:
         return {
             "lens sampling": (self.camera.has_lens, "depth of field" if self.camera.has_lens
                               else "no depth of field"),
-            "dielectric sampling": (dielectric, "glass" if dielectric else "no glass"),
+            "dielectric sampling": (dielectric, "glass" if dielectric else "no smooth glass"),
+            "microfacet sampling": (layered, "rough or Principled surfaces" if layered
+                                    else "no rough or Principled surfaces"),
             "next-event estimation": (next_event, "lamps or world light to sample" if next_event
                                       else "no lamps and a black world"),
             "world": (world, "world light" if world else "black world"),
@@ -281,7 +280,7 @@ class Renderer:
         (NaN/Inf samples, event counters)."""
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
-        paths, out, shadows, radiance, active, stats = self._buffers.get()
+        paths, out, shadows, radiance, active, stats, scratch = self._buffers.get()
         stats[:] = 0
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
@@ -295,9 +294,10 @@ class Renderer:
                                       stats)
             if kept == 0:
                 break
-            m, n_shadow = wavefront.materials(lights, mesh, mats, self.fresnel, self.next_event,
-                                              bits, stratified, depth, kept, active, paths, prim,
-                                              u, v, out, shadows, radiance, stats)
+            m, n_shadow = wavefront.materials(lights, mesh, mats, self.tables, self.fresnel,
+                                              self.next_event, bits, stratified, depth, kept,
+                                              active, paths, prim, u, v, out, shadows, radiance,
+                                              scratch, stats)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])

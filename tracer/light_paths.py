@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import bsdf
-from .bsdf import DIFFUSE, EMISSION, REFRACTION
+from .bsdf import DIFFUSE, EMISSION, LAYERED, REFRACTION
 from .camera import camera_connection
 from .geometry import hit_offset, hit_point, offset_origin
 from .jit import jit, jit_inline
@@ -330,8 +330,8 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
             continue
         mat = mats.of_triangle[tri]
         kind = mats.kind[mat]
-        if kind == EMISSION:
-            continue
+        if kind == EMISSION or kind == LAYERED:
+            continue      # rough and Principled surfaces: the path tracer's (wavefront.py)
         d = (np.float64(paths.d32[i, 0]), np.float64(paths.d32[i, 1]), np.float64(paths.d32[i, 2]))
         p, ng, ns, eps = hit_point(mesh, tri, np.float64(u[i]), np.float64(v[i]))
         entering = dot(d, ng) < 0.0

@@ -14,7 +14,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import bsdf
 from .geometry import hit_offset, offset_origin
 from .jit import jit, jit_inline
 from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
@@ -174,7 +173,7 @@ def _sun_tables(suns: list) -> dict:
 class LightSampler:
     """Builds the light tables of a scene and samples them (arrays, for tests and tools)."""
 
-    def __init__(self, scene, geometry, material_kind, material_radiance):
+    def __init__(self, scene, geometry, material_radiance):
         lights = scene.lights
         areas = _area_tables([light for light in lights if light["kind"] == "area"])
         points = _point_tables([light for light in lights if light["kind"] in ("point", "spot")])
@@ -182,7 +181,8 @@ class LightSampler:
         world = np.asarray(scene.world["color"], np.float64)
 
         mats = scene.material_ids
-        emissive = np.nonzero(material_kind[mats] == bsdf.EMISSION)[0]
+        # Emission materials and Principled BSDFs with emission.
+        emissive = np.nonzero(np.any(material_radiance[mats] > 0, axis=1))[0]
         tri_radiance = material_radiance[mats[emissive]]                    # (E, 3)
         keep = (luminance(tri_radiance) > 0) & (geometry.area[emissive] > 0)
         tri = emissive[keep]

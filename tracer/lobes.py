@@ -465,3 +465,22 @@ def tuple_mix(t, color, exponent):
     """1 + t (color^exponent - 1) per component."""
     return (1.0 + t * (color[0] ** exponent - 1.0), 1.0 + t * (color[1] ** exponent - 1.0),
             1.0 + t * (color[2] ** exponent - 1.0))
+
+
+# Shaders of layered materials (Materials.shader in the integrator).
+SHADER_GLOSSY, SHADER_GLASS, SHADER_REFRACTION, SHADER_PRINCIPLED = range(4)
+
+
+@jit
+def setup_shader(lobes, tables, shader, color, trans_color, ior, roughness, dist, params, n,
+                 n_diffuse, wi, entering):
+    """The lobes of one hit on a layered material (n: the normal bent for specular reflection,
+    n_diffuse: the shading normal); returns their number."""
+    if shader == SHADER_GLOSSY:
+        return setup_glossy(lobes, tables, n, wi, color, roughness, dist)
+    if shader == SHADER_GLASS:
+        return setup_glass(lobes, tables, n, wi, entering, color, trans_color, roughness, dist,
+                           ior)
+    if shader == SHADER_REFRACTION:
+        return setup_refraction(lobes, n, entering, color, roughness, dist, ior)
+    return setup_principled(lobes, tables, n, n_diffuse, wi, entering, color, params, dist)

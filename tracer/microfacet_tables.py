@@ -10,6 +10,7 @@ the same grids as Cycles' shader.tables, read with the same linear interpolation
 """
 from __future__ import annotations
 
+import functools
 import math
 import os
 from typing import NamedTuple
@@ -38,6 +39,12 @@ def load_tables(path: str = TABLES_PATH) -> MicrofacetTables:
     with np.load(path) as data:
         return MicrofacetTables(*(np.ascontiguousarray(data[name], np.float64)
                                   for name in MicrofacetTables._fields))
+
+
+@functools.lru_cache(maxsize=1)
+def shipped_tables() -> MicrofacetTables:
+    """The shipped tables, read once per process."""
+    return load_tables()
 
 
 @jit

@@ -17,7 +17,19 @@ from .atomic import atomic_path
 FORMAT = "snell-scene"
 VERSION = 2
 READS_VERSIONS = (1, 2)   # version 2 added spot lamps and lamp radius, spread, angle and flags
-MATERIAL_KINDS = ("diffuse", "mirror", "glass", "refraction", "emission")
+MATERIAL_KINDS = ("diffuse", "mirror", "glass", "refraction", "emission", "glossy", "principled")
+DISTRIBUTIONS = ("ggx", "multi_ggx", "beckmann")
+# Optional material fields and their defaults (Blender's), by kind.
+MATERIAL_DEFAULTS = {
+    "glossy": {"roughness": 0.5, "distribution": "multi_ggx"},
+    "glass": {"roughness": 0.0, "distribution": "multi_ggx"},
+    "refraction": {"roughness": 0.0, "distribution": "beckmann"},
+    "principled": {"metallic": 0.0, "roughness": 0.5, "ior": 1.5, "specular_ior_level": 0.5,
+                   "specular_tint": [1.0, 1.0, 1.0], "transmission": 0.0, "coat_weight": 0.0,
+                   "coat_roughness": 0.03, "coat_ior": 1.5, "coat_tint": [1.0, 1.0, 1.0],
+                   "emission_color": [1.0, 1.0, 1.0], "emission_strength": 0.0,
+                   "distribution": "multi_ggx"},
+}
 LIGHT_KINDS = ("area", "point", "spot", "sun")
 LIGHT_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_transmission",
                "cast_shadow", "use_mis")
@@ -95,6 +107,13 @@ class Scene:
             "environment": any(c > 0 for c in self.world["color"]),
             "emissive_meshes": "emission" in kinds,
         }
+
+
+def material_field(mat: dict, key: str):
+    """A material's field, or its kind's default."""
+    if key in mat:
+        return mat[key]
+    return MATERIAL_DEFAULTS[mat["kind"]][key]
 
 
 def aperture_radius(camera: dict) -> float:

@@ -22,7 +22,7 @@ import numpy as np
 
 from . import bsdf
 from .adaptive import is_class_a
-from .bsdf import DIFFUSE, EMISSION, MIRROR, REFRACTION
+from .bsdf import DIFFUSE, EMISSION, LAYERED, MIRROR, REFRACTION
 from .camera import camera_ray
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
@@ -30,6 +30,7 @@ from .lamps import (USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, V
                     area_lamp_hit, intersect_area_lamp, intersect_point_lamp, point_lamp_hit,
                     seen_by, sun_hit)
 from .lights import pdf_world, sample_light
+from .lobes import DIFFUSE_EVENT, TRANSMIT_EVENT, bsdf_eval, bsdf_sample, setup_shader
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic, sample_cosine_hemisphere
 from .triangle_lights import pdf_triangle
@@ -40,9 +41,12 @@ RR_START = 3              # Russian roulette from this bounce on ...
 RR_THRESHOLD = 0.1        # ... for paths whose throughput has fallen below this
 # Event counters (RenderResult.stats), by index.
 STATS = ("tir", "tir_absorbed", "rejected", "transmissions", "reflections", "diffuse",
-         "rr_killed", "depth_limited", "caustic_splats", "lens_samples", "dielectric_samples")
+         "rr_killed", "depth_limited", "caustic_splats", "lens_samples", "dielectric_samples",
+         "layered_hits")
 (TIR_COUNT, TIR_ABSORBED_COUNT, REJECTED, TRANSMISSIONS, REFLECTIONS, DIFFUSE_HITS, RR_KILLED,
- DEPTH_LIMITED, CAUSTIC_SPLATS, LENS_SAMPLES, DIELECTRIC_SAMPLES) = range(len(STATS))
+ DEPTH_LIMITED, CAUSTIC_SPLATS, LENS_SAMPLES, DIELECTRIC_SAMPLES, LAYERED_HITS) = range(len(STATS))
+# Light sampling at a layered vertex serves all its lobes.
+VISIBLE_ANY_BSDF = VISIBLE_DIFFUSE | VISIBLE_GLOSSY | VISIBLE_TRANSMISSION
 FAR32 = np.float32(FAR)
 # A camera path's place in the split of path space with the light tracer (light_paths.py).
 NO_CAUSTIC, FIRST_DIFFUSE, CAUSTIC = range(3)
@@ -74,16 +78,6 @@ class Shadows(NamedTuple):
     d32: np.ndarray          # (n, 3) float32
     tmax: np.ndarray         # (n,) float32 segment length
     contrib: np.ndarray      # (n, 3) radiance the path gets if the segment is free
-
-
-class Materials(NamedTuple):
-    """Per-material tables."""
-    kind: np.ndarray         # (M,) int64 kind codes (bsdf.DIFFUSE, ...)
-    color: np.ndarray        # (M, 3)
-    trans_color: np.ndarray  # (M, 3) refraction weight of glass
-    ior: np.ndarray          # (M,)
-    radiance: np.ndarray     # (M, 3) emission (colour x strength)
-    of_triangle: np.ndarray  # (T,) int64 material of each triangle
 
 
 def new_paths(n: int) -> Paths:
@@ -203,10 +197,11 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
                     add_light(radiance, path, beta, light, w)
             continue
         mat = mats.of_triangle[prim[i]]
+        emission = row(mats.radiance, mat)
+        if emitters_count and max3(emission) > 0.0:     # Emission, or a Principled BSDF's
+            w = mis_weight(next_event, pdf_prev, pdf_triangle(lights, prim[i], o, d, t_surface))
+            add_light(radiance, path, beta, emission, w)
         if mats.kind[mat] == EMISSION:
-            if emitters_count:
-                w = mis_weight(next_event, pdf_prev, pdf_triangle(lights, prim[i], o, d, t_surface))
-                add_light(radiance, path, beta, row(mats.radiance, mat), w)
             continue
         if depth == max_depth:
             stats[DEPTH_LIMITED] += 1     # the depth limit, not the scene, ends this path
@@ -217,10 +212,11 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
 
 
 @jit
-def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, depth,
-              n_active, active, paths, prim, u, v, out, shadows, radiance, stats):
-    """Sample every kept hit: a light sample at diffuse vertices (queued as a shadow ray), then
-    the BSDF; after Russian roulette the surviving paths' next rays go into `out`.
+def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, stratified, depth,
+              n_active, active, paths, prim, u, v, out, shadows, radiance, lobes, stats):
+    """Sample every kept hit: a light sample at diffuse and layered vertices (queued as a shadow
+    ray), then the BSDF; after Russian roulette the surviving paths' next rays go into `out`.
+    `lobes` is scratch for a layered hit's lobes (lobes.py), `tables` its albedo tables.
 
     Returns (paths in out, shadow rays queued).
     """
@@ -275,6 +271,40 @@ def materials(lights, mesh, mats, fresnel_model, next_event, bits, stratified, d
                 (beta[0] * albedo[0], beta[1] * albedo[1], beta[2] * albedo[2])
             new_d, ray_kind, pdf_prev = wi, VISIBLE_DIFFUSE, pdf
             caustic = FIRST_DIFFUSE if depth == 0 else NO_CAUSTIC
+        elif kind == LAYERED:
+            stats[LAYERED_HITS] += 1
+            view = neg(d)
+            n = bsdf.valid_reflection_normal(ng_f, view, ns_f) if has_normals else ns_f
+            count = setup_shader(lobes, tables, mats.shader[mat], row(mats.color, mat),
+                                 row(mats.trans_color, mat), mats.ior[mat], mats.roughness[mat],
+                                 mats.distribution[mat], mats.principled[mat], n, ns_f, view,
+                                 entering)
+            if can_sample_lights:
+                l0, l1 = sample_pair(key, sample, 3 + 3 * depth, bits, strat)
+                wl, target, infinite, weight, pdf_light, shadowed = sample_light(
+                    lights, mesh, p, ns_f, VISIBLE_ANY_BSDF, u_pick, l0, l1)
+                if max3(weight) > 0.0:
+                    f, pdf_bsdf = bsdf_eval(lobes, count, view, wl)
+                    if max3(f) > 0.0:
+                        w = power_heuristic(pdf_light, pdf_bsdf) if pdf_light > 0.0 else 1.0
+                        light = (beta[0] * f[0] * weight[0] * w, beta[1] * f[1] * weight[1] * w,
+                                 beta[2] * f[2] * weight[2] * w)
+                        if shadowed:
+                            store(shadows.contrib, n_shadow, light)
+                            queue_shadow(shadows, n_shadow, paths.path[i],
+                                         offset_origin(p, ng_f, eps, wl), wl, target, infinite)
+                            n_shadow += 1
+                        else:
+                            add_light(radiance, paths.path[i], light, (1.0, 1.0, 1.0), 1.0)
+            new_d, factor, pdf_prev, event, valid = bsdf_sample(lobes, count, ng_f, view, u_pick,
+                                                                u0, u1)
+            beta = (beta[0] * factor[0], beta[1] * factor[1], beta[2] * factor[2]) if valid \
+                else (0.0, 0.0, 0.0)
+            ray_kind = VISIBLE_DIFFUSE if event == DIFFUSE_EVENT else \
+                VISIBLE_TRANSMISSION if event == TRANSMIT_EVENT else VISIBLE_GLOSSY
+            # The light tracer ends its paths on layered surfaces, so the path tracer counts
+            # every path through them.
+            caustic = NO_CAUSTIC
         else:
             n = ns_f
             if has_normals and kind != REFRACTION:

@@ -1,0 +1,93 @@
+"""The per-material tables the kernels read, built from the scene file's material list.
+
+Smooth materials keep their exact code paths (bsdf.DIFFUSE, MIRROR, GLASS, REFRACTION); a Glossy
+BSDF of roughness 0 is a mirror. Everything with a rough lobe, and every Principled BSDF, is
+LAYERED: its lobes are built per hit by lobes.setup_shader from the `shader` code and the
+parameters here.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from . import bsdf, lobes, microfacet
+from .scene import DISTRIBUTIONS, material_field
+
+
+class Materials(NamedTuple):
+    """Per-material tables."""
+    kind: np.ndarray          # (M,) int64 kind codes (bsdf.DIFFUSE, ..., bsdf.LAYERED)
+    color: np.ndarray         # (M, 3) colour (Principled: base colour)
+    trans_color: np.ndarray   # (M, 3) refraction weight of glass
+    ior: np.ndarray           # (M,)
+    radiance: np.ndarray      # (M, 3) emission (colour x strength)
+    of_triangle: np.ndarray   # (T,) int64 material of each triangle
+    shader: np.ndarray        # (M,) int64 lobes.SHADER_* of LAYERED materials
+    roughness: np.ndarray     # (M,)
+    distribution: np.ndarray  # (M,) int64 lobes.DIST_* (scene.DISTRIBUTIONS order)
+    principled: np.ndarray    # (M, lobes.P_FIELDS) Principled parameters
+
+
+SHADERS = {"glossy": lobes.SHADER_GLOSSY, "glass": lobes.SHADER_GLASS,
+           "refraction": lobes.SHADER_REFRACTION, "principled": lobes.SHADER_PRINCIPLED}
+SMOOTH_KINDS = {"diffuse": bsdf.DIFFUSE, "mirror": bsdf.MIRROR, "glossy": bsdf.MIRROR,
+                "glass": bsdf.GLASS, "refraction": bsdf.REFRACTION, "emission": bsdf.EMISSION}
+
+
+def kind_code(mat: dict) -> int:
+    """The integrator's kind of a scene material: its smooth code path, or LAYERED."""
+    kind = mat["kind"]
+    if kind == "principled":
+        return bsdf.LAYERED
+    if kind in ("glossy", "glass", "refraction"):
+        alpha = float(material_field(mat, "roughness")) ** 2
+        if not microfacet.is_almost_specular(alpha):
+            return bsdf.LAYERED
+    return SMOOTH_KINDS[kind]
+
+
+def principled_row(mat: dict) -> np.ndarray:
+    """A Principled material's parameters as a row of Materials.principled."""
+    row = np.zeros(lobes.P_FIELDS)
+    if mat["kind"] != "principled":
+        return row
+    for column, key in ((lobes.P_METALLIC, "metallic"), (lobes.P_ROUGHNESS, "roughness"),
+                        (lobes.P_IOR, "ior"), (lobes.P_SPECULAR_LEVEL, "specular_ior_level"),
+                        (lobes.P_TRANSMISSION, "transmission"), (lobes.P_COAT, "coat_weight"),
+                        (lobes.P_COAT_ROUGHNESS, "coat_roughness"), (lobes.P_COAT_IOR, "coat_ior")):
+        row[column] = float(material_field(mat, key))
+    row[lobes.P_SPECULAR_TINT:lobes.P_SPECULAR_TINT + 3] = material_field(mat, "specular_tint")
+    row[lobes.P_COAT_TINT:lobes.P_COAT_TINT + 3] = material_field(mat, "coat_tint")
+    return row
+
+
+def emission(mat: dict) -> np.ndarray:
+    """Emitted radiance (colour x strength) of a material, 0 for those that do not emit."""
+    if mat["kind"] == "emission":
+        return np.asarray(mat["color"], np.float64) * float(mat.get("strength", 0.0))
+    if mat["kind"] == "principled":
+        # Cycles dims it by the coat's reflectance and tint, view-dependent: not modelled.
+        return (np.asarray(material_field(mat, "emission_color"), np.float64)
+                * float(material_field(mat, "emission_strength")))
+    return np.zeros(3)
+
+
+def material_tables(mats: list, material_ids: np.ndarray) -> Materials:
+    """The kernels' tables for a scene's materials and its triangles' material indices."""
+    def rows(fn, dtype=np.float64, shape=()):
+        return np.array([fn(m) for m in mats], dtype).reshape((len(mats),) + shape)
+
+    roughness = rows(lambda m: material_field(m, "roughness") if m["kind"] in SHADERS else 0.0)
+    return Materials(
+        kind=rows(kind_code, np.int64),
+        color=rows(lambda m: m["color"], shape=(3,)),
+        trans_color=rows(lambda m: m.get("transmission_color", m["color"]), shape=(3,)),
+        ior=rows(lambda m: m.get("ior", 1.0)),
+        radiance=np.ascontiguousarray(rows(emission, shape=(3,))),
+        of_triangle=material_ids.astype(np.int64),
+        shader=rows(lambda m: SHADERS.get(m["kind"], 0), np.int64),
+        roughness=roughness,
+        distribution=rows(lambda m: DISTRIBUTIONS.index(material_field(m, "distribution"))
+                          if m["kind"] in SHADERS else 0, np.int64),
+        principled=rows(principled_row, shape=(lobes.P_FIELDS,)))
