@@ -10,7 +10,8 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-SCENES = ["cornell_spheres", "cornell_dragon", "caustic_floor", "furnace", "slab", "lens"]
+SCENES = ["cornell_spheres", "cornell_dragon", "cornell_rough", "caustic_floor", "furnace", "slab",
+          "lens"]
 
 
 def build_all(out_dir=HERE):
