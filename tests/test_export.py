@@ -328,6 +328,12 @@ def enum_items(node, prop):
     return {item.identifier for item in node.bl_rna.properties[prop].enum_items}
 
 
+def unlinked_value(sock):
+    """A socket's own value: its number, or its colour's RGB."""
+    value = sock.default_value
+    return list(value)[:3] if sock.type == "RGBA" else value
+
+
 @pytest.mark.parametrize("kind, blender, snell", [
     ("glossy", "GGX", "ggx"), ("glossy", "MULTI_GGX", "multi_ggx"),
     ("glossy", "BECKMANN", "beckmann"),
@@ -388,12 +394,8 @@ def test_blenders_default_material_is_principled_with_its_defaults(bl):
     assert warnings == []
     assert m["kind"] == "principled"
     for field, socket in export.PRINCIPLED_INPUTS.items():
-        value = node.inputs[socket].default_value
-        expected = list(value)[:3] if node.inputs[socket].type == "RGBA" else value
-        assert np.allclose(m[field], expected), field
-    assert m["roughness"] == pytest.approx(node.inputs["Roughness"].default_value) == 0.5
-    assert m["ior"] == pytest.approx(node.inputs["IOR"].default_value) == 1.5
-    assert m["distribution"] == export.BLENDER_DISTRIBUTIONS[node.distribution] == "multi_ggx"
+        assert np.allclose(m[field], unlinked_value(node.inputs[socket])), field
+    assert m["distribution"] == export.BLENDER_DISTRIBUTIONS[node.distribution]
 
 
 PRINCIPLED_VALUES = {   # a principled material with every input away from its default
@@ -451,8 +453,7 @@ def test_principled_smooth_glass_is_glass(bl):
 def test_principled_glass_with_anything_more_is_principled(bl, change):
     m, _ = exported_material(bl, common.material("P", "principled", (1.0, 1.0, 1.0),
                                                  **{**SMOOTH_GLASS, **change}))
-    assert m["kind"] == "principled" and m["transmission"] == pytest.approx(
-        change.get("Transmission Weight", 1.0))
+    assert m["kind"] == "principled"
 
 
 @pytest.mark.parametrize("kind, socket, value, rendered", [
@@ -478,10 +479,10 @@ def test_inputs_snell_does_not_render_warn_naming_material_node_and_input(bl, ki
     assert exported_material(bl, mat)[1] == []
 
 
-def link(mat, socket, idname="ShaderNodeTexNoise", output=0):
-    """Feed a node's input from a new node (a texture by default)."""
+def link(mat, socket, idname="ShaderNodeTexNoise"):
+    """Feed the shader's input from a new node (a texture by default)."""
     source = mat.node_tree.nodes.new(idname)
-    mat.node_tree.links.new(source.outputs[output], bsdf(mat).inputs[socket])
+    mat.node_tree.links.new(source.outputs[0], bsdf(mat).inputs[socket])
     return source
 
 
@@ -497,17 +498,12 @@ def test_a_linked_input_uses_its_unlinked_value(bl, kind, socket, field, shown):
     mat = common.material("Tex", kind, (0.2, 0.4, 0.6), **values)
     noise = link(mat, socket)
     m, warnings = exported_material(bl, mat, "TexObj")
-    assert np.allclose(m[field], common_value(bsdf(mat).inputs[socket]))
+    assert np.allclose(m[field], unlinked_value(bsdf(mat).inputs[socket]))
     assert warnings == [f"object 'TexObj', material 'Tex': node {bsdf(mat).name!r}: input "
                         f"{socket!r} is linked to {noise.name!r}, which Snell cannot evaluate: "
                         f"using its unlinked value {shown}"]
     bsdf(mat).inputs[socket].links[0].is_muted = True   # a muted link passes nothing: no warning
     assert exported_material(bl, mat)[1] == []
-
-
-def common_value(sock):
-    value = sock.default_value
-    return list(value)[:3] if sock.type == "RGBA" else value
 
 
 @pytest.mark.parametrize("kind, socket, rendered", [
