@@ -47,25 +47,89 @@ def _active_output(tree, idname):
     return next((n for n in outputs if n.target in ("ALL", "CYCLES")), None)
 
 
+def _value_text(sock):
+    """A socket's unlinked value as a message shows it."""
+    value = sock.default_value
+    if sock.type == "RGBA":
+        return "(" + ", ".join(f"{float(c):g}" for c in value[:3]) + ")"
+    return f"{float(value):g}"
+
+
 class _Inputs:
-    """Reads unlinked socket values of one node; a linked input is noted as an issue."""
+    """Reads the unlinked values of one node's inputs and notes, as issues, what Snell ignores."""
 
     def __init__(self, node, issues):
         self.node, self.issues = node, issues
 
-    def color(self, name):
+    def _note(self, name, text):
+        self.issues.append(f"node {self.node.name!r}: input {name!r} {text}")
+
+    def _socket(self, name):
         sock = self.node.inputs[name]
-        if sock.is_linked:
-            self.issues.append(f"node {self.node.name!r}: input {name!r} is linked (textures are "
-                               f"not supported), using its unlinked value")
-        return [float(c) for c in sock.default_value[:3]]
+        source = _follow(sock)
+        if source is not None:
+            self._note(name, f"is linked to {source.name!r}, which Snell cannot evaluate: using "
+                             f"its unlinked value {_value_text(sock)}")
+        return sock
+
+    def color(self, name):
+        """The input's RGB colour."""
+        return [float(c) for c in self._socket(name).default_value[:3]]
 
     def value(self, name):
-        sock = self.node.inputs[name]
-        if sock.is_linked:
-            self.issues.append(f"node {self.node.name!r}: input {name!r} is linked, using its "
-                               f"unlinked value {sock.default_value:g}")
-        return float(sock.default_value)
+        """The input's number."""
+        return float(self._socket(name).default_value)
+
+    def field(self, name, field):
+        """The input as the scene file's `field`: a colour, or a number clamped as Cycles does."""
+        if self.node.inputs[name].type == "RGBA":
+            return self.color(name)
+        return _clamp(self.value(name), field)
+
+    def unsupported(self, name, neutral, rendered):
+        """Note an input Snell does not render, unless it has its neutral value or is missing."""
+        if self.node.inputs.get(name) is None:    # an input older Blender versions lack
+            return
+        value = self.value(name)
+        if value != neutral:
+            self._note(name, f"is {value:g}: {rendered}")
+
+    def ignored_links(self, *names):
+        """Note the linked ones of these inputs (normals, tangents), which Snell ignores."""
+        for name in names:
+            sock = self.node.inputs.get(name)
+            source = _follow(sock) if sock is not None else None
+            if source is not None:
+                self._note(name, f"is linked to {source.name!r}, which Snell ignores: "
+                                 f"{IGNORED_LINKS[name]}")
+
+
+# What Snell renders instead of a linked normal or tangent.
+IGNORED_LINKS = {"Normal": "shaded with the mesh's normals",
+                 "Coat Normal": "shaded with the mesh's normals", "Tangent": "rendered isotropic"}
+
+
+def _clamp(value, field):
+    """A number within the scene file's range of `field`, where Cycles clamps the input too."""
+    least, greatest, open_below = scene_mod.MATERIAL_RANGES[field]
+    if open_below:
+        least = 1e-5    # the one such range is an IOR's, > 0; Cycles takes at least 1e-5
+    value = max(value, least)
+    return value if greatest is None else min(value, greatest)
+
+
+# The nodes' microfacet distributions as the scene file names them. Ashikhmin-Shirley (Glossy
+# BSDF only) has none: it is rendered as GGX, its closest, with a warning.
+BLENDER_DISTRIBUTIONS = {"GGX": "ggx", "MULTI_GGX": "multi_ggx", "BECKMANN": "beckmann"}
+
+
+def _distribution(node, issues):
+    """The node's microfacet distribution as the scene file names it."""
+    if node.distribution not in BLENDER_DISTRIBUTIONS:
+        issues.append(f"node {node.name!r}: distribution {node.distribution} is not supported, "
+                      f"rendered as GGX")
+        return "ggx"
+    return BLENDER_DISTRIBUTIONS[node.distribution]
 
 
 def convert_material(mat):
@@ -85,54 +149,108 @@ def convert_material(mat):
     node = _follow(out.inputs["Surface"])
     if node is None:
         return fallback, [f"node {out.name!r}: nothing connected to Surface, using grey 0.8 diffuse"]
-    inp = _Inputs(node, issues)
-    kind = node.bl_idname
-    if kind == "ShaderNodeBsdfDiffuse":
-        if inp.value("Roughness") > 0:
-            issues.append(f"node {node.name!r}: roughness > 0 (Oren-Nayar) rendered as Lambert")
-        return {"name": name, "kind": "diffuse", "color": inp.color("Color")}, issues
-    if kind in ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"):
-        if inp.value("Roughness") > 0:
-            issues.append(f"node {node.name!r}: glossy roughness > 0 rendered as a perfect mirror")
-        return {"name": name, "kind": "mirror", "color": inp.color("Color")}, issues
-    if kind in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
-        if inp.value("Roughness") > 0:
-            issues.append(f"node {node.name!r}: roughness > 0 rendered as smooth")
-        color = inp.color("Color")
-        result = {"name": name, "kind": "glass" if kind == "ShaderNodeBsdfGlass" else "refraction",
-                  "color": color, "ior": inp.value("IOR")}
-        if kind == "ShaderNodeBsdfGlass":
-            result["transmission_color"] = list(color)
-        return result, issues
-    if kind == "ShaderNodeEmission":
-        return {"name": name, "kind": "emission", "color": inp.color("Color"),
-                "strength": max(inp.value("Strength"), 0.0)}, issues
-    if kind == "ShaderNodeBsdfPrincipled":
-        return _principled(name, node, inp, issues), issues
-    issues.append(f"node {node.name!r} ({node.bl_idname}) is not supported, using grey 0.8 diffuse")
-    return fallback, issues
+    convert = _CONVERTERS.get(node.bl_idname)
+    if convert is None:
+        issues.append(f"node {node.name!r} ({node.bl_idname}) is not supported, using grey 0.8 diffuse")
+        return fallback, issues
+    return convert(name, node, _Inputs(node, issues), issues), issues
+
+
+def _diffuse(name, node, inp, issues):
+    inp.unsupported("Roughness", 0.0, "Oren-Nayar diffuse is rendered as Lambert")
+    inp.ignored_links("Normal")
+    return {"name": name, "kind": "diffuse", "color": inp.color("Color")}
+
+
+def _glossy(name, node, inp, issues):
+    inp.unsupported("Anisotropy", 0.0, "rendered isotropic")
+    inp.ignored_links("Normal", "Tangent")
+    # Roughness 0 stays glossy: the tracer renders it as the exact mirror.
+    return {"name": name, "kind": "glossy", "color": inp.color("Color"),
+            "roughness": inp.field("Roughness", "roughness"),
+            "distribution": _distribution(node, issues)}
+
+
+def _glass(name, node, inp, issues):
+    color = inp.color("Color")
+    result = {"name": name, "kind": "glass", "color": color, "transmission_color": list(color),
+              "ior": inp.field("IOR", "ior"), "roughness": inp.field("Roughness", "roughness"),
+              "distribution": _distribution(node, issues)}
+    inp.unsupported("Thin Film Thickness", 0.0, "thin film interference is ignored")
+    inp.ignored_links("Normal")
+    return result
+
+
+def _refraction(name, node, inp, issues):
+    inp.ignored_links("Normal")
+    return {"name": name, "kind": "refraction", "color": inp.color("Color"),
+            "ior": inp.field("IOR", "ior"), "roughness": inp.field("Roughness", "roughness"),
+            "distribution": _distribution(node, issues)}
+
+
+def _emission(name, node, inp, issues):
+    return {"name": name, "kind": "emission", "color": inp.color("Color"),
+            "strength": max(inp.value("Strength"), 0.0)}
+
+
+# The Principled BSDF's inputs by the scene file's fields (docs/scene-format.md).
+PRINCIPLED_INPUTS = {
+    "color": "Base Color", "metallic": "Metallic", "roughness": "Roughness", "ior": "IOR",
+    "specular_ior_level": "Specular IOR Level", "specular_tint": "Specular Tint",
+    "transmission": "Transmission Weight", "coat_weight": "Coat Weight",
+    "coat_roughness": "Coat Roughness", "coat_ior": "Coat IOR", "coat_tint": "Coat Tint",
+    "emission_color": "Emission Color", "emission_strength": "Emission Strength",
+}
+# Its inputs Snell does not render: (input, the value at which it has no effect, what Snell
+# renders instead). An input the running Blender lacks (Diffuse Roughness is recent) is skipped.
+PRINCIPLED_UNSUPPORTED = (
+    ("Sheen Weight", 0.0, "sheen is ignored"),
+    ("Subsurface Weight", 0.0, "subsurface scattering is rendered as the diffuse base"),
+    ("Thin Film Thickness", 0.0, "thin film interference is ignored"),
+    ("Anisotropic", 0.0, "rendered isotropic"),
+    ("Alpha", 1.0, "rendered opaque"),
+    ("Diffuse Roughness", 0.0, "Oren-Nayar diffuse is rendered as Lambert"),
+)
+WHITE = [1.0, 1.0, 1.0]
 
 
 def _principled(name, node, inp, issues):
-    base = inp.color("Base Color")
-    metallic = inp.value("Metallic")
-    transmission = inp.value("Transmission Weight")
-    roughness = inp.value("Roughness")
-    if inp.value("Emission Strength") > 0:
-        issues.append(f"node {node.name!r}: Principled emission is ignored (use an Emission node)")
-    if 0 < transmission < 1 or 0 < metallic < 1:
-        issues.append(f"node {node.name!r}: partial metallic/transmission rounded "
-                      f"(metallic {metallic:g}, transmission {transmission:g})")
-    if (transmission >= 0.5 or metallic >= 0.5) and roughness > 0:
-        issues.append(f"node {node.name!r}: roughness {roughness:g} rendered as smooth")
-    if transmission >= 0.5 and metallic < 0.5:
-        # Cycles tints the reflection by Specular Tint and transmission by sqrt(Base Color).
-        return {"name": name, "kind": "glass", "color": inp.color("Specular Tint"),
-                "transmission_color": [math.sqrt(max(c, 0.0)) for c in base],
-                "ior": inp.value("IOR")}
-    if metallic >= 0.5:
-        return {"name": name, "kind": "mirror", "color": base}
-    return {"name": name, "kind": "diffuse", "color": base}
+    mat = {"name": name, "kind": "principled"}
+    for field, socket in PRINCIPLED_INPUTS.items():
+        mat[field] = inp.field(socket, field)
+    mat["distribution"] = _distribution(node, issues)
+    for socket, neutral, rendered in PRINCIPLED_UNSUPPORTED:
+        inp.unsupported(socket, neutral, rendered)
+    inp.ignored_links("Normal", "Coat Normal", "Tangent")
+    return _as_smooth_glass(mat) or mat
+
+
+def _as_smooth_glass(mat):
+    """The glass material a principled one renders exactly as, or None.
+
+    Full transmission with nothing on top, smooth, untinted and without emission is exactly
+    Cycles' smooth glass: it keeps the kind it had before rough surfaces, so that a scene's
+    glass renders as the validator has always held it.
+    """
+    exact = (mat["transmission"] == 1.0 and mat["metallic"] == 0.0 and mat["coat_weight"] == 0.0
+             and mat["roughness"] == 0.0 and mat["color"] == WHITE
+             and mat["specular_tint"] == WHITE and mat["specular_ior_level"] == 0.5
+             and not scene_mod.emits(mat))
+    if not exact:
+        return None
+    return {"name": mat["name"], "kind": "glass", "color": list(WHITE),
+            "transmission_color": list(WHITE), "ior": mat["ior"]}
+
+
+_CONVERTERS = {
+    "ShaderNodeBsdfDiffuse": _diffuse,
+    "ShaderNodeBsdfGlossy": _glossy,
+    "ShaderNodeBsdfAnisotropic": _glossy,    # the Glossy BSDF's identifier since Blender 4.0
+    "ShaderNodeBsdfGlass": _glass,
+    "ShaderNodeBsdfRefraction": _refraction,
+    "ShaderNodeEmission": _emission,
+    "ShaderNodeBsdfPrincipled": _principled,
+}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -615,7 +733,7 @@ class _Exporter:
         if not mesh.closed:
             for i in used:
                 mat = self.materials[i]
-                if mat["kind"] in ("glass", "refraction"):
+                if scene_mod.refracts(mat):
                     self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} on a mesh "
                               f"that is not closed (its edges are not all shared by two triangles)")
         self.parts.append((mesh, matrix, mat_ids, object_id))

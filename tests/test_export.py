@@ -3,6 +3,7 @@ import importlib
 import math
 import os
 import sys
+import warnings as warnings_module
 
 import numpy as np
 import pytest
@@ -290,45 +291,240 @@ def exported_material(bl, mat, name="Obj"):
 
 @pytest.mark.parametrize("kind,values,expected", [
     ("diffuse", {}, {"kind": "diffuse", "color": [0.2, 0.4, 0.6]}),
-    ("glossy", {"Roughness": 0.0}, {"kind": "mirror", "color": [0.2, 0.4, 0.6]}),
+    ("glossy", {"Roughness": 0.0}, {"kind": "glossy", "color": [0.2, 0.4, 0.6], "roughness": 0.0,
+                                    "distribution": "multi_ggx"}),
+    ("glossy", {"Roughness": 0.3}, {"kind": "glossy", "color": [0.2, 0.4, 0.6], "roughness": 0.3,
+                                    "distribution": "multi_ggx"}),
     ("glass", {"IOR": 1.33}, {"kind": "glass", "color": [0.2, 0.4, 0.6], "ior": 1.33,
-                              "transmission_color": [0.2, 0.4, 0.6]}),
-    ("refraction", {"IOR": 1.2}, {"kind": "refraction", "color": [0.2, 0.4, 0.6], "ior": 1.2}),
+                              "transmission_color": [0.2, 0.4, 0.6], "roughness": 0.0,
+                              "distribution": "multi_ggx"}),
+    ("glass", {"IOR": 1.5, "Roughness": 0.2}, {
+        "kind": "glass", "color": [0.2, 0.4, 0.6], "ior": 1.5, "transmission_color": [0.2, 0.4, 0.6],
+        "roughness": 0.2, "distribution": "multi_ggx"}),
+    ("refraction", {"IOR": 1.2}, {"kind": "refraction", "color": [0.2, 0.4, 0.6], "ior": 1.2,
+                                  "roughness": 0.0, "distribution": "beckmann"}),
+    ("refraction", {"IOR": 1.2, "Roughness": 0.4}, {
+        "kind": "refraction", "color": [0.2, 0.4, 0.6], "ior": 1.2, "roughness": 0.4,
+        "distribution": "beckmann"}),
     ("emission", {"Strength": 7.0}, {"kind": "emission", "color": [0.2, 0.4, 0.6], "strength": 7.0}),
-    ("principled", {"Metallic": 1.0, "Roughness": 0.0}, {"kind": "mirror", "color": [0.2, 0.4, 0.6]}),
-    ("principled", {}, {"kind": "diffuse", "color": [0.2, 0.4, 0.6]}),
 ])
 def test_material_mapping(bl, kind, values, expected):
     m, warnings = exported_material(bl, common.material("M", kind, (0.2, 0.4, 0.6), **values))
     assert warnings == []
     assert m.pop("name") == "M"
     assert set(m) == set(expected)
-    assert m.pop("kind") == expected.pop("kind")
+    for key in ("kind", "distribution"):
+        assert m.pop(key, None) == expected.pop(key, None)
     for key, value in expected.items():
         assert np.allclose(m[key], value, atol=1e-6), key
 
 
-def test_principled_glass_sqrt_tint(bl):
-    mat = common.material("PGlass", "principled", (0.25, 0.49, 1.0), **{
-        "Transmission Weight": 1.0, "Roughness": 0.0, "IOR": 1.45,
-        "Specular Tint": (0.9, 0.8, 0.7, 1.0)})
+def bsdf(mat):
+    """The one shader node of a material built by common.material."""
+    return next(n for n in mat.node_tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial")
+
+
+def enum_items(node, prop):
+    return {item.identifier for item in node.bl_rna.properties[prop].enum_items}
+
+
+def unlinked_value(sock):
+    """A socket's own value: its number, or its colour's RGB."""
+    value = sock.default_value
+    return list(value)[:3] if sock.type == "RGBA" else value
+
+
+@pytest.mark.parametrize("kind, blender, snell", [
+    ("glossy", "GGX", "ggx"), ("glossy", "MULTI_GGX", "multi_ggx"),
+    ("glossy", "BECKMANN", "beckmann"),
+    ("glass", "GGX", "ggx"), ("glass", "MULTI_GGX", "multi_ggx"), ("glass", "BECKMANN", "beckmann"),
+    ("refraction", "GGX", "ggx"), ("refraction", "BECKMANN", "beckmann"),
+    ("principled", "GGX", "ggx"), ("principled", "MULTI_GGX", "multi_ggx"),
+])
+def test_distributions(bl, kind, blender, snell):
+    mat = common.material("M", kind, (0.5, 0.5, 0.5), Roughness=0.3)
+    bsdf(mat).distribution = blender
+    m, warnings = exported_material(bl, mat)
+    assert warnings == [] and m["distribution"] == snell
+
+
+def test_every_distribution_blender_offers_is_mapped(bl):
+    """Blender's enum identifiers on each node: all mapped, Ashikhmin-Shirley with a warning."""
+    offered = {kind: enum_items(bsdf(common.material(kind, kind)), "distribution")
+               for kind in ("glossy", "glass", "refraction", "principled")}
+    assert offered == {"glossy": {"GGX", "MULTI_GGX", "BECKMANN", "ASHIKHMIN_SHIRLEY"},
+                       "glass": {"GGX", "MULTI_GGX", "BECKMANN"},
+                       "refraction": {"GGX", "BECKMANN"}, "principled": {"GGX", "MULTI_GGX"}}
+    for kind, identifiers in offered.items():
+        assert {export.BLENDER_DISTRIBUTIONS[i] for i in identifiers - {"ASHIKHMIN_SHIRLEY"}} \
+            == set(scene_mod.MATERIAL_DISTRIBUTIONS[kind])
+    mat = common.material("Brushed", "glossy", (0.5, 0.5, 0.5), Roughness=0.3)
+    bsdf(mat).distribution = "ASHIKHMIN_SHIRLEY"
+    m, warnings = exported_material(bl, mat, "Pot")
+    assert m["kind"] == "glossy" and m["distribution"] == "ggx"
+    assert warnings == ["object 'Pot', material 'Brushed': node 'Glossy BSDF': distribution "
+                        "ASHIKHMIN_SHIRLEY is not supported, rendered as GGX"]
+
+
+@pytest.mark.parametrize("kind", ["glossy", "glass", "refraction", "principled"])
+def test_scene_file_defaults_are_blenders(kind):
+    """MATERIAL_DEFAULTS holds the installed Blender's node defaults (glass and refraction: the
+    smooth surface a version 2 file means, which is also the nodes' default)."""
+    tree = bpy.data.materials.new("Defaults").node_tree
+    node = tree.nodes.new({"glossy": "ShaderNodeBsdfGlossy", "glass": "ShaderNodeBsdfGlass",
+                           "refraction": "ShaderNodeBsdfRefraction",
+                           "principled": "ShaderNodeBsdfPrincipled"}[kind])
+    inputs = export.PRINCIPLED_INPUTS if kind == "principled" else {"roughness": "Roughness"}
+    for field, default in scene_mod.MATERIAL_DEFAULTS[kind].items():
+        if field == "distribution":
+            assert export.BLENDER_DISTRIBUTIONS[node.distribution] == default
+        else:
+            value = node.inputs[inputs[field]].default_value
+            assert np.allclose(value[:3] if isinstance(default, list) else value, default, atol=1e-6), field
+
+
+def test_blenders_default_material_is_principled_with_its_defaults(bl):
+    """A new material as Blender makes it (a Principled BSDF at its defaults), as Cycles renders it."""
+    mat = bpy.data.materials.new("Default")
+    with warnings_module.catch_warnings():
+        warnings_module.simplefilter("ignore", DeprecationWarning)   # use_nodes goes in Blender 6
+        mat.use_nodes = True
+    node = mat.node_tree.nodes["Principled BSDF"]
     m, warnings = exported_material(bl, mat)
     assert warnings == []
-    assert m["kind"] == "glass"
-    assert np.allclose(m["transmission_color"], [0.5, 0.7, 1.0], atol=1e-6)
-    assert np.allclose(m["color"], [0.9, 0.8, 0.7], atol=1e-6)
-    assert m["ior"] == pytest.approx(1.45)
+    assert m["kind"] == "principled"
+    for field, socket in export.PRINCIPLED_INPUTS.items():
+        assert np.allclose(m[field], unlinked_value(node.inputs[socket])), field
+    assert m["distribution"] == export.BLENDER_DISTRIBUTIONS[node.distribution]
+
+
+PRINCIPLED_VALUES = {   # a principled material with every input away from its default
+    "Metallic": 0.25, "Roughness": 0.3, "IOR": 1.6, "Specular IOR Level": 0.7,
+    "Specular Tint": (0.9, 0.8, 0.7, 1.0), "Transmission Weight": 0.4, "Coat Weight": 0.2,
+    "Coat Roughness": 0.1, "Coat IOR": 1.7, "Coat Tint": (0.6, 0.7, 0.8, 1.0),
+    "Emission Color": (1.0, 0.5, 0.25, 1.0), "Emission Strength": 3.0}
+
+
+def test_principled_fields_come_from_their_inputs(bl):
+    mat = common.material("P", "principled", (0.2, 0.3, 0.4), **PRINCIPLED_VALUES)
+    bsdf(mat).distribution = "GGX"
+    m, warnings = exported_material(bl, mat)
+    assert warnings == []
+    assert m.pop("name") == "P" and m.pop("kind") == "principled" and m.pop("distribution") == "ggx"
+    assert np.allclose(m.pop("color"), [0.2, 0.3, 0.4])
+    assert set(m) == set(export.PRINCIPLED_INPUTS) - {"color"}
+    for field, value in m.items():
+        given = PRINCIPLED_VALUES[export.PRINCIPLED_INPUTS[field]]
+        assert np.allclose(value, given[:3] if isinstance(given, tuple) else given), field
+
+
+@pytest.mark.parametrize("socket, value, field, expected", [
+    ("Roughness", 1.5, "roughness", 1.0), ("Metallic", -0.5, "metallic", 0.0),
+    ("Transmission Weight", 2.0, "transmission", 1.0), ("Coat Roughness", 3.0, "coat_roughness", 1.0),
+    ("IOR", -1.0, "ior", 1e-5), ("Coat IOR", 0.5, "coat_ior", 1.0),
+    ("Specular IOR Level", -1.0, "specular_ior_level", 0.0), ("Coat Weight", -1.0, "coat_weight", 0.0),
+    ("Emission Strength", -2.0, "emission_strength", 0.0),
+])
+def test_principled_inputs_are_clamped_as_cycles_clamps_them(bl, socket, value, field, expected):
+    """Python can set inputs beyond the sliders' ranges; Cycles clamps them, and so does the
+    exporter, so that the scene file's ranges hold."""
+    m, warnings = exported_material(bl, common.material("P", "principled", **{socket: value}))
+    assert warnings == [] and m[field] == pytest.approx(expected)
+
+
+SMOOTH_GLASS = {"Transmission Weight": 1.0, "Roughness": 0.0, "IOR": 1.45}
+
+
+def test_principled_smooth_glass_is_glass(bl):
+    """Full transmission, smooth, white, nothing on top: Cycles' exact smooth glass, the kind the
+    validator has always held it as."""
+    m, warnings = exported_material(bl, common.material("PGlass", "principled", (1.0, 1.0, 1.0),
+                                                        **SMOOTH_GLASS))
+    assert warnings == []
+    assert m == {"name": "PGlass", "kind": "glass", "color": [1.0, 1.0, 1.0],
+                 "transmission_color": [1.0, 1.0, 1.0], "ior": pytest.approx(1.45)}
+
+
+@pytest.mark.parametrize("change", [
+    {"Transmission Weight": 0.99}, {"Metallic": 0.01}, {"Coat Weight": 0.01}, {"Roughness": 0.01},
+    {"Base Color": (0.9, 1.0, 1.0, 1.0)}, {"Specular Tint": (1.0, 1.0, 0.9, 1.0)},
+    {"Specular IOR Level": 0.6}, {"Emission Strength": 1.0},
+])
+def test_principled_glass_with_anything_more_is_principled(bl, change):
+    m, _ = exported_material(bl, common.material("P", "principled", (1.0, 1.0, 1.0),
+                                                 **{**SMOOTH_GLASS, **change}))
+    assert m["kind"] == "principled"
+
+
+@pytest.mark.parametrize("kind, socket, value, rendered", [
+    ("principled", "Sheen Weight", 0.5, "sheen is ignored"),
+    ("principled", "Subsurface Weight", 0.5, "subsurface scattering is rendered as the diffuse base"),
+    ("principled", "Thin Film Thickness", 300.0, "thin film interference is ignored"),
+    ("principled", "Anisotropic", 0.5, "rendered isotropic"),
+    ("principled", "Alpha", 0.5, "rendered opaque"),
+    ("principled", "Diffuse Roughness", 0.5, "Oren-Nayar diffuse is rendered as Lambert"),
+    ("glossy", "Anisotropy", -0.3, "rendered isotropic"),
+    ("glass", "Thin Film Thickness", 300.0, "thin film interference is ignored"),
+    ("diffuse", "Roughness", 0.5, "Oren-Nayar diffuse is rendered as Lambert"),
+])
+def test_inputs_snell_does_not_render_warn_naming_material_node_and_input(bl, kind, socket, value,
+                                                                         rendered):
+    mat = common.material("Odd", kind, (0.5, 0.5, 0.5), **{socket: value})
+    m, warnings = exported_material(bl, mat, "OddObj")
+    node = bsdf(mat).name
+    assert warnings == [f"object 'OddObj', material 'Odd': node {node!r}: input {socket!r} is "
+                        f"{value:g}: {rendered}"]
+    # At the input's neutral value nothing is said.
+    bsdf(mat).inputs[socket].default_value = 1.0 if socket == "Alpha" else 0.0
+    assert exported_material(bl, mat)[1] == []
+
+
+def link(mat, socket, idname="ShaderNodeTexNoise"):
+    """Feed the shader's input from a new node (a texture by default)."""
+    source = mat.node_tree.nodes.new(idname)
+    mat.node_tree.links.new(source.outputs[0], bsdf(mat).inputs[socket])
+    return source
+
+
+@pytest.mark.parametrize("kind, socket, field, shown", [
+    ("principled", "Metallic", "metallic", "0.75"),
+    ("principled", "Base Color", "color", "(0.2, 0.4, 0.6)"),
+    ("principled", "Coat Tint", "coat_tint", "(1, 1, 1)"),
+    ("glossy", "Roughness", "roughness", "0.75"),
+    ("glass", "IOR", "ior", "1.5"),
+])
+def test_a_linked_input_uses_its_unlinked_value(bl, kind, socket, field, shown):
+    values = {"Metallic": 0.75} if kind == "principled" else {"Roughness": 0.75}
+    mat = common.material("Tex", kind, (0.2, 0.4, 0.6), **values)
+    noise = link(mat, socket)
+    m, warnings = exported_material(bl, mat, "TexObj")
+    assert np.allclose(m[field], unlinked_value(bsdf(mat).inputs[socket]))
+    assert warnings == [f"object 'TexObj', material 'Tex': node {bsdf(mat).name!r}: input "
+                        f"{socket!r} is linked to {noise.name!r}, which Snell cannot evaluate: "
+                        f"using its unlinked value {shown}"]
+    bsdf(mat).inputs[socket].links[0].is_muted = True   # a muted link passes nothing: no warning
+    assert exported_material(bl, mat)[1] == []
+
+
+@pytest.mark.parametrize("kind, socket, rendered", [
+    ("principled", "Normal", "shaded with the mesh's normals"),
+    ("principled", "Coat Normal", "shaded with the mesh's normals"),
+    ("principled", "Tangent", "rendered isotropic"),
+    ("glossy", "Normal", "shaded with the mesh's normals"),
+    ("glossy", "Tangent", "rendered isotropic"),
+    ("glass", "Normal", "shaded with the mesh's normals"),
+    ("refraction", "Normal", "shaded with the mesh's normals"),
+    ("diffuse", "Normal", "shaded with the mesh's normals"),
+])
+def test_linked_normals_and_tangents_are_ignored_with_a_warning(bl, kind, socket, rendered):
+    mat = common.material("Bumpy", kind, (0.5, 0.5, 0.5))
+    source = link(mat, socket, "ShaderNodeBump" if "Normal" in socket else "ShaderNodeTangent")
+    _, warnings = exported_material(bl, mat, "BumpyObj")
+    assert warnings == [f"object 'BumpyObj', material 'Bumpy': node {bsdf(mat).name!r}: input "
+                        f"{socket!r} is linked to {source.name!r}, which Snell ignores: {rendered}"]
 
 
 def test_fallback_warnings_name_object_material_node(bl):
-    tex = common.material("Textured", "diffuse", (0.3, 0.3, 0.3))
-    noise = tex.node_tree.nodes.new("ShaderNodeTexNoise")
-    tex.node_tree.links.new(noise.outputs["Color"], tex.node_tree.nodes["Diffuse BSDF"].inputs["Color"])
-    m, warnings = exported_material(bl, tex, "TexObj")
-    assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.3)
-    assert any("'TexObj'" in w and "'Textured'" in w and "'Diffuse BSDF'" in w and "linked" in w
-               for w in warnings)
-
     mix = bpy.data.materials.new("Mixed")
     mix.node_tree.nodes.clear()
     out = mix.node_tree.nodes.new("ShaderNodeOutputMaterial")
@@ -337,16 +533,6 @@ def test_fallback_warnings_name_object_material_node(bl):
     m, warnings = exported_material(bl, mix, "MixObj")
     assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.8)
     assert any("'MixObj'" in w and "'Mixed'" in w and "'Mix Shader'" in w for w in warnings)
-
-    rough = common.material("Rough", "glossy", (1.0, 1.0, 1.0), Roughness=0.3)
-    m, warnings = exported_material(bl, rough, "RoughObj")
-    assert m["kind"] == "mirror"
-    assert any("'RoughObj'" in w and "'Rough'" in w and "'Glossy BSDF'" in w for w in warnings)
-
-    glow = common.material("Glow", "principled", (1.0, 1.0, 1.0), **{"Emission Strength": 2.0})
-    m, warnings = exported_material(bl, glow, "GlowObj")
-    assert m["kind"] == "diffuse"
-    assert any("'GlowObj'" in w and "'Principled BSDF'" in w and "emission" in w for w in warnings)
 
     m, warnings = exported_material(bl, None, "Bare")
     assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.8)
@@ -361,6 +547,17 @@ def test_glass_on_open_mesh_warns(bl):
     assert {o["name"]: o["closed"] for o in s.objects} == {"Window": False, "Closed": True}
     assert [w for w in warnings if "not closed" in w] == [
         "object 'Window': glass material 'Pane' on a mesh that is not closed "
+        "(its edges are not all shared by two triangles)"]
+
+
+def test_transmissive_principled_on_open_mesh_warns(bl):
+    clear = common.material("Clear", "principled", **{"Transmission Weight": 0.5})
+    opaque = common.material("Opaque", "principled")
+    common.quad("Window", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], clear)
+    common.quad("Card", [(0, 0, 2), (1, 0, 2), (1, 1, 2), (0, 1, 2)], opaque)
+    _, warnings = run()
+    assert [w for w in warnings if "not closed" in w] == [
+        "object 'Window': principled material 'Clear' on a mesh that is not closed "
         "(its edges are not all shared by two triangles)"]
 
 
@@ -574,7 +771,9 @@ def test_scene_scripts_build_and_export(name, tmp_path):
     assert warnings == []
     kinds = {m["kind"] for m in s.materials}
     if name == "cornell_spheres":
-        assert {"mirror", "glass", "emission", "diffuse"} <= kinds
+        assert {"glossy", "glass", "emission", "diffuse"} <= kinds
+        mirror = next(m for m in s.materials if m["kind"] == "glossy")
+        assert mirror["roughness"] == 0.0 and scene_mod.is_mirror(mirror)
         assert s.camera["resolution"] == [256, 256] and not s.camera["dof"]["use_dof"]
         assert all(o["closed"] for o in s.objects if "Sphere" in o["name"])
     if name == "cornell_dragon":

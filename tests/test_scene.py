@@ -28,8 +28,9 @@ def test_round_trip_keeps_arrays_and_header(good):
         assert np.array_equal(getattr(back, key), getattr(sc, key))
         assert getattr(back, key).dtype == getattr(sc, key).dtype
     assert back.materials == sc.materials and back.lights == sc.lights and back.camera == sc.camera
-    assert back.features() == {"glass": True, "mirrors": False, "depth_of_field": False,
-                               "environment": False, "emissive_meshes": True}
+    assert back.features() == {"glass": True, "mirrors": False, "rough": False,
+                               "depth_of_field": False, "environment": False,
+                               "emissive_meshes": True}
 
 
 def _rewrite(path, out, header=None, **arrays):
@@ -130,6 +131,161 @@ def test_zero_area_emitters_are_rejected(good, tmp_path):
     with pytest.raises(S.SceneError, match="zero-area emitter"):
         S.validate(make_scene([], [], camera(), lights=[
             {"name": "A", "kind": "area", "shape": "square", "matrix": m, "size": [0, 0], "radiance": [1, 1, 1]}]))
+
+
+# ---------------------------------------------------------------------------------------------
+# Version 3: glossy and principled materials, rough glass and refraction
+
+WHITE = [1.0, 1.0, 1.0]
+# Every optional field of the new kinds, none at its default.
+FULL = {
+    "glossy": {"kind": "glossy", "color": [0.9, 0.8, 0.7], "roughness": 0.25,
+               "distribution": "beckmann"},
+    "glass": {"kind": "glass", "color": WHITE, "ior": 1.45, "transmission_color": [0.5, 0.6, 0.7],
+              "roughness": 0.2, "distribution": "ggx"},
+    "refraction": {"kind": "refraction", "color": WHITE, "ior": 1.33, "roughness": 0.4,
+                   "distribution": "ggx"},
+    "principled": {"kind": "principled", "color": [0.2, 0.3, 0.4], "metallic": 0.25,
+                   "roughness": 0.75, "ior": 1.6, "specular_ior_level": 0.8,
+                   "specular_tint": [0.9, 0.8, 0.7], "transmission": 0.5, "coat_weight": 0.3,
+                   "coat_roughness": 0.1, "coat_ior": 1.7, "coat_tint": [0.6, 0.7, 0.8],
+                   "emission_color": [1.0, 0.5, 0.25], "emission_strength": 3.0,
+                   "distribution": "ggx"},
+}
+
+
+def one_material(mat, name="M"):
+    """A scene of one quad of the material, checked."""
+    return make_scene([(*quad((0, 0, 0), 1, 1), 0)], [{"name": name, **mat}], camera())
+
+
+def test_kind_and_distribution_codes_are_positions():
+    """The tracer's codes: adding a kind or distribution anywhere but the end would renumber."""
+    assert S.MATERIAL_KINDS == ("diffuse", "mirror", "glass", "refraction", "emission", "glossy",
+                                "principled")
+    assert S.DISTRIBUTIONS == ("ggx", "multi_ggx", "beckmann")
+    assert S.VERSION == 3 and S.READS_VERSIONS == (1, 2, 3)
+
+
+def test_version_3_round_trip_keeps_every_field(tmp_path):
+    mats = [{"name": kind, **mat} for kind, mat in FULL.items()]
+    quads = [(*quad((3.0 * i, 0, 0), 1, 1), i) for i in range(len(mats))]
+    sc = make_scene(quads, mats, camera())
+    S.save(sc, str(tmp_path / "v3.snell"))
+    back = S.load(str(tmp_path / "v3.snell"))
+    assert back.materials == mats
+    assert back.header()["version"] == 3
+    assert all(S.material_field(m, key) == value
+               for m in back.materials for key, value in m.items())
+
+
+@pytest.mark.parametrize("kind, field, value", [
+    ("glossy", "roughness", 0.5), ("glossy", "distribution", "multi_ggx"),
+    ("glass", "roughness", 0.0), ("glass", "distribution", "multi_ggx"),
+    ("refraction", "roughness", 0.0), ("refraction", "distribution", "beckmann"),
+    ("principled", "metallic", 0.0), ("principled", "roughness", 0.5), ("principled", "ior", 1.5),
+    ("principled", "specular_ior_level", 0.5), ("principled", "specular_tint", WHITE),
+    ("principled", "transmission", 0.0), ("principled", "coat_weight", 0.0),
+    ("principled", "coat_roughness", 0.03), ("principled", "coat_ior", 1.5),
+    ("principled", "coat_tint", WHITE), ("principled", "emission_color", WHITE),
+    ("principled", "emission_strength", 0.0), ("principled", "distribution", "multi_ggx"),
+])
+def test_a_field_left_out_reads_as_its_default(kind, field, value):
+    mat = {k: v for k, v in FULL[kind].items() if k != field}
+    assert S.material_field(one_material(mat).materials[0], field) == value
+
+
+def test_material_field_reads_the_file_first_and_knows_no_other_fields():
+    glass = {"kind": "glass", "color": [0.1, 0.2, 0.3], "ior": 1.5}
+    assert S.material_field(glass, "transmission_color") == [0.1, 0.2, 0.3]   # defaults to color
+    assert S.material_field(FULL["glass"], "transmission_color") == [0.5, 0.6, 0.7]
+    assert S.material_field(FULL["glossy"], "roughness") == 0.25
+    with pytest.raises(KeyError, match="'diffuse' has no field 'roughness'"):
+        S.material_field({"kind": "diffuse", "color": WHITE}, "roughness")
+
+
+@pytest.mark.parametrize("version", [1, 2])
+def test_older_files_read_as_before(good, tmp_path, version):
+    """A version 1 or 2 file has no roughness: its glass is the smooth glass it always was."""
+    sc, path = good
+    old = S.load(_rewrite(path, tmp_path / "old.npz", header=_set(["version"], version)))
+    assert old.materials == sc.materials
+    assert S.material_field(old.materials[0], "roughness") == 0.0
+    assert not old.features()["rough"]
+
+
+@pytest.mark.parametrize("kind, field, value, message", [
+    ("glossy", "roughness", 1.5, "roughness: must be at most 1, got 1.5"),
+    ("glossy", "roughness", -0.1, "roughness: must be >= 0"),
+    ("glossy", "roughness", "rough", "roughness: expected a number"),
+    ("glossy", "roughness", True, "roughness: expected a number"),
+    ("glossy", "distribution", "phong", "distribution: expected one of ggx, multi_ggx, beckmann"),
+    ("glossy", "distribution", 1, "distribution: expected one of"),
+    ("glossy", "color", None, "color: expected 3 numbers"),
+    ("glass", "roughness", 2.0, "roughness: must be at most 1"),
+    ("glass", "distribution", "ashikhmin_shirley", "distribution: expected one of"),
+    ("refraction", "roughness", float("nan"), "roughness: is NaN or Inf"),
+    ("refraction", "distribution", "multi_ggx", "distribution: expected one of ggx, beckmann"),
+    ("principled", "color", [1, 1], "color: expected 3 numbers"),
+    ("principled", "metallic", 1.01, "metallic: must be at most 1"),
+    ("principled", "metallic", -1, "metallic: must be >= 0"),
+    ("principled", "roughness", float("inf"), "roughness: is NaN or Inf"),
+    ("principled", "ior", 0.0, "ior: must be > 0"),
+    ("principled", "specular_ior_level", -0.5, "specular_ior_level: must be >= 0"),
+    ("principled", "specular_tint", [1, -1, 1], "specular_tint: must not be negative"),
+    ("principled", "transmission", 1.5, "transmission: must be at most 1"),
+    ("principled", "coat_weight", -0.1, "coat_weight: must be >= 0"),
+    ("principled", "coat_roughness", 1.1, "coat_roughness: must be at most 1"),
+    ("principled", "coat_ior", 0.9, "coat_ior: must be >= 1"),
+    ("principled", "coat_tint", "white", "coat_tint: expected 3 numbers"),
+    ("principled", "emission_color", [0, 0, float("nan")], "emission_color: contains NaN"),
+    ("principled", "emission_strength", -2, "emission_strength: must be >= 0"),
+    ("principled", "distribution", "beckmann", "distribution: expected one of ggx, multi_ggx"),
+])
+def test_new_material_fields_are_checked_naming_the_field(kind, field, value, message):
+    mat = dict(FULL[kind])
+    mat[field] = value
+    with pytest.raises(S.SceneError) as err:
+        one_material(mat, name="Bad")
+    assert str(err.value).startswith(f"materials[0] ('Bad').{field}: ")
+    assert message in str(err.value)
+
+
+def test_new_material_fields_are_checked_when_loading(good, tmp_path):
+    _, path = good
+    bad = _rewrite(path, tmp_path / "bad.npz", header=_set(["materials", 0, "roughness"], 3))
+    with pytest.raises(S.SceneError, match=r"materials\[0\] \('Glass'\)\.roughness: must be at most 1"):
+        S.load(bad)
+
+
+@pytest.mark.parametrize("mat, expected", [
+    (FULL["glossy"], {"rough"}),
+    ({**FULL["glossy"], "roughness": 0.0}, {"rough", "mirrors"}),
+    ({"kind": "glossy", "color": WHITE}, {"rough"}),     # default roughness 0.5
+    ({**FULL["glass"], "roughness": 0.0}, {"glass"}),
+    (FULL["glass"], {"glass", "rough"}),
+    ({"kind": "refraction", "color": WHITE, "ior": 1.5}, {"glass"}),
+    (FULL["refraction"], {"glass", "rough"}),
+    ({"kind": "principled", "color": WHITE}, {"rough"}),
+    ({"kind": "principled", "color": WHITE, "transmission": 0.1}, {"rough", "glass"}),
+    ({"kind": "principled", "color": WHITE, "emission_strength": 2.0}, {"rough", "emissive_meshes"}),
+    ({"kind": "principled", "color": WHITE, "emission_strength": 2.0,
+      "emission_color": [0, 0, 0]}, {"rough"}),
+    ({"kind": "principled", "color": WHITE, "emission_color": [1, 1, 1]}, {"rough"}),
+])
+def test_features_of_the_new_materials(mat, expected):
+    features = one_material(mat).features()
+    assert {name for name, used in features.items() if used} == expected
+
+
+def test_principled_emitters_must_have_area(tmp_path):
+    collapsed = np.zeros((4, 3), np.float32)
+    tri = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+    glowing = {"name": "Glow", "kind": "principled", "color": WHITE, "emission_strength": 1.0}
+    with pytest.raises(S.SceneError, match=r"materials\[0\] \('Glow'\): zero-area emitter"):
+        make_scene([(collapsed, tri, 0)], [glowing], camera())
+    # Without emission a principled surface is not an emitter, and a degenerate one is no error.
+    make_scene([(collapsed, tri, 0)], [dict(glowing, emission_strength=0.0)], camera())
 
 
 def test_not_a_scene_file(tmp_path):

@@ -1,12 +1,12 @@
 """Fuzzing the scene-file loader: a damaged .snell file gives SceneError naming what is wrong.
 
-Hypothesis mutates a valid file (tests/test_cli.py's tiny scene plus a lamp, a mirror, normals and
-depth of field, so that every header section is present): raw bytes (overwritten, truncated,
-inserted), header JSON values (replaced by other JSON values, NaN, Inf, huge integers, or
-deleted) and arrays (dtype, shape, values, missing). tracer.scene.load must then either return a
-valid Scene or raise SceneError whose message starts with the field or the file at fault; any
-other exception is a bug. The profile is derandomized with a fixed example count, so the test is
-the same on every run.
+Hypothesis mutates a valid file (tests/test_cli.py's tiny scene plus a lamp, a mirror, a glossy, a
+rough glass and a principled material, normals and depth of field, so that every header section
+and material field is present): raw bytes (overwritten, truncated, inserted), header JSON values
+(replaced by other JSON values, NaN, Inf, huge integers, or deleted) and arrays (dtype, shape,
+values, missing). tracer.scene.load must then either return a valid Scene or raise SceneError
+whose message starts with the field or the file at fault; any other exception is a bug. The
+profile is derandomized with a fixed example count, so the test is the same on every run.
 """
 from __future__ import annotations
 
@@ -40,7 +40,17 @@ ARRAYS = ("positions", "triangles", "material_ids", "object_ids", "normals")
 
 def rich_scene() -> Scene:
     scene = tiny_scene().with_camera(dof={"use_dof": True, "focus_distance": 2.0, "fstop": 2.0})
-    scene.materials = scene.materials + [{"name": "Mirror", "kind": "mirror", "color": [0.9, 0.9, 0.9]}]
+    scene.materials = scene.materials + [
+        {"name": "Mirror", "kind": "mirror", "color": [0.9, 0.9, 0.9]},
+        {"name": "Brushed", "kind": "glossy", "color": [0.9, 0.9, 0.9], "roughness": 0.3,
+         "distribution": "beckmann"},
+        {"name": "Frosted", "kind": "glass", "color": [1.0, 1.0, 1.0], "ior": 1.5,
+         "roughness": 0.2, "distribution": "ggx"},
+        {"name": "Principled", "kind": "principled", "color": [0.8, 0.8, 0.8], "metallic": 0.5,
+         "roughness": 0.4, "ior": 1.45, "specular_ior_level": 0.5, "specular_tint": [1.0, 1.0, 1.0],
+         "transmission": 0.2, "coat_weight": 0.1, "coat_roughness": 0.03, "coat_ior": 1.5,
+         "coat_tint": [1.0, 1.0, 1.0], "emission_color": [1.0, 1.0, 1.0],
+         "emission_strength": 1.0, "distribution": "ggx"}]
     scene.material_ids = np.array([0, 1], np.int32)
     scene.normals = np.tile(np.array([[0, 0, 1]], np.float32), (len(scene.positions), 1))
     scene.lights = [

@@ -15,21 +15,13 @@ import numpy as np
 from .atomic import atomic_path
 
 FORMAT = "snell-scene"
-VERSION = 2
-READS_VERSIONS = (1, 2)   # version 2 added spot lamps and lamp radius, spread, angle and flags
+VERSION = 3
+# Version 2 added spot lamps and lamp radius, spread, angle and flags; version 3 the glossy and
+# principled materials and the roughness of glass and refraction.
+READS_VERSIONS = (1, 2, 3)
+# The tracer's material and distribution codes are positions in these tuples: add at the end.
 MATERIAL_KINDS = ("diffuse", "mirror", "glass", "refraction", "emission", "glossy", "principled")
 DISTRIBUTIONS = ("ggx", "multi_ggx", "beckmann")
-# Optional material fields and their defaults (Blender's), by kind.
-MATERIAL_DEFAULTS = {
-    "glossy": {"roughness": 0.5, "distribution": "multi_ggx"},
-    "glass": {"roughness": 0.0, "distribution": "multi_ggx"},
-    "refraction": {"roughness": 0.0, "distribution": "beckmann"},
-    "principled": {"metallic": 0.0, "roughness": 0.5, "ior": 1.5, "specular_ior_level": 0.5,
-                   "specular_tint": [1.0, 1.0, 1.0], "transmission": 0.0, "coat_weight": 0.0,
-                   "coat_roughness": 0.03, "coat_ior": 1.5, "coat_tint": [1.0, 1.0, 1.0],
-                   "emission_color": [1.0, 1.0, 1.0], "emission_strength": 0.0,
-                   "distribution": "multi_ggx"},
-}
 LIGHT_KINDS = ("area", "point", "spot", "sun")
 LIGHT_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_transmission",
                "cast_shadow", "use_mis")
@@ -46,6 +38,34 @@ DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact", "cau
 MAX_INT = 2 ** 31 - 1
 MAX_RESOLUTION = 65536      # Blender's own limit per side
 MAX_BLADES = 1000
+
+# The optional material fields of each kind and what a file without them means: Blender's node
+# defaults (Glossy, Glass, Refraction and Principled BSDF), and for glass and refraction a smooth
+# surface, so that files written before roughness read as before. Read them with material_field.
+MATERIAL_DEFAULTS = {
+    "glossy": {"roughness": 0.5, "distribution": "multi_ggx"},
+    "glass": {"roughness": 0.0, "distribution": "multi_ggx"},
+    "refraction": {"roughness": 0.0, "distribution": "beckmann"},
+    "principled": {
+        "metallic": 0.0, "roughness": 0.5, "ior": 1.5, "specular_ior_level": 0.5,
+        "specular_tint": [1.0, 1.0, 1.0], "transmission": 0.0, "coat_weight": 0.0,
+        "coat_roughness": 0.03, "coat_ior": 1.5, "coat_tint": [1.0, 1.0, 1.0],
+        "emission_color": [1.0, 1.0, 1.0], "emission_strength": 0.0, "distribution": "multi_ggx"},
+}
+# (kind, field) whose default is another field of the same material.
+DEFAULT_FROM_FIELD = {("glass", "transmission_color"): "color"}
+# (least, greatest, least excluded) of the numeric fields above; colours are never negative.
+MATERIAL_RANGES = {
+    "roughness": (0.0, 1.0, False), "metallic": (0.0, 1.0, False),
+    "transmission": (0.0, 1.0, False), "coat_roughness": (0.0, 1.0, False),
+    "ior": (0.0, None, True), "specular_ior_level": (0.0, None, False),
+    "coat_weight": (0.0, None, False), "coat_ior": (1.0, None, False),
+    "emission_strength": (0.0, None, False),
+}
+# The distributions Blender offers on each node (Refraction BSDF: no multiscatter GGX;
+# Principled BSDF: no Beckmann).
+MATERIAL_DISTRIBUTIONS = {"glossy": DISTRIBUTIONS, "glass": DISTRIBUTIONS,
+                          "refraction": ("ggx", "beckmann"), "principled": ("ggx", "multi_ggx")}
 
 DEFAULT_DOF = {"use_dof": False, "focus_distance": 10.0, "fstop": 2.8, "blades": 0,
                "rotation": 0.0, "ratio": 1.0}
@@ -97,23 +117,60 @@ class Scene:
         return other
 
     def features(self) -> dict:
-        """Which costly features the scene needs: glass, mirrors, depth of field, environment."""
+        """Which costly features the scene needs: glass, mirrors, rough surfaces, depth of field,
+        environment, emissive meshes."""
         used = set(int(m) for m in np.unique(self.material_ids)) if len(self.material_ids) else set()
-        kinds = {self.materials[i]["kind"] for i in used}
+        mats = [self.materials[i] for i in sorted(used)]
         return {
-            "glass": bool(kinds & {"glass", "refraction"}),
-            "mirrors": "mirror" in kinds,
+            "glass": any(refracts(m) for m in mats),
+            "mirrors": any(is_mirror(m) for m in mats),
+            "rough": any(is_rough(m) for m in mats),
             "depth_of_field": aperture_radius(self.camera) > 0.0,
             "environment": any(c > 0 for c in self.world["color"]),
-            "emissive_meshes": "emission" in kinds,
+            "emissive_meshes": any(emits(m) for m in mats),
         }
 
 
 def material_field(mat: dict, key: str):
-    """A material's field, or its kind's default."""
+    """A material's field, or the default its kind gives it when the file leaves it out."""
     if key in mat:
         return mat[key]
-    return MATERIAL_DEFAULTS[mat["kind"]][key]
+    if (mat["kind"], key) in DEFAULT_FROM_FIELD:
+        return mat[DEFAULT_FROM_FIELD[mat["kind"], key]]
+    defaults = MATERIAL_DEFAULTS.get(mat["kind"], {})
+    if key not in defaults:
+        raise KeyError(f"material kind {mat['kind']!r} has no field {key!r}")
+    return defaults[key]
+
+
+def emits(mat: dict) -> bool:
+    """Whether a material emits light: emission, or principled with a visible emission."""
+    if mat["kind"] != "principled":
+        return mat["kind"] == "emission"
+    return (material_field(mat, "emission_strength") > 0
+            and any(c > 0 for c in material_field(mat, "emission_color")))
+
+
+def refracts(mat: dict) -> bool:
+    """Whether light passes through a material: glass, refraction, principled transmission."""
+    if mat["kind"] == "principled":
+        return material_field(mat, "transmission") > 0
+    return mat["kind"] in ("glass", "refraction")
+
+
+def is_mirror(mat: dict) -> bool:
+    """Whether a material is a perfect mirror: mirror, or glossy of roughness 0."""
+    return mat["kind"] == "mirror" or (mat["kind"] == "glossy"
+                                       and material_field(mat, "roughness") == 0)
+
+
+def is_rough(mat: dict) -> bool:
+    """Whether a material is rough: glossy, principled, glass or refraction of roughness > 0."""
+    # Glossy counts at roughness 0 too: the tracer renders it through its glossy kind (whose
+    # roughness-0 case is the exact mirror), while smooth glass is the kind it always was.
+    if mat["kind"] in ("glass", "refraction"):
+        return material_field(mat, "roughness") > 0
+    return mat["kind"] in ("glossy", "principled")
 
 
 def aperture_radius(camera: dict) -> float:
@@ -218,6 +275,24 @@ def _check_material(i, mat):
         _finite_vec(mat["transmission_color"], f"{where}.transmission_color", positive=True)
     if kind == "emission":
         _finite_number(mat.get("strength"), f"{where}.strength", 0.0)
+    for key, default in MATERIAL_DEFAULTS.get(kind, {}).items():
+        if key in mat:
+            _check_material_field(f"{where}.{key}", kind, key, mat[key], default)
+
+
+def _check_material_field(name, kind, key, value, default):
+    """One optional material field, of the type of its default: a name, a colour or a number."""
+    if isinstance(default, str):
+        choices = MATERIAL_DISTRIBUTIONS[kind]
+        if not isinstance(value, str) or value not in choices:
+            raise SceneError(f"{name}: expected one of {', '.join(choices)}, got {_short(value)}")
+    elif isinstance(default, list):
+        _finite_vec(value, name, positive=True)
+    else:
+        least, greatest, exclusive = MATERIAL_RANGES[key]
+        value = _finite_number(value, name, least, exclusive)
+        if greatest is not None and value > greatest:
+            raise SceneError(f"{name}: must be at most {greatest:g}, got {value!r}")
 
 
 def _check_flag(light, key, where):
@@ -382,7 +457,7 @@ def triangle_areas(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 
 def _check_emitter_areas(scene):
-    emissive = [i for i, m in enumerate(scene.materials) if m["kind"] == "emission"]
+    emissive = [i for i, m in enumerate(scene.materials) if emits(m)]
     if not emissive or not len(scene.triangles):
         return
     for i in emissive:
