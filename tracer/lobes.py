@@ -23,7 +23,7 @@ from .jit import jit
 from .microfacet import BECKMANN, GGX, is_almost_specular, ndf, smith_lambda
 from .microfacet_tables import ggx_albedo, glass_albedo, remap_albedo
 from .sampling import orthonormal_basis, sample_cosine_hemisphere
-from .vec import add, dot, madd, mul, normalize
+from .vec import add, dot, madd, mean3, mul, normalize, vmul
 
 # Lobe kinds.
 LAMBERT, MICROFACET = range(2)
@@ -60,24 +60,12 @@ def set_vec(lobe, column, v):
 
 
 @jit
-def vmul(a, b):
-    """Component-wise product."""
-    return (a[0] * b[0], a[1] * b[1], a[2] * b[2])
-
-
-@jit
-def average(a):
-    """Mean of the three components."""
-    return (a[0] + a[1] + a[2]) / 3.0
-
-
-@jit
 def new_lobe(lobe, kind, n, weight):
     """Start a lobe: kind, normal, colour weight; a neutral microfacet otherwise."""
     lobe[:] = 0.0
     lobe[KIND] = kind
     lobe[ENERGY] = 1.0
-    lobe[SAMPLE_WEIGHT] = abs(average(weight))
+    lobe[SAMPLE_WEIGHT] = abs(mean3(weight))
     lobe[REFLECTS] = 1.0
     set_vec(lobe, NORMAL, n)
     set_vec(lobe, WEIGHT, weight)
@@ -165,7 +153,7 @@ def lobe_eval(lobe, wi, wo):
         common = d / cos_ni * (eta / length) ** 2 * abs(cos_hi * dot(h, wo))
     else:
         common = d / cos_ni * 0.25
-    p_reflect = average(r) / average(add(r, t))
+    p_reflect = mean3(r) / mean3(add(r, t))
     pdf = common * (1.0 - p_reflect if transmission else p_reflect) / (1.0 + lambda_i)
     value = mul(t if transmission else r, common / (1.0 + lambda_i + lambda_o) * lobe[ENERGY])
     return value, pdf
@@ -200,10 +188,10 @@ def lobe_sample(lobe, ng, wi, u0, u1, u2):
         cos_nh = local_h[2]
     cos_hi = dot(h, wi)
     r, t, cos_t = lobe_fresnel(lobe, cos_hi)
-    total = average(add(r, t))
+    total = mean3(add(r, t))
     if not total > 0.0:
         return wi, zero, 0.0, REFLECT_EVENT, singular, False
-    p_reflect = average(r) / total
+    p_reflect = mean3(r) / total
     transmission = u2 >= p_reflect
     if transmission:
         wo = refract(mul(wi, -1.0), h, eta, cos_hi, cos_t)
@@ -440,7 +428,7 @@ def setup_principled(lobes, tables, n, n_diffuse, wi, entering, base, params, di
         r, _, _ = lobe_fresnel(lobe, dot(wi, n))
         if max(r[0], r[1], r[2]) > 0.0:
             albedo = tuple_mix_to_one(f0_rgb, remap_albedo(tables, roughness, dot(wi, n), eta))
-        lobe[SAMPLE_WEIGHT] *= average(albedo)
+        lobe[SAMPLE_WEIGHT] *= mean3(albedo)
         weight = layering_weight(weight, vec_at(lobe, WEIGHT), albedo)
         count += 1
     new_lobe(lobes[count], LAMBERT, n_diffuse, vmul((max(base[0], 0.0), max(base[1], 0.0),

@@ -31,6 +31,18 @@ def madd(a, s, b):
 
 
 @jit
+def vmul(a, b):
+    """The component-wise product."""
+    return (a[0] * b[0], a[1] * b[1], a[2] * b[2])
+
+
+@jit
+def mean3(a):
+    """The mean of the three components."""
+    return (a[0] + a[1] + a[2]) / 3.0
+
+
+@jit
 def neg(a):
     """-a."""
     return (-a[0], -a[1], -a[2])

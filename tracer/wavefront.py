@@ -34,7 +34,7 @@ from .lobes import DIFFUSE_EVENT, TRANSMIT_EVENT, bsdf_eval, bsdf_sample, setup_
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic, sample_cosine_hemisphere
 from .triangle_lights import pdf_triangle
-from .vec import dot, max3, mul, neg, row, store, sub
+from .vec import dot, max3, mul, neg, row, store, sub, vmul
 
 STRATIFIED_BOUNCES = 2    # bounces whose light and BSDF samples are stratified (then random)
 RR_START = 3              # Russian roulette from this bounce on ...
@@ -255,20 +255,13 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
                 # geometric surface carry nothing (below), also as in Cycles.
                 if cos > 0.0 and max3(weight) > 0.0:
                     w = power_heuristic(pdf_light, cos / math.pi) if pdf_light > 0.0 else 1.0
-                    f = cos / math.pi * w
-                    light = (beta[0] * albedo[0] * weight[0] * f, beta[1] * albedo[1] * weight[1] * f,
-                             beta[2] * albedo[2] * weight[2] * f)
-                    if shadowed:
-                        store(shadows.contrib, n_shadow, light)
-                        queue_shadow(shadows, n_shadow, paths.path[i],
-                                     offset_origin(p, ng_f, eps, wi), wi, target, infinite)
-                        n_shadow += 1
-                    else:                 # a lamp that casts no shadow: no shadow ray
-                        add_light(radiance, paths.path[i], light, (1.0, 1.0, 1.0), 1.0)
+                    light = mul(vmul(vmul(beta, albedo), weight), cos / math.pi * w)
+                    n_shadow = deliver_light(shadows, n_shadow, radiance, paths.path[i], light,
+                                             shadowed, offset_origin(p, ng_f, eps, wi), wi,
+                                             target, infinite)
             wi, pdf = sample_cosine_hemisphere(ns_f, u0, u1)
             # Shading normals can point a sample into the surface: it carries nothing.
-            beta = (0.0, 0.0, 0.0) if dot(wi, ng_f) <= 0.0 else \
-                (beta[0] * albedo[0], beta[1] * albedo[1], beta[2] * albedo[2])
+            beta = (0.0, 0.0, 0.0) if dot(wi, ng_f) <= 0.0 else vmul(beta, albedo)
             new_d, ray_kind, pdf_prev = wi, VISIBLE_DIFFUSE, pdf
             caustic = FIRST_DIFFUSE if depth == 0 else NO_CAUSTIC
         elif kind == LAYERED:
@@ -287,19 +280,13 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
                     f, pdf_bsdf = bsdf_eval(lobes, count, view, wl)
                     if max3(f) > 0.0:
                         w = power_heuristic(pdf_light, pdf_bsdf) if pdf_light > 0.0 else 1.0
-                        light = (beta[0] * f[0] * weight[0] * w, beta[1] * f[1] * weight[1] * w,
-                                 beta[2] * f[2] * weight[2] * w)
-                        if shadowed:
-                            store(shadows.contrib, n_shadow, light)
-                            queue_shadow(shadows, n_shadow, paths.path[i],
-                                         offset_origin(p, ng_f, eps, wl), wl, target, infinite)
-                            n_shadow += 1
-                        else:
-                            add_light(radiance, paths.path[i], light, (1.0, 1.0, 1.0), 1.0)
+                        n_shadow = deliver_light(shadows, n_shadow, radiance, paths.path[i],
+                                                 mul(vmul(vmul(beta, f), weight), w), shadowed,
+                                                 offset_origin(p, ng_f, eps, wl), wl, target,
+                                                 infinite)
             new_d, factor, pdf_prev, event, valid = bsdf_sample(lobes, count, ng_f, view, u_pick,
                                                                 u0, u1)
-            beta = (beta[0] * factor[0], beta[1] * factor[1], beta[2] * factor[2]) if valid \
-                else (0.0, 0.0, 0.0)
+            beta = vmul(beta, factor) if valid else (0.0, 0.0, 0.0)
             ray_kind = VISIBLE_DIFFUSE if event == DIFFUSE_EVENT else \
                 VISIBLE_TRANSMISSION if event == TRANSMIT_EVENT else VISIBLE_GLOSSY
             # The light tracer ends its paths on layered surfaces, so the path tracer counts
@@ -315,8 +302,7 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
             count_specular(stats, event, valid)
             if kind != MIRROR:
                 stats[DIELECTRIC_SAMPLES] += 1
-            beta = (beta[0] * weight[0], beta[1] * weight[1], beta[2] * weight[2]) if valid \
-                else (0.0, 0.0, 0.0)
+            beta = vmul(beta, weight) if valid else (0.0, 0.0, 0.0)
             ray_kind = VISIBLE_TRANSMISSION if event == bsdf.TRANSMITTED else VISIBLE_GLOSSY
             pdf_prev = 0.0
             caustic = CAUSTIC if paths.caustic[i] != NO_CAUSTIC else NO_CAUSTIC
@@ -342,6 +328,19 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         out.pdf_prev[n_out] = pdf_prev
         n_out += 1
     return n_out, n_shadow
+
+
+@jit
+def deliver_light(shadows, n_shadow, radiance, path, light, shadowed, origin, wi, target,
+                  infinite):
+    """A light sample's contribution: behind a shadow ray from origin (queued as ray n_shadow),
+    or added at once for a lamp that casts no shadow. Returns the new shadow-ray count."""
+    if shadowed:
+        store(shadows.contrib, n_shadow, light)
+        queue_shadow(shadows, n_shadow, path, origin, wi, target, infinite)
+        return n_shadow + 1
+    add_light(radiance, path, light, (1.0, 1.0, 1.0), 1.0)
+    return n_shadow
 
 
 @jit
