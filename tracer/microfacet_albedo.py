@@ -91,11 +91,12 @@ def cell_estimate(lobe, table, rough, ior, mu, averaged, points):
     for r in range(replicates):
         total = 0.0
         for i in range(count):
-            p = points[r, i]
+            u0, u1, u2 = points[r, i, 0], points[r, i, 1], points[r, i, 2]
             if averaged:
-                total += 2.0 * p[3] * sample_value(lobe, table, p[3], p[0], p[1], p[2])
+                cosine = points[r, i, 3]
+                total += 2.0 * cosine * sample_value(lobe, table, cosine, u0, u1, u2)
             else:
-                total += sample_value(lobe, table, mu, p[0], p[1], p[2])
+                total += sample_value(lobe, table, mu, u0, u1, u2)
         # Welford's update over the replicates' means.
         delta = total / count - mean
         mean += delta / (r + 1)
