@@ -102,6 +102,7 @@ def test_build_makes_one_zip_per_platform_with_its_wheels(built):
         assert sorted((os.path.basename(w).split("-")[0], w.split("-")[-3]) for w in wheels) == [
             (package, py) for package in ("embreex", "llvmlite", "numba") for py in ("cp311", "cp313")]
         assert "__init__.py" in names and "addon/engine.py" in names and "tracer/integrator.py" in names
+        assert "tracer/data/microfacet_tables.npz" in names
         assert not [n for n in names if n.startswith(("tests/", "scenes/", "docs/", "tools/", ".venv/",
                                                       ".git", "dist/"))
                     or "__pycache__" in n or n.endswith(".blend")]

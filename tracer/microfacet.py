@@ -17,6 +17,8 @@ from .vec import cross, normalize
 GGX, BECKMANN = range(2)
 # Cycles renders a surface whose alpha_x * alpha_y is at most this as perfectly specular.
 SPECULAR_ALPHA2 = 2e-10
+# The largest double below 1.
+ERF_MAX = 1.0 - 2.0 ** -53
 
 
 @jit
@@ -82,8 +84,12 @@ def sample_ggx_visible_normal(wi, alpha, u0, u1):
 
 @jit
 def erfinv(x):
-    """The inverse error function on (-1, 1): Giles' (2010) approximation, refined."""
-    w = -math.log(max((1.0 - x) * (1.0 + x), 1e-300))
+    """The inverse error function on [-1, 1], +-1 giving +-5.86 (erfinv of the doubles nearest
+    +-1) rather than infinities: Giles' (2010) approximation, refined."""
+    # The Beckmann sampler passes 2 u - 1 with u = 0 possible: an infinite slope made its
+    # microfacet normal NaN.
+    x = min(max(x, -ERF_MAX), ERF_MAX)
+    w = -math.log((1.0 - x) * (1.0 + x))
     if w < 5.0:
         w -= 2.5
         p = 2.81022636e-08
@@ -107,9 +113,21 @@ def erfinv(x):
         p = 1.00167406 + p * w
         p = 2.83297682 + p * w
     y = p * x
-    # Two Newton steps on erf(y) = x take the approximation to double precision.
-    for _ in range(2):
-        y -= (math.erf(y) - x) / (1.1283791670955126 * math.exp(-y * y))
+    # Newton steps take the approximation to double precision: on erf(y) = x, and past |x| = 0.9
+    # on log erfc(|y|) = log(1 - |x|), nearly quadratic in y, with a right side exact there.
+    # (erf(y) - x keeps no digits where erf(y) is within 1e-12 of 1: two steps on it had left
+    # erfinv 3e-5 off at x = 1 - 1e-12.)
+    for _ in range(8):
+        if abs(x) > 0.9:
+            sign = 1.0 if x > 0.0 else -1.0
+            tail = math.erfc(sign * y)
+            step = -sign * math.log(tail / (1.0 - sign * x)) * tail
+        else:
+            step = math.erf(y) - x
+        step /= 1.1283791670955126 * math.exp(-y * y)
+        y -= step
+        if abs(step) <= 1e-8 * abs(y):      # converging quadratically: now within 1e-16
+            break
     return y
 
 
