@@ -216,7 +216,7 @@ def test_the_command_line_says_whether_light_tracing_runs(tmp_path):
     off = load(str(path)).with_render(caustics=False)
     assert "path tracer only (caustics off)" in {line.split()[0]: line for line in cli.describe(off)}["caustics"]
     diffuse = room(cam=room_camera((8, 8)))
-    assert "no mirror or glass" in {line.split()[0]: line for line in cli.describe(diffuse)}["caustics"]
+    assert "no smooth mirror or glass" in {line.split()[0]: line for line in cli.describe(diffuse)}["caustics"]
 
     def render(*extra):
         proc = subprocess.run([sys.executable, "-m", "snell.cli", "render", str(path), "-o",

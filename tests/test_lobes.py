@@ -70,7 +70,8 @@ def _sample(rows, count, wi, u, wo, weight, pdf, valid):
 def _eval(rows, count, wi, wo, f, pdf):
     """bsdf_eval for every row of wo."""
     for i in range(wo.shape[0]):
-        value, pdf[i] = lobes.bsdf_eval(rows, count, wi, (wo[i, 0], wo[i, 1], wo[i, 2]))
+        value, pdf[i] = lobes.bsdf_eval(rows, count, wi, (wo[i, 0], wo[i, 1], wo[i, 2]),
+                                        lobes.ALL_EVENTS)
         f[i, 0], f[i, 1], f[i, 2] = value
 
 

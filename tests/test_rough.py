@@ -172,3 +172,26 @@ def test_light_tracer_leaves_rough_glass_to_the_path_tracer():
         diff = ma[..., c].mean() - mb[..., c].mean()
         se = math.sqrt(va[..., c].sum() + vb[..., c].sum()) / ma[..., c].size
         assert abs(diff) < z_bound(3) * se, (c, diff, se)
+
+
+def test_a_lamp_invisible_to_glossy_rays_does_not_light_a_glossy_lobe():
+    """Cycles leaves out the closures a lamp is invisible to: with visible_glossy off, a rough
+    metal sphere in a black world stays black under the lamp (light sampling and BSDF sampling
+    both), while a diffuse base under a Principled coat still sees it."""
+    def sphere_light(material, visible_glossy):
+        pos, tri, nrm = icosphere(3, radius=0.6)
+        m = np.eye(4)
+        m[:3, 3] = (0.0, 0.0, 2.0)
+        lamp = {"name": "Area", "kind": "area", "shape": "square", "matrix": m.tolist(),
+                "size": [2.0, 2.0], "radiance": [3.0, 3.0, 3.0], "visible_glossy": visible_glossy}
+        scene = make_scene([(pos, tri, 0, nrm)], [material], camera(resolution=(12, 12)),
+                           lights=[lamp], spp=16, max_depth=3)
+        return render(scene, threads=2).mean()
+
+    metal = {"name": "Metal", "kind": "glossy", "color": WHITE, "roughness": 0.4}
+    assert sphere_light(metal, True).max() > 0.05
+    assert sphere_light(metal, False).max() == 0.0
+    plastic = {"name": "Plastic", "kind": "principled", "color": [0.5, 0.5, 0.5],
+               "coat_weight": 1.0}
+    seen, unseen = sphere_light(plastic, True), sphere_light(plastic, False)
+    assert 0.0 < unseen.mean() < seen.mean()

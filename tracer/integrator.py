@@ -255,7 +255,7 @@ class Renderer:
         if not self.scene.render.get("caustics", True):
             why_no_light = "caustics off"
         else:
-            why_no_light = "no mirror or glass, or no lamp that rays can hit sees one"
+            why_no_light = "no smooth mirror or glass, or no lamp that rays can hit sees one"
         return {
             "lens sampling": (self.camera.has_lens, "depth of field" if self.camera.has_lens
                               else "no depth of field"),

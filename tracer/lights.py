@@ -262,8 +262,9 @@ def sample_light(lights, mesh, p, n, vertex_kind, u_pick, u0, u1):
 
     Returns (unit direction to the light, the point to aim the shadow ray at, whether the light
     is at infinity, radiance / pdf, pdf in solid angle for MIS (0 for delta lights and lamps
-    without MIS), whether the shadow ray is traced). A zero weight means no light: lamps that
-    this kind of vertex does not see give none.
+    without MIS), the light's lamps.* flags: its visibility to each kind of ray, and whether it
+    casts shadows). A zero weight means no light: lamps that no kind in vertex_kind sees give
+    none.
     """
     kind, i, pmf = pick_light(lights, u_pick)
     flags = CASTS_SHADOW | USES_MIS | vertex_kind
@@ -285,7 +286,7 @@ def sample_light(lights, mesh, p, n, vertex_kind, u_pick, u0, u1):
         wi, density = sample_uniform_sphere(u0, u1), 1.0 / (4.0 * math.pi)
         value, point, infinite = (lights.world[0], lights.world[1], lights.world[2]), p, True
     if not flags & vertex_kind:
-        return (0.0, 0.0, 1.0), p, True, ZERO, 0.0, False
+        return (0.0, 0.0, 1.0), p, True, ZERO, 0.0, 0
     if not infinite:
         wi = normalize(sub(point, p))
     if kind == EMISSIVE_TRIANGLE and density > 0.0:
@@ -295,14 +296,13 @@ def sample_light(lights, mesh, p, n, vertex_kind, u_pick, u0, u1):
         prim = lights.tri_prim[i]
         point = offset_origin(point, row(lights.tri_normal, i), hit_offset(mesh, prim, point),
                               mul(wi, -1.0))
-    shadowed = (flags & CASTS_SHADOW) != 0
     if density == 0.0:             # a delta light: value is the irradiance
-        return wi, point, infinite, mul(value, 1.0 / pmf), 0.0, shadowed
+        return wi, point, infinite, mul(value, 1.0 / pmf), 0.0, flags
     pdf = pmf * density
     if not pdf > 0.0:
-        return (0.0, 0.0, 1.0), p, True, ZERO, 0.0, False
+        return (0.0, 0.0, 1.0), p, True, ZERO, 0.0, 0
     mis_pdf = pdf if flags & USES_MIS else 0.0
-    return wi, point, infinite, mul(value, 1.0 / pdf), mis_pdf, shadowed
+    return wi, point, infinite, mul(value, 1.0 / pdf), mis_pdf, flags
 
 
 @jit_inline

@@ -30,8 +30,9 @@ LAMBERT, MICROFACET = range(2)
 # Fresnel models of a microfacet lobe: none (the colour alone), the dielectric, the dielectric
 # remapped to [f0, 1] (Cycles' generalized Schlick with a negative exponent), F82-tint.
 NO_FRESNEL, DIELECTRIC, REMAPPED, F82 = range(4)
-# What a sample did.
+# What a sample did (bit masks of them: 1 << event).
 DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT = range(3)
+ALL_EVENTS = 7
 # Columns of a lobe row.
 KIND, DIST, ALPHA, ETA, REFLECTS, TRANSMITS, FRESNEL, ENERGY, SAMPLE_WEIGHT = range(9)
 WEIGHT, F0, TINT_B, R_TINT, T_TINT, NORMAL = 9, 12, 15, 18, 21, 24   # three columns each
@@ -223,8 +224,18 @@ def lobe_sample(lobe, ng, wi, u0, u1, u2):
 
 
 @jit
-def bsdf_eval(lobes, count, wi, wo):
-    """The hit's BSDF for light arriving from wo: (f |cos| RGB, density of bsdf_sample)."""
+def lobe_event(lobe, wo):
+    """What scattering into wo is for this lobe: DIFFUSE_EVENT, REFLECT_EVENT or TRANSMIT_EVENT."""
+    if lobe[KIND] == LAMBERT:
+        return DIFFUSE_EVENT
+    return TRANSMIT_EVENT if dot(vec_at(lobe, NORMAL), wo) < 0.0 else REFLECT_EVENT
+
+
+@jit
+def bsdf_eval(lobes, count, wi, wo, events):
+    """The hit's BSDF for light arriving from wo: (f |cos| RGB, density of bsdf_sample). Only
+    lobes whose event is in the bit mask `events` (1 << event) add to f, as Cycles leaves out
+    the closures a lamp is invisible to; all of them add to the density."""
     f = (0.0, 0.0, 0.0)
     pdf = 0.0
     total_weight = 0.0
@@ -232,7 +243,8 @@ def bsdf_eval(lobes, count, wi, wo):
         lobe = lobes[i]
         value, p = lobe_eval(lobe, wi, wo)
         if p > 0.0:
-            f = add(f, vmul(value, vec_at(lobe, WEIGHT)))
+            if events & (1 << lobe_event(lobe, wo)):
+                f = add(f, vmul(value, vec_at(lobe, WEIGHT)))
             pdf += p * lobe[SAMPLE_WEIGHT]
         total_weight += lobe[SAMPLE_WEIGHT]
     return f, (pdf / total_weight if total_weight > 0.0 else 0.0)

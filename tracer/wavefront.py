@@ -26,11 +26,12 @@ from .bsdf import DIFFUSE, EMISSION, LAYERED, MIRROR, REFRACTION
 from .camera import camera_ray
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
-from .lamps import (USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION,
-                    area_lamp_hit, intersect_area_lamp, intersect_point_lamp, point_lamp_hit,
+from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
+                    VISIBLE_TRANSMISSION, area_lamp_hit, intersect_area_lamp, intersect_point_lamp, point_lamp_hit,
                     seen_by, sun_hit)
 from .lights import pdf_world, sample_light
-from .lobes import DIFFUSE_EVENT, TRANSMIT_EVENT, bsdf_eval, bsdf_sample, setup_shader
+from .lobes import (DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT, bsdf_eval, bsdf_sample,
+                    setup_shader)
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic, sample_cosine_hemisphere
 from .triangle_lights import pdf_triangle
@@ -245,7 +246,7 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
             albedo = row(mats.color, mat)
             if can_sample_lights:
                 l0, l1 = sample_pair(key, sample, 3 + 3 * depth, bits, strat)
-                wi, target, infinite, weight, pdf_light, shadowed = sample_light(
+                wi, target, infinite, weight, pdf_light, flags = sample_light(
                     lights, mesh, p, ns_f, VISIBLE_DIFFUSE, u_pick, l0, l1)
                 cos = dot(wi, ns_f)
                 # As in Cycles, the shading normal alone decides: a light below the geometric
@@ -257,7 +258,7 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
                     w = power_heuristic(pdf_light, cos / math.pi) if pdf_light > 0.0 else 1.0
                     light = mul(vmul(vmul(beta, albedo), weight), cos / math.pi * w)
                     n_shadow = deliver_light(shadows, n_shadow, radiance, paths.path[i], light,
-                                             shadowed, offset_origin(p, ng_f, eps, wi), wi,
+                                             flags, offset_origin(p, ng_f, eps, wi), wi,
                                              target, infinite)
             wi, pdf = sample_cosine_hemisphere(ns_f, u0, u1)
             # Shading normals can point a sample into the surface: it carries nothing.
@@ -274,14 +275,14 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
                                  entering)
             if can_sample_lights:
                 l0, l1 = sample_pair(key, sample, 3 + 3 * depth, bits, strat)
-                wl, target, infinite, weight, pdf_light, shadowed = sample_light(
+                wl, target, infinite, weight, pdf_light, flags = sample_light(
                     lights, mesh, p, ns_f, VISIBLE_ANY_BSDF, u_pick, l0, l1)
                 if max3(weight) > 0.0:
-                    f, pdf_bsdf = bsdf_eval(lobes, count, view, wl)
+                    f, pdf_bsdf = bsdf_eval(lobes, count, view, wl, lit_events(flags))
                     if max3(f) > 0.0:
                         w = power_heuristic(pdf_light, pdf_bsdf) if pdf_light > 0.0 else 1.0
                         n_shadow = deliver_light(shadows, n_shadow, radiance, paths.path[i],
-                                                 mul(vmul(vmul(beta, f), weight), w), shadowed,
+                                                 mul(vmul(vmul(beta, f), weight), w), flags,
                                                  offset_origin(p, ng_f, eps, wl), wl, target,
                                                  infinite)
             new_d, factor, pdf_prev, event, valid = bsdf_sample(lobes, count, ng_f, view, u_pick,
@@ -331,11 +332,25 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
 
 
 @jit
-def deliver_light(shadows, n_shadow, radiance, path, light, shadowed, origin, wi, target,
+def lit_events(flags):
+    """The lobe events (lobes.py bit mask) a light of these lamps.* flags lights."""
+    events = 0
+    if flags & VISIBLE_DIFFUSE:
+        events |= 1 << DIFFUSE_EVENT
+    if flags & VISIBLE_GLOSSY:
+        events |= 1 << REFLECT_EVENT
+    if flags & VISIBLE_TRANSMISSION:
+        events |= 1 << TRANSMIT_EVENT
+    return events
+
+
+@jit
+def deliver_light(shadows, n_shadow, radiance, path, light, flags, origin, wi, target,
                   infinite):
     """A light sample's contribution: behind a shadow ray from origin (queued as ray n_shadow),
-    or added at once for a lamp that casts no shadow. Returns the new shadow-ray count."""
-    if shadowed:
+    or added at once for a lamp that casts no shadow (lamps.* flags). Returns the new
+    shadow-ray count."""
+    if flags & CASTS_SHADOW:
         store(shadows.contrib, n_shadow, light)
         queue_shadow(shadows, n_shadow, path, origin, wi, target, infinite)
         return n_shadow + 1
