@@ -302,8 +302,8 @@ def test_ior_off_by_005_is_caught(name, material, request):
 
 
 # Measured at 4096 spp (8 x 512 in Cycles): glossy 0.9990 / 0.9988 / 0.9994 +- 0.0010, glass
-# 0.9993 / 0.9992 / 0.9990 +- 0.0012, principled 0.9995 / 0.9997 / 1.0004 +- 0.0010; about 40 s
-# each.
+# 0.9993 / 0.9992 / 0.9990 +- 0.0012, principled 0.9995 / 0.9997 / 1.0004 +- 0.0010; 40 to
+# 100 s each on 2 shared cores.
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["glossy", "glass", "principled"])
 def test_rough_scene_consistent_at_4096_spp(name, scene_dir):
