@@ -17,12 +17,11 @@ import sys
 import numpy as np
 import pytest
 
+from cycles_reference import SPP, Reference
+from cycles_reference import verdict as _verdict
 from snell.compare import metrics, report
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SPP = 256
-SCALE = 25
-SEED = 0
 
 
 # ---------------------------------------------------------------------------------------------
@@ -126,31 +125,6 @@ def _blend(blends, name):
     return blends[name]
 
 
-class Reference:
-    """A Cycles reference plus the exported Snell scene at the test resolution."""
-
-    def __init__(self, blend, dof=None, framing=None, max_depth=None, spp=SPP, cycles_seeds=8):
-        from snell.addon import validate
-        self.blend, self.spp = blend, spp
-        scene, _ = validate.load_snell_scene(blend)
-        dof, framing = dict(dof or {}), dict(framing or {})
-        framing = {"resolution_percentage": SCALE, **framing}
-        scene = scene.with_camera(**framing).with_render(
-            spp=spp, seed=SEED, max_depth=max_depth)
-        if dof:
-            scene = scene.with_camera(dof={"use_dof": True, **dof})
-        self.scene = scene
-        self.cycles = validate.cycles_render(blend, spp=spp, max_depth=scene.render["max_depth"],
-                                             seed=SEED, camera={**dof, **framing},
-                                             n_seeds=cycles_seeds)
-
-    def compare(self, modify=lambda s: s, noise_threshold=0.0, spp=None):
-        from snell.addon import validate
-        scene = modify(self.scene)
-        result = validate.snell_render(scene, spp or self.spp, noise_threshold=noise_threshold)
-        return validate.compare_renders(result, self.cycles, settings=validate.snell_settings(scene))
-
-
 @pytest.fixture(scope="session")
 def spheres(blends):
     return Reference(_blend(blends, "cornell_spheres"))
@@ -196,12 +170,6 @@ def _glass(scene, **changes):
     other.materials = [dict(m, **{k: f(m) for k, f in changes.items()}) if m["kind"] == "glass" else m
                        for m in scene.materials]
     return other
-
-
-def _verdict(result):
-    detail = {k: result[k] for k in ("tests", "z_pass_fraction", "tiles_failed", "mean_z",
-                                     "sharpness_z")}
-    return result["verdict"], detail
 
 
 def test_spheres_consistent(spheres_converged):  # full frame, the scene's max depth 8
