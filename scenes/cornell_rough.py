@@ -9,8 +9,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import common  # noqa: E402
-from cornell_spheres import SPHERE_RADIUS  # noqa: E402
+import cornell_spheres  # noqa: E402
 
 GLOSSY_ROUGHNESS = 0.3
 GLASS_ROUGHNESS = 0.2
@@ -18,17 +17,8 @@ GLASS_ROUGHNESS = 0.2
 
 def build(path):
     """Build the scene and save it to path."""
-    scene = common.reset()
-    common.setup_render(scene, (256, 256))
-    common.cornell_box()
-    r = SPHERE_RADIUS
-    metal = common.material("BrushedMetal", "glossy", (1.0, 1.0, 1.0), Roughness=GLOSSY_ROUGHNESS)
-    frosted = common.material("FrostedGlass", "glass", (1.0, 1.0, 1.0), IOR=1.5,
-                              Roughness=GLASS_ROUGHNESS)
-    common.uv_sphere("MetalSphere", (-0.45, 0.35, r), r, metal)
-    common.uv_sphere("FrostedSphere", (0.45, -0.3, r), r, frosted)
-    common.cornell_camera(scene)
-    return common.save(path)
+    return cornell_spheres.build(path, GLOSSY_ROUGHNESS, GLASS_ROUGHNESS,
+                                 names=("BrushedMetal", "FrostedGlass"))
 
 
 if __name__ == "__main__":

@@ -14,16 +14,17 @@ import common  # noqa: E402
 SPHERE_RADIUS = 0.45
 
 
-def build(path):
-    """Build the scene and save it to path."""
+def build(path, mirror_roughness=0.0, glass_roughness=0.0, names=("Mirror", "Glass")):
+    """Build the scene and save it to path (rough spheres for cornell_rough.py)."""
     scene = common.reset()
     common.setup_render(scene, (256, 256))
     common.cornell_box()
     r = SPHERE_RADIUS
-    mirror = common.material("Mirror", "glossy", (1.0, 1.0, 1.0), Roughness=0.0)
-    glass = common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5, Roughness=0.0)
-    common.uv_sphere("MirrorSphere", (-0.45, 0.35, r), r, mirror)
-    common.uv_sphere("GlassSphere", (0.45, -0.3, r), r, glass)
+    mirror = common.material(names[0], "glossy", (1.0, 1.0, 1.0), Roughness=mirror_roughness)
+    glass = common.material(names[1], "glass", (1.0, 1.0, 1.0), IOR=1.5,
+                            Roughness=glass_roughness)
+    common.uv_sphere(f"{names[0]}Sphere", (-0.45, 0.35, r), r, mirror)
+    common.uv_sphere(f"{names[1]}Sphere", (0.45, -0.3, r), r, glass)
     common.cornell_camera(scene)
     return common.save(path)
 
