@@ -119,12 +119,22 @@ def _cycles_point(spec):
         cycles._apply_camera(scene, camera)
         scene.render.filepath = out
         load_s = time.perf_counter() - start
+        stats = []
+
+        def record(*args):                # Blender passes the stats line (and maybe more)
+            stats.extend(a for a in args if isinstance(a, str))
+
+        bpy.app.handlers.render_stats.append(record)
         t = time.perf_counter()
-        bpy.ops.render.render(write_still=True)
+        try:
+            bpy.ops.render.render(write_still=True)
+        finally:
+            bpy.app.handlers.render_stats.remove(record)
         render_s = time.perf_counter() - t
         wall = time.perf_counter() - start
         rgb = read_exr(out).astype(np.float32)
-        counts = cycles.read_sample_count(out, spec["spp"]) if spec["threshold"] else None
+        counts = (cycles.read_sample_count(out, cycles.samples_rendered(stats, spec["spp"]))
+                  if spec["threshold"] else None)
     return rgb, counts, {"load_s": load_s, "render_s": render_s, "wall_s": wall, "threads": spec["threads"]}
 
 

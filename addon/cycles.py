@@ -11,6 +11,7 @@ passes), so K seeds is the cheapest honest estimate.
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -121,9 +122,23 @@ def adaptive_settings(max_depth: int, threshold: float, max_spp: int, seed: int,
     return out
 
 
+def samples_rendered(stats: list, cap: int) -> int:
+    """How many samples an adaptive Cycles render ran, from its render_stats lines
+    ("... | Sample 80/1024"): the last sample count it reported above 0, else the cap."""
+    done = [int(m.group(1)) for line in stats for m in [_SAMPLE_STAT.search(line)] if m]
+    done = [n for n in done if n > 0]
+    return min(done[-1], cap) if done else cap
+
+
+_SAMPLE_STAT = re.compile(r"Sample (\d+)/\d+")
+
+
 def read_sample_count(path, samples: int) -> np.ndarray:
-    """Each pixel's samples, int32 (H, W), from the Debug Sample Count pass of a multilayer EXR
-    (Cycles stores the count over the samples setting)."""
+    """Each pixel's samples, int32 (H, W), from the Debug Sample Count pass of a multilayer EXR.
+
+    Cycles stores the count over the samples it rendered (PathTrace's samples in the buffer),
+    which is less than the samples setting when every pixel converged early: `samples` is that
+    number (samples_rendered)."""
     import OpenImageIO as oiio
     inp = oiio.ImageInput.open(path)
     if inp is None:

@@ -257,6 +257,20 @@ def test_cycles_adaptive_settings():
         cycles.adaptive_settings(8, 0.0, 1024, 5)
 
 
+def test_cycles_samples_rendered_scale_its_sample_count_pass():
+    """Cycles' Sample Count pass is each pixel's count over the samples it rendered, which stop
+    early when every pixel converged (cornell_dragon at 0.1 stopped at 80 of 1024: read over
+    1024 its pixels had 614 to 1024 samples in half a second; over 80, 48 to 80, 48 being
+    Cycles' first check after its minimum of 32)."""
+    from snell.addon import cycles
+    lines = ["Remaining: 00:07.88 | Mem: 17M | Sample 64/1024",
+             "Remaining: 00:06.24 | Mem: 17M | Sample 80/1024",
+             "Remaining: 00:06.24 | Mem: 17M | Sample 0/1024"]      # the last line, after it
+    assert cycles.samples_rendered(lines, 1024) == 80
+    assert cycles.samples_rendered(["Mem: 17M"], 1024) == 1024        # no progress seen: the cap
+    assert cycles.samples_rendered(["Sample 2048/2048"], 1024) == 1024
+
+
 def test_thresholds_argument():
     import argparse
     from snell.compare.bench_command import thresholds
