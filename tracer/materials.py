@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import bsdf, lobes, microfacet
-from .scene import DISTRIBUTIONS, material_field
+from .scene import DISTRIBUTIONS, emits, material_field
 
 
 class Materials(NamedTuple):
@@ -64,13 +64,14 @@ def principled_row(mat: dict) -> np.ndarray:
 
 def emission(mat: dict) -> np.ndarray:
     """Emitted radiance (colour x strength) of a material, 0 for those that do not emit."""
+    if not emits(mat):
+        return np.zeros(3)
     if mat["kind"] == "emission":
         return np.asarray(mat["color"], np.float64) * float(mat.get("strength", 0.0))
-    if mat["kind"] == "principled":
-        # Cycles dims it by the coat's reflectance and tint, view-dependent: not modelled.
-        return (np.asarray(material_field(mat, "emission_color"), np.float64)
-                * float(material_field(mat, "emission_strength")))
-    return np.zeros(3)
+    # A Principled BSDF's: Cycles dims it by the coat's reflectance and tint, view-dependent,
+    # which is not modelled.
+    return (np.asarray(material_field(mat, "emission_color"), np.float64)
+            * float(material_field(mat, "emission_strength")))
 
 
 def material_tables(mats: list, material_ids: np.ndarray) -> Materials:
