@@ -27,8 +27,8 @@ from .camera import camera_ray
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
 from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
-                    VISIBLE_TRANSMISSION, area_lamp_hit, intersect_area_lamp, intersect_point_lamp, point_lamp_hit,
-                    seen_by, sun_hit)
+                    VISIBLE_TRANSMISSION, area_lamp_hit, intersect_area_lamp,
+                    intersect_point_lamp, point_lamp_hit, seen_by, sun_hit)
 from .lights import pdf_world, sample_light
 from .lobes import (DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT, bsdf_eval, bsdf_sample,
                     setup_shader)
