@@ -46,7 +46,7 @@ def fresnel_schlick(cos_i, eta):
     cos_t = math.sqrt(1.0 - sin2_t)
     r0 = f0_from_ior(eta)
     c = cos_i if eta >= 1.0 else cos_t
-    return r0 + (1.0 - r0) * (1.0 - c) ** 5, cos_t
+    return mix_to_one(r0, (1.0 - c) ** 5), cos_t
 
 
 @jit
@@ -71,15 +71,30 @@ def ior_from_f0(f0):
 
 
 @jit
+def mix_to_one(f0, s):
+    """f0 + (1 - f0) s: the Schlick-style blend from a normal reflectance towards 1."""
+    return f0 + (1.0 - f0) * s
+
+
+@jit
+def mix_to_one3(f0, s):
+    """mix_to_one per component of an RGB f0."""
+    return (mix_to_one(f0[0], s), mix_to_one(f0[1], s), mix_to_one(f0[2], s))
+
+
+@jit
+def remap_factor(f, f0):
+    """The s with f = mix_to_one(f0, s), clamped to [0, 1] (1 when f0 is 1)."""
+    return min(max((f - f0) / (1.0 - f0), 0.0), 1.0) if f0 < 1.0 else 1.0
+
+
+@jit
 def fresnel_remapped(cos_i, eta, f0):
     """Cycles' generalized Schlick with a negative exponent (the Principled BSDF and the Glass
     BSDF): the real dielectric curve, remapped from [F0(eta), 1] onto [f0, 1] per channel.
     Returns (F rgb, refracted cosine); total internal reflection gives F = 1."""
     f_real, cos_t = fresnel_dielectric(cos_i, eta)
-    f0_real = f0_from_ior(eta)
-    s = min(max((f_real - f0_real) / (1.0 - f0_real), 0.0), 1.0) if f0_real < 1.0 else 1.0
-    return ((f0[0] + (1.0 - f0[0]) * s, f0[1] + (1.0 - f0[1]) * s, f0[2] + (1.0 - f0[2]) * s),
-            cos_t)
+    return mix_to_one3(f0, remap_factor(f_real, f0_from_ior(eta))), cos_t
 
 
 @jit
@@ -88,7 +103,7 @@ def f82_channel(cos_i, f0, b):
     from f0, less b cos (1 - cos)^6, clamped to [0, 1]."""
     s = min(max(1.0 - cos_i, 0.0), 1.0)
     s5 = s * s * s * s * s
-    return min(max(f0 + (1.0 - f0) * s5 - b * cos_i * s5 * s, 0.0), 1.0)
+    return min(max(mix_to_one(f0, s5) - b * cos_i * s5 * s, 0.0), 1.0)
 
 
 @jit
@@ -103,7 +118,7 @@ def f82_b_channel(f0, tint):
     """One channel of the F82-tint term b that scales Schlick's value at cos = 1/7 by `tint`."""
     f = 6.0 / 7.0
     f5 = f ** 5
-    return (f0 + (1.0 - f0) * f5) * (7.0 / (f5 * f)) * (1.0 - tint)
+    return mix_to_one(f0, f5) * (7.0 / (f5 * f)) * (1.0 - tint)
 
 
 @jit

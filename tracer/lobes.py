@@ -18,7 +18,8 @@ import math
 from . import microfacet
 from .bsdf import refract
 from .fresnel import (dielectric_fss, f0_from_ior, f82_fss, f82_tint_b, fresnel_dielectric,
-                      fresnel_f82, fresnel_remapped, ior_from_f0)
+                      fresnel_f82, fresnel_remapped, ior_from_f0, mix_to_one, mix_to_one3,
+                      remap_factor)
 from .jit import jit
 from .microfacet import BECKMANN, GGX, is_almost_specular, ndf, smith_lambda
 from .microfacet_tables import ggx_albedo, glass_albedo, remap_albedo
@@ -383,7 +384,7 @@ def setup_principled(lobes, tables, n, n_diffuse, wi, entering, base, params, di
         preserve_energy(lobe, tables, wi, (fss, fss, fss))
         f = 0.0                 # Cycles' albedo estimate of a dielectric of index 1 is 0
         if coat_ior > 1.0:
-            f = mix_scalar(f0_from_ior(coat_ior),
+            f = mix_to_one(f0_from_ior(coat_ior),
                            remap_albedo(tables, coat_rough, dot(wi, n), coat_ior))
         lobe[SAMPLE_WEIGHT] *= f
         weight = layering_weight(weight, vec_at(lobe, WEIGHT), (f, f, f))
@@ -433,31 +434,18 @@ def setup_principled(lobes, tables, n, n_diffuse, wi, entering, base, params, di
         f0_rgb = mul(tint, f0)
         set_vec(lobe, F0, f0_rgb)
         if dist == DIST_MULTI_GGX:
-            f0_real = f0_from_ior(eta)
-            s = min(max((dielectric_fss(eta) - f0_real) / (1.0 - f0_real), 0.0), 1.0)
-            preserve_energy(lobe, tables, wi, tuple_mix_to_one(f0_rgb, s))
+            s = remap_factor(dielectric_fss(eta), f0_from_ior(eta))
+            preserve_energy(lobe, tables, wi, mix_to_one3(f0_rgb, s))
         albedo = (0.0, 0.0, 0.0)
         r, _, _ = lobe_fresnel(lobe, dot(wi, n))
         if max(r[0], r[1], r[2]) > 0.0:
-            albedo = tuple_mix_to_one(f0_rgb, remap_albedo(tables, roughness, dot(wi, n), eta))
+            albedo = mix_to_one3(f0_rgb, remap_albedo(tables, roughness, dot(wi, n), eta))
         lobe[SAMPLE_WEIGHT] *= mean3(albedo)
         weight = layering_weight(weight, vec_at(lobe, WEIGHT), albedo)
         count += 1
     new_lobe(lobes[count], LAMBERT, n_diffuse, vmul((max(base[0], 0.0), max(base[1], 0.0),
                                                      max(base[2], 0.0)), weight))
     return count + 1
-
-
-@jit
-def mix_scalar(f0, s):
-    """f0 + (1 - f0) s."""
-    return f0 + (1.0 - f0) * s
-
-
-@jit
-def tuple_mix_to_one(f0, s):
-    """f0 + (1 - f0) s per component."""
-    return (mix_scalar(f0[0], s), mix_scalar(f0[1], s), mix_scalar(f0[2], s))
 
 
 @jit

@@ -166,8 +166,8 @@ def is_mirror(mat: dict) -> bool:
 
 def is_rough(mat: dict) -> bool:
     """Whether a material is rough: glossy, principled, glass or refraction of roughness > 0."""
-    # Glossy counts at roughness 0 too: the tracer renders it through its glossy kind (whose
-    # roughness-0 case is the exact mirror), while smooth glass is the kind it always was.
+    # Glossy counts at roughness 0 too, though the tracer renders that as a mirror
+    # (materials.kind_code, which also treats Cycles' near-zero roughness as smooth).
     if mat["kind"] in ("glass", "refraction"):
         return material_field(mat, "roughness") > 0
     return mat["kind"] in ("glossy", "principled")
