@@ -142,8 +142,9 @@ def _add_adaptive_options(p):
                    help="adaptive sampling: a pixel stops once its noise is below T, and --spp is "
                         "each pixel's maximum; 0 turns it off (default: the scene's, Cycles' 0.01)")
     p.add_argument("--min-spp", type=int_at_least(0), metavar="N",
-                   help="samples every pixel takes before it may stop; 0 chooses from the "
-                        "threshold as Cycles does (default: the scene's, 0)")
+                   help="samples every pixel takes before it may stop (rounded up to a multiple "
+                        "of 16, at least 32); 0 chooses from the threshold as Cycles does "
+                        "(default: the scene's, 0)")
 
 
 def cmd_render(args) -> int:
@@ -277,14 +278,16 @@ def describe(scene) -> list[str]:
 
 def adaptive_sampling(render) -> str:
     """What a render's noise_threshold and min_spp do, in words."""
-    from .tracer.adaptive import auto_min_spp
+    from .tracer.adaptive import auto_min_spp, first_check
 
     render = {**DEFAULT_RENDER, **render}     # a scene built in memory may leave them out
     threshold, least = render["noise_threshold"], render["min_spp"]
     if threshold <= 0:
         return f"every pixel {render['spp']} spp (noise threshold 0: adaptive sampling off)"
-    minimum = f"{least} spp" if least else f"{auto_min_spp(threshold)} spp (automatic)"
-    if (least or auto_min_spp(threshold)) >= render["spp"]:
+    # The tracer rounds the minimum up to whole windows of both halves (tracer/adaptive.py).
+    effective = first_check(least or auto_min_spp(threshold))
+    minimum = f"{effective} spp" + ("" if least else " (automatic)")
+    if effective >= render["spp"]:
         return (f"every pixel {render['spp']} spp (noise threshold {threshold:g}, but its minimum "
                 f"{minimum} is not below that)")
     return (f"adaptive, noise threshold {threshold:g}: each pixel from {minimum} up to "

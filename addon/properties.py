@@ -24,8 +24,9 @@ class SnellRenderSettings(bpy.types.PropertyGroup):
                     "samples (Cycles' default 0.01)")
     min_spp: IntProperty(
         name="Min Samples", default=0, min=0, max=4096,
-        description="Samples every pixel takes before it may stop; 0 chooses from the noise "
-                    "threshold as Cycles does (64 at 0.01)")
+        description="Samples every pixel takes before it may stop (rounded up to a multiple of "
+                    "16, at least 32); 0 chooses from the noise threshold as Cycles does (64 at "
+                    "0.01)")
     max_depth: IntProperty(
         name="Max Depth", default=8, min=0, soft_max=64,
         description="Emission plus up to this many bounces (the seed project's max_ray_depth). "

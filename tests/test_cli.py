@@ -172,8 +172,11 @@ def test_info(scene_file):
 
 @pytest.mark.parametrize("render, line", [
     ({"spp": 1024}, "adaptive, noise threshold 0.01: each pixel from 64 spp (automatic) up to 1024 spp"),
+    # The tracer's minimum: whole windows of 16, at least one of each half.
     ({"spp": 1024, "noise_threshold": 0.1, "min_spp": 8},
-     "adaptive, noise threshold 0.1: each pixel from 8 spp up to 1024 spp"),
+     "adaptive, noise threshold 0.1: each pixel from 32 spp up to 1024 spp"),
+    ({"spp": 1024, "noise_threshold": 0.03},
+     "adaptive, noise threshold 0.03: each pixel from 48 spp (automatic) up to 1024 spp"),
     ({"spp": 1024, "noise_threshold": 0.0}, "every pixel 1024 spp (noise threshold 0: adaptive sampling off)"),
 ])
 def test_info_states_adaptive_sampling(render, line):
@@ -329,7 +332,8 @@ def test_render_samples_adaptively_and_writes_the_counts(tmp_path):
     counts = image.read_channel(out, "samples")
     result = integrator.Renderer(load(str(path))).render(noise_threshold=0.01, min_spp=16)
     assert np.array_equal(counts, result.samples())
-    assert counts.min() == 16 and counts.max() > 16 and result.saved_share > 0.5
+    # The minimum rounded up to a window of each half: 32.
+    assert counts.min() == 32 and counts.max() > 32 and result.saved_share > 0.5
     assert (f"adaptive 0.01: {counts.mean():.0f} spp mean, {counts.max():.0f} max, "
             f"{100 * result.saved_share:.0f}% of samples saved in ") in proc.stdout
     assert image.read_exr(out).shape == (16, 16, 3)

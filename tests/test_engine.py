@@ -221,22 +221,22 @@ def test_f12_adaptive_progress_status_and_sample_count_pass(blends, tmp_path):
     pixels still sample and, at the end, how many samples were saved; the Sample Count pass
     holds the tracer's own counts (rows bottom first)."""
     scene = open_scene(blends / "cornell.blend", tmp_path / "adaptive.exr")
-    # A minimum that is no multiple of the 16 samples between checks: the first pass's share of
-    # the samples (24/256) differs from its share of the passes (1/16).
-    scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 256, 0.05, 24
+    # A minimum that is no multiple of the 16-sample windows: the first check comes after the
+    # third window (48), while the bar moves window by window.
+    scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 256, 0.05, 40
     calls, counts = [], []
     with spying(recording(calls, lambda r: counts.append(sample_count_pass(r).reshape(SIZE, SIZE)))):
         bpy.ops.render.render(write_still=True)
     record = dict(final.last_render)
     assert record["error"] is None and record["adaptive"].startswith("adaptive 0.05: ")
     progress = [c[1] for c in calls if c[0] == "progress"]
-    assert progress[0] == pytest.approx(24 / 256) and progress == sorted(progress)
+    assert progress[0] == pytest.approx(16 / 256) and progress == sorted(progress)
     stats = [c[1] for c in calls if c[0] == "stats"]
-    assert any("Sample 40/256 | " in s and "% of pixels sampling | " in s for s in stats), stats
+    assert any("Sample 64/256 | " in s and "% of pixels sampling | " in s for s in stats), stats
     assert stats[-1].endswith(record["adaptive"]) and "% of samples saved" in stats[-1]
     exported, _ = export_depsgraph(bpy.context.evaluated_depsgraph_get())
     expected = Renderer(exported).render().samples()
-    assert expected.min() == 24 and expected.max() > 24 and record["saved_share"] > 0.3
+    assert expected.min() == 48 and expected.max() > 48 and record["saved_share"] > 0.3
     assert np.array_equal(counts[-1], expected[::-1])
 
 
@@ -244,11 +244,12 @@ def test_f12_keeps_the_last_pass_when_every_pixel_converges(blends, tmp_path):
     """A threshold so high that every pixel stops at the minimum: the last (and only) pass still
     reaches the image and the Sample Count pass (the integrator calls back after it too)."""
     scene = open_scene(blends / "cornell.blend", tmp_path / "converged.exr")
-    scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 8, 0.5, 4
+    scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 64, 0.5, 4
     counts = []
     with spying(recording([], lambda r: counts.append(sample_count_pass(r)))):
         bpy.ops.render.render(write_still=True)
-    assert final.last_render["spp"] == 4 and np.all(counts[-1] == 4)
+    # The minimum rounded up to a window of each half: 32.
+    assert final.last_render["spp"] == 32 and np.all(counts[-1] == 32)
     np.testing.assert_allclose(read_exr(tmp_path / "converged.exr"), tracer_image(),
                                rtol=1e-6, atol=1e-7)
 
@@ -397,13 +398,16 @@ def test_batch_png_goes_through_colour_management(blends, tmp_path):
 
 
 def test_batch_adaptive_options_set_the_sampling_panel(blends, tmp_path):
-    """--noise-threshold and --min-spp reach the engine (the file has 8 samples, no minimum set),
-    and the frame line says what adaptive sampling saved; a threshold of 0 unchecks it."""
-    proc = snell_cli("batch", blends / "cornell.blend", "-o", tmp_path / "a_####.exr",
+    """--noise-threshold and --min-spp reach the engine (a copy of the file with 64 samples, no
+    minimum set), and the frame line says what adaptive sampling saved; a threshold of 0 unchecks
+    it."""
+    open_scene(blends / "cornell.blend", tmp_path / "unused.exr").snell.spp = 64
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "cornell64.blend"), copy=True)
+    proc = snell_cli("batch", tmp_path / "cornell64.blend", "-o", tmp_path / "a_####.exr",
                      "--noise-threshold", "0.05", "--min-spp", "4")
     assert proc.returncode == 0, proc.stderr
     line = next(line for line in proc.stderr.splitlines() if line.startswith("snell: frame"))
-    assert "adaptive 0.05: " in line and ", 8 max, " in line and "% of samples saved in " in line
+    assert "adaptive 0.05: " in line and ", 64 max, " in line and "% of samples saved in " in line
     from snell.addon import batch
     props = types.SimpleNamespace(use_adaptive_sampling=True, noise_threshold=0.01, min_spp=0)
     batch._set_sampling(props, 0.0, None)

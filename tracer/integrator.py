@@ -63,12 +63,13 @@ class RenderResult:
     cancelled: bool = False
     stats: dict = field(default_factory=dict)
     stages: dict = field(default_factory=dict)   # Renderer.stages(): what the scene runs, skips
-    # Adaptive sampling (tracer/adaptive.py): each pixel's samples (None: spp everywhere), the
-    # settings, the share of pixels still sampling, and the light tracer's half A and per-pass
-    # sums for its variance.
+    # Adaptive sampling (tracer/adaptive.py): each pixel's samples (None: spp everywhere) and
+    # its two halves' sums, the settings, the share of pixels still sampling, and the light
+    # tracer's half A and per-pass sums for its variance.
     spp_budget: int = 0
     noise_threshold: float = 0.0
     sample_count: np.ndarray | None = None
+    halves: adaptive.Halves | None = None
     active_share: float = 1.0
     light_paths_a: int = 0
     light_pass_sq: np.ndarray | None = None
@@ -86,9 +87,12 @@ class RenderResult:
         rows = max(1, (1 << 14) // self.width)
         for r in range(0, image.shape[0], rows):
             band = slice(r, r + rows)
-            count = self.spp if self.sample_count is None else \
-                np.maximum(self.sample_count[band], 1)[..., None]
-            part = self.sum[band] / count
+            if self.halves is None:
+                part = self.sum[band] / self.spp
+            else:
+                end = min(r + rows, self.height)
+                part = self.halves.mean(slice(r * self.width, end * self.width)).reshape(
+                    end - r, self.width, 3)
             if light:
                 part += self.light_sum[band] / self.light_paths
             image[band] = part
@@ -131,7 +135,7 @@ class RenderResult:
         if self.batches >= 2 and self.batch_sum is not None:
             return _variance_of_mean(self.batch_sum, self.batch_sq, self.batches), \
                 self.batches - 1
-        if self.sample_count is not None:
+        if self.halves is not None:
             return self._adaptive_variance_and_dof()
         n = self.spp
         if n < 2:
@@ -139,12 +143,12 @@ class RenderResult:
         return _variance_of_mean(self.sum, self.sum_sq, n), n - 1
 
     def _adaptive_variance_and_dof(self):
-        """With per-pixel sample counts n: the camera samples' variance over each pixel's own n
-        (n - 1 degrees of freedom) plus, in the hybrid, the light tracer's from its passes; the
-        degrees of freedom are the smallest of any pixel's (conservative for the tests)."""
-        n = np.maximum(self.sample_count, 2)[..., None].astype(np.float64)
-        variance = np.maximum((self.sum_sq - self.sum * self.sum / n) / (n - 1), 0.0) / n
-        dof = int(self.sample_count.min()) - 1
+        """With per-pixel sample counts: the variance of the mean of the halves' means from each
+        half's samples (count - 1 degrees of freedom) plus, in the hybrid, the light tracer's
+        from its passes; the degrees of freedom are the smallest of any pixel's half
+        (conservative for the tests)."""
+        variance, dof = self.halves.variance_of_mean()
+        variance = variance.reshape(self.sum.shape)
         if self.light_in_image and self.light_passes >= 2:
             variance = variance + self.light_variance_of_mean()
             dof = min(dof, self.light_passes - 1)
@@ -273,10 +277,10 @@ class Renderer:
     # -- one chunk of paths ---------------------------------------------------------------
 
     def trace_chunk(self, start: int, n: int, in_pass: int, first_sample: int, pixels: np.ndarray,
-                    bits: int, total: np.ndarray, total_sq: np.ndarray, half: np.ndarray):
+                    bits: int, total: np.ndarray, total_sq: np.ndarray, class_a: np.ndarray):
         """Trace paths start .. start + n of a pass (in_pass samples per pixel of `pixels`, or of
         every pixel when it is empty; the first sample being first_sample) and add them to the
-        (pixels, 3) sums, class-A samples also to `half` if it has rows (adaptive.py). Returns
+        (pixels, 3) sums, class-A samples also to `class_a` if it has rows (adaptive.py). Returns
         (NaN/Inf samples, event counters)."""
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
@@ -307,7 +311,7 @@ class Renderer:
                 break
         with self._film_lock:
             bad = wavefront.film(radiance, n, start, in_pass, first_sample, pixels, total,
-                                 total_sq, half)
+                                 total_sq, class_a)
         return bad, stats.copy()
 
     def trace_light_chunk(self, pass_index: int, start: int, n: int):
@@ -364,7 +368,7 @@ class Renderer:
                     else render.get("min_spp", DEFAULT_RENDER["min_spp"]))
         if threshold > 0.0 and least <= 0:
             least = adaptive.auto_min_spp(threshold)
-        adapt = threshold > 0.0 and least < spp
+        adapt = threshold > 0.0 and adaptive.first_check(least) < spp
         w, h = self.camera.width, self.camera.height
         npix = w * h
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
@@ -377,12 +381,11 @@ class Renderer:
         total, total_sq = result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3)
         all_pixels = np.zeros(0, np.int64)      # film and generate: every pixel, in order
         sampling = all_pixels
-        half = np.zeros((0, 3))    # film: no class-A image
+        no_class_a = np.zeros((0, 3))           # film: no class-A image
+        halves = None
         if adapt:
             result.sample_count = np.zeros((h, w), np.int32)
-            half = np.zeros((npix, 3))
-            sampling = np.arange(npix, dtype=np.int64)
-            noise_level = np.zeros(npix)
+            halves = result.halves = adaptive.Halves(w, h, threshold, least)
         if traces_light:
             result.light_sum = np.zeros((h, w, 3))
             pass_light = np.zeros((npix, 3))
@@ -404,26 +407,36 @@ class Renderer:
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             while result.spp < spp:
                 done = result.spp
+                if adapt:
+                    # A pass stays inside one window, whose half's pixels take its samples.
+                    window_end = min(spp, (done // adaptive.STEP + 1) * adaptive.STEP)
+                    sampling = halves.pixels(done)
+                    if sampling.size == 0:
+                        result.spp = window_end     # this half has stopped everywhere
+                        continue
                 n_rows = npix if sampling is all_pixels else sampling.shape[0]
                 if keep_batches:
                     in_pass = spp // passes + (1 if k < spp % passes else 0)
                 else:
                     # Enough paths per pass to fill the threads' chunks; no more samples than
-                    # reach the budget or adaptive sampling's next check.
+                    # reach the budget or adaptive sampling's window's end.
                     in_pass = max(1, min(PASS_PATHS // n_rows, CHUNK, spp - done))
                     if adapt:
-                        in_pass = min(in_pass, _next_check(done, least) - done)
+                        in_pass = min(in_pass, window_end - done)
                 count = n_rows * in_pass
-                film = pass_sum if keep_batches else total
+                film, film_sq, class_a = total, total_sq, no_class_a
                 if keep_batches:
+                    film = pass_sum
                     pass_sum[:] = 0.0
+                elif adapt:
+                    film, film_sq, class_a = halves.film(done)
                 # Chunks hold whole pixels' samples, so that each pixel's sum is added in the same
                 # order with any number of threads (float addition is not associative).
                 size = max(1, CHUNK // in_pass) * in_pass
                 jobs = [(s, min(size, count - s)) for s in range(0, count, size)]
                 for bad, stats in pool.map(
                         lambda job: self.trace_chunk(job[0], job[1], in_pass, done, sampling,
-                                                     bits, film, total_sq, half), jobs):
+                                                     bits, film, film_sq, class_a), jobs):
                     result.nan_count += bad
                     counters += stats
                 n_light = 0
@@ -454,14 +467,15 @@ class Renderer:
                     result.batches += 1
                 result.spp += in_pass
                 if adapt:
-                    result.sample_count.reshape(-1)[sampling] += in_pass
-                    if result.spp == _next_check(done, least) and result.spp < spp:
-                        error = adaptive.errors(
-                            sampling, total, half, result.spp,
-                            *((result.light_sum.reshape(-1, 3), light_half, result.light_paths,
-                               result.light_paths_a) if self.split else ()))
-                        sampling = adaptive.still_sampling(sampling, error, result.spp, threshold,
-                                                           noise_level, w, h)
+                    halves.add(done, in_pass)
+                    result.sample_count.reshape(-1)[:] = halves.count.sum(axis=0)
+                    result.sum.reshape(-1, 3)[:] = halves.sum.sum(axis=0)
+                    result.sum_sq.reshape(-1, 3)[:] = halves.sum_sq.sum(axis=0)
+                    if result.spp < spp:
+                        halves.check(result.spp, (result.light_sum.reshape(-1, 3), light_half,
+                                                  result.light_paths, result.light_paths_a)
+                                     if self.split else ())
+                        sampling = halves.union()
                         result.active_share = sampling.shape[0] / npix
                         if traces_light:
                             light_share = _share_on(pass_light, sampling)
@@ -496,13 +510,6 @@ class Renderer:
             if film_a is not None and first < n_a:
                 wavefront.splat(pixels, contributions, film_a)
             counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
-
-
-def _next_check(done: int, least: int) -> int:
-    """Adaptive sampling's next check after `done` samples: at `least`, then every STEP."""
-    if done < least:
-        return least
-    return least + ((done - least) // adaptive.STEP + 1) * adaptive.STEP
 
 
 def _share_on(light, pixels) -> float:
