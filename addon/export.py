@@ -711,12 +711,7 @@ class _Exporter:
         # the mesh instance their evaluation makes. Cycles renders the mesh; so does Snell.
         if obj.type != "MESH":
             return
-        # Objects sharing evaluated geometry (linked duplicates, instances) share one conversion;
-        # with modifiers each object's evaluated data is its own.
-        key = (obj.type == "MESH" and obj.data.as_pointer()) or ("object", obj.as_pointer())
-        if key not in self.meshes:
-            self.meshes[key] = _mesh_arrays(obj)
-        mesh = self.meshes[key]
+        mesh = self.mesh_of(inst)
         if mesh is None:
             return
         if mesh.dropped:
@@ -737,6 +732,16 @@ class _Exporter:
                     self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} on a mesh "
                               f"that is not closed (its edges are not all shared by two triangles)")
         self.parts.append((mesh, matrix, mat_ids, object_id))
+
+    def mesh_of(self, inst):
+        """The local-space _Mesh of an instance's evaluated object (None if it has no mesh)."""
+        obj = inst.object
+        # Objects sharing evaluated geometry (linked duplicates, instances) share one conversion;
+        # with modifiers each object's evaluated data is its own.
+        key = (obj.type == "MESH" and obj.data.as_pointer()) or ("object", obj.as_pointer())
+        if key not in self.meshes:
+            self.meshes[key] = _mesh_arrays(obj)
+        return self.meshes[key]
 
     def geometry(self):
         """World positions, normals (float32) and triangles of all parts, in the parts' order."""
@@ -806,6 +811,15 @@ def export_depsgraph(depsgraph, *, source=""):
     bl_scene = depsgraph.scene
     camera = convert_camera(bl_scene, depsgraph)
     ex = _Exporter(depsgraph)
+    for inst in rendered_instances(depsgraph, ex):
+        ex.add_instance(inst)
+    scene = ex.scene(bl_scene, camera, source)
+    scene_mod.validate(scene)
+    return scene, ex.warnings
+
+
+def rendered_instances(depsgraph, ex):
+    """The depsgraph's instances a render shows (a viewport depsgraph also holds hidden ones)."""
     check_hidden = depsgraph.mode != "RENDER"
     for inst in depsgraph.object_instances:
         obj = inst.object
@@ -820,10 +834,7 @@ def export_depsgraph(depsgraph, *, source=""):
                 continue
         if not inst.is_instance and obj.is_instancer and not obj.show_instancer_for_render:
             continue
-        ex.add_instance(inst)
-    scene = ex.scene(bl_scene, camera, source)
-    scene_mod.validate(scene)
-    return scene, ex.warnings
+        yield inst
 
 
 def _prefer_render_settings():

@@ -10,6 +10,7 @@ the thread count or the chunking.
 """
 from __future__ import annotations
 
+import copy
 import math
 import threading
 import time
@@ -200,7 +201,8 @@ class Renderer:
 
     def __init__(self, scene: Scene, threads: int = 2, next_event: bool = True,
                  sampler: str = "stratified", caustics: bool | str | None = None,
-                 light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH):
+                 light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH,
+                 geometry: Geometry | None = None):
         """next_event=False turns light sampling off (BSDF sampling only): a second, independent
         estimator of the same image, which tests use to check the first one. caustics=False
         renders with the path tracer alone (default: the scene's render setting); the light
@@ -215,6 +217,9 @@ class Renderer:
         converges faster, but its samples are not independent, so the per-pixel variance from
         the sums over-estimates the error of the mean. The Cycles validator uses "independent"
         for honest variances.
+
+        geometry: an already built Geometry of the same positions, triangles and normals (the
+        viewport keeps its BVH while materials, lamps, world or camera change).
         """
         if sampler not in SAMPLERS:
             raise ValueError(f"sampler: expected one of {SAMPLERS}, got {sampler!r}")
@@ -224,7 +229,8 @@ class Renderer:
         self.threads = max(1, int(threads))
         self.next_event = next_event
         self.camera = Camera(scene.camera)
-        self.geometry = Geometry(scene.positions, scene.triangles, scene.normals)
+        self.geometry = (Geometry(scene.positions, scene.triangles, scene.normals)
+                         if geometry is None else geometry)
         self.materials = material_tables(scene.materials, scene.material_ids)
         self.tables = shipped_tables()
         kind = self.materials.kind
@@ -243,6 +249,16 @@ class Renderer:
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
+
+    def with_camera(self, camera: dict) -> "Renderer":
+        """This renderer with another camera (scene format), sharing geometry and tables."""
+        other = copy.copy(self)
+        other.scene = copy.copy(self.scene)
+        other.scene.camera = camera
+        other.camera = Camera(camera)
+        other._buffers = _Buffers()
+        other._film_lock = threading.Lock()
+        return other
 
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
