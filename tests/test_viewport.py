@@ -258,6 +258,14 @@ def test_session_restarts_on_an_edit_and_renders_what_a_fresh_render_does(captur
         assert np.array_equal(done.image, expected)
         # The first generation stopped within a pass: it never finished its 4096 samples.
         assert session.done_generation == second and not session.refining
+        # A move: new geometry arrays, a new BVH, and again the fresh render's image.
+        moved = live.update(bpy.context.evaluated_depsgraph_get(), classify(captured(move_glass)))
+        third = session.submit(viewport_scene(moved, 2), moved.geometry_version, 2)
+        done = session.wait(lambda f: f.generation == third and f.final, 120)
+        assert not done.stats["bvh_reused"]
+        fresh, _ = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+        fresh = fresh.with_camera(**scene.camera).with_render(spp=2, noise_threshold=0.0)
+        assert np.array_equal(done.image, Renderer(fresh, threads=2).render().mean())
     finally:
         assert session.stop(timeout=60)
     assert not snell_threads()
