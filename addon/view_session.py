@@ -3,9 +3,11 @@
 No bpy here, and the worker never sees Blender or the render engine: the main thread exports
 (view_export.py) and hands the session a tracer Scene; the worker renders it and leaves each
 displayable state in a single-slot mailbox as a Frame (generation, image, samples) for
-view_draw. Every edit is a new generation: `submit` replaces the waiting job, the worker's
-progress callback sees it and stops the current render after its pass (the integrator's own
-cancel), and the new generation starts. A generation renders 1/8, 1/4 and 1/2 of the
+view_draw. Every edit is a new generation: `submit` replaces the waiting job and sets the
+running one's cancel event, which the integrator checks before each chunk of paths (8k), so
+the current render ends within a chunk rather than a pass (a 1-sample pass of a 960x540
+region is half a million paths); the progress callback's False (the integrator's cancel
+between passes) backs it up. Then the new generation starts. A generation renders 1/8, 1/4 and 1/2 of the
 resolution at 1 sample per pixel, then the full resolution to its sample budget or time limit.
 
 Only the worker builds and uses Renderers, so no Embree scene or kernel buffer is shared between
@@ -78,6 +80,7 @@ class _Job:
     spp: int
     time_limit: float
     submitted: float
+    cancel: threading.Event = field(default_factory=threading.Event)
 
 
 class ViewSession:
@@ -92,6 +95,7 @@ class ViewSession:
         self.done_generation = 0          # the last one the worker finished
         self._cond = threading.Condition()
         self._job = None
+        self._running = None              # the job the worker renders
         self._stopping = False
         self._geometry = None
         self._geometry_version = None
@@ -110,6 +114,8 @@ class ViewSession:
             self._job = _Job(self.generation, scene, geometry_version,
                              int(spp) if spp > 0 else UNLIMITED_SAMPLES, float(time_limit),
                              time.perf_counter())
+            if self._running is not None:
+                self._running.cancel.set()     # ends its render within a chunk of paths
             self._cond.notify()
             return self.generation
 
@@ -128,6 +134,8 @@ class ViewSession:
         with self._cond:
             self._stopping = True
             self._job = None
+            if self._running is not None:
+                self._running.cancel.set()
             self._cond.notify()
         if self._thread is not threading.current_thread():
             self._thread.join(timeout)
@@ -157,6 +165,7 @@ class ViewSession:
                 if self._stopping:
                     return
                 job, self._job = self._job, None
+                self._running = job
             try:
                 self._render(job)
             except SceneError as exc:
@@ -166,6 +175,8 @@ class ViewSession:
                 self._fail(job, f"render failed ({type(exc).__name__}: {exc}); details in the "
                                 f"console")
             finally:
+                with self._cond:
+                    self._running = None
                 self.done_generation = max(self.done_generation, job.generation)
                 self.status = ""
 
@@ -196,7 +207,8 @@ class ViewSession:
         self.status = "rendering"
         for divisor in self.coarse:
             coarse = renderer.with_camera(scaled(camera, divisor))
-            result = coarse.render(spp=1, progress=keep_going, noise_threshold=0.0)
+            result = coarse.render(spp=1, progress=keep_going, noise_threshold=0.0,
+                                   stop=job.cancel)
             if self._superseded(generation):
                 return
             self.mailbox.put(Frame(generation, result.mean(), 1, divisor,
@@ -213,4 +225,4 @@ class ViewSession:
                                           "nan_count": result.nan_count}))
             return not (over or self._superseded(generation))
 
-        renderer.render(spp=job.spp, progress=progress, noise_threshold=0.0)
+        renderer.render(spp=job.spp, progress=progress, noise_threshold=0.0, stop=job.cancel)

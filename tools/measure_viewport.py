@@ -116,7 +116,7 @@ def main(argv=None):
             view = engine._snell_viewport
             if view.frame is not None and predicate(view.frame):
                 return time.perf_counter(), view.frame
-            time.sleep(0.001)        # a redraw loop; Blender draws at the display's rate
+            time.sleep(1 / 60)       # a redraw loop at a display's rate, as Blender's
         raise TimeoutError("the viewport did not update")
 
     bpy.app.handlers.depsgraph_update_post.append(on_update)

@@ -356,7 +356,8 @@ class Renderer:
     # -- passes ----------------------------------------------------------------------------
 
     def render(self, spp: int | None = None, progress=None, batches: int | None = None,
-               noise_threshold: float | None = None, min_spp: int | None = None) -> RenderResult:
+               noise_threshold: float | None = None, min_spp: int | None = None,
+               stop: threading.Event | None = None) -> RenderResult:
         """Render progressively; `progress(result, pass_index, pass_count)` may return False to
         stop (with adaptive sampling pass_count is an estimate: result.spp / spp is the share of
         the budget done).
@@ -370,6 +371,10 @@ class Renderer:
         (tracer/adaptive.py): spp is then each pixel's most, min_spp (default the scene's; 0 =
         Cycles' automatic minimum) its least. Batches need equal samples in every pixel: with
         batches adaptive sampling is off.
+
+        stop: once set, the chunks not yet started are skipped and the render ends cancelled
+        without counting its unfinished pass, whose samples are already in the sums: the result
+        is then no image (the viewport drops it for the next one's). Waits one chunk at most.
         """
         render = self.scene.render
         spp = int(spp if spp is not None else render["spp"])
@@ -438,10 +443,14 @@ class Renderer:
                 size = max(1, CHUNK // in_pass) * in_pass
                 jobs = [(s, min(size, count - s)) for s in range(0, count, size)]
                 for bad, stats in pool.map(
-                        lambda job: self.trace_chunk(job[0], job[1], in_pass, done, sampling,
-                                                     bits, film, total_sq, half), jobs):
+                        lambda job: (0, 0) if stop is not None and stop.is_set() else
+                        self.trace_chunk(job[0], job[1], in_pass, done, sampling, bits, film,
+                                         total_sq, half), jobs):
                     result.nan_count += bad
                     counters += stats
+                if stop is not None and stop.is_set():
+                    result.cancelled = True
+                    break
                 n_light = 0
                 if traces_light:
                     n_light = max(2, int(round(self.light_paths_per_camera_path * npix * in_pass
