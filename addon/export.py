@@ -550,15 +550,15 @@ def convert_light(obj, matrix, warn):
 
 
 def convert_camera(scene, depsgraph):
-    """Camera dict from scene.camera; SceneError if there is none or it is not perspective."""
+    """Camera dict from scene.camera; SceneError if there is none or it is panoramic."""
     cam_obj = scene.camera
     if cam_obj is None:
         raise SceneError(f"scene {scene.name!r} has no camera")
     cam_obj = cam_obj.evaluated_get(depsgraph)
     cam = cam_obj.data
-    if cam.type != "PERSP":
-        raise SceneError(f"camera {cam_obj.name!r}: only perspective cameras are supported "
-                         f"(got {cam.type})")
+    if cam.type not in ("PERSP", "ORTHO"):
+        raise SceneError(f"camera {cam_obj.name!r}: only perspective and orthographic cameras "
+                         f"are supported (got {cam.type})")
     m = np.array(cam_obj.matrix_world, np.float64)
     if not np.all(np.isfinite(m)):
         raise SceneError(f"camera {cam_obj.name!r}: world matrix contains NaN or Inf")
@@ -570,8 +570,9 @@ def convert_camera(scene, depsgraph):
         view_dir = -m[:3, 2]
         focus = abs(float(np.dot(view_dir, m[:3, 3] - target)))
     r = scene.render
+    ortho = {"type": "ORTHO", "ortho_scale": float(cam.ortho_scale)} if cam.type == "ORTHO" else {}
     return {
-        "name": cam_obj.name, "matrix": m.tolist(), "lens": float(cam.lens),
+        **ortho, "name": cam_obj.name, "matrix": m.tolist(), "lens": float(cam.lens),
         "sensor_width": float(cam.sensor_width), "sensor_height": float(cam.sensor_height),
         "sensor_fit": cam.sensor_fit, "shift_x": float(cam.shift_x), "shift_y": float(cam.shift_y),
         "clip_start": float(cam.clip_start), "clip_end": float(cam.clip_end),

@@ -68,9 +68,6 @@ def region_camera(context, depsgraph) -> dict:
     if rv3d is None or region is None:
         raise ViewUnsupported("no 3D view region to render")
     dof, lens = None, float(getattr(space, "lens", 50.0))
-    if rv3d.view_perspective == "ORTHO":
-        from .view_camera import ORTHOGRAPHIC
-        raise ViewUnsupported(ORTHOGRAPHIC)
     if rv3d.view_perspective == "CAMERA":
         bl_scene = depsgraph.scene
         camera = space.camera if getattr(space, "use_local_camera", False) else bl_scene.camera

@@ -77,18 +77,22 @@ def pixel_centres_land(camera, view, window, through_focus=None):
 # The viewport camera
 
 
-@pytest.mark.parametrize("fit, shift, size", [
-    ("AUTO", (0.0, 0.0), (48, 27)),
-    ("VERTICAL", (0.13, -0.21), (31, 40)),       # an off-centre window, as camera-view offsets
-    ("HORIZONTAL", (-0.3, 0.05), (64, 20)),
+@pytest.mark.parametrize("kind, fit, shift, size", [
+    ("PERSP", "AUTO", (0.0, 0.0), (48, 27)),
+    ("PERSP", "VERTICAL", (0.13, -0.21), (31, 40)),   # an off-centre window, as camera-view offsets
+    ("PERSP", "HORIZONTAL", (-0.3, 0.05), (64, 20)),
+    ("ORTHO", "AUTO", (0.0, 0.0), (48, 27)),
+    ("ORTHO", "VERTICAL", (0.13, -0.21), (31, 40)),
 ])
-def test_rays_through_pixel_centres_land_where_the_matrices_project_them(fit, shift, size):
+def test_rays_through_pixel_centres_land_where_the_matrices_project_them(kind, fit, shift, size):
     scene = open_spheres()
     cam = scene.camera
+    cam.data.type = kind
     cam.data.sensor_fit, (cam.data.shift_x, cam.data.shift_y) = fit, shift
     cam.rotation_euler.z += 0.3                  # not axis-aligned
     view, window = matrices(cam, *size)
     camera = camera_from_view(view, window, *size, lens=cam.data.lens)
+    assert camera.get("type", "PERSP") == kind
     # Blender's matrices are float32: a thousandth of a pixel is far below any error that
     # matters, and far above what float32 leaves.
     assert pixel_centres_land(camera, view, window) < 2e-3
@@ -121,12 +125,20 @@ def test_camera_view_at_the_render_size_is_the_f12_camera():
     assert np.abs(d1 - d2).max() < 1e-6 and np.abs(o1 - o2).max() < 1e-6
 
 
-def test_orthographic_views_say_so():
+def test_the_viewports_orthographic_clip_range_starts_behind_the_view():
+    """Blender's orthographic views clip from -clip_end / 2 to clip_end / 2 (Cycles' too)."""
     scene = open_spheres()
     scene.camera.data.type = "ORTHO"
     view, window = matrices(scene.camera, 40, 30)
-    with pytest.raises(ViewUnsupported, match="orthographic"):
-        camera_from_view(view, window, 40, 30)
+    window[2, 2], window[2, 3] = -2.0 / 100.0, 0.0          # near -50, far 50
+    camera = camera_from_view(view, window, 40, 30)
+    assert camera["clip_start"] == pytest.approx(-50.0) and camera["clip_end"] == pytest.approx(50.0)
+    assert pixel_centres_land(camera, view, window) < 2e-3
+
+
+def test_views_snell_cannot_render_say_so():
+    with pytest.raises(ViewUnsupported, match="neither perspective nor orthographic"):
+        camera_from_view(np.eye(4), np.diag([1.0, 1.0, 1.0, 2.0]), 40, 30)
 
 
 def test_coarse_cameras_keep_the_window():
@@ -415,12 +427,20 @@ def test_view_update_and_view_draw_send_and_draw(monkeypatch):
                           and view.frame.final)
         assert view.frame.stats["bvh_reused"]
 
-        # An orthographic view draws a message, not an image.
+        # An orthographic view renders orthographic.
+        scene.camera.data.type = "ORTHO"
         ortho = region_context(scene.camera, size, perspective="ORTHO")
+        assert draw_until(engine, ortho, drawing, lambda: view.frame.generation == 4
+                          and view.frame.final)
+        assert view.camera["type"] == "ORTHO" and view.generations[4] == "camera"
+
+        # Looking through a panoramic camera draws a message, not an image.
+        scene.camera.data.type = "PANO"
+        through = region_context(scene.camera, size, perspective="CAMERA")
         drawing.calls.clear()
-        engine_mod.SnellRenderEngine.view_draw(engine, ortho, bpy.context.evaluated_depsgraph_get())
-        assert [c[0] for c in drawing.calls] == ["text"] and "orthographic" in drawing.calls[0][1]
-        assert any(c[0] == "report" and "orthographic" in c[2] for c in engine.calls)
+        engine_mod.SnellRenderEngine.view_draw(engine, through, bpy.context.evaluated_depsgraph_get())
+        assert [c[0] for c in drawing.calls] == ["text"] and "PANO" in drawing.calls[0][1]
+        assert any(c[0] == "report" and "PANO" in c[2] for c in engine.calls)
     finally:
         viewport.release(engine)
     assert not snell_threads()

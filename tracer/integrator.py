@@ -240,6 +240,10 @@ class Renderer:
         self.seed = int(render["seed"])
         self.fresnel = FRESNEL_MODELS.index(render["fresnel"])
         want_caustics = render.get("caustics", True) if caustics is None else caustics
+        # The light tracer connects to a pinhole or a thin lens; an orthographic camera leaves
+        # every path to the path tracer (the same image, noisier caustics).
+        if self.camera.ortho:
+            want_caustics = False
         self.caustics = (light_paths.caustics_tables(scene, self.lights, self.geometry, kind,
                                                      pure=want_caustics == "pure")
                          if want_caustics else None)
@@ -256,6 +260,8 @@ class Renderer:
         other.scene = copy.copy(self.scene)
         other.scene.camera = camera
         other.camera = Camera(camera)
+        if other.camera.ortho:          # as __init__: no light tracer for orthographic cameras
+            other.caustics, other.split = None, False
         other._buffers = _Buffers()
         other._film_lock = threading.Lock()
         return other
@@ -270,6 +276,8 @@ class Renderer:
         world = bool(np.any(lights.world > 0.0))
         if not self.scene.render.get("caustics", True):
             why_no_light = "caustics off"
+        elif self.camera.ortho:
+            why_no_light = "orthographic camera"
         else:
             why_no_light = "no smooth mirror or glass, or no lamp that rays can hit sees one"
         return {
