@@ -183,6 +183,9 @@ class Viewport:
                 self.submitted[1] == self.camera:
             return
         spp, limit, threads = settings(bl_scene)
+        if self.session is not None and self.session.threads != threads:
+            self.session.stop()           # Performance > Threads changed: a new worker pool
+            self.session = None
         if self.session is None:
             self.session = self.session_factory(threads=threads)
         scene = self.content.with_camera(self.camera, spp=max(1, spp), noise_threshold=0.0)

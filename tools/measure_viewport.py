@@ -12,7 +12,8 @@ glass sphere, f/4) so that the f-stop edit changes the image. Per edit (move the
 change its IOR, change the f-stop): the seconds from the edit to the new generation's first
 image (1/8 resolution), to its first full-resolution image, and the full-resolution samples per
 second; the median over --repeat edits. The worker's image after the last repeat of each edit,
-at --png-spp samples, is saved as a PNG through the Standard view transform.
+at --png-spp samples, is saved as a PNG through the Standard view transform (--png-half: at
+half size, each pixel the mean of 2x2).
 """
 from __future__ import annotations
 
@@ -68,6 +69,8 @@ def main(argv=None):
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--png-spp", type=int, default=16)
     parser.add_argument("--png-dir", default=os.path.join(ROOT, "docs", "images"))
+    parser.add_argument("--png-half", action="store_true",
+                        help="save the images at half size (2x2 pixel means), for the docs")
     args = parser.parse_args(argv)
     width, height = (int(v) for v in args.size.lower().split("x"))
 
@@ -156,7 +159,11 @@ def main(argv=None):
             restarts.append(view.generations[frame.generation])
             if i == 0:       # the edited state (odd repeats undo the edit)
                 _, frame = draw_until(lambda f: f.generation > before and f.samples >= args.png_spp)
-                write_png(os.path.join(args.png_dir, png), frame.image)
+                image = frame.image
+                if args.png_half:
+                    h, w = image.shape[0] // 2 * 2, image.shape[1] // 2 * 2
+                    image = image[:h, :w].reshape(h // 2, 2, w // 2, 2, 3).mean(axis=(1, 3))
+                write_png(os.path.join(args.png_dir, png), image)
                 bvh = "kept" if frame.stats["bvh_reused"] else "rebuilt"
         print(f"{label}: restart {restarts[0]} (BVH {bvh}); first image "
               f"{statistics.median(first):.3f} s (runs {', '.join(f'{t:.3f}' for t in first)}), "
