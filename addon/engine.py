@@ -26,7 +26,10 @@ class SnellRenderEngine(bpy.types.RenderEngine):
     def __del__(self):
         # Blender frees the engine when the viewport closes or leaves Rendered mode, or the
         # engine changes: stop and join the worker. (A final render has no viewport.)
-        viewport.release(self)
+        try:
+            viewport.release(self)
+        except Exception:  # at interpreter exit the modules may be gone; the worker is a daemon
+            pass
 
     def update_render_passes(self, scene=None, renderlayer=None):
         """The passes a render fills, for the compositor's Render Layers node."""

@@ -104,7 +104,7 @@ def classify(updates) -> Plan:
                 plan.camera = True
         elif u.id_type in OBJECT_DATA:
             continue
-        elif u.id_type == "Light":
+        elif u.id_type.endswith("Light"):       # PointLight, SunLight, SpotLight, AreaLight
             plan.lights = True
         elif u.id_type == "Camera":
             plan.camera = True

@@ -29,6 +29,7 @@ from .view_session import ViewSession
 from .view_updates import classify, full, snapshot
 
 RESIZE_DELAY = 0.25     # seconds a region keeps its size before the render restarts at it
+STOP_WAIT = 5.0         # seconds the main thread waits for the worker to end
 ATTRIBUTE = "_snell_viewport"
 
 # What view_draw draws with; tests replace it with a stand-in (gpu cannot draw in background).
@@ -49,6 +50,7 @@ def release(engine):
     view = getattr(engine, ATTRIBUTE, None)
     if view is not None:
         view.stop()
+        setattr(engine, ATTRIBUTE, None)
 
 
 def settings(bl_scene) -> tuple[int, float, int]:
@@ -232,9 +234,11 @@ class Viewport:
             pass
 
     def stop(self):
-        """Stop and join the worker."""
+        """Stop and join the worker. It ends within a chunk of paths; the wait is bounded so
+        that Blender never freezes on it (compiling the kernels on a first run cannot be cut
+        short: the worker, a daemon thread, then ends when that is done)."""
         if self.session is not None:
-            self.session.stop()
+            self.session.stop(timeout=STOP_WAIT)
             self.session = None
         self.texture = None
 

@@ -206,6 +206,21 @@ def test_real_updates_are_classified_into_the_least_work(captured):
     focused = classify(captured(set_fstop))
     assert focused.restart() == "camera" and not focused.content
 
+    def add_lamp():
+        lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
+        bpy.context.scene.collection.objects.link(lamp)
+
+    added = classify(captured(add_lamp))
+    assert added.settings and added.restart() == "tables"     # the objects walk again
+    lamp = classify(captured(lambda: setattr(bpy.data.lights["Lamp"], "energy", 50.0)))
+    assert lamp.lights and lamp.restart() == "tables" and not lamp.materials
+    moved_lamp = classify(captured(lambda: setattr(bpy.data.objects["Lamp"], "location", (0, 0, 1))))
+    assert moved_lamp.lights and moved_lamp.restart() == "tables"   # lamps are not in the BVH
+    bpy.context.scene.world = bpy.data.worlds.new("World")
+    bpy.context.view_layer.update()
+    world = classify(captured(lambda: setattr(bpy.context.scene.world, "color", (0.2, 0.2, 0.2))))
+    assert world.world and world.restart() == "tables" and not world.geometry
+
 
 def test_live_export_redoes_only_what_changed_and_equals_a_fresh_export(captured):
     live = LiveExport()
@@ -441,9 +456,11 @@ def test_view_update_and_view_draw_send_and_draw(monkeypatch):
         engine_mod.SnellRenderEngine.view_draw(engine, through, bpy.context.evaluated_depsgraph_get())
         assert [c[0] for c in drawing.calls] == ["text"] and "PANO" in drawing.calls[0][1]
         assert any(c[0] == "report" and "PANO" in c[2] for c in engine.calls)
+        assert view.session.alive
     finally:
-        viewport.release(engine)
-    assert not snell_threads()
+        # Blender frees the engine when the viewport closes or the engine changes.
+        engine_mod.SnellRenderEngine.__del__(engine)
+    assert not snell_threads() and engine._snell_viewport is None
 
 
 def test_resizes_wait_until_the_region_keeps_its_size(monkeypatch):
