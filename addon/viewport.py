@@ -112,7 +112,8 @@ class Viewport:
     def update(self, engine, depsgraph):
         """view_update: re-export what the depsgraph's updates touched and restart."""
         try:
-            plan = full() if self.live.content is None else classify(snapshot(depsgraph))
+            first = self.live.content is None
+            plan = full() if first else classify(snapshot(depsgraph))
             if self.last_plan is not None and self.export_error:
                 plan = plan.merge(full())      # try the whole scene again after a failure
             self.last_plan = plan
@@ -145,17 +146,26 @@ class Viewport:
             traceback.print_exc()
             self.view_error = f"viewport drawing failed ({type(exc).__name__}: {exc})"
             self._report(engine, "ERROR", self.view_error)
+        try:
+            self._draw(engine, depsgraph, drawing, width, height)
+        except Exception as exc:  # a bug, or the GPU refusing: never raise into Blender
+            traceback.print_exc()
+            self._report(engine, "ERROR", f"viewport drawing failed ({type(exc).__name__}: {exc})")
+        if self.session is not None and self.session.refining or self._resize_pending():
+            engine.tag_redraw()
+
+    def _draw(self, engine, depsgraph, drawing, width, height):
         message = self.view_error or self.export_error or (
             self.frame.error if self.frame is not None else None)
         if self.texture is not None and not self.view_error:
             engine.bind_display_space_shader(depsgraph.scene)
-            drawing.draw_texture(self.texture, 0, 0, width, height)
-            engine.unbind_display_space_shader()
+            try:
+                drawing.draw_texture(self.texture, 0, 0, width, height)
+            finally:
+                engine.unbind_display_space_shader()
         if message:
             drawing.text(20, height - 60, _wrap(f"Snell: {message}", max(20, width // 8)))
         engine.update_stats("", self._status(message))
-        if self.session is not None and self.session.refining or self._resize_pending():
-            engine.tag_redraw()
 
     def _follow_view(self, engine, context, depsgraph, size):
         if size != self.size:
@@ -192,8 +202,8 @@ class Viewport:
             self.session = self.session_factory(threads=threads)
         scene = self.content.with_camera(self.camera, spp=max(1, spp), noise_threshold=0.0)
         generation = self.session.submit(scene, self.content.geometry_version, spp, limit)
+        self.generations[generation] = "first" if self.submitted is None else why
         self.submitted = (self.content, self.camera)
-        self.generations[generation] = why
         self.target_spp = spp
 
     def _show(self, engine, frame, drawing):

@@ -418,7 +418,7 @@ def test_view_update_and_view_draw_send_and_draw(monkeypatch):
         assert engine.calls[i + 1] == ("unbind",)
         assert ("tag_redraw",) in engine.calls
         assert any(c[0] == "stats" and "Sample 3/3" in c[1] and "done" in c[1] for c in engine.calls)
-        assert view.generations == {1: "camera"}
+        assert view.generations == {1: "first"}
 
         # Navigation (a new view matrix) restarts the camera only, in view_draw.
         turned = region_context(scene.camera, size)
