@@ -512,6 +512,30 @@ def test_worker_errors_are_drawn_and_reported(monkeypatch):
         viewport.release(engine)
 
 
+def test_a_drawing_failure_is_reported_not_raised(monkeypatch):
+    scene = open_spheres()
+    scene.snell.viewport_spp = 1
+
+    class Refusing(StandInDrawing):
+        def draw_texture(self, *args):
+            raise RuntimeError("the GPU said no")
+
+    drawing = Refusing()
+    monkeypatch.setattr(viewport, "DRAWING", drawing)
+    engine, context = StandInEngine(), region_context(scene.camera, (32, 20))
+    try:
+        engine_mod.SnellRenderEngine.view_update(engine, context, bpy.context.evaluated_depsgraph_get())
+        view = engine._snell_viewport
+        assert draw_until(engine, context, drawing, lambda: view.frame is not None
+                          and view.frame.final)
+        engine_mod.SnellRenderEngine.view_draw(engine, context, bpy.context.evaluated_depsgraph_get())
+        assert engine.calls.count(("bind", scene.name)) == engine.calls.count(("unbind",)) > 0
+        assert [c for c in engine.calls if c[0] == "report"] == [
+            ("report", "ERROR", "Snell: viewport drawing failed (RuntimeError: the GPU said no)")]
+    finally:
+        viewport.release(engine)
+
+
 def test_display_pixels_are_finite_bottom_up_rgba():
     image = np.array([[[1.0, np.nan, np.inf]], [[-2.0, 3e9, 0.5]]], np.float32)   # 2 rows
     rgba = view_draw.display_pixels(image)
