@@ -7,8 +7,9 @@ view_draw. Every edit is a new generation: `submit` replaces the waiting job and
 running one's cancel event, which the integrator checks before each chunk of paths (8k), so
 the current render ends within a chunk rather than a pass (a 1-sample pass of a 960x540
 region is half a million paths); the progress callback's False (the integrator's cancel
-between passes) backs it up. Then the new generation starts. A generation renders 1/8, 1/4 and 1/2 of the
-resolution at 1 sample per pixel, then the full resolution to its sample budget or time limit.
+between passes) backs it up. Then the new generation starts. A generation renders 1/8, 1/4
+and 1/2 of the resolution at 1 sample per pixel, then the full resolution to its sample budget
+or time limit.
 
 Only the worker builds and uses Renderers, so no Embree scene or kernel buffer is shared between
 threads beyond what a render's own pool does. It keeps the last generation's Geometry (the BVH)

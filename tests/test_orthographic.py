@@ -1,8 +1,9 @@
 """Orthographic cameras (the viewport's orthographic views, and F12) against Cycles.
 
 The Cornell box with two spheres seen through an orthographic camera, with an off-centre
-shift, without and with depth of field (focused on the front sphere); Cycles renders it once per session (8 seeds)
-and Snell with the same samples per pixel must be `snell compare` consistent. A 1% error in the
+shift, without and with depth of field (focused on the front sphere); Cycles renders it once
+per session (8 seeds) and Snell with the same samples per pixel must be `snell compare`
+consistent. A 1% error in the
 orthographic scale, or 15% in the aperture, must be caught.
 """
 from __future__ import annotations
@@ -20,7 +21,8 @@ from cycles_reference import verdict as _verdict
 bpy = pytest.importorskip("bpy")
 from mathutils import Vector  # noqa: E402
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scenes"))
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "scenes"))
 common = importlib.import_module("common")
 
 FULL = {"resolution_percentage": 100}

@@ -63,7 +63,8 @@ class Drawing:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("scene", nargs="?", default=os.path.join(ROOT, "scenes", "cornell_spheres.blend"))
+    parser.add_argument("scene", nargs="?",
+                        default=os.path.join(ROOT, "scenes", "cornell_spheres.blend"))
     parser.add_argument("--size", default="960x540")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--threads", type=int, default=2)
