@@ -65,8 +65,9 @@ class Camera:
             self.half_x, self.half_y = half, half * yratio / xratio
         else:
             self.half_x, self.half_y = half * xratio / yratio, half
-        self.shift_x = cam.get("shift_x", 0.0) * 2.0 * half
-        self.shift_y = cam.get("shift_y", 0.0) * 2.0 * half
+        unit = cam["ortho_scale"] if self.ortho else sensor / cam["lens"]
+        self.shift_x = cam.get("shift_x", 0.0) * unit
+        self.shift_y = cam.get("shift_y", 0.0) * unit
         self.clip_start = float(cam["clip_start"])
         self.clip_end = float(cam["clip_end"])
         m = np.asarray(cam["matrix"], dtype=np.float64)
