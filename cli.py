@@ -264,7 +264,9 @@ def describe(scene) -> list[str]:
         f"materials  {_counts(scene.materials, MATERIAL_KINDS)}",
         f"lights     {_counts(scene.lights, LIGHT_KINDS)}",
         f"world      {list(scene.world['color'])}",
-        f"camera     {cam.get('name', '?')!r}: {resolution}, lens {cam['lens']:g} mm, "
+        f"camera     {cam.get('name', '?')!r}: {resolution}, "
+        + (f"orthographic, scale {cam['ortho_scale']:g} m" if cam.get("type") == "ORTHO" else
+           f"lens {cam['lens']:g} mm") + ", "
         f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
         f"render     {render['spp']} spp, max depth {render['max_depth']}, seed {render['seed']}, "
         f"fresnel {render['fresnel']}",

@@ -1,7 +1,8 @@
-"""The Snell render engine as Blender sees it. Thin: the F12 work is in final.py."""
+"""The Snell render engine as Blender sees it. Thin: the F12 work is in final.py, the
+viewport's in viewport.py."""
 import bpy
 
-from . import final
+from . import final, viewport
 
 
 class SnellRenderEngine(bpy.types.RenderEngine):
@@ -13,6 +14,22 @@ class SnellRenderEngine(bpy.types.RenderEngine):
 
     def render(self, depsgraph):
         final.render(self, depsgraph)
+
+    def view_update(self, context, depsgraph):
+        """The scene changed while the viewport renders: re-export what changed, restart."""
+        viewport.controller(self).update(self, depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        """Draw the viewport's newest image; follow navigation (it calls no view_update)."""
+        viewport.controller(self).draw(self, context, depsgraph, viewport.DRAWING)
+
+    def __del__(self):
+        # Blender frees the engine when the viewport closes or leaves Rendered mode, or the
+        # engine changes: stop and join the worker. (A final render has no viewport.)
+        try:
+            viewport.release(self)
+        except Exception:  # at interpreter exit the modules may be gone; the worker is a daemon
+            pass
 
     def update_render_passes(self, scene=None, renderlayer=None):
         """The passes a render fills, for the compositor's Render Layers node."""

@@ -550,15 +550,15 @@ def convert_light(obj, matrix, warn):
 
 
 def convert_camera(scene, depsgraph):
-    """Camera dict from scene.camera; SceneError if there is none or it is not perspective."""
+    """Camera dict from scene.camera; SceneError if there is none or it is panoramic."""
     cam_obj = scene.camera
     if cam_obj is None:
         raise SceneError(f"scene {scene.name!r} has no camera")
     cam_obj = cam_obj.evaluated_get(depsgraph)
     cam = cam_obj.data
-    if cam.type != "PERSP":
-        raise SceneError(f"camera {cam_obj.name!r}: only perspective cameras are supported "
-                         f"(got {cam.type})")
+    if cam.type not in ("PERSP", "ORTHO"):
+        raise SceneError(f"camera {cam_obj.name!r}: only perspective and orthographic cameras "
+                         f"are supported (got {cam.type})")
     m = np.array(cam_obj.matrix_world, np.float64)
     if not np.all(np.isfinite(m)):
         raise SceneError(f"camera {cam_obj.name!r}: world matrix contains NaN or Inf")
@@ -570,8 +570,9 @@ def convert_camera(scene, depsgraph):
         view_dir = -m[:3, 2]
         focus = abs(float(np.dot(view_dir, m[:3, 3] - target)))
     r = scene.render
+    ortho = {"type": "ORTHO", "ortho_scale": float(cam.ortho_scale)} if cam.type == "ORTHO" else {}
     return {
-        "name": cam_obj.name, "matrix": m.tolist(), "lens": float(cam.lens),
+        **ortho, "name": cam_obj.name, "matrix": m.tolist(), "lens": float(cam.lens),
         "sensor_width": float(cam.sensor_width), "sensor_height": float(cam.sensor_height),
         "sensor_fit": cam.sensor_fit, "shift_x": float(cam.shift_x), "shift_y": float(cam.shift_y),
         "clip_start": float(cam.clip_start), "clip_end": float(cam.clip_end),
@@ -711,12 +712,7 @@ class _Exporter:
         # the mesh instance their evaluation makes. Cycles renders the mesh; so does Snell.
         if obj.type != "MESH":
             return
-        # Objects sharing evaluated geometry (linked duplicates, instances) share one conversion;
-        # with modifiers each object's evaluated data is its own.
-        key = (obj.type == "MESH" and obj.data.as_pointer()) or ("object", obj.as_pointer())
-        if key not in self.meshes:
-            self.meshes[key] = _mesh_arrays(obj)
-        mesh = self.meshes[key]
+        mesh = self.mesh_of(inst)
         if mesh is None:
             return
         if mesh.dropped:
@@ -737,6 +733,16 @@ class _Exporter:
                     self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} on a mesh "
                               f"that is not closed (its edges are not all shared by two triangles)")
         self.parts.append((mesh, matrix, mat_ids, object_id))
+
+    def mesh_of(self, inst):
+        """The local-space _Mesh of an instance's evaluated object (None if it has no mesh)."""
+        obj = inst.object
+        # Objects sharing evaluated geometry (linked duplicates, instances) share one conversion;
+        # with modifiers each object's evaluated data is its own.
+        key = (obj.type == "MESH" and obj.data.as_pointer()) or ("object", obj.as_pointer())
+        if key not in self.meshes:
+            self.meshes[key] = _mesh_arrays(obj)
+        return self.meshes[key]
 
     def geometry(self):
         """World positions, normals (float32) and triangles of all parts, in the parts' order."""
@@ -806,6 +812,15 @@ def export_depsgraph(depsgraph, *, source=""):
     bl_scene = depsgraph.scene
     camera = convert_camera(bl_scene, depsgraph)
     ex = _Exporter(depsgraph)
+    for inst in rendered_instances(depsgraph, ex):
+        ex.add_instance(inst)
+    scene = ex.scene(bl_scene, camera, source)
+    scene_mod.validate(scene)
+    return scene, ex.warnings
+
+
+def rendered_instances(depsgraph, ex):
+    """The depsgraph's instances a render shows (a viewport depsgraph also holds hidden ones)."""
     check_hidden = depsgraph.mode != "RENDER"
     for inst in depsgraph.object_instances:
         obj = inst.object
@@ -820,10 +835,7 @@ def export_depsgraph(depsgraph, *, source=""):
                 continue
         if not inst.is_instance and obj.is_instancer and not obj.show_instancer_for_render:
             continue
-        ex.add_instance(inst)
-    scene = ex.scene(bl_scene, camera, source)
-    scene_mod.validate(scene)
-    return scene, ex.warnings
+        yield inst
 
 
 def _prefer_render_settings():

@@ -1,5 +1,6 @@
 """Snell's render settings, stored on every scene as `scene.snell`.
 
+The viewport (addon/viewport.py) reads viewport_spp and viewport_time_limit.
 addon/export.py reads spp, max_depth, seed, fresnel, caustics and the adaptive sampling settings from
 here into the scene file; threads is used by the render engine only.
 """
@@ -12,6 +13,14 @@ class SnellRenderSettings(bpy.types.PropertyGroup):
         name="Samples", default=64, min=1, soft_max=4096,
         description="Samples per pixel of a final render; with a noise threshold, the most any "
                     "pixel takes")
+    viewport_spp: IntProperty(
+        name="Viewport Samples", default=1024, min=0, soft_max=4096,
+        description="Samples per pixel the viewport's Rendered mode refines to; 0 refines until "
+                    "the view changes or the viewport closes")
+    viewport_time_limit: FloatProperty(
+        name="Viewport Time Limit", default=0.0, min=0.0, soft_max=600.0, subtype="TIME_ABSOLUTE",
+        unit="TIME_ABSOLUTE",
+        description="Stop refining the viewport after this many seconds; 0 has no limit")
     # Adaptive sampling as Cycles' Sampling panel has it: names, defaults and ranges.
     use_adaptive_sampling: BoolProperty(
         name="Noise Threshold", default=True,

@@ -62,6 +62,17 @@ class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
         self.column().prop(props, "seed")
 
 
+class RENDER_PT_snell_sampling_viewport(SnellPanel, bpy.types.Panel):
+    bl_label = "Viewport"
+    bl_parent_id = "RENDER_PT_snell_sampling"
+
+    def draw(self, context):
+        # Cycles' Sampling > Viewport: the samples the viewport's Rendered mode refines to.
+        col = self.column(align=True)
+        col.prop(context.scene.snell, "viewport_spp", text="Max Samples")
+        col.prop(context.scene.snell, "viewport_time_limit", text="Time Limit")
+
+
 class RENDER_PT_snell_light_paths(SnellPanel, bpy.types.Panel):
     bl_label = "Light Paths"
 
@@ -83,7 +94,8 @@ class RENDER_PT_snell_performance(SnellPanel, bpy.types.Panel):
         self.column().prop(context.scene.snell, "threads")
 
 
-classes = (RENDER_PT_snell_sampling, RENDER_PT_snell_light_paths, RENDER_PT_snell_performance)
+classes = (RENDER_PT_snell_sampling, RENDER_PT_snell_sampling_viewport, RENDER_PT_snell_light_paths,
+           RENDER_PT_snell_performance)
 
 
 def add_compat_engine():

@@ -1,7 +1,7 @@
 """Render border (region) support: the camera that renders only a window of the full frame.
 
 A window of a perspective image is itself a perspective image with a narrower field of view and
-an off-centre shift. The window camera uses sensor fit HORIZONTAL with the sensor width that gives
+an off-centre shift (of an orthographic one, an orthographic image of a smaller scale). The window camera uses sensor fit HORIZONTAL with the sensor width that gives
 the window's horizontal extent, and the shift that puts it where it was, so every window pixel
 sees exactly the rays of the same pixel of the full frame (depth of field too: the lens does not
 depend on the sensor). Only the random sample streams differ from a full-frame render. No bpy here.
@@ -43,6 +43,8 @@ def window_camera(cam: dict, x0: int, y0: int, w: int, h: int) -> dict:
     out.update({"resolution": [int(w), int(h)], "resolution_percentage": 100,
                 "sensor_fit": "HORIZONTAL", "sensor_width": sensor,
                 "shift_x": centre_x * lens / sensor, "shift_y": centre_y * lens / sensor})
+    if full.ortho:      # the same window in scene units: ortho_scale spans it across
+        out["ortho_scale"] = 2.0 * half_x
     # The vertical extent follows from the pixel aspect: check it is the window's.
     check = Camera(out)
     assert abs(check.half_y - half_y) <= 1e-9 * max(1.0, half_y), (check.half_y, half_y)

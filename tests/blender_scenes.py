@@ -6,7 +6,7 @@ cornell.blend: the default scene (scenes/cornell_spheres.py) at SIZE x SIZE, Sne
 animated.blend: the same with the camera moving over frames 1-3.
 unsupported.blend: the left wall with a Toon BSDF (not supported: grey diffuse fallback).
 nocamera.blend: no camera object. empty.blend: a camera and nothing else.
-ortho.blend: an orthographic camera (the exporter refuses it).
+pano.blend: a panoramic camera (the exporter refuses it).
 """
 import os
 import sys
@@ -52,8 +52,8 @@ def main(out, size):
     save(out, "unsupported.blend")
     bpy.ops.wm.open_mainfile(filepath=os.path.join(out, "cornell.blend"))
 
-    bpy.context.scene.camera.data.type = "ORTHO"
-    save(out, "ortho.blend")
+    bpy.context.scene.camera.data.type = "PANO"
+    save(out, "pano.blend")
     bpy.ops.wm.open_mainfile(filepath=os.path.join(out, "cornell.blend"))
 
     bpy.data.objects.remove(bpy.context.scene.camera)

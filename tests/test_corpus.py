@@ -2,7 +2,7 @@
 
 Each case runs `snell COMMAND ...` as a child process, as a user would, on one input of the
 corpus (truncated and corrupted files, wrong dtypes and shapes, NaN and Inf, a file that is not a
-.blend, an empty scene, no camera, orthographic and panoramic cameras, unsupported nodes,
+.blend, an empty scene, no camera, an orthographic camera (rendered) and a panoramic one, unsupported nodes,
 Blender's startup file, outputs that cannot be written) or with Ctrl-C at one stage, and checks:
 - the exit status (0 for inputs Snell renders, 1 for errors, 2 for bad options, 130 for Ctrl-C);
 - errors: exactly one `snell: error: ...` line, the last on stderr, naming the file, object or
@@ -149,8 +149,8 @@ CASES = [
     ("tiny_snell", ("render", "info"), 0, ()),
     ("empty_snell", ("render", "info"), 0, ()),
     ("no_camera", BLEND_COMMANDS, 1, ("no camera",)),
-    ("camera_ortho", ("render", "info", "compare", "batch"), 1, ("camera 'Camera'", "ORTHO")),
-    ("camera_pano", ("render", "info", "bench"), 1, ("camera 'Camera'", "PANO")),
+    ("camera_ortho", ("render", "info"), 0, ()),
+    ("camera_pano", ("render", "info", "compare", "batch", "bench"), 1, ("camera 'Camera'", "PANO")),
     ("nan_object", ("render", "export", "batch"), 1, ("object 'Cube'", "NaN")),
     ("nan_camera", ("render", "info"), 1, ("camera 'Camera'", "NaN")),
     ("nan_material", ("render", "export", "study"), 1, ("materials[0] ('Material').color", "NaN")),

@@ -305,20 +305,25 @@ def test_border_crop_and_resolution_percentage(blends, tmp_path):
     assert outside.max() == 0.0
 
 
-def test_window_camera_sees_the_same_pixels_as_the_full_frame():
+@pytest.mark.parametrize("ortho", [False, True])
+def test_window_camera_sees_the_same_pixels_as_the_full_frame(ortho):
     """Exact: an emissive quad whose edges fall on pixel boundaries (pixels are 0 or 1).
 
     With lens 50, sensor 36 (AUTO fit, 12x8) and the shifts below, the view on the plane z = -1
     spans x in [-0.18, 0.54] and y in [-0.276, 0.204] in 0.06 pixels: the quad's edges x = 0 and
-    y = 0.024 (0.048 at z = -2) are pixel boundaries."""
+    y = 0.024 (0.048 at z = -2) are pixel boundaries. Orthographic of scale 0.72: the same
+    window on every plane."""
     from snell.tracer.scene import Scene
-    positions = np.array([[0, 0.048, -2], [2, 0.048, -2], [2, 2, -2], [0, 2, -2]], np.float32)
+    y = 0.024 if ortho else 0.048
+    positions = np.array([[0, y, -2], [2, y, -2], [2, 2, -2], [0, 2, -2]], np.float32)
     cam = {"name": "Camera", "matrix": np.eye(4).tolist(), "lens": 50.0, "sensor_width": 36.0,
            "sensor_height": 24.0, "sensor_fit": "AUTO", "shift_x": 0.25, "shift_y": -0.05,
            "clip_start": 0.1, "clip_end": 100.0, "resolution": [12, 8],
            "resolution_percentage": 100, "pixel_aspect": [1.0, 1.0],
            "dof": {"use_dof": False, "focus_distance": 10.0, "fstop": 2.8, "blades": 0,
                    "rotation": 0.0, "ratio": 1.0}}
+    if ortho:
+        cam.update(type="ORTHO", ortho_scale=0.72)
     scene = Scene(positions=positions, triangles=np.array([[0, 1, 2], [0, 2, 3]], np.int32),
                   material_ids=np.zeros(2, np.int32), object_ids=np.zeros(2, np.int32),
                   objects=[{"name": "Quad", "closed": False}],
@@ -355,11 +360,11 @@ def test_no_camera_is_a_clear_error(blends, tmp_path):
 
 
 def test_export_failure_is_one_message_and_no_image(blends, tmp_path):
-    open_scene(blends / "ortho.blend", tmp_path / "ortho.exr")
-    with pytest.raises(RuntimeError, match="Snell: cannot render this scene: camera .*perspective"):
+    open_scene(blends / "pano.blend", tmp_path / "pano.exr")
+    with pytest.raises(RuntimeError, match="Snell: cannot render this scene: camera .*PANO"):
         bpy.ops.render.render(write_still=True)
-    assert "perspective" in final.last_render["error"]
-    assert not (tmp_path / "ortho.exr").exists()
+    assert "perspective and orthographic" in final.last_render["error"]
+    assert not (tmp_path / "pano.exr").exists()
 
 
 def test_empty_scene_renders_black_with_a_warning(blends, tmp_path):

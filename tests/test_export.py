@@ -696,9 +696,13 @@ def test_camera(bl):
     assert scene_mod.aperture_radius(c) == pytest.approx(0.042 / 8)
 
 
-def test_orthographic_camera_rejected(bl):
+def test_orthographic_camera_exported_and_panoramic_rejected(bl):
     bl.camera.data.type = "ORTHO"
-    with pytest.raises(SceneError, match="perspective"):
+    bl.camera.data.ortho_scale = 3.5
+    s, _ = run()
+    assert s.camera["type"] == "ORTHO" and s.camera["ortho_scale"] == pytest.approx(3.5)
+    bl.camera.data.type = "PANO"
+    with pytest.raises(SceneError, match="perspective and orthographic.*PANO"):
         run()
 
 

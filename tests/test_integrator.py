@@ -1,6 +1,7 @@
 """Accuracy tests of the integrator on scenes with known answers."""
 import math
 import os
+import threading
 
 import numpy as np
 import pytest
@@ -252,6 +253,24 @@ def test_cancel_keeps_completed_passes():
     result = render(scene, progress=lambda r, k, n: seen.append((k, n)) or False)
     assert seen == [(1, 8)] and result.cancelled and result.spp == 1
     assert np.all(np.isfinite(result.mean())) and result.mean().max() > 0
+
+
+def test_stop_event_ends_a_pass_within_a_chunk(monkeypatch):
+    """The viewport's cancel: chunks after the stop are skipped, the pass is not counted."""
+    pos, tri, nrm = icosphere(2)
+    mats = [{"name": "Grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
+    scene = make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(512, 512)), world=WHITE, spp=8)
+    renderer, stop, traced = Renderer(scene, threads=1), threading.Event(), []
+    trace = renderer.trace_chunk
+
+    def one_chunk_then_stop(*args):
+        traced.append(args[0])
+        stop.set()
+        return trace(*args)
+
+    monkeypatch.setattr(renderer, "trace_chunk", one_chunk_then_stop)
+    result = renderer.render(stop=stop, progress=lambda *_: pytest.fail("no pass completes"))
+    assert traced == [0] and result.cancelled and result.spp == 0   # 32 chunks in the pass
 
 
 def test_nan_samples_are_counted_and_kept_out_of_the_image(monkeypatch):

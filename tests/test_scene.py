@@ -69,6 +69,8 @@ def _set(path, value):
     (dict(header=_set(["camera"], None)), "no camera"),
     (dict(header=_set(["camera", "lens"], 0)), "camera.lens"),
     (dict(header=_set(["camera", "resolution"], [0, 10])), "camera.resolution"),
+    (dict(header=_set(["camera", "type"], "PANO")), "camera.type: unknown value"),
+    (dict(header=_set(["camera", "type"], "ORTHO")), "camera.ortho_scale: expected a number"),
     (dict(header=_set(["render", "fresnel"], "fast")), "render.fresnel"),
     (dict(header=_set(["world", "color"], [0, -1, 0])), "world.color"),
     (dict(header=_set(["render", "noise_threshold"], -0.01)), "render.noise_threshold: must be >= 0"),
@@ -164,7 +166,7 @@ def test_kind_and_distribution_codes_are_positions():
     assert S.MATERIAL_KINDS == ("diffuse", "mirror", "glass", "refraction", "emission", "glossy",
                                 "principled")
     assert S.DISTRIBUTIONS == ("ggx", "multi_ggx", "beckmann")
-    assert S.VERSION == 3 and S.READS_VERSIONS == (1, 2, 3)
+    assert S.VERSION == 4 and S.READS_VERSIONS == (1, 2, 3, 4)
 
 
 def test_version_3_round_trip_keeps_every_field(tmp_path):
@@ -174,7 +176,7 @@ def test_version_3_round_trip_keeps_every_field(tmp_path):
     S.save(sc, str(tmp_path / "v3.snell"))
     back = S.load(str(tmp_path / "v3.snell"))
     assert back.materials == mats
-    assert back.header()["version"] == 3
+    assert back.header()["version"] == S.VERSION
     assert all(S.material_field(m, key) == value
                for m in back.materials for key, value in m.items())
 
@@ -307,8 +309,22 @@ def test_failed_save_leaves_nothing(tmp_path, good):
     assert list(tmp_path.iterdir()) == [tmp_path / "good.snell"]
 
 
+def test_orthographic_clip_range_may_start_behind_but_not_be_empty():
+    cam = camera(clip_start=-5.0, clip_end=5.0)
+    cam.update(type="ORTHO", ortho_scale=2.0)
+    S._check_camera(cam)                              # the viewport's orthographic views
+    with pytest.raises(S.SceneError, match="camera.clip_start: must be > 0"):
+        S._check_camera({**cam, "type": "PERSP"})
+    with pytest.raises(S.SceneError, match="camera.clip_end: must be greater"):
+        S._check_camera({**cam, "clip_start": 3.0, "clip_end": 2.0})
+    with pytest.raises(S.SceneError, match="camera.ortho_scale: must be > 0"):
+        S._check_camera({**cam, "ortho_scale": 0.0})
+
+
 def test_aperture_radius_follows_cycles():
     cam = camera(lens=50.0, dof={"use_dof": True, "fstop": 2.5})
     assert S.aperture_radius(cam) == pytest.approx(0.05 / 5.0)
+    # Cycles' orthographic aperture: 1 / (2 f-stop) in scene units, whatever the lens.
+    assert S.aperture_radius({**cam, "type": "ORTHO"}) == pytest.approx(1.0 / 5.0)
     cam["dof"]["use_dof"] = False
     assert S.aperture_radius(cam) == 0.0

@@ -1,4 +1,4 @@
-"""Blender's perspective camera, built as Cycles builds it, with the thin lens.
+"""Blender's perspective and orthographic cameras, built as Cycles builds them, with the thin lens.
 
 Camera space is Blender's: looking down -Z with +Y up. Raster y = 0 is the bottom row (Cycles);
 images are returned top row first, so image row r is raster row H - 1 - r.
@@ -35,6 +35,7 @@ class CameraParams(NamedTuple):
     blades: int
     blade_rotation: float
     inv_ratio: float
+    ortho: bool                 # orthographic: half_x, half_y and shifts in scene units
 
 
 class Camera:
@@ -56,13 +57,17 @@ class Camera:
             horizontal, sensor = False, cam["sensor_height"]
         # The fitted dimension spans +-sensor / (2 lens) on the plane z = -1; the other one
         # follows the aspect ratio. Shift moves the window by shift * sensor / lens.
-        half = sensor / (2.0 * cam["lens"])
+        # Orthographic: the fitted dimension spans ortho_scale in scene units, and shift moves
+        # the window by shift * ortho_scale (the same numbers with sensor / lens = ortho_scale).
+        self.ortho = cam.get("type", "PERSP") == "ORTHO"
+        half = (0.5 * cam["ortho_scale"] if self.ortho else sensor / (2.0 * cam["lens"]))
         if horizontal:
             self.half_x, self.half_y = half, half * yratio / xratio
         else:
             self.half_x, self.half_y = half * xratio / yratio, half
-        self.shift_x = cam.get("shift_x", 0.0) * sensor / cam["lens"]
-        self.shift_y = cam.get("shift_y", 0.0) * sensor / cam["lens"]
+        unit = cam["ortho_scale"] if self.ortho else sensor / cam["lens"]
+        self.shift_x = cam.get("shift_x", 0.0) * unit
+        self.shift_y = cam.get("shift_y", 0.0) * unit
         self.clip_start = float(cam["clip_start"])
         self.clip_end = float(cam["clip_end"])
         m = np.asarray(cam["matrix"], dtype=np.float64)
@@ -87,7 +92,7 @@ class Camera:
                             self.shift_y, self.clip_start, self.clip_end,
                             np.ascontiguousarray(self.rotation), self.position.copy(),
                             float(self.lens_radius), self.focus_distance, self.blades,
-                            self.blade_rotation, self.inv_ratio)
+                            self.blade_rotation, self.inv_ratio, self.ortho)
 
     def raster_to_camera(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Points (3, n) on the plane z = -1 (camera space) for raster coordinates (y = 0 at the bottom)."""
@@ -114,7 +119,7 @@ class Camera:
     def project(self, points: np.ndarray) -> np.ndarray:
         """Pinhole raster coordinates (2, n), y from the bottom, of world points (3, n)."""
         local = self.rotation.T @ (np.asarray(points, dtype=np.float64) - self.position[:, None])
-        plane = local[:2] / -local[2]
+        plane = local[:2] if self.ortho else local[:2] / -local[2]
         x = (plane[0] - self.shift_x + self.half_x) / (2.0 * self.half_x) * self.width
         y = (plane[1] - self.shift_y + self.half_y) / (2.0 * self.half_y) * self.height
         return np.stack([x, y])
@@ -149,7 +154,10 @@ def camera_ray(cam, pixel, u0, u1, lens0, lens1):
     `pixel` (row 0 at the top) at offset (u0, u1) in the pixel, through lens sample (lens0, lens1).
 
     Origins sit on the near clip plane, because Embree's tnear is fixed at 0. Cycles focuses on a
-    plane: P_focus = D * focus / D.z, then D = P_focus - P_lens.
+    plane: P_focus = D * focus / D.z, then D = P_focus - P_lens. Orthographic (Cycles'
+    camera_sample_orthographic): parallel rays from the window's point, or with a lens from the
+    window's point moved by the lens sample towards the window's point on the focus plane; the
+    ray runs clip_end - clip_start from the near clip plane (which may lie behind the camera).
     """
     row = pixel // cam.width
     col = pixel - row * cam.width
@@ -157,6 +165,16 @@ def camera_ray(cam, pixel, u0, u1, lens0, lens1):
     y = (cam.height - 1 - row) + u1
     cx = -cam.half_x + (2.0 * cam.half_x / cam.width) * x + cam.shift_x
     cy = -cam.half_y + (2.0 * cam.half_y / cam.height) * y + cam.shift_y
+    if cam.ortho:
+        d = (0.0, 0.0, -1.0)
+        o = (cx, cy, 0.0)
+        if cam.lens_radius > 0.0:
+            lx, ly = lens_point(cam, lens0, lens1)
+            d = normalize((-lx, -ly, -cam.focus_distance))
+            o = (cx + lx, cy + ly, 0.0)
+        o = madd(o, cam.clip_start / -d[2], d)
+        world_o, world_d = to_world(cam, o, d)
+        return world_o, world_d, cam.clip_end - cam.clip_start
     d = normalize((cx, cy, -1.0))
     z_inv = -1.0 / d[2]
     o = (0.0, 0.0, 0.0)
@@ -188,7 +206,7 @@ def camera_connection(cam, x, lens0, lens1):
     v = (xc[0] - lx, xc[1] - ly, xc[2])
     density = (cam.width / (2.0 * cam.half_x)) * (cam.height / (2.0 * cam.half_y))
     none = (-1, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, 0.0, density)
-    if not v[2] < 0.0:
+    if cam.ortho or not v[2] < 0.0:       # the light tracer is off for orthographic cameras
         return none
     if cam.lens_radius > 0.0:
         # The line from the lens point through x meets the focus plane where the pinhole ray

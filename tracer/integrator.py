@@ -10,6 +10,7 @@ the thread count or the chunking.
 """
 from __future__ import annotations
 
+import copy
 import math
 import threading
 import time
@@ -204,7 +205,8 @@ class Renderer:
 
     def __init__(self, scene: Scene, threads: int = 2, next_event: bool = True,
                  sampler: str = "stratified", caustics: bool | str | None = None,
-                 light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH):
+                 light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH,
+                 geometry: Geometry | None = None):
         """next_event=False turns light sampling off (BSDF sampling only): a second, independent
         estimator of the same image, which tests use to check the first one. caustics=False
         renders with the path tracer alone (default: the scene's render setting); the light
@@ -219,6 +221,9 @@ class Renderer:
         converges faster, but its samples are not independent, so the per-pixel variance from
         the sums over-estimates the error of the mean. The Cycles validator uses "independent"
         for honest variances.
+
+        geometry: an already built Geometry of the same positions, triangles and normals (the
+        viewport keeps its BVH while materials, lamps, world or camera change).
         """
         if sampler not in SAMPLERS:
             raise ValueError(f"sampler: expected one of {SAMPLERS}, got {sampler!r}")
@@ -228,7 +233,8 @@ class Renderer:
         self.threads = max(1, int(threads))
         self.next_event = next_event
         self.camera = Camera(scene.camera)
-        self.geometry = Geometry(scene.positions, scene.triangles, scene.normals)
+        self.geometry = (Geometry(scene.positions, scene.triangles, scene.normals)
+                         if geometry is None else geometry)
         self.materials = material_tables(scene.materials, scene.material_ids)
         self.tables = shipped_tables()
         kind = self.materials.kind
@@ -238,6 +244,10 @@ class Renderer:
         self.seed = int(render["seed"])
         self.fresnel = FRESNEL_MODELS.index(render["fresnel"])
         want_caustics = render.get("caustics", True) if caustics is None else caustics
+        # The light tracer connects to a pinhole or a thin lens; an orthographic camera leaves
+        # every path to the path tracer (the same image, noisier caustics).
+        if self.camera.ortho:
+            want_caustics = False
         self.caustics = (light_paths.caustics_tables(scene, self.lights, self.geometry, kind,
                                                      pure=want_caustics == "pure")
                          if want_caustics else None)
@@ -247,6 +257,18 @@ class Renderer:
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
+
+    def with_camera(self, camera: dict) -> "Renderer":
+        """This renderer with another camera (scene format), sharing geometry and tables."""
+        other = copy.copy(self)
+        other.scene = copy.copy(self.scene)
+        other.scene.camera = camera
+        other.camera = Camera(camera)
+        if other.camera.ortho:          # as __init__: no light tracer for orthographic cameras
+            other.caustics, other.split = None, False
+        other._buffers = _Buffers()
+        other._film_lock = threading.Lock()
+        return other
 
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
@@ -258,6 +280,8 @@ class Renderer:
         world = bool(np.any(lights.world > 0.0))
         if not self.scene.render.get("caustics", True):
             why_no_light = "caustics off"
+        elif self.camera.ortho:
+            why_no_light = "orthographic camera"
         else:
             why_no_light = "no smooth mirror or glass, or no lamp that rays can hit sees one"
         return {
@@ -344,7 +368,8 @@ class Renderer:
     # -- passes ----------------------------------------------------------------------------
 
     def render(self, spp: int | None = None, progress=None, batches: int | None = None,
-               noise_threshold: float | None = None, min_spp: int | None = None) -> RenderResult:
+               noise_threshold: float | None = None, min_spp: int | None = None,
+               stop: threading.Event | None = None) -> RenderResult:
         """Render progressively; `progress(result, pass_index, pass_count)` may return False to
         stop (with adaptive sampling pass_count is an estimate: result.spp / spp is the share of
         the budget done).
@@ -358,6 +383,10 @@ class Renderer:
         (tracer/adaptive.py): spp is then each pixel's most, min_spp (default the scene's; 0 =
         Cycles' automatic minimum) its least. Batches need equal samples in every pixel: with
         batches adaptive sampling is off.
+
+        stop: once set, the chunks not yet started are skipped and the render ends cancelled
+        without counting its unfinished pass, whose samples are already in the sums: the result
+        is then no image (the viewport drops it for the next one's). Waits one chunk at most.
         """
         render = self.scene.render
         spp = int(spp if spp is not None else render["spp"])
@@ -435,10 +464,14 @@ class Renderer:
                 size = max(1, CHUNK // in_pass) * in_pass
                 jobs = [(s, min(size, count - s)) for s in range(0, count, size)]
                 for bad, stats in pool.map(
-                        lambda job: self.trace_chunk(job[0], job[1], in_pass, done, sampling,
-                                                     bits, film, film_sq, class_a), jobs):
+                        lambda job: (0, 0) if stop is not None and stop.is_set() else
+                        self.trace_chunk(job[0], job[1], in_pass, done, sampling, bits, film,
+                                         film_sq, class_a), jobs):
                     result.nan_count += bad
                     counters += stats
+                if stop is not None and stop.is_set():
+                    result.cancelled = True
+                    break
                 n_light = 0
                 if traces_light:
                     n_light = max(2, int(round(self.light_paths_per_camera_path * npix * in_pass

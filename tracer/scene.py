@@ -15,10 +15,10 @@ import numpy as np
 from .atomic import atomic_path
 
 FORMAT = "snell-scene"
-VERSION = 3
+VERSION = 4
 # Version 2 added spot lamps and lamp radius, spread, angle and flags; version 3 the glossy and
-# principled materials and the roughness of glass and refraction.
-READS_VERSIONS = (1, 2, 3)
+# principled materials and the roughness of glass and refraction; version 4 orthographic cameras.
+READS_VERSIONS = (1, 2, 3, 4)
 # The tracer's material and distribution codes are positions in these tuples: add at the end.
 MATERIAL_KINDS = ("diffuse", "mirror", "glass", "refraction", "emission", "glossy", "principled")
 DISTRIBUTIONS = ("ggx", "multi_ggx", "beckmann")
@@ -27,6 +27,7 @@ LIGHT_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_t
                "cast_shadow", "use_mis")
 AREA_SHAPES = ("rectangle", "square", "disk", "ellipse")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
+CAMERA_TYPES = ("PERSP", "ORTHO")    # camera.type (version 4); absent: PERSP
 FRESNEL_MODELS = ("exact", "schlick")
 
 # noise_threshold and min_spp: adaptive sampling (tracer/adaptive.py) with Cycles' defaults;
@@ -174,13 +175,15 @@ def is_rough(mat: dict) -> bool:
 
 
 def aperture_radius(camera: dict) -> float:
-    """Lens radius in metres: Cycles' lens / (2 f-stop), 0 when depth of field is off."""
+    """Lens radius in metres: Cycles' lens / (2 f-stop) (orthographic: 1 / (2 f-stop)), 0 when
+    depth of field is off."""
     dof = camera["dof"]
     if not dof.get("use_dof", False):
         return 0.0
     if dof.get("aperture_radius") is not None:
         return float(dof["aperture_radius"])
-    return (camera["lens"] * 1e-3) / (2.0 * max(float(dof["fstop"]), 1e-5))
+    lens = 1.0 if camera.get("type") == "ORTHO" else camera["lens"] * 1e-3
+    return lens / (2.0 * max(float(dof["fstop"]), 1e-5))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -348,8 +351,17 @@ def _check_camera(cam):
     if not isinstance(cam, dict):
         raise SceneError("camera: missing (the scene has no camera)")
     _matrix(cam.get("matrix"), "camera.matrix")
+    if cam.get("type", "PERSP") not in CAMERA_TYPES:
+        raise SceneError(f"camera.type: unknown value {_short(cam.get('type'))}")
+    ortho = cam.get("type", "PERSP") == "ORTHO"
     for key in ("lens", "sensor_width", "sensor_height", "clip_start", "clip_end"):
-        _finite_number(cam.get(key), f"camera.{key}", 0.0, exclusive=True)
+        # An orthographic camera's near clip may lie behind it (the viewport's does).
+        _finite_number(cam.get(key), f"camera.{key}", None if ortho and key == "clip_start"
+                       else 0.0, exclusive=True)
+    if ortho:
+        _finite_number(cam.get("ortho_scale"), "camera.ortho_scale", 0.0, exclusive=True)
+        if not cam["clip_end"] > cam["clip_start"]:
+            raise SceneError("camera.clip_end: must be greater than camera.clip_start")
     for key in ("shift_x", "shift_y"):
         _finite_number(cam.get(key, 0.0), f"camera.{key}")
     if cam.get("sensor_fit", "AUTO") not in SENSOR_FITS:
