@@ -50,7 +50,7 @@ def _active_output(tree, idname):
 def _value_text(sock):
     """A socket's unlinked value as a message shows it."""
     value = sock.default_value
-    if sock.type == "RGBA":
+    if sock.type in ("RGBA", "VECTOR", "ROTATION"):
         return "(" + ", ".join(f"{float(c):g}" for c in value[:3]) + ")"
     return f"{float(value):g}"
 
@@ -79,6 +79,10 @@ class _Inputs:
     def value(self, name):
         """The input's number."""
         return float(self._socket(name).default_value)
+
+    def vector(self, name):
+        """The input's three numbers (a vector, an Euler rotation)."""
+        return [float(c) for c in self._socket(name).default_value[:3]]
 
     def field(self, name, field):
         """The input as the scene file's `field`: a colour, or a number clamped as Cycles does."""
@@ -584,8 +588,10 @@ def convert_camera(scene, depsgraph):
     }
 
 
-def convert_world(world, warn):
-    """World dict: the Background node's Color x Strength, else world.color; black if none."""
+def convert_world(world, warn, images=None):
+    """World dict: the Background node's Color x Strength, else world.color; black if none. An
+    Environment Texture on the Background's Color (through a Mapping node or not) makes an
+    environment map whose image is appended to `images` (the scene's image list)."""
     if world is None:
         return {"color": [0.0, 0.0, 0.0]}
     with _pywarnings.catch_warnings():
@@ -604,10 +610,110 @@ def convert_world(world, warn):
         return {"color": [0.0, 0.0, 0.0]}
     issues = []
     inp = _Inputs(node, issues)
+    texture = _follow(node.inputs["Color"])
+    if texture is not None and texture.bl_idname == "ShaderNodeTexEnvironment":
+        strength = max(inp.value("Strength"), 0.0)
+        for issue in issues:
+            warn(f"world {world.name!r}: {issue}")
+        return _environment(world, texture, strength, warn, images if images is not None else [])
     color = np.array(inp.color("Color")) * max(inp.value("Strength"), 0.0)
     for issue in issues:
         warn(f"world {world.name!r}: {issue}")
     return {"color": color.tolist()}
+
+
+# Cycles' colour for an image it cannot load (TEX_IMAGE_MISSING_R/G/B).
+MISSING_IMAGE = [1.0, 0.0, 1.0]
+TEXCOORD_DIRECTIONS = ("Generated", "Object")     # in the world, both are the ray direction
+
+
+def _environment_mapping(world, texture, warn):
+    """(A, b): the Environment Texture's coordinate is A d + b for direction d (a Mapping node
+    on its Vector input, or none)."""
+    from ..tracer.environment import mapping_transform
+    where = f"world {world.name!r}: node {texture.name!r}"
+    tm = getattr(texture, "texture_mapping", None)
+    if tm is not None and (any(abs(v) > 0 for v in tm.translation)
+                           or any(abs(v) > 0 for v in tm.rotation)
+                           or any(abs(v - 1) > 0 for v in tm.scale)):
+        warn(f"{where}: its own texture mapping (sidebar) is ignored; use a Mapping node")
+    source = _follow(texture.inputs["Vector"])
+    if source is None:
+        return np.eye(3), np.zeros(3)
+    if source.bl_idname == "ShaderNodeTexCoord":
+        return _texcoord_output(world, texture, source, warn)
+    if source.bl_idname != "ShaderNodeMapping":
+        warn(f"{where}: its Vector is linked to {source.name!r} ({source.bl_idname}), which Snell "
+             f"cannot evaluate: using the view direction")
+        return np.eye(3), np.zeros(3)
+    issues = []
+    inputs = _Inputs(source, issues)
+    kind = source.vector_type
+    location = inputs.vector("Location") if kind in ("POINT", "TEXTURE") else [0.0, 0.0, 0.0]
+    rotation = inputs.vector("Rotation")
+    scale = inputs.vector("Scale")
+    for issue in issues:
+        warn(f"world {world.name!r}: {issue}")
+    upstream = _follow(source.inputs["Vector"])
+    if upstream is None:
+        warn(f"world {world.name!r}: node {source.name!r}: its Vector is not connected (Cycles "
+             f"then maps every direction to one point of the image): using the view direction")
+    elif upstream.bl_idname == "ShaderNodeTexCoord":
+        _texcoord_output(world, source, upstream, warn)
+    else:
+        warn(f"world {world.name!r}: node {source.name!r}: its Vector is linked to "
+             f"{upstream.name!r} ({upstream.bl_idname}), which Snell cannot evaluate: using the "
+             f"view direction")
+    try:
+        a, b = mapping_transform(kind, location, rotation, scale)
+        if not abs(np.linalg.det(a)) > 1e-12:
+            raise ValueError("singular")
+    except ValueError:
+        warn(f"world {world.name!r}: node {source.name!r}: a zero scale makes the mapping "
+             f"singular: ignoring the Mapping node")
+        return np.eye(3), np.zeros(3)
+    return a, b
+
+
+def _texcoord_output(world, node, texcoord, warn):
+    """The identity mapping for a Texture Coordinate output that is the direction in the world;
+    a warning for the others."""
+    name = node.inputs["Vector"].links[0].from_socket.name
+    if name not in TEXCOORD_DIRECTIONS:
+        warn(f"world {world.name!r}: node {texcoord.name!r}: output {name!r} is not supported in "
+             f"the world: using the view direction (Generated)")
+    return np.eye(3), np.zeros(3)
+
+
+
+def _environment(world, texture, strength, warn, images):
+    """The world dict of an Environment Texture into a Background of this strength."""
+    from .images import ImageUnreadable, read_image
+    where = f"world {world.name!r}: node {texture.name!r}"
+    if texture.projection != "EQUIRECTANGULAR":
+        warn(f"{where}: {texture.projection.lower().replace('_', ' ')} projection is not "
+             f"supported: using black")
+        return {"color": [0.0, 0.0, 0.0]}
+    image = texture.image
+    if image is None:
+        warn(f"{where}: no image: using Cycles' missing-image colour")
+        return {"color": [c * strength for c in MISSING_IMAGE]}
+    try:
+        pixels, source = read_image(image, lambda text: warn(f"{where}: image {image.name!r}: {text}"))
+    except ImageUnreadable as exc:
+        warn(f"{where}: image {image.name!r} {exc}: using Cycles' missing-image colour")
+        return {"color": [c * strength for c in MISSING_IMAGE]}
+    interpolation = texture.interpolation.lower()
+    if interpolation not in ("linear", "closest"):
+        warn(f"{where}: {texture.interpolation} interpolation is not supported: using Linear")
+        interpolation = "linear"
+    matrix, offset = _environment_mapping(world, texture, warn)
+    images.append({"name": image.name, "source": source, "pixels": pixels})
+    return {"color": [0.0, 0.0, 0.0],
+            "environment": {"image": len(images) - 1, "strength": float(strength),
+                            "matrix": np.asarray(matrix, np.float64).tolist(),
+                            "offset": np.asarray(offset, np.float64).tolist(),
+                            "interpolation": interpolation}}
 
 
 def convert_render(scene):
@@ -668,6 +774,7 @@ class _Exporter:
         self.parts = []  # (_Mesh, world matrix, material ids per triangle, object id)
         self.objects = []
         self.lights = []
+        self.images = []  # the scene's images: {"name", "source", "pixels"}
         self._hidden = {}  # original object pointer -> hidden from render
 
     def warn(self, message):
@@ -771,8 +878,9 @@ class _Exporter:
             material_ids=material_ids.astype(np.int32),
             object_ids=np.repeat(np.array([p[3] for p in self.parts], np.int32), n_tris),
             materials=self.materials, lights=self.lights, camera=camera,
-            world=convert_world(bl_scene.world, self.warn), render=convert_render(bl_scene),
-            objects=self.objects, source=source)
+            world=convert_world(bl_scene.world, self.warn, self.images),
+            render=convert_render(bl_scene), objects=self.objects, source=source,
+            images=self.images)
 
 
 def _rows(starts, length):

@@ -29,8 +29,8 @@ def test_round_trip_keeps_arrays_and_header(good):
         assert getattr(back, key).dtype == getattr(sc, key).dtype
     assert back.materials == sc.materials and back.lights == sc.lights and back.camera == sc.camera
     assert back.features() == {"glass": True, "mirrors": False, "rough": False,
-                               "depth_of_field": False, "environment": False,
-                               "emissive_meshes": True}
+                               "depth_of_field": False, "world": False,
+                               "environment": False, "emissive_meshes": True}
 
 
 def _rewrite(path, out, header=None, **arrays):
@@ -164,7 +164,7 @@ def test_kind_and_distribution_codes_are_positions():
     assert S.MATERIAL_KINDS == ("diffuse", "mirror", "glass", "refraction", "emission", "glossy",
                                 "principled")
     assert S.DISTRIBUTIONS == ("ggx", "multi_ggx", "beckmann")
-    assert S.VERSION == 3 and S.READS_VERSIONS == (1, 2, 3)
+    assert S.VERSION == 4 and S.READS_VERSIONS == (1, 2, 3, 4)
 
 
 def test_version_3_round_trip_keeps_every_field(tmp_path):
@@ -174,7 +174,7 @@ def test_version_3_round_trip_keeps_every_field(tmp_path):
     S.save(sc, str(tmp_path / "v3.snell"))
     back = S.load(str(tmp_path / "v3.snell"))
     assert back.materials == mats
-    assert back.header()["version"] == 3
+    assert back.header()["version"] == S.VERSION
     assert all(S.material_field(m, key) == value
                for m in back.materials for key, value in m.items())
 

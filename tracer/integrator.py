@@ -200,7 +200,8 @@ class Renderer:
 
     def __init__(self, scene: Scene, threads: int = 2, next_event: bool = True,
                  sampler: str = "stratified", caustics: bool | str | None = None,
-                 light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH):
+                 light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH,
+                 env_sampling: bool = True):
         """next_event=False turns light sampling off (BSDF sampling only): a second, independent
         estimator of the same image, which tests use to check the first one. caustics=False
         renders with the path tracer alone (default: the scene's render setting); the light
@@ -215,6 +216,9 @@ class Renderer:
         converges faster, but its samples are not independent, so the per-pixel variance from
         the sums over-estimates the error of the mean. The Cycles validator uses "independent"
         for honest variances.
+
+        env_sampling=False samples an environment map's directions uniformly instead of by its
+        image (an unbiased, noisier estimator, for measurements and tests).
         """
         if sampler not in SAMPLERS:
             raise ValueError(f"sampler: expected one of {SAMPLERS}, got {sampler!r}")
@@ -228,7 +232,8 @@ class Renderer:
         self.materials = material_tables(scene.materials, scene.material_ids)
         self.tables = shipped_tables()
         kind = self.materials.kind
-        self.lights = LightSampler(scene, self.geometry, self.materials.radiance)
+        self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
+                                   env_sampling=env_sampling)
         render = scene.render
         self.max_depth = int(render["max_depth"])
         self.seed = int(render["seed"])
@@ -251,7 +256,7 @@ class Renderer:
         layered = bool((used == bsdf.LAYERED).any())
         lights = self.lights.tables
         next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
-        world = bool(np.any(lights.world > 0.0))
+        world, env = bool(lights.has_world), bool(lights.has_env)
         if not self.scene.render.get("caustics", True):
             why_no_light = "caustics off"
         else:
@@ -265,6 +270,7 @@ class Renderer:
             "next-event estimation": (next_event, "lamps or world light to sample" if next_event
                                       else "no lamps and a black world"),
             "world": (world, "world light" if world else "black world"),
+            "environment": (env, "an environment map" if env else "no environment map"),
             "light tracing": (self.caustics is not None,
                               "lamps through mirrors and glass" if self.caustics is not None
                               else why_no_light),

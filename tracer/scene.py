@@ -6,6 +6,7 @@ field at fault, so that a bad export never reaches the integrator.
 from __future__ import annotations
 
 import copy
+import hashlib
 import json
 import math
 from dataclasses import dataclass, field
@@ -15,10 +16,11 @@ import numpy as np
 from .atomic import atomic_path
 
 FORMAT = "snell-scene"
-VERSION = 3
+VERSION = 4
 # Version 2 added spot lamps and lamp radius, spread, angle and flags; version 3 the glossy and
-# principled materials and the roughness of glass and refraction.
-READS_VERSIONS = (1, 2, 3)
+# principled materials and the roughness of glass and refraction; version 4 images (stored in
+# the file) and the world's environment map.
+READS_VERSIONS = (1, 2, 3, 4)
 # The tracer's material and distribution codes are positions in these tuples: add at the end.
 MATERIAL_KINDS = ("diffuse", "mirror", "glass", "refraction", "emission", "glossy", "principled")
 DISTRIBUTIONS = ("ggx", "multi_ggx", "beckmann")
@@ -28,6 +30,8 @@ LIGHT_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_t
 AREA_SHAPES = ("rectangle", "square", "disk", "ellipse")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 FRESNEL_MODELS = ("exact", "schlick")
+INTERPOLATIONS = ("linear", "closest")
+MAX_IMAGES = 4096
 
 # noise_threshold and min_spp: adaptive sampling (tracer/adaptive.py) with Cycles' defaults;
 # a threshold of 0 turns it off, a min_spp of 0 is Cycles' automatic minimum.
@@ -90,12 +94,19 @@ class Scene:
     objects: list = field(default_factory=list)
     normals: np.ndarray | None = None
     source: str = ""
+    # Images the world and materials use: {"name", "source" (where the exporter read it),
+    # "pixels": float32 (H, W, C) linear, top row first}; the file stores the pixels.
+    images: list = field(default_factory=list)
 
     def header(self) -> dict:
         """The JSON header as written to the file."""
+        images = [{"name": im["name"], "source": im.get("source", ""),
+                   "shape": list(im["pixels"].shape), "sha256": image_hash(im["pixels"])}
+                  for im in self.images]
         return {"format": FORMAT, "version": VERSION, "source": self.source,
                 "objects": self.objects, "materials": self.materials, "lights": self.lights,
-                "world": self.world, "camera": self.camera, "render": self.render}
+                "world": self.world, "camera": self.camera, "render": self.render,
+                "images": images}
 
     def with_render(self, **overrides) -> "Scene":
         """A copy sharing the arrays, with render settings overridden (None values ignored)."""
@@ -118,7 +129,7 @@ class Scene:
 
     def features(self) -> dict:
         """Which costly features the scene needs: glass, mirrors, rough surfaces, depth of field,
-        environment, emissive meshes."""
+        world light, an environment map, emissive meshes."""
         used = set(int(m) for m in np.unique(self.material_ids)) if len(self.material_ids) else set()
         mats = [self.materials[i] for i in sorted(used)]
         return {
@@ -126,9 +137,23 @@ class Scene:
             "mirrors": any(is_mirror(m) for m in mats),
             "rough": any(is_rough(m) for m in mats),
             "depth_of_field": aperture_radius(self.camera) > 0.0,
-            "environment": any(c > 0 for c in self.world["color"]),
+            "world": has_world_light(self.world),
+            "environment": self.world.get("environment") is not None,
             "emissive_meshes": any(emits(m) for m in mats),
         }
+
+
+def image_hash(pixels: np.ndarray) -> str:
+    """SHA-256 of an image's pixel bytes (C order), as the header records it."""
+    return hashlib.sha256(np.ascontiguousarray(pixels).data).hexdigest()
+
+
+def has_world_light(world: dict) -> bool:
+    """Whether the world gives light: an environment map of strength above 0, or a colour."""
+    env = world.get("environment")
+    if env is not None:
+        return env["strength"] > 0
+    return any(c > 0 for c in world["color"])
 
 
 def material_field(mat: dict, key: str):
@@ -404,6 +429,53 @@ def _check_objects(objects):
             raise SceneError(f"objects[{i}].closed: expected true or false, got {_short(obj['closed'])}")
 
 
+def _check_images(images):
+    if not isinstance(images, list):
+        raise SceneError(f"images: expected a list, got {_short(images)}")
+    if len(images) > MAX_IMAGES:
+        raise SceneError(f"images: {len(images)} images (at most {MAX_IMAGES})")
+    for i, im in enumerate(images):
+        where = f"images[{i}]"
+        if not isinstance(im, dict) or not isinstance(im.get("name"), str):
+            raise SceneError(f"{where}: expected an object with a name")
+        where = f"images[{i}] ({_short(im['name'], 40)})"
+        px = im.get("pixels")
+        if not isinstance(px, np.ndarray):
+            raise SceneError(f"{where}: missing pixels")
+        if px.dtype != np.float32:
+            raise SceneError(f"{where}: expected dtype float32, got {px.dtype.name}")
+        if px.ndim != 3 or px.shape[2] not in (1, 3) or px.shape[0] < 1 or px.shape[1] < 1:
+            raise SceneError(f"{where}: expected shape (height, width, 1 or 3), got {px.shape}")
+        if px.shape[0] > MAX_RESOLUTION or px.shape[1] > MAX_RESOLUTION:
+            raise SceneError(f"{where}: larger than {MAX_RESOLUTION} pixels a side ({px.shape})")
+        if not np.isfinite(px).all():
+            raise SceneError(f"{where}: contains NaN or Inf")
+
+
+def _check_environment(env, images):
+    where = "world.environment"
+    if not isinstance(env, dict):
+        raise SceneError(f"{where}: expected an object, got {_short(env)}")
+    _int_in(env.get("image"), f"{where}.image", 0, len(images) - 1, "an image index")
+    if images[env["image"]]["pixels"].shape[2] != 3:
+        raise SceneError(f"{where}.image: expected an RGB image (3 channels)")
+    _finite_number(env.get("strength"), f"{where}.strength", 0.0)
+    try:
+        m = np.asarray(env.get("matrix"), dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise SceneError(f"{where}.matrix: expected a 3x3 matrix") from None
+    if m.shape != (3, 3):
+        raise SceneError(f"{where}.matrix: expected a 3x3 matrix, got shape {m.shape}")
+    if not np.all(np.isfinite(m)):
+        raise SceneError(f"{where}.matrix: contains NaN or Inf")
+    if not abs(np.linalg.det(m)) > 1e-12:
+        raise SceneError(f"{where}.matrix: singular (a zero scale in the mapping)")
+    _finite_vec(env.get("offset"), f"{where}.offset")
+    if env.get("interpolation") not in INTERPOLATIONS:
+        raise SceneError(f"{where}.interpolation: expected one of {', '.join(INTERPOLATIONS)}, "
+                         f"got {_short(env.get('interpolation'))}")
+
+
 def validate(scene: Scene) -> Scene:
     """Check every array and header field; raise SceneError naming the first one at fault."""
     arrays = {"positions": scene.positions, "triangles": scene.triangles,
@@ -441,9 +513,12 @@ def validate(scene: Scene) -> Scene:
         raise SceneError("lights: expected a list")
     for i, light in enumerate(scene.lights):
         _check_light(i, light)
+    _check_images(scene.images)
     if not isinstance(scene.world, dict):
         raise SceneError(f"world: expected an object, got {_short(scene.world)}")
     _finite_vec(scene.world.get("color"), "world.color", positive=True)
+    if scene.world.get("environment") is not None:
+        _check_environment(scene.world["environment"], scene.images)
     _check_camera(scene.camera)
     _check_render(scene.render)
     _check_emitter_areas(scene)
@@ -480,6 +555,8 @@ def save(scene: Scene, path: str) -> None:
               "object_ids": scene.object_ids}
     if scene.normals is not None:
         arrays["normals"] = scene.normals
+    for i, im in enumerate(scene.images):
+        arrays[f"image_{i}"] = im["pixels"]
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
@@ -519,6 +596,30 @@ def _read_members(path: str) -> dict:
     return arrays
 
 
+def _read_images(entries, arrays) -> list:
+    """The header's image entries with their pixels, each checked against its recorded hash."""
+    if not isinstance(entries, list):
+        raise SceneError(f"images: expected a list, got {_short(entries)}")
+    if len(entries) > MAX_IMAGES:
+        raise SceneError(f"images: {len(entries)} images (at most {MAX_IMAGES})")
+    images = []
+    for i, entry in enumerate(entries):
+        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
+            raise SceneError(f"images[{i}]: expected an object with a name")
+        where = f"images[{i}] ({_short(entry['name'], 40)})"
+        key = f"image_{i}"
+        if key not in arrays:
+            raise SceneError(f"{where}: missing array {key}")
+        pixels = arrays[key]
+        if not isinstance(entry.get("sha256"), str):
+            raise SceneError(f"{where}.sha256: expected a string")
+        if pixels.dtype == np.float32 and image_hash(pixels) != entry["sha256"]:
+            raise SceneError(f"{where}: pixels do not match their sha256 (a damaged file)")
+        images.append({"name": entry["name"], "source": str(entry.get("source", "")),
+                       "pixels": pixels})
+    return images
+
+
 def load(path: str) -> Scene:
     """Read and validate a scene file."""
     arrays = _read_members(path)
@@ -542,6 +643,7 @@ def load(path: str) -> Scene:
     if render is not None and not isinstance(render, dict):
         raise SceneError(f"render: expected an object, got {_short(render)}")
     objects = header.get("objects")
+    images = _read_images(header.get("images", []), arrays)
     scene = Scene(
         positions=arrays["positions"], triangles=arrays["triangles"],
         material_ids=arrays["material_ids"], object_ids=arrays["object_ids"],
@@ -549,7 +651,8 @@ def load(path: str) -> Scene:
         materials=header.get("materials"), lights=header.get("lights"),
         camera=header.get("camera"), world=header.get("world"),
         render={**DEFAULT_RENDER, **(render or {})},
-        objects=[] if objects is None else objects, source=header.get("source", ""))
+        objects=[] if objects is None else objects, source=header.get("source", ""),
+        images=images)
     if isinstance(scene.camera, dict) and isinstance(scene.camera.get("dof"), dict):
         scene.camera["dof"] = {**DEFAULT_DOF, **scene.camera["dof"]}
     return validate(scene)

@@ -29,7 +29,7 @@ from .jit import jit
 from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
                     VISIBLE_TRANSMISSION, area_lamp_hit, intersect_area_lamp,
                     intersect_point_lamp, point_lamp_hit, seen_by, sun_hit)
-from .lights import pdf_world, sample_light
+from .lights import pdf_world, sample_light, world_radiance
 from .lobes import (DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT, bsdf_eval, bsdf_sample,
                     setup_shader)
 from .sampler import pixel_key, sample_pair
@@ -186,9 +186,9 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
                 w = mis_weight(next_event, pdf_prev, lights.point_pmf[lamp] * density)
                 add_light(radiance, path, beta, light, w)
         if prim[i] < 0:
-            if lights.world[0] > 0.0 or lights.world[1] > 0.0 or lights.world[2] > 0.0:
-                w = mis_weight(next_event, pdf_prev, pdf_world(lights))
-                add_light(radiance, path, beta, lights.world, w)
+            if lights.has_world:
+                w = mis_weight(next_event, pdf_prev, pdf_world(lights, d))
+                add_light(radiance, path, beta, world_radiance(lights, d), w)
             for sun in range(lights.sun_one_minus_cos.shape[0] if emitters_count else 0):
                 # Cycles finds a sun's disc only with its MIS option, camera rays included.
                 flags = lights.sun_flags[sun]
