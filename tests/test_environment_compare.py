@@ -82,3 +82,43 @@ def test_hdri_rotated_5_degrees_is_caught(spheres):
     """Power: the map turned by 5 degrees is inconsistent."""
     verdict, detail = _verdict(spheres.compare(turned(5.0)))
     assert verdict == "inconsistent", detail
+
+
+def _export_world(tmp_path, setup):
+    """Export a one-sphere scene whose world `setup(scene)` makes: (world dict, images, warnings)."""
+    from snell.addon import validate
+    scene = common.reset()
+    common.setup_render(scene, (8, 8))
+    setup(scene)
+    common.uv_sphere("S", (0.0, 0.0, 0.0), 0.5, common.material("D", "diffuse"))
+    common.camera(scene, (0.0, -5.0, 0.0), (0.0, 0.0, 0.0))
+    exported, warnings = validate.load_snell_scene(common.save(str(tmp_path / "w.blend")))
+    return exported.world, exported.images, warnings
+
+
+def test_exporter_world_options_and_fallbacks(tmp_path):
+    """Closest interpolation and a Strength export as such; a Background without a Mapping node
+    gets the identity; an Environment Texture without an image warns, naming the world and the
+    node, and renders Cycles' missing-image pink; the mirror-ball projection warns."""
+    exr = hdri.write_exr(tmp_path / "sky.exr", hdri.sky(8, 16))
+    world, images, warnings = _export_world(tmp_path, lambda s: hdri.set_hdri_world(
+        s, exr, strength=2.5, interpolation="Closest", mapping=False))
+    assert warnings == []
+    env = world["environment"]
+    assert env["interpolation"] == "closest" and env["strength"] == 2.5
+    np.testing.assert_array_equal(env["matrix"], np.eye(3))
+    assert images[0]["name"] == "sky.exr" and images[0]["pixels"].shape == (8, 16, 3)
+
+    def no_image(scene):
+        hdri.set_hdri_world(scene, exr, strength=2.0, mapping=False)
+        scene.world.node_tree.nodes["Environment Texture"].image = None
+    world, images, warnings = _export_world(tmp_path, no_image)
+    assert world == {"color": [2.0, 0.0, 2.0]} and images == []
+    assert any("world 'HDRI': node 'Environment Texture': no image" in w for w in warnings)
+
+    def mirror_ball(scene):
+        hdri.set_hdri_world(scene, exr, mapping=False)
+        scene.world.node_tree.nodes["Environment Texture"].projection = "MIRROR_BALL"
+    world, _, warnings = _export_world(tmp_path, mirror_ball)
+    assert "environment" not in world
+    assert any("mirror ball projection is not supported" in w for w in warnings)
