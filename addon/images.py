@@ -26,7 +26,7 @@ class ImageUnreadable(ValueError):
 def srgb_to_linear(v: np.ndarray) -> np.ndarray:
     """The exact piecewise sRGB decoding (IEC 61966-2-1), float32 in and out."""
     v = np.asarray(v, np.float32)
-    return np.where(v <= 0.04045, v / 12.92,
+    return np.where(v < 0.04045, np.maximum(v, 0.0) / 12.92,
                     np.power((np.maximum(v, 0.04045) + 0.055) / 1.055, 2.4)).astype(np.float32)
 
 
@@ -74,9 +74,11 @@ def _read_buffer(image) -> np.ndarray:
     return flat.reshape(h, w, image.channels)[::-1]
 
 
-def read_image(image, warn) -> tuple[np.ndarray, str]:
-    """(float32 (H, W, 3) linear pixels, where they came from) of a bpy image; warn(text) for
-    what is approximated. ImageUnreadable when there is nothing to read."""
+def read_image(image, warn, decode=True) -> tuple[np.ndarray, str, str]:
+    """(float32 (H, W, 3) pixels, where they came from, their colour space: "linear", or "srgb"
+    when decode is false and the image is sRGB: then the pixels stay encoded, to be decoded
+    after interpolation as Cycles does) of a bpy image; warn(text) for what is approximated.
+    ImageUnreadable when there is nothing to read."""
     import bpy
     if image.source in ("SEQUENCE", "MOVIE", "TILED"):
         raise ImageUnreadable(f"is {'an image sequence' if image.source == 'SEQUENCE' else 'a movie' if image.source == 'MOVIE' else 'a tiled (UDIM) image'}, "
@@ -94,7 +96,10 @@ def read_image(image, warn) -> tuple[np.ndarray, str]:
         raise ImageUnreadable("has no pixels")
     rgb = np.ascontiguousarray(_rgb(pixels), np.float32)
     space = image.colorspace_settings.name
-    if space in SRGB_SPACES:
+    colorspace = "linear"
+    if space in SRGB_SPACES and not decode:
+        colorspace = "srgb"
+    elif space in SRGB_SPACES:
         rgb = srgb_to_linear(rgb)
     elif space not in LINEAR_SPACES + DATA_SPACES and not image.colorspace_settings.is_data:
         warn(f"colour space {space!r} is not supported: using the values as linear Rec.709")
@@ -102,4 +107,4 @@ def read_image(image, warn) -> tuple[np.ndarray, str]:
         bad = int((~np.isfinite(rgb)).any(axis=2).sum())
         warn(f"{bad} pixel(s) are NaN or Inf: set to 0")
         rgb = np.where(np.isfinite(rgb), rgb, 0.0).astype(np.float32)
-    return rgb, source
+    return rgb, source, colorspace

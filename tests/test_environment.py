@@ -239,7 +239,7 @@ def test_memory_is_image_plus_distribution():
     assert env.conditional.shape == (h, w + 1) and env.conditional.dtype == np.float64
     assert environment.EnvironmentMap._fields == ("image", "marginal", "conditional", "strength",
                                                   "matrix", "inverse", "offset", "det",
-                                                  "uniform", "closest")
+                                                  "uniform", "closest", "pixels")
 
 
 # ---------------------------------------------------------------------------------------------

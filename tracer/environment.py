@@ -34,6 +34,7 @@ import numpy as np
 
 from .jit import jit
 from .sampling import sample_uniform_sphere
+from .textures import REPEAT, sample_image
 
 REC709 = np.array([0.2126, 0.7152, 0.0722])
 
@@ -50,6 +51,7 @@ class EnvironmentMap(NamedTuple):
     det: float            # |det A|
     uniform: bool         # sample directions uniformly (a location in the mapping, or asked)
     closest: bool         # Closest interpolation (else Linear)
+    pixels: np.ndarray    # (H W, 3) the image's texels as rows (a view of image)
 
 
 def rotation_matrix(euler) -> np.ndarray:
@@ -155,7 +157,8 @@ def build_environment(image, strength=1.0, rotation=0.0, matrix=None, offset=Non
     marginal, conditional = _distribution(image, closest)
     return EnvironmentMap(image, marginal, conditional, float(strength), matrix,
                           np.linalg.inv(matrix), offset, det,
-                          bool(uniform or np.any(offset != 0.0)), bool(closest))
+                          bool(uniform or np.any(offset != 0.0)), bool(closest),
+                          image.reshape(-1, 3))
 
 
 def empty_environment() -> EnvironmentMap:
@@ -211,38 +214,15 @@ def to_world(env, t):
 
 
 @jit
-def _texel(image, row, col):
-    """The texel's RGB as float64."""
-    return (float(image[row, col, 0]), float(image[row, col, 1]), float(image[row, col, 2]))
-
-
-@jit
 def texture_radiance(env, t):
-    """The image at unit texture direction t times the strength: Cycles' Linear interpolation
-    (bilinear between texel centres) or Closest, wrapping in u and in v as Cycles' Repeat
-    extension does (half a row from a pole, the top and bottom rows blend)."""
+    """The image at unit texture direction t times the strength: Cycles' Linear or Closest
+    interpolation with the Environment Texture's Repeat extension (wrapping in u, and in v: half
+    a row from a pole, the top and bottom rows blend)."""
     h, w = env.image.shape[0], env.image.shape[1]
     u, v = direction_to_equirectangular(t)
+    c = sample_image(env.pixels, 0, w, h, u, v, env.closest, REPEAT)
     k = env.strength
-    if env.closest:
-        col = int(math.floor(u * w)) % w
-        row = int(math.floor((1.0 - v) * h)) % h
-        a = _texel(env.image, row, col)
-        return (k * a[0], k * a[1], k * a[2])
-    # Texel centres sit at (i + 0.5) / W, as in Cycles' image lookup; rows count from the top.
-    x = u * w - 0.5
-    y = (1.0 - v) * h - 0.5
-    x0f, y0f = math.floor(x), math.floor(y)
-    tx, ty = x - x0f, y - y0f
-    x0 = int(x0f) % w
-    x1 = (x0 + 1) % w
-    y0 = int(y0f) % h
-    y1 = (y0 + 1) % h
-    a, b = _texel(env.image, y0, x0), _texel(env.image, y0, x1)
-    c, d = _texel(env.image, y1, x0), _texel(env.image, y1, x1)
-    return (k * ((1 - ty) * ((1 - tx) * a[0] + tx * b[0]) + ty * ((1 - tx) * c[0] + tx * d[0])),
-            k * ((1 - ty) * ((1 - tx) * a[1] + tx * b[1]) + ty * ((1 - tx) * c[1] + tx * d[1])),
-            k * ((1 - ty) * ((1 - tx) * a[2] + tx * b[2]) + ty * ((1 - tx) * c[2] + tx * d[2])))
+    return (k * c[0], k * c[1], k * c[2])
 
 
 @jit

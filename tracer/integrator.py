@@ -178,13 +178,13 @@ class _Buffers(threading.local):
     """This thread's chunk buffers, made once and reused by every chunk it runs."""
 
     def get(self):
-        """(paths, next paths, shadow rays, radiance, active rows, counters, lobe scratch) for
-        CHUNK paths."""
+        """(paths, next paths, shadow rays, radiance, active rows, counters, lobe scratch,
+        Principled parameter scratch) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
                             wavefront.new_shadows(CHUNK), np.empty((CHUNK, 3)),
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64),
-                            np.empty((lobes.MAX_LOBES, lobes.FIELDS)))
+                            np.empty((lobes.MAX_LOBES, lobes.FIELDS)), np.empty(lobes.P_FIELDS))
         return self.buffers
 
     def light(self):
@@ -229,7 +229,8 @@ class Renderer:
         self.next_event = next_event
         self.camera = Camera(scene.camera)
         self.geometry = Geometry(scene.positions, scene.triangles, scene.normals)
-        self.materials = material_tables(scene.materials, scene.material_ids)
+        self.materials = material_tables(scene.materials, scene.material_ids, scene.images,
+                                         scene.texcoords)
         self.tables = shipped_tables()
         kind = self.materials.kind
         self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
@@ -286,7 +287,7 @@ class Renderer:
         (NaN/Inf samples, event counters)."""
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
-        paths, out, shadows, radiance, active, stats, scratch = self._buffers.get()
+        paths, out, shadows, radiance, active, stats, scratch, params = self._buffers.get()
         stats[:] = 0
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
@@ -303,7 +304,7 @@ class Renderer:
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.tables, self.fresnel,
                                               self.next_event, bits, stratified, depth, kept,
                                               active, paths, prim, u, v, out, shadows, radiance,
-                                              scratch, stats)
+                                              scratch, params, stats)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])

@@ -31,6 +31,14 @@ AREA_SHAPES = ("rectangle", "square", "disk", "ellipse")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 FRESNEL_MODELS = ("exact", "schlick")
 INTERPOLATIONS = ("linear", "closest")
+EXTENSIONS = ("repeat", "extend", "clip", "mirror")     # textures.EXTENSIONS
+COLORSPACES = ("linear", "srgb")
+TEXCOORD_KINDS = ("uv", "generated")
+# The inputs an image texture may drive, by material kind (docs/scene-format.md).
+TEXTURE_SLOTS = ("color", "roughness", "metallic")
+TEXTURABLE = {"diffuse": ("color",), "mirror": ("color",), "glossy": ("color", "roughness"),
+              "glass": ("color", "roughness"), "refraction": ("color", "roughness"),
+              "principled": ("color", "roughness", "metallic")}
 MAX_IMAGES = 4096
 
 # noise_threshold and min_spp: adaptive sampling (tracer/adaptive.py) with Cycles' defaults;
@@ -95,18 +103,24 @@ class Scene:
     normals: np.ndarray | None = None
     source: str = ""
     # Images the world and materials use: {"name", "source" (where the exporter read it),
-    # "pixels": float32 (H, W, C) linear, top row first}; the file stores the pixels.
+    # "colorspace" (linear, or srgb: decoded after interpolation, as Cycles does), "pixels":
+    # float32 (H, W, C), top row first}; the file stores the pixels.
     images: list = field(default_factory=list)
+    # Texture coordinates the materials' textures read: {"kind": uv or generated, "name": the UV
+    # map ("" the active one), "coords": float32 (T, 3, 3), per triangle corner}.
+    texcoords: list = field(default_factory=list)
 
     def header(self) -> dict:
         """The JSON header as written to the file."""
         images = [{"name": im["name"], "source": im.get("source", ""),
+                   "colorspace": im.get("colorspace", "linear"),
                    "shape": list(im["pixels"].shape), "sha256": image_hash(im["pixels"])}
                   for im in self.images]
+        texcoords = [{"kind": tc["kind"], "name": tc.get("name", "")} for tc in self.texcoords]
         return {"format": FORMAT, "version": VERSION, "source": self.source,
                 "objects": self.objects, "materials": self.materials, "lights": self.lights,
                 "world": self.world, "camera": self.camera, "render": self.render,
-                "images": images}
+                "images": images, "texcoords": texcoords}
 
     def with_render(self, **overrides) -> "Scene":
         """A copy sharing the arrays, with render settings overridden (None values ignored)."""
@@ -129,7 +143,7 @@ class Scene:
 
     def features(self) -> dict:
         """Which costly features the scene needs: glass, mirrors, rough surfaces, depth of field,
-        world light, an environment map, emissive meshes."""
+        world light, an environment map, emissive meshes, image textures."""
         used = set(int(m) for m in np.unique(self.material_ids)) if len(self.material_ids) else set()
         mats = [self.materials[i] for i in sorted(used)]
         return {
@@ -140,6 +154,7 @@ class Scene:
             "world": has_world_light(self.world),
             "environment": self.world.get("environment") is not None,
             "emissive_meshes": any(emits(m) for m in mats),
+            "textures": any(m.get("textures") for m in mats),
         }
 
 
@@ -291,8 +306,45 @@ def _entry_kind(section, i, entry, kinds):
     return where, kind
 
 
-def _check_material(i, mat):
+def _check_textures(where, kind, textures, images, texcoords):
+    if not isinstance(textures, dict):
+        raise SceneError(f"{where}.textures: expected an object, got {_short(textures)}")
+    for slot, tex in textures.items():
+        name = f"{where}.textures.{slot}"
+        if slot not in TEXTURABLE.get(kind, ()):
+            raise SceneError(f"{name}: a {kind} material has no texture input {slot!r} "
+                             f"(it has: {', '.join(TEXTURABLE.get(kind, ())) or 'none'})")
+        if not isinstance(tex, dict):
+            raise SceneError(f"{name}: expected an object, got {_short(tex)}")
+        _int_in(tex.get("image"), f"{name}.image", 0, len(images) - 1, "an image index")
+        _int_in(tex.get("texcoord"), f"{name}.texcoord", 0, len(texcoords) - 1,
+                "a texcoord index")
+        for key, choices in (("interpolation", INTERPOLATIONS), ("extension", EXTENSIONS)):
+            if tex.get(key) not in choices:
+                raise SceneError(f"{name}.{key}: expected one of {', '.join(choices)}, "
+                                 f"got {_short(tex.get(key))}")
+        _matrix3(tex.get("matrix"), f"{name}.matrix", singular_ok=True)
+        _finite_vec(tex.get("offset"), f"{name}.offset")
+
+
+def _matrix3(value, name, singular_ok=False):
+    try:
+        m = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise SceneError(f"{name}: expected a 3x3 matrix") from None
+    if m.shape != (3, 3):
+        raise SceneError(f"{name}: expected a 3x3 matrix, got shape {m.shape}")
+    if not np.all(np.isfinite(m)):
+        raise SceneError(f"{name}: contains NaN or Inf")
+    if not singular_ok and not abs(np.linalg.det(m)) > 1e-12:
+        raise SceneError(f"{name}: singular (a zero scale in the mapping)")
+    return m
+
+
+def _check_material(i, mat, images=(), texcoords=()):
     where, kind = _entry_kind("materials", i, mat, MATERIAL_KINDS)
+    if mat.get("textures") is not None:
+        _check_textures(where, kind, mat["textures"], images, texcoords)
     _finite_vec(mat.get("color"), f"{where}.color", positive=True)
     if kind in ("glass", "refraction"):
         _finite_number(mat.get("ior"), f"{where}.ior", 0.0, exclusive=True)
@@ -450,6 +502,28 @@ def _check_images(images):
             raise SceneError(f"{where}: larger than {MAX_RESOLUTION} pixels a side ({px.shape})")
         if not np.isfinite(px).all():
             raise SceneError(f"{where}: contains NaN or Inf")
+        if im.get("colorspace", "linear") not in COLORSPACES:
+            raise SceneError(f"{where}.colorspace: expected one of {', '.join(COLORSPACES)}, "
+                             f"got {_short(im.get('colorspace'))}")
+
+
+def _check_texcoords(texcoords, n_triangles):
+    if not isinstance(texcoords, list):
+        raise SceneError(f"texcoords: expected a list, got {_short(texcoords)}")
+    for i, tc in enumerate(texcoords):
+        where = f"texcoords[{i}]"
+        if not isinstance(tc, dict) or tc.get("kind") not in TEXCOORD_KINDS:
+            raise SceneError(f"{where}.kind: expected one of {', '.join(TEXCOORD_KINDS)}")
+        if not isinstance(tc.get("name", ""), str):
+            raise SceneError(f"{where}.name: expected a string")
+        coords = tc.get("coords")
+        if not isinstance(coords, np.ndarray) or coords.dtype != np.float32 \
+                or coords.shape != (n_triangles, 3, 3):
+            raise SceneError(f"{where}: expected float32 coordinates of shape "
+                             f"({n_triangles}, 3, 3), got "
+                             f"{getattr(coords, 'dtype', None)} {getattr(coords, 'shape', None)}")
+        if not np.isfinite(coords).all():
+            raise SceneError(f"{where}: contains NaN or Inf")
 
 
 def _check_environment(env, images):
@@ -460,16 +534,7 @@ def _check_environment(env, images):
     if images[env["image"]]["pixels"].shape[2] != 3:
         raise SceneError(f"{where}.image: expected an RGB image (3 channels)")
     _finite_number(env.get("strength"), f"{where}.strength", 0.0)
-    try:
-        m = np.asarray(env.get("matrix"), dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
-        raise SceneError(f"{where}.matrix: expected a 3x3 matrix") from None
-    if m.shape != (3, 3):
-        raise SceneError(f"{where}.matrix: expected a 3x3 matrix, got shape {m.shape}")
-    if not np.all(np.isfinite(m)):
-        raise SceneError(f"{where}.matrix: contains NaN or Inf")
-    if not abs(np.linalg.det(m)) > 1e-12:
-        raise SceneError(f"{where}.matrix: singular (a zero scale in the mapping)")
+    _matrix3(env.get("matrix"), f"{where}.matrix")
     _finite_vec(env.get("offset"), f"{where}.offset")
     if env.get("interpolation") not in INTERPOLATIONS:
         raise SceneError(f"{where}.interpolation: expected one of {', '.join(INTERPOLATIONS)}, "
@@ -497,8 +562,10 @@ def validate(scene: Scene) -> Scene:
         raise SceneError(f"source: expected a string, got {_short(scene.source)}")
     if not isinstance(scene.materials, list):
         raise SceneError("materials: expected a list")
+    _check_images(scene.images)
+    _check_texcoords(scene.texcoords, len(tri))
     for i, mat in enumerate(scene.materials):
-        _check_material(i, mat)
+        _check_material(i, mat, scene.images, scene.texcoords)
     if len(mid) and (mid.min() < 0 or mid.max() >= len(scene.materials)):
         raise SceneError(f"material_ids: index out of range [0, {len(scene.materials)})")
     if len(oid) and (oid.min() < 0 or oid.max() >= max(len(scene.objects), 1)):
@@ -513,7 +580,6 @@ def validate(scene: Scene) -> Scene:
         raise SceneError("lights: expected a list")
     for i, light in enumerate(scene.lights):
         _check_light(i, light)
-    _check_images(scene.images)
     if not isinstance(scene.world, dict):
         raise SceneError(f"world: expected an object, got {_short(scene.world)}")
     _finite_vec(scene.world.get("color"), "world.color", positive=True)
@@ -557,6 +623,8 @@ def save(scene: Scene, path: str) -> None:
         arrays["normals"] = scene.normals
     for i, im in enumerate(scene.images):
         arrays[f"image_{i}"] = im["pixels"]
+    for i, tc in enumerate(scene.texcoords):
+        arrays[f"texcoord_{i}"] = tc["coords"]
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
@@ -616,8 +684,22 @@ def _read_images(entries, arrays) -> list:
         if pixels.dtype == np.float32 and image_hash(pixels) != entry["sha256"]:
             raise SceneError(f"{where}: pixels do not match their sha256 (a damaged file)")
         images.append({"name": entry["name"], "source": str(entry.get("source", "")),
-                       "pixels": pixels})
+                       "colorspace": entry.get("colorspace", "linear"), "pixels": pixels})
     return images
+
+
+def _read_texcoords(entries, arrays) -> list:
+    """The header's texture coordinate entries with their arrays."""
+    if not isinstance(entries, list):
+        raise SceneError(f"texcoords: expected a list, got {_short(entries)}")
+    out = []
+    for i, entry in enumerate(entries):
+        if not isinstance(entry, dict):
+            raise SceneError(f"texcoords[{i}]: expected an object")
+        if f"texcoord_{i}" not in arrays:
+            raise SceneError(f"texcoords[{i}]: missing array texcoord_{i}")
+        out.append({**entry, "coords": arrays[f"texcoord_{i}"]})
+    return out
 
 
 def load(path: str) -> Scene:
@@ -644,6 +726,7 @@ def load(path: str) -> Scene:
         raise SceneError(f"render: expected an object, got {_short(render)}")
     objects = header.get("objects")
     images = _read_images(header.get("images", []), arrays)
+    texcoords = _read_texcoords(header.get("texcoords", []), arrays)
     scene = Scene(
         positions=arrays["positions"], triangles=arrays["triangles"],
         material_ids=arrays["material_ids"], object_ids=arrays["object_ids"],
@@ -652,7 +735,7 @@ def load(path: str) -> Scene:
         camera=header.get("camera"), world=header.get("world"),
         render={**DEFAULT_RENDER, **(render or {})},
         objects=[] if objects is None else objects, source=header.get("source", ""),
-        images=images)
+        images=images, texcoords=texcoords)
     if isinstance(scene.camera, dict) and isinstance(scene.camera.get("dof"), dict):
         scene.camera["dof"] = {**DEFAULT_DOF, **scene.camera["dof"]}
     return validate(scene)
