@@ -478,3 +478,20 @@ def test_scene_file_stores_the_map(tmp_path):
         json.dumps(header).encode(), np.uint8)))
     with pytest.raises(S.SceneError, match=r"world.environment.interpolation"):
         S.load(str(tmp_path / "cubic.npz"))
+
+
+def test_building_a_large_map_needs_little_more_than_its_table():
+    """A 1k x 2k map: the tables are the two CDFs (8 bytes a texel), the image is not copied,
+    and the build's temporaries stay a few MB (bands of rows), not another table."""
+    import tracemalloc
+    image = np.random.default_rng(0).random((1024, 2048, 3), dtype=np.float32)
+    tracemalloc.start()
+    try:
+        env = build_environment(image)
+        held, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    table = env.conditional.nbytes + env.marginal.nbytes
+    assert np.shares_memory(env.image, image)
+    assert held < table + 1e6
+    assert peak < held + 12e6, (peak, held, table)      # bands of 2^18 texels

@@ -156,3 +156,35 @@ def test_roughness_texture_scaled_is_caught(floors):
                 image["pixels"] = image["pixels"] * np.float32(1.15)
     verdict, detail = _verdict(floors.compare(_modified(rougher)))
     assert verdict == "inconsistent", detail
+
+
+def test_exporter_reports_textures_it_cannot_map(tmp_path):
+    """A procedural texture, math between an image and the BSDF, and an image's Alpha are each
+    reported with the material, node and input named, and the input's unlinked value is used."""
+    from snell.addon import validate
+    scene = common.reset()
+    common.setup_render(scene, (8, 8))
+    png = checker_png(tmp_path / "c.png")
+    mat = common.material("Mixed", "principled", (0.5, 0.5, 0.5), Roughness=0.4, Metallic=0.0)
+    tree = mat.node_tree
+    bsdf = tree.nodes["Principled BSDF"]
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    tree.links.new(noise.outputs["Color"], bsdf.inputs["Base Color"])
+    image = tree.nodes.new("ShaderNodeTexImage")
+    image.image = bpy.data.images.load(png)
+    math_node = tree.nodes.new("ShaderNodeMath")
+    tree.links.new(image.outputs["Color"], math_node.inputs[0])
+    tree.links.new(math_node.outputs[0], bsdf.inputs["Roughness"])
+    tree.links.new(image.outputs["Alpha"], bsdf.inputs["Metallic"])
+    _plane("P", (0.0, 0.0, 0.0), 2.0, mat)
+    common.camera(scene, (0.0, -3.0, 2.0), (0.0, 0.0, 0.0))
+    exported, warnings = validate.load_snell_scene(common.save(str(tmp_path / "m.blend")))
+    (converted,) = exported.materials
+    assert "textures" not in converted
+    assert converted["color"] == [0.5, 0.5, 0.5] and converted["roughness"] == pytest.approx(0.4)
+    text = "\n".join(warnings)
+    for needle in ("material 'Mixed': node 'Principled BSDF': input 'Base Color' is linked to "
+                   "'Noise Texture'",
+                   "input 'Roughness' is linked to 'Math'",
+                   "input 'Metallic' is linked to an Image Texture's Alpha"):
+        assert needle in text, text

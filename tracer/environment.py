@@ -112,7 +112,7 @@ def _distribution(image, closest=False):
     conditional = np.empty((h, w + 1))
     conditional[:, 0] = 0.0
     row_sums = np.empty(h)
-    band = max(1, (1 << 20) // w)
+    band = max(1, (1 << 18) // w)    # rows per band: a few MB of temporaries
     for r in range(0, h, band):
         rows = range(r, min(h, r + band))
         sin_row = np.sin(np.pi * (np.arange(rows.start, rows.stop) + 0.5) / h)
@@ -125,7 +125,7 @@ def _distribution(image, closest=False):
         conditional[:, 1:] = sin_row[:, None] * np.arange(1, w + 1)[None, :]
         row_sums = conditional[:, w].copy()
     black = row_sums == 0.0
-    conditional[~black] /= row_sums[~black, None]
+    conditional /= np.where(black, 1.0, row_sums)[:, None]     # in place: no copy of the table
     # A black row is never picked (its marginal step is 0), but keep its CDF increasing.
     conditional[black] = np.arange(w + 1) / w
     conditional[:, w] = 1.0
