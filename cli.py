@@ -242,6 +242,17 @@ def _counts(items, order) -> str:
     return f"{len(items)}: {', '.join(parts)}" if items else "none"
 
 
+def describe_world(scene) -> str:
+    """The world as `snell info` shows it: its colour, or its environment map."""
+    env = scene.world.get("environment")
+    if env is None:
+        return str(list(scene.world["color"]))
+    image = scene.images[env["image"]]
+    h, w = image["pixels"].shape[:2]
+    return (f"environment {image['name']!r} ({w}x{h}, {env['interpolation']}), "
+            f"strength {env['strength']:g}")
+
+
 def describe(scene) -> list[str]:
     """The lines `snell info` prints."""
     from .tracer.integrator import Renderer, describe_stages
@@ -263,7 +274,7 @@ def describe(scene) -> list[str]:
         f"geometry   {_plural(len(scene.triangles), 'triangle')}{objects}",
         f"materials  {_counts(scene.materials, MATERIAL_KINDS)}",
         f"lights     {_counts(scene.lights, LIGHT_KINDS)}",
-        f"world      {list(scene.world['color'])}",
+        f"world      {describe_world(scene)}",
         f"camera     {cam.get('name', '?')!r}: {resolution}, "
         + (f"orthographic, scale {cam['ortho_scale']:g} m" if cam.get("type") == "ORTHO" else
            f"lens {cam['lens']:g} mm") + ", "

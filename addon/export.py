@@ -47,10 +47,24 @@ def _active_output(tree, idname):
     return next((n for n in outputs if n.target in ("ALL", "CYCLES")), None)
 
 
+# The inputs an Image Texture may drive (scene.TEXTURABLE).
+TEXTURE_FIELDS = ("color", "roughness", "metallic")
+
+
+def _linked_socket(socket):
+    """The output socket feeding an input (through reroutes)."""
+    while socket.is_linked:
+        link = socket.links[0]
+        if link.from_node.bl_idname != "NodeReroute":
+            return link.from_socket
+        socket = link.from_node.inputs[0]
+    return None
+
+
 def _value_text(sock):
     """A socket's unlinked value as a message shows it."""
     value = sock.default_value
-    if sock.type == "RGBA":
+    if sock.type in ("RGBA", "VECTOR", "ROTATION"):
         return "(" + ", ".join(f"{float(c):g}" for c in value[:3]) + ")"
     return f"{float(value):g}"
 
@@ -60,31 +74,43 @@ class _Inputs:
 
     def __init__(self, node, issues):
         self.node, self.issues = node, issues
+        self.textures = {}     # scene field -> the Image Texture node that drives it
 
     def _note(self, name, text):
         self.issues.append(f"node {self.node.name!r}: input {name!r} {text}")
 
-    def _socket(self, name):
+    def _socket(self, name, field=None):
         sock = self.node.inputs[name]
         source = _follow(sock)
         if source is not None:
-            self._note(name, f"is linked to {source.name!r}, which Snell cannot evaluate: using "
+            if (field in TEXTURE_FIELDS and source.bl_idname == "ShaderNodeTexImage"
+                    and _linked_socket(sock).name == "Color"):
+                self.textures[field] = source
+                return sock
+            what = ("an Image Texture's Alpha" if source.bl_idname == "ShaderNodeTexImage"
+                    else repr(source.name))
+            self._note(name, f"is linked to {what}, which Snell cannot evaluate: using "
                              f"its unlinked value {_value_text(sock)}")
         return sock
 
-    def color(self, name):
-        """The input's RGB colour."""
-        return [float(c) for c in self._socket(name).default_value[:3]]
+    def color(self, name, field=None):
+        """The input's RGB colour (an Image Texture on it is noted in self.textures when field
+        names a texturable one)."""
+        return [float(c) for c in self._socket(name, field).default_value[:3]]
 
     def value(self, name):
         """The input's number."""
         return float(self._socket(name).default_value)
 
+    def vector(self, name):
+        """The input's three numbers (a vector, an Euler rotation)."""
+        return [float(c) for c in self._socket(name).default_value[:3]]
+
     def field(self, name, field):
         """The input as the scene file's `field`: a colour, or a number clamped as Cycles does."""
         if self.node.inputs[name].type == "RGBA":
-            return self.color(name)
-        return _clamp(self.value(name), field)
+            return self.color(name, field)
+        return _clamp(float(self._socket(name, field).default_value), field)
 
     def unsupported(self, name, neutral, rendered):
         """Note an input Snell does not render, unless it has its neutral value or is missing."""
@@ -153,26 +179,33 @@ def convert_material(mat):
     if convert is None:
         issues.append(f"node {node.name!r} ({node.bl_idname}) is not supported, using grey 0.8 diffuse")
         return fallback, issues
-    return convert(name, node, _Inputs(node, issues), issues), issues
+    inputs = _Inputs(node, issues)
+    converted = convert(name, node, inputs, issues)
+    kind = converted["kind"]
+    allowed = scene_mod.TEXTURABLE.get(kind, ())
+    for field, texture in inputs.textures.items():
+        if field in allowed:
+            converted.setdefault("_textures", {})[field] = texture
+    return converted, issues
 
 
 def _diffuse(name, node, inp, issues):
     inp.unsupported("Roughness", 0.0, "Oren-Nayar diffuse is rendered as Lambert")
     inp.ignored_links("Normal")
-    return {"name": name, "kind": "diffuse", "color": inp.color("Color")}
+    return {"name": name, "kind": "diffuse", "color": inp.color("Color", "color")}
 
 
 def _glossy(name, node, inp, issues):
     inp.unsupported("Anisotropy", 0.0, "rendered isotropic")
     inp.ignored_links("Normal", "Tangent")
     # Roughness 0 stays glossy: the tracer renders it as the exact mirror.
-    return {"name": name, "kind": "glossy", "color": inp.color("Color"),
+    return {"name": name, "kind": "glossy", "color": inp.color("Color", "color"),
             "roughness": inp.field("Roughness", "roughness"),
             "distribution": _distribution(node, issues)}
 
 
 def _glass(name, node, inp, issues):
-    color = inp.color("Color")
+    color = inp.color("Color", "color")
     result = {"name": name, "kind": "glass", "color": color, "transmission_color": list(color),
               "ior": inp.field("IOR", "ior"), "roughness": inp.field("Roughness", "roughness"),
               "distribution": _distribution(node, issues)}
@@ -183,7 +216,7 @@ def _glass(name, node, inp, issues):
 
 def _refraction(name, node, inp, issues):
     inp.ignored_links("Normal")
-    return {"name": name, "kind": "refraction", "color": inp.color("Color"),
+    return {"name": name, "kind": "refraction", "color": inp.color("Color", "color"),
             "ior": inp.field("IOR", "ior"), "roughness": inp.field("Roughness", "roughness"),
             "distribution": _distribution(node, issues)}
 
@@ -214,6 +247,11 @@ PRINCIPLED_UNSUPPORTED = (
 WHITE = [1.0, 1.0, 1.0]
 
 
+def inp_textured(mat):
+    """Whether the converter noted textures on the material (see _principled)."""
+    return bool(mat.get("_textured"))
+
+
 def _principled(name, node, inp, issues):
     mat = {"name": name, "kind": "principled"}
     for field, socket in PRINCIPLED_INPUTS.items():
@@ -222,7 +260,10 @@ def _principled(name, node, inp, issues):
     for socket, neutral, rendered in PRINCIPLED_UNSUPPORTED:
         inp.unsupported(socket, neutral, rendered)
     inp.ignored_links("Normal", "Coat Normal", "Tangent")
-    return _as_smooth_glass(mat) or mat
+    mat["_textured"] = bool(inp.textures)
+    smooth = _as_smooth_glass(mat)
+    del mat["_textured"]
+    return smooth or mat
 
 
 def _as_smooth_glass(mat):
@@ -232,7 +273,8 @@ def _as_smooth_glass(mat):
     Cycles' smooth glass: it keeps the kind it had before rough surfaces, so that a scene's
     glass renders as the validator has always held it.
     """
-    exact = (mat["transmission"] == 1.0 and mat["metallic"] == 0.0 and mat["coat_weight"] == 0.0
+    exact = (not inp_textured(mat) and mat["transmission"] == 1.0 and mat["metallic"] == 0.0
+             and mat["coat_weight"] == 0.0
              and mat["roughness"] == 0.0 and mat["color"] == WHITE
              and mat["specular_tint"] == WHITE and mat["specular_ior_level"] == 0.5
              and not scene_mod.emits(mat))
@@ -275,8 +317,25 @@ def _attribute(mesh, name, count, dtype, prop="value"):
     return None if attr is None else _read(attr.data, prop, count, dtype)
 
 
-def _mesh_arrays(obj):
-    """Local-space geometry of an evaluated object, ready for instancing (see _Mesh)."""
+def _mesh_texcoords(mesh, corner_verts, co):
+    """{UV map name: (corners, 2) float32}, the active render UV map's name, and the Generated
+    coordinates (corners, 3) of a bpy mesh (Cycles: (co - texspace location) / (2 texspace
+    size) + 0.5)."""
+    nc = len(corner_verts)
+    uvs = {}
+    for layer in mesh.uv_layers:
+        uvs[layer.name] = _read(layer.uv, "vector", nc * 2, np.float32).reshape(nc, 2)
+    active = next((layer.name for layer in mesh.uv_layers if layer.active_render), "")
+    loc = np.array(mesh.texspace_location, np.float64)
+    size = np.array(mesh.texspace_size, np.float64)
+    half = np.divide(0.5, size, out=np.zeros(3), where=size != 0)
+    orco = ((co.reshape(-1, 3)[corner_verts] - loc) * half + 0.5).astype(np.float32)
+    return uvs, active, orco
+
+
+def _mesh_arrays(obj, texcoords=False):
+    """Local-space geometry of an evaluated object, ready for instancing (see _Mesh); with
+    texcoords, also its UV maps and Generated coordinates per corner."""
     mesh = obj.to_mesh()
     try:
         if mesh is None:
@@ -302,11 +361,12 @@ def _mesh_arrays(obj):
         if sharp is not None and sharp.any():
             face_n = _read(mesh.polygons, "normal", nf * 3, np.float32).reshape(nf, 3)
             _set_flat_normals(corner_n, tri_corners, tri_faces, sharp, face_n)
+        coords = _mesh_texcoords(mesh, corner_verts, co) if texcoords else None
     finally:
         obj.to_mesh_clear()
     mat_index = face_mat[tri_faces] if face_mat is not None else np.zeros(nt, np.int32)
     return _Mesh(co.reshape(nv, 3).astype(np.float64), corner_verts, tri_corners, mat_index,
-                 corner_n)
+                 corner_n, coords)
 
 
 def _set_flat_normals(corner_n, tri_corners, tri_faces, sharp, face_n):
@@ -321,13 +381,15 @@ def _set_flat_normals(corner_n, tri_corners, tri_faces, sharp, face_n):
 class _Mesh:
     """One evaluated mesh in local space: deduplicated (vertex, normal) pairs and triangles."""
 
-    def __init__(self, co, corner_verts, tri_corners, mat_index, corner_n):
-        """co: (V, 3) positions; corner_verts, corner_n: per corner; the rest per triangle."""
+    def __init__(self, co, corner_verts, tri_corners, mat_index, corner_n, coords=None):
+        """co: (V, 3) positions; corner_verts, corner_n: per corner; the rest per triangle;
+        coords: _mesh_texcoords' (UV maps, active name, Generated), or None."""
         tris = corner_verts[tri_corners]
         keep = _nondegenerate(co, tris)
         self.dropped = int(len(keep) - np.count_nonzero(keep))
         if self.dropped:
             tri_corners, tris, mat_index = tri_corners[keep], tris[keep], mat_index[keep]
+        self.tri_corners, self.coords = tri_corners, coords
         self.mat_index = mat_index
         self.closed = _is_closed(tris, len(co))
         slot = _split_vertices(corner_verts, corner_n, len(co))
@@ -335,6 +397,21 @@ class _Mesh:
         self.positions = co[corner_verts[first]]
         self.normals = corner_n[first].astype(np.float64)
         self._by_slots = {}
+
+    def texcoord(self, kind, name):
+        """(T, 3, 3) float32 texture coordinates per triangle corner: a UV map (name "" the
+        active render one; a missing map gives 0, as in Cycles) or Generated."""
+        out = np.zeros((len(self.tri_corners), 3, 3), np.float32)
+        if self.coords is None:
+            return out
+        uvs, active, orco = self.coords
+        if kind == "generated":
+            out[:] = orco[self.tri_corners]
+        else:
+            uv = uvs.get(name or active)
+            if uv is not None:
+                out[:, :, :2] = uv[self.tri_corners]
+        return out
 
     def material_ids(self, slot_ids):
         """(scene material id of each triangle, the distinct ids) for an object's slots' ids."""
@@ -585,8 +662,10 @@ def convert_camera(scene, depsgraph):
     }
 
 
-def convert_world(world, warn):
-    """World dict: the Background node's Color x Strength, else world.color; black if none."""
+def convert_world(world, warn, images=None):
+    """World dict: the Background node's Color x Strength, else world.color; black if none. An
+    Environment Texture on the Background's Color (through a Mapping node or not) makes an
+    environment map whose image is appended to `images` (the scene's image list)."""
     if world is None:
         return {"color": [0.0, 0.0, 0.0]}
     with _pywarnings.catch_warnings():
@@ -605,10 +684,111 @@ def convert_world(world, warn):
         return {"color": [0.0, 0.0, 0.0]}
     issues = []
     inp = _Inputs(node, issues)
+    texture = _follow(node.inputs["Color"])
+    if texture is not None and texture.bl_idname == "ShaderNodeTexEnvironment":
+        strength = max(inp.value("Strength"), 0.0)
+        for issue in issues:
+            warn(f"world {world.name!r}: {issue}")
+        return _environment(world, texture, strength, warn, images if images is not None else [])
     color = np.array(inp.color("Color")) * max(inp.value("Strength"), 0.0)
     for issue in issues:
         warn(f"world {world.name!r}: {issue}")
     return {"color": color.tolist()}
+
+
+# Cycles' colour for an image it cannot load (TEX_IMAGE_MISSING_R/G/B).
+MISSING_IMAGE = [1.0, 0.0, 1.0]
+TEXCOORD_DIRECTIONS = ("Generated", "Object")     # in the world, both are the ray direction
+
+
+def _environment_mapping(world, texture, warn):
+    """(A, b): the Environment Texture's coordinate is A d + b for direction d (a Mapping node
+    on its Vector input, or none)."""
+    from ..tracer.environment import mapping_transform
+    where = f"world {world.name!r}: node {texture.name!r}"
+    tm = getattr(texture, "texture_mapping", None)
+    if tm is not None and (any(abs(v) > 0 for v in tm.translation)
+                           or any(abs(v) > 0 for v in tm.rotation)
+                           or any(abs(v - 1) > 0 for v in tm.scale)):
+        warn(f"{where}: its own texture mapping (sidebar) is ignored; use a Mapping node")
+    source = _follow(texture.inputs["Vector"])
+    if source is None:
+        return np.eye(3), np.zeros(3)
+    if source.bl_idname == "ShaderNodeTexCoord":
+        return _texcoord_output(world, texture, source, warn)
+    if source.bl_idname != "ShaderNodeMapping":
+        warn(f"{where}: its Vector is linked to {source.name!r} ({source.bl_idname}), which Snell "
+             f"cannot evaluate: using the view direction")
+        return np.eye(3), np.zeros(3)
+    issues = []
+    inputs = _Inputs(source, issues)
+    kind = source.vector_type
+    location = inputs.vector("Location") if kind in ("POINT", "TEXTURE") else [0.0, 0.0, 0.0]
+    rotation = inputs.vector("Rotation")
+    scale = inputs.vector("Scale")
+    for issue in issues:
+        warn(f"world {world.name!r}: {issue}")
+    upstream = _follow(source.inputs["Vector"])
+    if upstream is None:
+        warn(f"world {world.name!r}: node {source.name!r}: its Vector is not connected (Cycles "
+             f"then maps every direction to one point of the image): using the view direction")
+    elif upstream.bl_idname == "ShaderNodeTexCoord":
+        _texcoord_output(world, source, upstream, warn)
+    else:
+        warn(f"world {world.name!r}: node {source.name!r}: its Vector is linked to "
+             f"{upstream.name!r} ({upstream.bl_idname}), which Snell cannot evaluate: using the "
+             f"view direction")
+    try:
+        a, b = mapping_transform(kind, location, rotation, scale)
+        if not abs(np.linalg.det(a)) > 1e-12:
+            raise ValueError("singular")
+    except ValueError:
+        warn(f"world {world.name!r}: node {source.name!r}: a zero scale makes the mapping "
+             f"singular: ignoring the Mapping node")
+        return np.eye(3), np.zeros(3)
+    return a, b
+
+
+def _texcoord_output(world, node, texcoord, warn):
+    """The identity mapping for a Texture Coordinate output that is the direction in the world;
+    a warning for the others."""
+    name = node.inputs["Vector"].links[0].from_socket.name
+    if name not in TEXCOORD_DIRECTIONS:
+        warn(f"world {world.name!r}: node {texcoord.name!r}: output {name!r} is not supported in "
+             f"the world: using the view direction (Generated)")
+    return np.eye(3), np.zeros(3)
+
+
+
+def _environment(world, texture, strength, warn, images):
+    """The world dict of an Environment Texture into a Background of this strength."""
+    from .images import ImageUnreadable, read_image
+    where = f"world {world.name!r}: node {texture.name!r}"
+    if texture.projection != "EQUIRECTANGULAR":
+        warn(f"{where}: {texture.projection.lower().replace('_', ' ')} projection is not "
+             f"supported: using black")
+        return {"color": [0.0, 0.0, 0.0]}
+    image = texture.image
+    if image is None:
+        warn(f"{where}: no image: using Cycles' missing-image colour")
+        return {"color": [c * strength for c in MISSING_IMAGE]}
+    try:
+        pixels, source, _ = read_image(
+            image, lambda text: warn(f"{where}: image {image.name!r}: {text}"))
+    except ImageUnreadable as exc:
+        warn(f"{where}: image {image.name!r} {exc}: using Cycles' missing-image colour")
+        return {"color": [c * strength for c in MISSING_IMAGE]}
+    interpolation = texture.interpolation.lower()
+    if interpolation not in ("linear", "closest"):
+        warn(f"{where}: {texture.interpolation} interpolation is not supported: using Linear")
+        interpolation = "linear"
+    matrix, offset = _environment_mapping(world, texture, warn)
+    images.append({"name": image.name, "source": source, "pixels": pixels})
+    return {"color": [0.0, 0.0, 0.0],
+            "environment": {"image": len(images) - 1, "strength": float(strength),
+                            "matrix": np.asarray(matrix, np.float64).tolist(),
+                            "offset": np.asarray(offset, np.float64).tolist(),
+                            "interpolation": interpolation}}
 
 
 def convert_render(scene):
@@ -649,6 +829,13 @@ def convert_render(scene):
 # The depsgraph walk
 
 
+def _uses_image_textures():
+    """Whether any material has an Image Texture node (then meshes keep their UV maps)."""
+    import bpy
+    return any(node.bl_idname == "ShaderNodeTexImage" for mat in bpy.data.materials
+               if mat.node_tree is not None for node in mat.node_tree.nodes)
+
+
 def _hidden_from_render(obj):
     """A viewport depsgraph still holds objects hidden from render; a render one does not."""
     orig = obj.original
@@ -669,6 +856,10 @@ class _Exporter:
         self.parts = []  # (_Mesh, world matrix, material ids per triangle, object id)
         self.objects = []
         self.lights = []
+        self.images = []  # the scene's images: {"name", "source", "pixels"}
+        self.image_index = {}  # bpy image pointer -> index in self.images (textures)
+        self.texcoord_keys = []  # (kind, UV map name) of the textures' coordinates
+        self.want_texcoords = _uses_image_textures()
         self._hidden = {}  # original object pointer -> hidden from render
 
     def warn(self, message):
@@ -687,6 +878,15 @@ class _Exporter:
         key = mat.original if mat is not None else None
         if key not in self.material_ids:
             converted, issues = convert_material(mat)
+            nodes = converted.pop("_textures", None)
+            if nodes:
+                textures = {}
+                for field, node in nodes.items():
+                    spec = self.texture(node, issues)
+                    if spec is not None:
+                        textures[field] = spec
+                if textures:
+                    converted["textures"] = textures
             self.material_ids[key] = (len(self.materials), issues)
             self.materials.append(converted)
         index, issues = self.material_ids[key]
@@ -694,6 +894,89 @@ class _Exporter:
         for issue in issues:
             self.warn(f"object {obj_name!r}, material {mat_name!r}: {issue}")
         return index
+
+    def texture(self, node, issues):
+        """The scene file's texture entry of an Image Texture node, its image and coordinates
+        added to the scene's; None (with an issue: the input's unlinked value is used) if it
+        cannot be read."""
+        from ..tracer.environment import mapping_transform
+        from .images import ImageUnreadable, read_image
+        where = f"node {node.name!r}"
+        image = node.image
+        if image is None:
+            issues.append(f"{where}: no image: using the input's unlinked value")
+            return None
+        key = image.original.as_pointer() if hasattr(image, "original") else image.as_pointer()
+        if key not in self.image_index:
+            notes = []
+            try:
+                pixels, source, colorspace = read_image(image, notes.append, decode=False)
+            except ImageUnreadable as exc:
+                issues.append(f"{where}: image {image.name!r} {exc}: using the input's unlinked "
+                              f"value")
+                return None
+            for note in notes:
+                issues.append(f"{where}: image {image.name!r}: {note}")
+            self.images.append({"name": image.name, "source": source, "colorspace": colorspace,
+                                "pixels": pixels})
+            self.image_index[key] = len(self.images) - 1
+        interpolation = node.interpolation.lower()
+        if interpolation not in ("linear", "closest"):
+            issues.append(f"{where}: {node.interpolation} interpolation is not supported: using "
+                          f"Linear")
+            interpolation = "linear"
+        if node.projection != "FLAT":
+            issues.append(f"{where}: {node.projection.lower()} projection is not supported: "
+                          f"using Flat")
+        matrix, offset = np.eye(3), np.zeros(3)
+        source_node = _follow(node.inputs["Vector"])
+        socket = node.inputs["Vector"]
+        if source_node is not None and source_node.bl_idname == "ShaderNodeMapping":
+            m_issues = []
+            inputs = _Inputs(source_node, m_issues)
+            kind = source_node.vector_type
+            location = inputs.vector("Location") if kind in ("POINT", "TEXTURE") else [0, 0, 0]
+            matrix, offset = mapping_transform(kind, location, inputs.vector("Rotation"),
+                                               inputs.vector("Scale"))
+            issues.extend(m_issues)
+            socket = source_node.inputs["Vector"]
+            source_node = _follow(socket)
+        coord = ("uv", "")
+        if source_node is None:
+            pass
+        elif source_node.bl_idname == "ShaderNodeUVMap":
+            coord = ("uv", source_node.uv_map)
+        elif source_node.bl_idname == "ShaderNodeTexCoord":
+            output = _linked_socket(socket).name
+            if output == "Generated":
+                coord = ("generated", "")
+            elif output != "UV":
+                issues.append(f"{where}: texture coordinate {output!r} is not supported: using "
+                              f"the active UV map")
+        else:
+            issues.append(f"{where}: its Vector is linked to {source_node.name!r}, which Snell "
+                          f"cannot evaluate: using the active UV map")
+        if coord not in self.texcoord_keys:
+            self.texcoord_keys.append(coord)
+        return {"image": self.image_index[key], "texcoord": self.texcoord_keys.index(coord),
+                "interpolation": interpolation, "extension": node.extension.lower(),
+                "matrix": np.asarray(matrix, np.float64).tolist(),
+                "offset": np.asarray(offset, np.float64).tolist()}
+
+    def texcoords(self):
+        """The scene's texture coordinate entries: each key's coordinates over every part."""
+        out = []
+        for kind, name in self.texcoord_keys:
+            parts = []
+            for mesh, matrix, _, _ in self.parts:
+                coords = mesh.texcoord(kind, name)
+                if _det3(matrix) < 0:        # _to_world swaps two corners of mirrored parts
+                    coords = coords[:, [0, 2, 1]]
+                parts.append(coords)
+            coords = np.concatenate(parts) if parts else np.zeros((0, 3, 3), np.float32)
+            out.append({"kind": kind, "name": name,
+                        "coords": np.ascontiguousarray(coords, np.float32)})
+        return out
 
     def add_instance(self, inst):
         """Record one depsgraph instance; the geometry is transformed later, per mesh (scene())."""
@@ -741,7 +1024,7 @@ class _Exporter:
         # with modifiers each object's evaluated data is its own.
         key = (obj.type == "MESH" and obj.data.as_pointer()) or ("object", obj.as_pointer())
         if key not in self.meshes:
-            self.meshes[key] = _mesh_arrays(obj)
+            self.meshes[key] = _mesh_arrays(obj, self.want_texcoords)
         return self.meshes[key]
 
     def geometry(self):
@@ -777,8 +1060,9 @@ class _Exporter:
             material_ids=material_ids.astype(np.int32),
             object_ids=np.repeat(np.array([p[3] for p in self.parts], np.int32), n_tris),
             materials=self.materials, lights=self.lights, camera=camera,
-            world=convert_world(bl_scene.world, self.warn), render=convert_render(bl_scene),
-            objects=self.objects, source=source)
+            world=convert_world(bl_scene.world, self.warn, self.images),
+            render=convert_render(bl_scene), objects=self.objects, source=source,
+            images=self.images, texcoords=self.texcoords())
 
 
 def _rows(starts, length):

@@ -19,7 +19,7 @@ import traceback
 import numpy as np
 
 from ..tracer.progress import describe_adaptive, fraction_done, pixels_sampling, time_left
-from ..tracer.scene import SceneError
+from ..tracer.scene import SceneError, has_world_light
 from . import window
 
 MAX_REPORTED_WARNINGS = 20
@@ -78,7 +78,7 @@ def _export(engine, depsgraph, record):
                                    f"more warnings (see the console)")
         for message in warnings[MAX_REPORTED_WARNINGS:]:
             print(f"Snell: warning: {message}", file=sys.stderr)
-    if len(scene.triangles) == 0 and not scene.lights and not any(scene.world["color"]):
+    if len(scene.triangles) == 0 and not scene.lights and not has_world_light(scene.world):
         message = "the scene has no geometry, no lights and a black world: the image is black"
         record["warnings"].append(message)
         engine.report({"WARNING"}, f"Snell: {message}")

@@ -45,8 +45,11 @@ class _CachedExporter(_Exporter):
             return super().mesh_of(inst)
         name = inst.object.name_full
         self.live.seen.add(name)
-        if name not in self.live.meshes:
-            self.live.meshes[name] = _mesh_arrays(inst.object)
+        cached = self.live.meshes.get(name)
+        # A mesh cached before any material had an image texture has no texture coordinates.
+        if name not in self.live.meshes or (self.want_texcoords and cached is not None
+                                            and cached.coords is None):
+            self.live.meshes[name] = _mesh_arrays(inst.object, self.want_texcoords)
             self.live.extracted.append(name)
         return self.live.meshes[name]
 

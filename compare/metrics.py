@@ -161,7 +161,10 @@ def compare(a, va, dfa, b, vb, dfb, *, halves=None):
     m = int(noisy.sum())
     alpha_px = sidak(ALPHA, m)
     exact_ok = np.abs(diff) <= EXACT_RTOL * np.maximum(np.abs(a), np.abs(b)) + 1e-7
-    ok = np.where(noisy, p >= alpha_px, exact_ok)
+    # A difference within float rounding passes even where a variance is not zero: a pixel that
+    # sees one constant (a texture's flat region, interpolated with weights that sum to 1 only
+    # to rounding) has a variance of rounding size, and its z would be meaningless.
+    ok = np.where(noisy, (p >= alpha_px) | exact_ok, exact_ok)
     pixel_ok = ok.all(axis=2)
     pass_fraction = float(pixel_ok.mean())
     exact_fail = int((~exact_ok & ~noisy).any(axis=2).sum())
@@ -181,7 +184,7 @@ def compare(a, va, dfa, b, vb, dfb, *, halves=None):
     alpha_blk = sidak(ALPHA, int(bnoisy.sum()))
     babs = _blocks(np.abs(a) + np.abs(b), k) / n
     bexact = np.abs(bd) <= EXACT_RTOL * babs + 1e-7
-    block_ok = np.where(bnoisy, bp >= alpha_blk, bexact)
+    block_ok = np.where(bnoisy, (bp >= alpha_blk) | bexact, bexact)
     blocks_failed = int((~block_ok).any(axis=2).sum())
 
     # 3. image means per channel

@@ -102,8 +102,15 @@ def test_axis_convention_matches_cycles():
     env = build_environment(image)
     assert env_lookup(env, (1.0, 0.0, 0.0))[0] == pytest.approx(w / 2 - 0.5 + 1000 * (h / 2 - 0.5))
     assert env_lookup(env, (0.0, 1.0, 0.0))[0] == pytest.approx(w / 4 - 0.5 + 1000 * (h / 2 - 0.5))
-    assert env_lookup(env, (0.0, 0.0, 1.0))[0] // 1000 == 0
-    assert env_lookup(env, (0.0, 0.0, -1.0))[0] // 1000 == h - 1
+    # At the poles Cycles' Repeat extension (the Environment Texture's, device/cpu/image.h
+    # interp_linear) blends the top and bottom rows half and half.
+    pole = w / 2 - 0.5 + 1000 * (h - 1) / 2
+    assert env_lookup(env, (0.0, 0.0, 1.0))[0] == pytest.approx(pole)
+    assert env_lookup(env, (0.0, 0.0, -1.0))[0] == pytest.approx(pole)
+    # A quarter row from the top: three quarters row 0, one quarter the bottom row.
+    z = math.cos(math.pi * 0.25 / h)
+    near = (math.sqrt(1 - z * z), 0.0, z)
+    assert env_lookup(env, near)[0] == pytest.approx(w / 2 - 0.5 + 1000 * (h - 1) / 4)
 
 
 def test_constant_map_is_uniform():
@@ -231,4 +238,260 @@ def test_memory_is_image_plus_distribution():
     assert env.marginal.shape == (h + 1,) and env.marginal.dtype == np.float64
     assert env.conditional.shape == (h, w + 1) and env.conditional.dtype == np.float64
     assert environment.EnvironmentMap._fields == ("image", "marginal", "conditional", "strength",
-                                                  "rot_cos", "rot_sin")
+                                                  "matrix", "inverse", "offset", "det",
+                                                  "uniform", "closest", "pixels")
+
+
+# ---------------------------------------------------------------------------------------------
+# General mappings, Closest interpolation
+
+
+@numba.njit(cache=True)
+def _texture_directions(env, d, out):
+    """The unit texture direction of every world direction."""
+    for i in range(d.shape[0]):
+        t = environment.to_texture(env, (d[i, 0], d[i, 1], d[i, 2]))
+        n = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
+        out[i, 0], out[i, 1], out[i, 2] = t[0] / n, t[1] / n, t[2] / n
+
+
+MAPPINGS = {
+    "euler-xyz": ("POINT", (0, 0, 0), (0.4, -0.7, 2.0), (1, 1, 1)),
+    "scaled": ("VECTOR", (0, 0, 0), (0.2, 0.1, -0.5), (1.0, 2.0, 0.5)),
+    "texture": ("TEXTURE", (0, 0, 0), (0.3, 0.0, 1.0), (0.7, 1.0, 1.3)),
+}
+
+
+@pytest.mark.parametrize("name", list(MAPPINGS))
+def test_mapping_node_matrix_sampling(name):
+    """Any Mapping node without a location (rotation about every axis, scale, the Texture type):
+    samples carry the density pdf_env gives them, the radiance is the image at the mapped
+    direction, and the sampled directions follow the density (chi-square, 1% over the three)."""
+    a, b = environment.mapping_transform(*MAPPINGS[name])
+    assert not np.any(b)
+    env = build_environment(smooth_map(), matrix=a)
+    d, radiance, pdf = sample(env, 100_000, seed=5)
+    again, lookup = evaluate(env, d)
+    np.testing.assert_allclose(again, pdf, rtol=1e-9)
+    t = np.zeros_like(d)
+    _texture_directions(env, d, t)
+    np.testing.assert_allclose(t, (d @ a.T) / np.linalg.norm(d @ a.T, axis=1)[:, None], atol=1e-12)
+    plain = build_environment(smooth_map())
+    np.testing.assert_allclose(evaluate(plain, t)[1], lookup, rtol=1e-9)
+    grid = SphereGrid((0.0, 0.0, 1.0), 1)
+    n = 400_000
+    d, _, _ = sample(env, n, seed=13)
+    probability = integrate_bins(lambda x: evaluate(env, x)[0], grid).ravel()
+    assert probability.sum() == pytest.approx(1.0, abs=3e-3)
+    assert _chi2_pvalue(grid.histogram(d).ravel(), probability / probability.sum() * n) > 0.01 / 3
+
+
+def test_mapping_node_formulas():
+    """Cycles' svm_mapping: Point R (S v) + L, Texture R^T (v - L) / S, Vector R (S v), Normal
+    R (v / S), R = Rz Ry Rx (Blender's XYZ Euler)."""
+    v = np.array([0.3, -0.5, 0.8])
+    loc, rot, scale = np.array([0.1, 0.2, -0.3]), (0.4, -0.7, 2.0), np.array([1.0, 2.0, 0.5])
+    cx, sx, cy, sy, cz, sz = (np.cos(0.4), np.sin(0.4), np.cos(-0.7), np.sin(-0.7), np.cos(2.0),
+                              np.sin(2.0))
+    r = (np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+         @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+         @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]]))
+    expected = {"POINT": r @ (v * scale) + loc, "TEXTURE": r.T @ (v - loc) / scale,
+                "VECTOR": r @ (v * scale), "NORMAL": r @ (v / scale)}
+    for kind, want in expected.items():
+        a, b = environment.mapping_transform(kind, loc, rot, scale)
+        np.testing.assert_allclose(a @ v + b, want, atol=1e-12)
+
+
+def test_location_samples_uniformly_and_looks_up_exactly():
+    """A Mapping location (b != 0) keeps the lookup exact (the image at normalise(A d + b)) and
+    samples directions uniformly, so the estimate stays unbiased."""
+    a, b = environment.mapping_transform("POINT", (0.2, 0.0, -0.1), (0, 0, 0.5), (1, 1, 1))
+    env = build_environment(smooth_map(), matrix=a, offset=b)
+    assert env.uniform
+    d, radiance, pdf = sample(env, 2000, seed=2)
+    np.testing.assert_allclose(pdf, 1 / (4 * np.pi))
+    t = d @ a.T + b
+    t /= np.linalg.norm(t, axis=1)[:, None]
+    np.testing.assert_allclose(evaluate(build_environment(smooth_map()), t)[1], radiance,
+                               rtol=1e-9)
+
+
+def test_closest_interpolation_reads_one_texel():
+    """Closest: every direction reads the texel it falls in (Cycles' interp_closest)."""
+    h, w = 16, 32
+    image = np.zeros((h, w, 3), np.float32)
+    image[:] = (np.arange(w)[None, :] + 1000.0 * np.arange(h)[:, None])[:, :, None]
+    env = build_environment(image, closest=True)
+    d = uniform_directions(5000, 4)
+    _, radiance = evaluate(env, d)
+    u = (np.pi - np.arctan2(d[:, 1], d[:, 0])) / (2 * np.pi)
+    theta = np.arccos(np.clip(d[:, 2], -1, 1))
+    col = np.floor(u * w).astype(int) % w
+    row = np.floor(theta / np.pi * h).astype(int) % h
+    np.testing.assert_allclose(radiance[:, 0], col + 1000.0 * row)
+
+
+# ---------------------------------------------------------------------------------------------
+# Rendering with an environment map, and the scene file
+
+
+def with_environment(scene, image, strength=1.0, matrix=None, interpolation="linear"):
+    """The scene with its world replaced by an environment map of image (validated)."""
+    from snell.tracer.scene import validate
+    scene.images = [{"name": "map", "source": "test", "pixels": np.asarray(image, np.float32)}]
+    scene.world = {"color": [0.0, 0.0, 0.0], "environment": {
+        "image": 0, "strength": float(strength),
+        "matrix": (np.eye(3) if matrix is None else np.asarray(matrix)).tolist(),
+        "offset": [0.0, 0.0, 0.0], "interpolation": interpolation}}
+    return validate(scene)
+
+
+def _sphere_scene(world=(0.0, 0.0, 0.0), spp=64):
+    from builders import camera, icosphere, make_scene
+    pos, tri, nrm = icosphere(3, 1.0)
+    mats = [{"name": "white", "kind": "diffuse", "color": [0.8, 0.6, 0.4]}]
+    return make_scene([(pos, tri, 0, nrm)], mats, camera((0, 0, 5), (24, 24)), world=world,
+                      spp=spp, max_depth=4)
+
+
+def _render(scene, **kw):
+    from snell.tracer.integrator import Renderer
+    result = Renderer(scene, threads=2, sampler="independent", **kw).render()
+    return result.mean().astype(np.float64), result.variance_of_mean(), result
+
+
+def test_constant_map_renders_as_the_uniform_world():
+    """A diffuse sphere (convex: it never sees itself) under a constant map of radiance c shows
+    albedo x c, the background c, exactly as under the uniform world c; the two renders agree
+    pixel by pixel within 4.5 sigma (the map's next-event estimation and MIS at work)."""
+    c = np.array([0.5, 0.7, 0.9])
+    uniform = _sphere_scene(world=tuple(c))
+    mapped = with_environment(_sphere_scene(), np.broadcast_to(c / 2, (16, 32, 3)), strength=2.0)
+    a, va, _ = _render(uniform)
+    b, vb, result = _render(mapped)
+    assert result.stages["environment"][0]
+    on_sphere = np.zeros(a.shape[:2], bool)
+    on_sphere[9:15, 9:15] = True            # the sphere fills the middle of the 24 x 24 image
+    for image, var in ((a, va), (b, vb)):
+        np.testing.assert_allclose(image[~on_sphere & (var.max(axis=2) == 0)], np.tile(c, (1, 1))
+                                   .repeat(int((~on_sphere & (var.max(axis=2) == 0)).sum()), 0),
+                                   rtol=1e-6)
+        z = (image[on_sphere] - np.array([0.8, 0.6, 0.4]) * c) / np.sqrt(var[on_sphere])
+        assert np.abs(z).max() < 4.5
+    z = (a - b) / np.sqrt(np.maximum(va + vb, 1e-30))
+    assert np.abs(z).max() < 4.5
+
+
+def _wall_scene(normal, spp):
+    """A diffuse square of albedo 0.5 facing `normal`, filling a pinhole camera's view."""
+    from builders import camera, make_scene, quad
+    pos, tri = quad((0.0, 0.0, 0.0), 1.0, 1.0)
+    n = np.asarray(normal, np.float64)
+    n /= np.linalg.norm(n)
+    # Rotate +Z onto n (Rodrigues), and the camera with it, 3 m in front.
+    axis = np.cross([0.0, 0.0, 1.0], n)
+    s, c = np.linalg.norm(axis), n[2]
+    k = np.zeros((3, 3)) if s == 0 else np.cross(np.eye(3), axis / s)
+    r = np.eye(3) + s * k + (1 - c) * k @ k
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = r, 3.0 * n
+    cam = camera((0, 0, 0), (8, 8), lens=120.0)
+    cam["matrix"] = m.tolist()
+    mats = [{"name": "wall", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
+    return make_scene([((pos.astype(np.float64) @ r.T).astype(np.float32), tri, 0)], mats, cam,
+                      spp=spp, max_depth=1)
+
+
+def _small_source(h=256, w=512, row=100, col=300, value=1000.0):
+    """A black map with one bright texel: (image, the texel centre's direction, its solid
+    angle)."""
+    image = np.zeros((h, w, 3), np.float32)
+    image[row, col] = value
+    u, v = (col + 0.5) / w, 1.0 - (row + 0.5) / h
+    d = np.array(equirectangular_to_direction(u, v))
+    theta = np.pi * (row + 0.5) / h
+    return image, d, (2 * np.pi / w) * (np.pi / h) * np.sin(theta)
+
+
+@pytest.mark.parametrize("rotation", [0.0, 2.0], ids=["plain", "turned"])
+def test_one_bright_texel_gives_the_irradiance_of_a_small_source(rotation):
+    """A wall facing the bright texel's direction sideways (45 degrees off it) receives
+    E = L Omega cos(45) (the texel a small source; bilinear filtering spreads but keeps its
+    integral, to (pi / H)^2); its radiance is albedo E / pi. Turning the Mapping node by a turns
+    the source by -a about Z: a wall facing the turned direction gets the same light, one facing
+    the unturned direction gets a different one."""
+    image, d, omega = _small_source()
+    rz = environment.rotation_matrix((0.0, 0.0, rotation))
+    seen = rz.T @ d                         # where the source appears after the rotation
+    # A normal 45 degrees from the source, in the plane of the source and +Z.
+    side = np.cross(seen, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    normal = np.cos(np.pi / 4) * seen + np.sin(np.pi / 4) * np.cross(side, seen)
+    expected = 0.5 * 1000.0 * omega * np.cos(np.pi / 4) / np.pi
+    scene = with_environment(_wall_scene(normal, spp=32), image, matrix=rz)
+    img, var, _ = _render(scene)
+    wall = img[2:6, 2:6].mean(axis=(0, 1))
+    se = np.sqrt(var[2:6, 2:6].sum(axis=(0, 1))) / 16
+    assert np.all(np.abs(wall - expected) < 4.5 * se + 2e-3 * expected), (wall, expected, se)
+    if rotation:
+        # The unturned direction's wall sees the source at another angle.
+        unturned_side = np.cross(d, [0.0, 0.0, 1.0])
+        unturned_side /= np.linalg.norm(unturned_side)
+        normal0 = np.cos(np.pi / 4) * d + np.sin(np.pi / 4) * np.cross(unturned_side, d)
+        other = with_environment(_wall_scene(normal0, spp=32), image, matrix=rz)
+        img0, _, _ = _render(other)
+        cos0 = max(float(normal0 @ seen), 0.0)
+        want0 = 0.5 * 1000.0 * omega * cos0 / np.pi
+        assert abs(img0[2:6, 2:6].mean() - want0) < 0.02 * expected + 4.5 * se.max()
+        assert abs(want0 - expected) > 0.2 * expected
+
+
+def test_scene_file_stores_the_map(tmp_path):
+    """The scene file holds the image and its SHA-256; it loads back equal, and a file whose
+    pixels do not match the hash, or whose environment names no image, is refused by name."""
+    import json
+
+    from snell.tracer import scene as S
+    image = smooth_map()
+    sc = with_environment(_sphere_scene(), image, strength=1.5,
+                          matrix=environment.rotation_matrix((0, 0, 0.4)))
+    path = tmp_path / "env.snell"
+    S.save(sc, str(path))
+    back = S.load(str(path))
+    np.testing.assert_array_equal(back.images[0]["pixels"], image)
+    assert back.world == sc.world and back.features()["environment"]
+    with np.load(path) as npz:
+        data = {k: npz[k] for k in npz.files}
+    damaged = dict(data, image_0=data["image_0"] * np.float32(1.01))
+    np.savez(tmp_path / "damaged.snell.npz", **damaged)
+    with pytest.raises(S.SceneError, match=r"images\[0\] \('map'\): pixels do not match"):
+        S.load(str(tmp_path / "damaged.snell.npz"))
+    header = json.loads(data["header"].tobytes())
+    header["world"]["environment"]["image"] = 3
+    np.savez(tmp_path / "noimage.npz", **dict(data, header=np.frombuffer(
+        json.dumps(header).encode(), np.uint8)))
+    with pytest.raises(S.SceneError, match=r"world.environment.image"):
+        S.load(str(tmp_path / "noimage.npz"))
+    header["world"]["environment"].update(image=0, interpolation="cubic")
+    np.savez(tmp_path / "cubic.npz", **dict(data, header=np.frombuffer(
+        json.dumps(header).encode(), np.uint8)))
+    with pytest.raises(S.SceneError, match=r"world.environment.interpolation"):
+        S.load(str(tmp_path / "cubic.npz"))
+
+
+def test_building_a_large_map_needs_little_more_than_its_table():
+    """A 1k x 2k map: the tables are the two CDFs (8 bytes a texel), the image is not copied,
+    and the build's temporaries stay a few MB (bands of rows), not another table."""
+    import tracemalloc
+    image = np.random.default_rng(0).random((1024, 2048, 3), dtype=np.float32)
+    tracemalloc.start()
+    try:
+        env = build_environment(image)
+        held, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    table = env.conditional.nbytes + env.marginal.nbytes
+    assert np.shares_memory(env.image, image)
+    assert held < table + 1e6
+    assert peak < held + 12e6, (peak, held, table)      # bands of 2^18 texels

@@ -128,7 +128,7 @@ def test_linked_duplicates_each_with_its_own_matrix(bl):
 def test_instancing_converts_each_mesh_once(bl, monkeypatch):
     calls = []
     original = export._mesh_arrays
-    monkeypatch.setattr(export, "_mesh_arrays", lambda obj: calls.append(obj.name) or original(obj))
+    monkeypatch.setattr(export, "_mesh_arrays", lambda obj, *a: calls.append(obj.name) or original(obj, *a))
     a = cube("A", location=(-3.0, 0.0, 0.0))
     b = a.copy()
     b.name = "B"

@@ -29,8 +29,9 @@ def test_round_trip_keeps_arrays_and_header(good):
         assert getattr(back, key).dtype == getattr(sc, key).dtype
     assert back.materials == sc.materials and back.lights == sc.lights and back.camera == sc.camera
     assert back.features() == {"glass": True, "mirrors": False, "rough": False,
-                               "depth_of_field": False, "environment": False,
-                               "emissive_meshes": True}
+                               "depth_of_field": False, "world": False,
+                               "environment": False, "emissive_meshes": True,
+                               "textures": False}
 
 
 def _rewrite(path, out, header=None, **arrays):

@@ -34,8 +34,9 @@ FUZZ = settings.get_profile("snell-fuzz")
 
 # The first word of every SceneError message is one of these fields (or the file's path).
 FIELDS = ("header", "positions", "triangles", "material_ids", "object_ids", "normals", "materials",
-          "lights", "camera", "world", "render", "objects", "source")
-ARRAYS = ("positions", "triangles", "material_ids", "object_ids", "normals")
+          "lights", "camera", "world", "render", "objects", "source", "images", "texcoords")
+ARRAYS = ("positions", "triangles", "material_ids", "object_ids", "normals", "image_0",
+          "texcoord_0")
 
 
 def rich_scene() -> Scene:
@@ -63,6 +64,16 @@ def rich_scene() -> Scene:
         {"name": "Spot", "kind": "spot", "position": [0.0, 1.0, 0.0], "intensity": [1.0, 1.0, 1.0],
          "matrix": np.eye(4).tolist(), "spot_size": 1.0, "spot_blend": 0.2},
     ]
+    # An environment map and a texture on the principled material, sharing one image.
+    scene.images = [{"name": "sky", "source": "test", "colorspace": "linear",
+                     "pixels": np.full((2, 4, 3), 0.5, np.float32)}]
+    scene.texcoords = [{"kind": "uv", "name": "",
+                        "coords": np.zeros((len(scene.triangles), 3, 3), np.float32)}]
+    mapping = {"matrix": np.eye(3).tolist(), "offset": [0.0, 0.0, 0.0]}
+    scene.world = {"color": [0.0, 0.0, 0.0], "environment": {
+        "image": 0, "strength": 1.0, "interpolation": "linear", **mapping}}
+    scene.materials[-1]["textures"] = {"roughness": {
+        "image": 0, "texcoord": 0, "interpolation": "closest", "extension": "clip", **mapping}}
     return scene
 
 

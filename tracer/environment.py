@@ -11,9 +11,19 @@ bottom row, so row r of the array spans polar angles theta in [pi r / H, pi (r +
 is the sky. The distribution is piecewise constant over texels in (u, v), each texel weighted by
 its luminance times sin(theta) at the row's centre (scene/light.cpp, background_cdf); its density
 in solid angle is p(u, v) / (2 pi^2 sin theta) at the direction's own theta
-(kernel/light/background.h, background_map_sample). A Mapping node's Z rotation (Point type,
+(kernel/light/background.h, background_map_sample). One deliberate difference: Cycles weighs a
+texel by the luminance at its centre, but Linear interpolation spreads a texel's light over its
+neighbours' areas, where a dark neighbour then has no density and only BSDF sampling finds that
+light (a one-texel sun lost about half its light to next-event estimation that way, rendering
+it as noise); here a texel's weight is the integral of the interpolated luminance over its area.
+A Mapping node's Z rotation (Point type,
 kernel/svm/mapping_util.h) turns the world direction d into the texture coordinate Rz(angle) d,
-so the image appears turned by -angle about Z.
+so the image appears turned by -angle about Z. A Mapping node in general (any type, rotation,
+scale, location) makes the texture coordinate an affine function A d + b of the direction,
+which the Environment Texture normalises; for b = 0 the map samples its image's distribution
+in texture space and carries the density to world directions by the Jacobian
+|det A| / |A d|^3, and with a location (b != 0, rare for a world) it samples directions
+uniformly.
 """
 from __future__ import annotations
 
@@ -23,6 +33,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .jit import jit
+from .sampling import sample_uniform_sphere
+from .textures import REPEAT, sample_image
 
 REC709 = np.array([0.2126, 0.7152, 0.0722])
 
@@ -33,33 +45,87 @@ class EnvironmentMap(NamedTuple):
     marginal: np.ndarray  # (H + 1,) float64 CDF over rows, marginal[H] = 1
     conditional: np.ndarray  # (H, W + 1) float64 CDF over each row's texels, last column 1
     strength: float
-    rot_cos: float        # cos and sin of the Mapping node's Z rotation
-    rot_sin: float
+    matrix: np.ndarray    # (3, 3) A: texture coordinate = A d + offset for world direction d
+    inverse: np.ndarray   # (3, 3) A^-1
+    offset: np.ndarray    # (3,) b
+    det: float            # |det A|
+    uniform: bool         # sample directions uniformly (a location in the mapping, or asked)
+    closest: bool         # Closest interpolation (else Linear)
+    pixels: np.ndarray    # (H W, 3) the image's texels as rows (a view of image)
 
 
-def build_environment(image, strength=1.0, rotation=0.0) -> EnvironmentMap:
-    """The map of a float32 (H, W, 3) linear RGB image (top row first), its strength and the Z
-    rotation in radians of a Mapping node in front of it."""
-    image = np.ascontiguousarray(image, dtype=np.float32)
-    if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 1 or image.shape[1] < 1:
-        raise ValueError(f"environment image must be (H, W, 3), got {image.shape}")
-    if not np.isfinite(image).all():
-        raise ValueError("environment image has NaN or Inf")
+def rotation_matrix(euler) -> np.ndarray:
+    """Blender's XYZ Euler rotation, Rz Ry Rx (Cycles' euler_to_transform)."""
+    x, y, z = (float(a) for a in euler)
+    rx = np.array([[1, 0, 0], [0, math.cos(x), -math.sin(x)], [0, math.sin(x), math.cos(x)]])
+    ry = np.array([[math.cos(y), 0, math.sin(y)], [0, 1, 0], [-math.sin(y), 0, math.cos(y)]])
+    rz = np.array([[math.cos(z), -math.sin(z), 0], [math.sin(z), math.cos(z), 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def mapping_transform(kind, location, rotation, scale):
+    """(A, b) of a Mapping node of kind POINT, TEXTURE, VECTOR or NORMAL: its output is A v + b
+    up to a positive factor (Cycles' svm_mapping; the Environment Texture normalises it)."""
+    r = rotation_matrix(rotation)
+    s = np.asarray(scale, np.float64)
+    location = np.asarray(location, np.float64)
+    # Cycles' safe_divide: a zero scale gives a zero component.
+    inv_s = np.divide(1.0, s, out=np.zeros(3), where=s != 0.0)
+    if kind == "POINT":
+        return r @ np.diag(s), location
+    if kind == "TEXTURE":
+        a = np.diag(inv_s) @ r.T
+        return a, -(a @ location)
+    if kind == "VECTOR":
+        return r @ np.diag(s), np.zeros(3)
+    if kind == "NORMAL":
+        return r @ np.diag(inv_s), np.zeros(3)
+    raise ValueError(f"unknown mapping type {kind!r}")
+
+
+# The share of a texel's own area that Linear interpolation gives to it and to each neighbour,
+# along one axis: between texel centres it blends two texels, so over a texel's area the one to
+# each side weighs 1/8 and the texel itself 3/4.
+LINEAR_SPREAD = (0.125, 0.75, 0.125)
+
+
+def _luminance_rows(image, rows, closest):
+    """Luminance (>= 0) of image rows `rows` (a range), each texel's as Linear interpolation
+    spreads it: the integral of the interpolated luminance over the texel's area (neighbours
+    wrap in u and v, as Cycles' Repeat extension), so that every texel whose area sees light has
+    a weight. Closest reads each texel alone."""
+    h = image.shape[0]
+    weights = REC709.astype(np.float32)
+    if closest:
+        return np.maximum(image[rows.start:rows.stop] @ weights, 0.0).astype(np.float64)
+    index = np.arange(rows.start - 1, rows.stop + 1) % h
+    lum = np.maximum(image[index] @ weights, 0.0).astype(np.float64)
+    a, b, c = LINEAR_SPREAD
+    lum = a * np.roll(lum, 1, axis=1) + b * lum + c * np.roll(lum, -1, axis=1)
+    return a * lum[:-2] + b * lum[1:-1] + c * lum[2:]
+
+
+def _distribution(image, closest=False):
+    """(marginal, conditional) CDFs over texels of luminance x sin(theta), a band of rows at a
+    time (no full-size temporary beyond the conditional table itself)."""
     h, w = image.shape[:2]
-    sin_row = np.sin(np.pi * (np.arange(h) + 0.5) / h)
-    # Negative luminance (an EXR may hold negative components) would make the CDF decrease.
-    weights = np.maximum(image @ REC709.astype(np.float32), 0.0).astype(np.float64)
-    weights *= sin_row[:, None]
-    if not weights.sum() > 0.0:
-        # A black map is never worth sampling; a uniform-ish distribution keeps the tables valid.
-        weights = np.broadcast_to(sin_row[:, None], (h, w)).copy()
-    row_sums = weights.sum(axis=1)
     conditional = np.empty((h, w + 1))
     conditional[:, 0] = 0.0
-    np.cumsum(weights, axis=1, out=conditional[:, 1:])
-    del weights
+    row_sums = np.empty(h)
+    band = max(1, (1 << 18) // w)    # rows per band: a few MB of temporaries
+    for r in range(0, h, band):
+        rows = range(r, min(h, r + band))
+        sin_row = np.sin(np.pi * (np.arange(rows.start, rows.stop) + 0.5) / h)
+        lum = _luminance_rows(image, rows, closest) * sin_row[:, None]
+        np.cumsum(lum, axis=1, out=conditional[rows.start:rows.stop, 1:])
+        row_sums[rows.start:rows.stop] = conditional[rows.start:rows.stop, w]
+    if not row_sums.sum() > 0.0:
+        # A black map is never worth sampling; a uniform-ish distribution keeps the tables valid.
+        sin_row = np.sin(np.pi * (np.arange(h) + 0.5) / h)
+        conditional[:, 1:] = sin_row[:, None] * np.arange(1, w + 1)[None, :]
+        row_sums = conditional[:, w].copy()
     black = row_sums == 0.0
-    conditional[~black] /= row_sums[~black, None]
+    conditional /= np.where(black, 1.0, row_sums)[:, None]     # in place: no copy of the table
     # A black row is never picked (its marginal step is 0), but keep its CDF increasing.
     conditional[black] = np.arange(w + 1) / w
     conditional[:, w] = 1.0
@@ -68,8 +134,36 @@ def build_environment(image, strength=1.0, rotation=0.0) -> EnvironmentMap:
     np.cumsum(row_sums, out=marginal[1:])
     marginal /= marginal[h]
     marginal[h] = 1.0
-    return EnvironmentMap(image, marginal, conditional, float(strength), math.cos(rotation),
-                          math.sin(rotation))
+    return marginal, conditional
+
+
+def build_environment(image, strength=1.0, rotation=0.0, matrix=None, offset=None,
+                      closest=False, uniform=False) -> EnvironmentMap:
+    """The map of a float32 (H, W, 3) linear RGB image (top row first) and its strength, seen
+    through a Mapping node: a Z rotation in radians, or the node's (matrix, offset) from
+    mapping_transform. uniform=True samples directions uniformly (for measurements)."""
+    image = np.ascontiguousarray(image, dtype=np.float32)
+    if image.ndim != 3 or image.shape[2] != 3 or image.shape[0] < 1 or image.shape[1] < 1:
+        raise ValueError(f"environment image must be (H, W, 3), got {image.shape}")
+    if not np.isfinite(image).all():
+        raise ValueError("environment image has NaN or Inf")
+    if matrix is None:
+        matrix = rotation_matrix((0.0, 0.0, rotation))
+    matrix = np.ascontiguousarray(matrix, np.float64)
+    offset = np.zeros(3) if offset is None else np.ascontiguousarray(offset, np.float64)
+    det = abs(float(np.linalg.det(matrix)))
+    if not (np.isfinite(matrix).all() and np.isfinite(offset).all()) or not det > 1e-12:
+        raise ValueError("environment mapping is singular (a zero scale) or not finite")
+    marginal, conditional = _distribution(image, closest)
+    return EnvironmentMap(image, marginal, conditional, float(strength), matrix,
+                          np.linalg.inv(matrix), offset, det,
+                          bool(uniform or np.any(offset != 0.0)), bool(closest),
+                          image.reshape(-1, 3))
+
+
+def empty_environment() -> EnvironmentMap:
+    """A 1 x 1 black map: the tables' placeholder when the world has no image."""
+    return build_environment(np.zeros((1, 1, 3), np.float32), strength=0.0)
 
 
 @jit
@@ -90,46 +184,51 @@ def equirectangular_to_direction(u, v):
 
 
 @jit
+def _apply(m, d):
+    """m d for a 3 x 3 matrix."""
+    return (m[0, 0] * d[0] + m[0, 1] * d[1] + m[0, 2] * d[2],
+            m[1, 0] * d[0] + m[1, 1] * d[1] + m[1, 2] * d[2],
+            m[2, 0] * d[0] + m[2, 1] * d[1] + m[2, 2] * d[2])
+
+
+@jit
 def to_texture(env, d):
-    """The texture coordinate of world direction d: Rz(rotation) d."""
-    c, s = env.rot_cos, env.rot_sin
-    return (c * d[0] - s * d[1], s * d[0] + c * d[1], d[2])
+    """The texture coordinate of world direction d, A d + b (not normalised)."""
+    t = _apply(env.matrix, d)
+    return (t[0] + env.offset[0], t[1] + env.offset[1], t[2] + env.offset[2])
+
+
+@jit
+def _unit(t):
+    """t / |t| and |t| (a zero vector stays zero, as Cycles' safe_normalize)."""
+    n = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
+    if n == 0.0:
+        return t, 0.0
+    return (t[0] / n, t[1] / n, t[2] / n), n
 
 
 @jit
 def to_world(env, t):
-    """The world direction of texture coordinate t: Rz(-rotation) t."""
-    c, s = env.rot_cos, env.rot_sin
-    return (c * t[0] + s * t[1], -s * t[0] + c * t[1], t[2])
+    """The unit world direction whose texture direction is unit t (offset 0): A^-1 t, normalised."""
+    return _unit(_apply(env.inverse, t))[0]
 
 
 @jit
-def _texel(image, row, col):
-    """The texel's RGB as float64."""
-    return (float(image[row, col, 0]), float(image[row, col, 1]), float(image[row, col, 2]))
+def texture_radiance(env, t):
+    """The image at unit texture direction t times the strength: Cycles' Linear or Closest
+    interpolation with the Environment Texture's Repeat extension (wrapping in u, and in v: half
+    a row from a pole, the top and bottom rows blend)."""
+    h, w = env.image.shape[0], env.image.shape[1]
+    u, v = direction_to_equirectangular(t)
+    c = sample_image(env.pixels, 0, w, h, u, v, env.closest, REPEAT)
+    k = env.strength
+    return (k * c[0], k * c[1], k * c[2])
 
 
 @jit
 def env_lookup(env, direction):
-    """The radiance seen along unit world direction: bilinear in the image (Cycles' Linear
-    interpolation), wrapping in u and clamped in v, times the strength."""
-    h, w = env.image.shape[0], env.image.shape[1]
-    u, v = direction_to_equirectangular(to_texture(env, direction))
-    # Texel centres sit at (i + 0.5) / W, as in Cycles' image lookup; rows count from the top.
-    x = u * w - 0.5
-    y = (1.0 - v) * h - 0.5
-    x0f, y0f = math.floor(x), math.floor(y)
-    tx, ty = x - x0f, y - y0f
-    x0 = int(x0f) % w
-    x1 = (x0 + 1) % w
-    y0 = min(max(int(y0f), 0), h - 1)
-    y1 = min(max(int(y0f) + 1, 0), h - 1)
-    a, b = _texel(env.image, y0, x0), _texel(env.image, y0, x1)
-    c, d = _texel(env.image, y1, x0), _texel(env.image, y1, x1)
-    k = env.strength
-    return (k * ((1 - ty) * ((1 - tx) * a[0] + tx * b[0]) + ty * ((1 - tx) * c[0] + tx * d[0])),
-            k * ((1 - ty) * ((1 - tx) * a[1] + tx * b[1]) + ty * ((1 - tx) * c[1] + tx * d[1])),
-            k * ((1 - ty) * ((1 - tx) * a[2] + tx * b[2]) + ty * ((1 - tx) * c[2] + tx * d[2])))
+    """The radiance seen along unit world direction."""
+    return texture_radiance(env, _unit(to_texture(env, direction))[0])
 
 
 @jit
@@ -148,7 +247,7 @@ def _upper_index(cdf, x):
 
 @jit
 def _solid_angle_pdf(env, row, col, sin_theta):
-    """The density in solid angle of a direction in texel (row, col) at sin(theta)."""
+    """The density in solid angle of a texture direction in texel (row, col) at sin(theta)."""
     h, w = env.image.shape[0], env.image.shape[1]
     p_uv = (h * w * (env.marginal[row + 1] - env.marginal[row])
             * (env.conditional[row, col + 1] - env.conditional[row, col]))
@@ -158,9 +257,20 @@ def _solid_angle_pdf(env, row, col, sin_theta):
 
 
 @jit
+def _jacobian(env, d):
+    """d(texture solid angle) / d(world solid angle) at unit world direction d (offset 0):
+    |det A| / |A d|^3."""
+    n = _unit(_apply(env.matrix, d))[1]
+    return env.det / (n * n * n) if n > 0.0 else 0.0
+
+
+@jit
 def sample_env(env, u0, u1):
     """A world direction from the map's distribution (u0 picks the row, u1 the texel in it), the
     radiance along it and its density in solid angle (0 at the poles)."""
+    if env.uniform:
+        direction = sample_uniform_sphere(u0, u1)
+        return direction, env_lookup(env, direction), 1.0 / (4.0 * math.pi)
     h, w = env.image.shape[0], env.image.shape[1]
     row = _upper_index(env.marginal, u0)
     m0, m1 = env.marginal[row], env.marginal[row + 1]
@@ -175,17 +285,22 @@ def sample_env(env, u0, u1):
     sin_theta = math.sin(theta)
     t = (sin_theta * math.cos(phi), sin_theta * math.sin(phi), math.cos(theta))
     direction = to_world(env, t)
-    return direction, env_lookup(env, direction), _solid_angle_pdf(env, row, col, sin_theta)
+    pdf = _solid_angle_pdf(env, row, col, sin_theta) * _jacobian(env, direction)
+    return direction, env_lookup(env, direction), pdf
 
 
 @jit
 def pdf_env(env, direction):
     """The density in solid angle with which sample_env picks unit world direction."""
+    if env.uniform:
+        return 1.0 / (4.0 * math.pi)
     h, w = env.image.shape[0], env.image.shape[1]
-    t = to_texture(env, direction)
+    t, n = _unit(to_texture(env, direction))
+    if n == 0.0:
+        return 0.0
     u, v = direction_to_equirectangular(t)
     # sin(theta) from x and y: exact near the poles, where sin(acos(z)) loses digits.
     sin_theta = math.sqrt(t[0] * t[0] + t[1] * t[1])
     col = min(max(int(u * w), 0), w - 1)
     row = min(max(int((1.0 - v) * h), 0), h - 1)
-    return _solid_angle_pdf(env, row, col, sin_theta)
+    return _solid_angle_pdf(env, row, col, sin_theta) * env.det / (n * n * n)

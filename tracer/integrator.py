@@ -183,13 +183,13 @@ class _Buffers(threading.local):
     """This thread's chunk buffers, made once and reused by every chunk it runs."""
 
     def get(self):
-        """(paths, next paths, shadow rays, radiance, active rows, counters, lobe scratch) for
-        CHUNK paths."""
+        """(paths, next paths, shadow rays, radiance, active rows, counters, lobe scratch,
+        Principled parameter scratch) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
                             wavefront.new_shadows(CHUNK), np.empty((CHUNK, 3)),
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64),
-                            np.empty((lobes.MAX_LOBES, lobes.FIELDS)))
+                            np.empty((lobes.MAX_LOBES, lobes.FIELDS)), np.empty(lobes.P_FIELDS))
         return self.buffers
 
     def light(self):
@@ -206,7 +206,7 @@ class Renderer:
     def __init__(self, scene: Scene, threads: int = 2, next_event: bool = True,
                  sampler: str = "stratified", caustics: bool | str | None = None,
                  light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH,
-                 geometry: Geometry | None = None):
+                 geometry: Geometry | None = None, env_sampling: bool = True):
         """next_event=False turns light sampling off (BSDF sampling only): a second, independent
         estimator of the same image, which tests use to check the first one. caustics=False
         renders with the path tracer alone (default: the scene's render setting); the light
@@ -224,6 +224,8 @@ class Renderer:
 
         geometry: an already built Geometry of the same positions, triangles and normals (the
         viewport keeps its BVH while materials, lamps, world or camera change).
+        env_sampling=False samples an environment map's directions uniformly instead of by its
+        image (an unbiased, noisier estimator, for measurements and tests).
         """
         if sampler not in SAMPLERS:
             raise ValueError(f"sampler: expected one of {SAMPLERS}, got {sampler!r}")
@@ -235,10 +237,12 @@ class Renderer:
         self.camera = Camera(scene.camera)
         self.geometry = (Geometry(scene.positions, scene.triangles, scene.normals)
                          if geometry is None else geometry)
-        self.materials = material_tables(scene.materials, scene.material_ids)
+        self.materials = material_tables(scene.materials, scene.material_ids, scene.images,
+                                         scene.texcoords)
         self.tables = shipped_tables()
         kind = self.materials.kind
-        self.lights = LightSampler(scene, self.geometry, self.materials.radiance)
+        self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
+                                   env_sampling=env_sampling)
         render = scene.render
         self.max_depth = int(render["max_depth"])
         self.seed = int(render["seed"])
@@ -277,7 +281,7 @@ class Renderer:
         layered = bool((used == bsdf.LAYERED).any())
         lights = self.lights.tables
         next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
-        world = bool(np.any(lights.world > 0.0))
+        world, env = bool(lights.has_world), bool(lights.has_env)
         if not self.scene.render.get("caustics", True):
             why_no_light = "caustics off"
         elif self.camera.ortho:
@@ -293,6 +297,7 @@ class Renderer:
             "next-event estimation": (next_event, "lamps or world light to sample" if next_event
                                       else "no lamps and a black world"),
             "world": (world, "world light" if world else "black world"),
+            "environment": (env, "an environment map" if env else "no environment map"),
             "light tracing": (self.caustics is not None,
                               "lamps through mirrors and glass" if self.caustics is not None
                               else why_no_light),
@@ -308,7 +313,7 @@ class Renderer:
         (NaN/Inf samples, event counters)."""
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
-        paths, out, shadows, radiance, active, stats, scratch = self._buffers.get()
+        paths, out, shadows, radiance, active, stats, scratch, params = self._buffers.get()
         stats[:] = 0
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
@@ -325,7 +330,7 @@ class Renderer:
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.tables, self.fresnel,
                                               self.next_event, bits, stratified, depth, kept,
                                               active, paths, prim, u, v, out, shadows, radiance,
-                                              scratch, stats)
+                                              scratch, params, stats)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])

@@ -40,6 +40,7 @@ from .lamps import (USES_MIS, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISS
                     intersect_point_lamp, spot_attenuation, spread_attenuation)
 from .lights import AREA, EMISSIVE_TRIANGLE, POINT, SUN
 from .sampler import mix, random_pair
+from .textures import material_color
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
                        sample_uniform_disk, sample_uniform_sphere)
 from .vec import add, dot, madd, mul, neg, row, store, sub
@@ -340,6 +341,10 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
         beta = row(paths.beta, i)
         bounces = paths.bounces[i]
         key = paths.key[i]
+        color, trans_color = row(mats.color, mat), row(mats.trans_color, mat)
+        if mats.textured[mat]:
+            color = material_color(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
+            trans_color = color
         if kind == DIFFUSE:
             # This vertex is bounce `bounces + 1` of the camera path that ends here.
             if (bounces == 0 and not caustics.pure) or bounces + 1 > max_depth:
@@ -349,8 +354,8 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
                 continue
             lens0, lens1 = random_pair(key, 1 + bounces, 3)
             if caustics.pure and bounces + 2 <= max_depth:
-                n_out = diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d,
-                                       row(mats.color, mat), random_pair(key, 1 + bounces, 4))
+                n_out = diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, color,
+                                       random_pair(key, 1 + bounces, 4))
             pixel, o_cam, d_cam, lens_dist, cos_theta, s = camera_connection(cam, p, lens0, lens1)
             if pixel < 0:
                 continue
@@ -362,7 +367,7 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
             cos_gi, cos_si, cos_go = dot(wi, ngc), dot(wi, nsc), dot(wo, ngc)
             if not (cos_gi > 0.0 and cos_si > 0.0 and cos_go > 0.0):
                 continue          # a BSDF sample from p could not have produced wi
-            albedo = row(mats.color, mat)
+            albedo = color
             f = (cos_si / cos_gi) * cos_go * s / (math.pi * lens_dist * lens_dist * cos_theta ** 3)
             for k in range(3):
                 connections.contrib[n_conn, k] = beta[k] * albedo[k] * f
@@ -383,8 +388,8 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
             n = bsdf.valid_reflection_normal(ng_f, neg(d), ns_f)
         u_choice, _ = random_pair(key, 1 + bounces, 5)
         new_d, weight, event, valid = bsdf.sample_specular(
-            kind, d, ng_f, n, entering, row(mats.color, mat), row(mats.trans_color, mat),
-            mats.ior[mat], fresnel_model, u_choice)
+            kind, d, ng_f, n, entering, color, trans_color, mats.ior[mat], fresnel_model,
+            u_choice)
         if not valid or event == bsdf.TIR_ABSORBED:
             continue
         if bounces == 0:

@@ -14,6 +14,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .environment import EnvironmentMap, build_environment, empty_environment, env_lookup, \
+    pdf_env, sample_env
 from .geometry import hit_offset, offset_origin
 from .jit import jit, jit_inline
 from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
@@ -69,8 +71,11 @@ class Lights(NamedTuple):
     sun_radiance: np.ndarray     # (S, 3) of the disc, for angle > 0
     sun_flags: np.ndarray        # (S,)
     sun_pmf: np.ndarray          # (S,)
-    world: np.ndarray            # (3,) uniform world radiance
+    world: np.ndarray            # (3,) uniform world radiance (without an environment map)
     world_pmf: float
+    has_world: bool              # the world gives light (a colour above 0, or a map)
+    has_env: bool                # the world is an environment map (env), else the colour
+    env: EnvironmentMap
 
 
 def luminance(rgb) -> np.ndarray:
@@ -102,6 +107,26 @@ def spread_constants(spread: float) -> tuple[float, float]:
     # K = 1 / (tan a - a), from integrating cos x (1 - tan x / tan a) sin x over [0, a]; its
     # third-order Taylor form where tan a - a cancels.
     return tan_half, (1.0 / (tan_half - half) if half > 0.05 else 3.0 / half ** 3)
+
+
+def world_environment(scene, env_sampling=True):
+    """The scene's environment map (None for a uniform world colour); env_sampling=False samples
+    it uniformly over the sphere instead of by its image (for measurements)."""
+    spec = scene.world.get("environment")
+    if spec is None:
+        return None
+    return build_environment(scene.images[spec["image"]]["pixels"], strength=spec["strength"],
+                             matrix=spec["matrix"], offset=spec["offset"],
+                             closest=spec["interpolation"] == "closest",
+                             uniform=not env_sampling)
+
+
+def environment_power(env: EnvironmentMap) -> float:
+    """The map's mean luminance over the sphere of texture directions, times its strength."""
+    h = env.image.shape[0]
+    sin_row = np.sin(np.pi * (np.arange(h) + 0.5) / h)
+    lum = np.maximum(luminance(env.image.mean(axis=1, dtype=np.float64)), 0.0)
+    return float(env.strength * (lum * sin_row).sum() / sin_row.sum())
 
 
 def _rows(values, n=3) -> np.ndarray:
@@ -173,12 +198,15 @@ def _sun_tables(suns: list) -> dict:
 class LightSampler:
     """Builds the light tables of a scene and samples them (arrays, for tests and tools)."""
 
-    def __init__(self, scene, geometry, material_radiance):
+    def __init__(self, scene, geometry, material_radiance, env_sampling=True):
         lights = scene.lights
         areas = _area_tables([light for light in lights if light["kind"] == "area"])
         points = _point_tables([light for light in lights if light["kind"] in ("point", "spot")])
         suns = _sun_tables([light for light in lights if light["kind"] == "sun"])
+        env = world_environment(scene, env_sampling)
         world = np.asarray(scene.world["color"], np.float64)
+        if env is not None:
+            world = np.zeros(3)
 
         mats = scene.material_ids
         # Emission materials and Principled BSDFs with emission.
@@ -192,7 +220,8 @@ class LightSampler:
         light_of_prim[tri] = np.arange(len(tri))
         radius = 0.5 * geometry.extent if geometry.count else 1.0
         # Power estimates: only the ratios matter, and any positive choice stays unbiased.
-        world_power = luminance(world) * 4.0 * np.pi ** 2 * radius ** 2
+        world_lum = luminance(world) if env is None else environment_power(env)
+        world_power = world_lum * 4.0 * np.pi ** 2 * radius ** 2
         power = [
             (EMISSIVE_TRIANGLE, luminance(tri_radiance[keep]) * geometry.area[tri] * 2.0 * np.pi),
             (AREA, luminance(areas["area_radiance"]) * areas["area_area"] * np.pi),
@@ -218,6 +247,8 @@ class LightSampler:
             tri_pmf=tri_pmf, area_pmf=per_kind[AREA], point_pmf=per_kind[POINT],
             sun_pmf=per_kind[SUN], world=world,
             world_pmf=float(per_kind[WORLD][0]) if world_power > 0 else 0.0,
+            has_world=bool(world_power > 0), has_env=env is not None,
+            env=env if env is not None else empty_environment(),
             **areas, **points, **suns)
         self.geometry = geometry
 
@@ -283,8 +314,8 @@ def sample_light(lights, mesh, p, n, vertex_kind, u_pick, u0, u1):
         wi, value, density = sample_sun(lights, i, u0, u1)
         point, infinite = p, True
     else:
-        wi, density = sample_uniform_sphere(u0, u1), 1.0 / (4.0 * math.pi)
-        value, point, infinite = (lights.world[0], lights.world[1], lights.world[2]), p, True
+        wi, value, density = sample_world(lights, u0, u1)
+        point, infinite = p, True
     if not flags & vertex_kind:
         return (0.0, 0.0, 1.0), p, True, ZERO, 0.0, 0
     if not infinite:
@@ -306,8 +337,28 @@ def sample_light(lights, mesh, p, n, vertex_kind, u_pick, u0, u1):
 
 
 @jit_inline
-def pdf_world(lights):
-    """Solid-angle density of sampling the uniform world in any direction."""
+def sample_world(lights, u0, u1):
+    """A direction towards the world (by its map's distribution, or uniform for a colour), its
+    radiance and density in solid angle."""
+    if lights.has_env:
+        return sample_env(lights.env, u0, u1)
+    value = (lights.world[0], lights.world[1], lights.world[2])
+    return sample_uniform_sphere(u0, u1), value, 1.0 / (4.0 * math.pi)
+
+
+@jit_inline
+def world_radiance(lights, d):
+    """The world's radiance along unit direction d (a ray that escapes)."""
+    if lights.has_env:
+        return env_lookup(lights.env, d)
+    return (lights.world[0], lights.world[1], lights.world[2])
+
+
+@jit_inline
+def pdf_world(lights, d):
+    """Solid-angle density of light sampling picking the world in unit direction d."""
+    if lights.has_env:
+        return lights.world_pmf * pdf_env(lights.env, d)
     return lights.world_pmf / (4.0 * math.pi)
 
 

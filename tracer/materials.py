@@ -12,7 +12,8 @@ from typing import NamedTuple
 import numpy as np
 
 from . import bsdf, lobes, microfacet
-from .scene import DISTRIBUTIONS, emits, material_field
+from .scene import DISTRIBUTIONS, TEXTURE_SLOTS, emits, material_field
+from .textures import EXTENSIONS
 
 
 class Materials(NamedTuple):
@@ -27,6 +28,22 @@ class Materials(NamedTuple):
     roughness: np.ndarray     # (M,)
     distribution: np.ndarray  # (M,) int64 lobes.DIST_* (scene.DISTRIBUTIONS order)
     principled: np.ndarray    # (M, lobes.P_FIELDS) Principled parameters
+    # Image textures (textures.py): tex[m, slot] is the texture on scene.TEXTURE_SLOTS[slot]
+    # (colour, roughness, metallic) of material m, or -1; textured[m] whether it has any.
+    textured: np.ndarray      # (M,) bool
+    tex: np.ndarray           # (M, 3) int64
+    tex_image: np.ndarray     # (K,) int64 the image of each texture
+    tex_coord: np.ndarray     # (K,) int64 its row of coords
+    tex_closest: np.ndarray   # (K,) bool Closest (else Linear) interpolation
+    tex_extension: np.ndarray  # (K,) int64 textures.REPEAT, EXTEND, CLIP, MIRROR
+    tex_matrix: np.ndarray    # (K, 3, 3) the Mapping node: coordinate A x + b
+    tex_offset: np.ndarray    # (K, 3)
+    img_offset: np.ndarray    # (I,) int64 first row of each image in the pool
+    img_width: np.ndarray     # (I,) int64
+    img_height: np.ndarray    # (I,) int64
+    img_srgb: np.ndarray      # (I,) bool decoded from sRGB after interpolation
+    pool: np.ndarray          # (N, 3) float32 every textured image's texels, top row first
+    coords: np.ndarray        # (C, T, 3, 3) float32 texture coordinates per triangle corner
 
 
 SHADERS = {"glossy": lobes.SHADER_GLOSSY, "glass": lobes.SHADER_GLASS,
@@ -42,7 +59,8 @@ def kind_code(mat: dict) -> int:
         return bsdf.LAYERED
     if kind in ("glossy", "glass", "refraction"):
         alpha = float(material_field(mat, "roughness")) ** 2
-        if not microfacet.is_almost_specular(alpha):
+        # A roughness texture makes roughness a per-hit value: the layered code serves both.
+        if not microfacet.is_almost_specular(alpha) or "roughness" in (mat.get("textures") or {}):
             return bsdf.LAYERED
     return SMOOTH_KINDS[kind]
 
@@ -74,8 +92,45 @@ def emission(mat: dict) -> np.ndarray:
             * float(material_field(mat, "emission_strength")))
 
 
-def material_tables(mats: list, material_ids: np.ndarray) -> Materials:
-    """The kernels' tables for a scene's materials and its triangles' material indices."""
+def _texture_tables(mats, images, texcoords, n_triangles) -> dict:
+    """The texture fields of Materials: only the images textures use go into the pool."""
+    tex = np.full((len(mats), 3), -1, np.int64)
+    specs = []
+    for m, mat in enumerate(mats):
+        for slot, spec in (mat.get("textures") or {}).items():
+            tex[m, TEXTURE_SLOTS.index(slot)] = len(specs)
+            specs.append(spec)
+    used = sorted({s["image"] for s in specs})
+    index = {image: k for k, image in enumerate(used)}
+    rgb = [np.broadcast_to(images[i]["pixels"], images[i]["pixels"].shape[:2] + (3,))
+           for i in used]
+    sizes = [p.shape[0] * p.shape[1] for p in rgb]
+    pool = np.empty((sum(sizes), 3), np.float32)
+    offsets = np.cumsum([0] + sizes)[:-1].astype(np.int64)
+    for p, start, size in zip(rgb, offsets, sizes):
+        pool[start:start + size] = p.reshape(-1, 3)
+    used_coords = sorted({s["texcoord"] for s in specs})
+    coord_index = {c: k for k, c in enumerate(used_coords)}
+    coords = (np.stack([texcoords[c]["coords"] for c in used_coords]) if used_coords
+              else np.zeros((0, n_triangles, 3, 3), np.float32))
+    return dict(
+        textured=(tex >= 0).any(axis=1), tex=tex,
+        tex_image=np.array([index[s["image"]] for s in specs], np.int64),
+        tex_coord=np.array([coord_index[s["texcoord"]] for s in specs], np.int64),
+        tex_closest=np.array([s["interpolation"] == "closest" for s in specs], bool),
+        tex_extension=np.array([EXTENSIONS.index(s["extension"]) for s in specs], np.int64),
+        tex_matrix=np.array([s["matrix"] for s in specs], np.float64).reshape(-1, 3, 3),
+        tex_offset=np.array([s["offset"] for s in specs], np.float64).reshape(-1, 3),
+        img_offset=offsets,
+        img_width=np.array([p.shape[1] for p in rgb], np.int64),
+        img_height=np.array([p.shape[0] for p in rgb], np.int64),
+        img_srgb=np.array([images[i].get("colorspace") == "srgb" for i in used], bool),
+        pool=pool, coords=np.ascontiguousarray(coords))
+
+
+def material_tables(mats: list, material_ids: np.ndarray, images=(), texcoords=()) -> Materials:
+    """The kernels' tables for a scene's materials and its triangles' material indices (and its
+    images and texture coordinates, which textures read)."""
     def rows(fn, dtype=np.float64, shape=()):
         return np.array([fn(m) for m in mats], dtype).reshape((len(mats),) + shape)
 
@@ -91,4 +146,5 @@ def material_tables(mats: list, material_ids: np.ndarray) -> Materials:
         roughness=roughness,
         distribution=rows(lambda m: DISTRIBUTIONS.index(material_field(m, "distribution"))
                           if m["kind"] in SHADERS else 0, np.int64),
-        principled=rows(principled_row, shape=(lobes.P_FIELDS,)))
+        principled=rows(principled_row, shape=(lobes.P_FIELDS,)),
+        **_texture_tables(mats, list(images), list(texcoords), len(material_ids)))

@@ -6,6 +6,7 @@ field at fault, so that a bad export never reaches the integrator.
 from __future__ import annotations
 
 import copy
+import hashlib
 import json
 import math
 from dataclasses import dataclass, field
@@ -17,7 +18,8 @@ from .atomic import atomic_path
 FORMAT = "snell-scene"
 VERSION = 4
 # Version 2 added spot lamps and lamp radius, spread, angle and flags; version 3 the glossy and
-# principled materials and the roughness of glass and refraction; version 4 orthographic cameras.
+# principled materials and the roughness of glass and refraction; version 4 orthographic cameras,
+# images (stored in the file) and the world's environment map.
 READS_VERSIONS = (1, 2, 3, 4)
 # The tracer's material and distribution codes are positions in these tuples: add at the end.
 MATERIAL_KINDS = ("diffuse", "mirror", "glass", "refraction", "emission", "glossy", "principled")
@@ -29,6 +31,16 @@ AREA_SHAPES = ("rectangle", "square", "disk", "ellipse")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 CAMERA_TYPES = ("PERSP", "ORTHO")    # camera.type (version 4); absent: PERSP
 FRESNEL_MODELS = ("exact", "schlick")
+INTERPOLATIONS = ("linear", "closest")
+EXTENSIONS = ("repeat", "extend", "clip", "mirror")     # textures.EXTENSIONS
+COLORSPACES = ("linear", "srgb")
+TEXCOORD_KINDS = ("uv", "generated")
+# The inputs an image texture may drive, by material kind (docs/scene-format.md).
+TEXTURE_SLOTS = ("color", "roughness", "metallic")
+TEXTURABLE = {"diffuse": ("color",), "mirror": ("color",), "glossy": ("color", "roughness"),
+              "glass": ("color", "roughness"), "refraction": ("color", "roughness"),
+              "principled": ("color", "roughness", "metallic")}
+MAX_IMAGES = 4096
 
 # noise_threshold and min_spp: adaptive sampling (tracer/adaptive.py) with Cycles' defaults;
 # a threshold of 0 turns it off, a min_spp of 0 is Cycles' automatic minimum.
@@ -91,12 +103,25 @@ class Scene:
     objects: list = field(default_factory=list)
     normals: np.ndarray | None = None
     source: str = ""
+    # Images the world and materials use: {"name", "source" (where the exporter read it),
+    # "colorspace" (linear, or srgb: decoded after interpolation, as Cycles does), "pixels":
+    # float32 (H, W, C), top row first}; the file stores the pixels.
+    images: list = field(default_factory=list)
+    # Texture coordinates the materials' textures read: {"kind": uv or generated, "name": the UV
+    # map ("" the active one), "coords": float32 (T, 3, 3), per triangle corner}.
+    texcoords: list = field(default_factory=list)
 
     def header(self) -> dict:
         """The JSON header as written to the file."""
+        images = [{"name": im["name"], "source": im.get("source", ""),
+                   "colorspace": im.get("colorspace", "linear"),
+                   "shape": list(im["pixels"].shape), "sha256": image_hash(im["pixels"])}
+                  for im in self.images]
+        texcoords = [{"kind": tc["kind"], "name": tc.get("name", "")} for tc in self.texcoords]
         return {"format": FORMAT, "version": VERSION, "source": self.source,
                 "objects": self.objects, "materials": self.materials, "lights": self.lights,
-                "world": self.world, "camera": self.camera, "render": self.render}
+                "world": self.world, "camera": self.camera, "render": self.render,
+                "images": images, "texcoords": texcoords}
 
     def with_render(self, **overrides) -> "Scene":
         """A copy sharing the arrays, with render settings overridden (None values ignored)."""
@@ -119,7 +144,7 @@ class Scene:
 
     def features(self) -> dict:
         """Which costly features the scene needs: glass, mirrors, rough surfaces, depth of field,
-        environment, emissive meshes."""
+        world light, an environment map, emissive meshes, image textures."""
         used = set(int(m) for m in np.unique(self.material_ids)) if len(self.material_ids) else set()
         mats = [self.materials[i] for i in sorted(used)]
         return {
@@ -127,9 +152,24 @@ class Scene:
             "mirrors": any(is_mirror(m) for m in mats),
             "rough": any(is_rough(m) for m in mats),
             "depth_of_field": aperture_radius(self.camera) > 0.0,
-            "environment": any(c > 0 for c in self.world["color"]),
+            "world": has_world_light(self.world),
+            "environment": self.world.get("environment") is not None,
             "emissive_meshes": any(emits(m) for m in mats),
+            "textures": any(m.get("textures") for m in mats),
         }
+
+
+def image_hash(pixels: np.ndarray) -> str:
+    """SHA-256 of an image's pixel bytes (C order), as the header records it."""
+    return hashlib.sha256(np.ascontiguousarray(pixels).data).hexdigest()
+
+
+def has_world_light(world: dict) -> bool:
+    """Whether the world gives light: an environment map of strength above 0, or a colour."""
+    env = world.get("environment")
+    if env is not None:
+        return env["strength"] > 0
+    return any(c > 0 for c in world["color"])
 
 
 def material_field(mat: dict, key: str):
@@ -269,8 +309,45 @@ def _entry_kind(section, i, entry, kinds):
     return where, kind
 
 
-def _check_material(i, mat):
+def _check_textures(where, kind, textures, images, texcoords):
+    if not isinstance(textures, dict):
+        raise SceneError(f"{where}.textures: expected an object, got {_short(textures)}")
+    for slot, tex in textures.items():
+        name = f"{where}.textures.{slot}"
+        if slot not in TEXTURABLE.get(kind, ()):
+            raise SceneError(f"{name}: a {kind} material has no texture input {slot!r} "
+                             f"(it has: {', '.join(TEXTURABLE.get(kind, ())) or 'none'})")
+        if not isinstance(tex, dict):
+            raise SceneError(f"{name}: expected an object, got {_short(tex)}")
+        _int_in(tex.get("image"), f"{name}.image", 0, len(images) - 1, "an image index")
+        _int_in(tex.get("texcoord"), f"{name}.texcoord", 0, len(texcoords) - 1,
+                "a texcoord index")
+        for key, choices in (("interpolation", INTERPOLATIONS), ("extension", EXTENSIONS)):
+            if tex.get(key) not in choices:
+                raise SceneError(f"{name}.{key}: expected one of {', '.join(choices)}, "
+                                 f"got {_short(tex.get(key))}")
+        _matrix3(tex.get("matrix"), f"{name}.matrix", singular_ok=True)
+        _finite_vec(tex.get("offset"), f"{name}.offset")
+
+
+def _matrix3(value, name, singular_ok=False):
+    try:
+        m = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise SceneError(f"{name}: expected a 3x3 matrix") from None
+    if m.shape != (3, 3):
+        raise SceneError(f"{name}: expected a 3x3 matrix, got shape {m.shape}")
+    if not np.all(np.isfinite(m)):
+        raise SceneError(f"{name}: contains NaN or Inf")
+    if not singular_ok and not abs(np.linalg.det(m)) > 1e-12:
+        raise SceneError(f"{name}: singular (a zero scale in the mapping)")
+    return m
+
+
+def _check_material(i, mat, images=(), texcoords=()):
     where, kind = _entry_kind("materials", i, mat, MATERIAL_KINDS)
+    if mat.get("textures") is not None:
+        _check_textures(where, kind, mat["textures"], images, texcoords)
     _finite_vec(mat.get("color"), f"{where}.color", positive=True)
     if kind in ("glass", "refraction"):
         _finite_number(mat.get("ior"), f"{where}.ior", 0.0, exclusive=True)
@@ -416,6 +493,66 @@ def _check_objects(objects):
             raise SceneError(f"objects[{i}].closed: expected true or false, got {_short(obj['closed'])}")
 
 
+def _check_images(images):
+    if not isinstance(images, list):
+        raise SceneError(f"images: expected a list, got {_short(images)}")
+    if len(images) > MAX_IMAGES:
+        raise SceneError(f"images: {len(images)} images (at most {MAX_IMAGES})")
+    for i, im in enumerate(images):
+        where = f"images[{i}]"
+        if not isinstance(im, dict) or not isinstance(im.get("name"), str):
+            raise SceneError(f"{where}: expected an object with a name")
+        where = f"images[{i}] ({_short(im['name'], 40)})"
+        px = im.get("pixels")
+        if not isinstance(px, np.ndarray):
+            raise SceneError(f"{where}: missing pixels")
+        if px.dtype != np.float32:
+            raise SceneError(f"{where}: expected dtype float32, got {px.dtype.name}")
+        if px.ndim != 3 or px.shape[2] not in (1, 3) or px.shape[0] < 1 or px.shape[1] < 1:
+            raise SceneError(f"{where}: expected shape (height, width, 1 or 3), got {px.shape}")
+        if px.shape[0] > MAX_RESOLUTION or px.shape[1] > MAX_RESOLUTION:
+            raise SceneError(f"{where}: larger than {MAX_RESOLUTION} pixels a side ({px.shape})")
+        if not np.isfinite(px).all():
+            raise SceneError(f"{where}: contains NaN or Inf")
+        if im.get("colorspace", "linear") not in COLORSPACES:
+            raise SceneError(f"{where}.colorspace: expected one of {', '.join(COLORSPACES)}, "
+                             f"got {_short(im.get('colorspace'))}")
+
+
+def _check_texcoords(texcoords, n_triangles):
+    if not isinstance(texcoords, list):
+        raise SceneError(f"texcoords: expected a list, got {_short(texcoords)}")
+    for i, tc in enumerate(texcoords):
+        where = f"texcoords[{i}]"
+        if not isinstance(tc, dict) or tc.get("kind") not in TEXCOORD_KINDS:
+            raise SceneError(f"{where}.kind: expected one of {', '.join(TEXCOORD_KINDS)}")
+        if not isinstance(tc.get("name", ""), str):
+            raise SceneError(f"{where}.name: expected a string")
+        coords = tc.get("coords")
+        if not isinstance(coords, np.ndarray) or coords.dtype != np.float32 \
+                or coords.shape != (n_triangles, 3, 3):
+            raise SceneError(f"{where}: expected float32 coordinates of shape "
+                             f"({n_triangles}, 3, 3), got "
+                             f"{getattr(coords, 'dtype', None)} {getattr(coords, 'shape', None)}")
+        if not np.isfinite(coords).all():
+            raise SceneError(f"{where}: contains NaN or Inf")
+
+
+def _check_environment(env, images):
+    where = "world.environment"
+    if not isinstance(env, dict):
+        raise SceneError(f"{where}: expected an object, got {_short(env)}")
+    _int_in(env.get("image"), f"{where}.image", 0, len(images) - 1, "an image index")
+    if images[env["image"]]["pixels"].shape[2] != 3:
+        raise SceneError(f"{where}.image: expected an RGB image (3 channels)")
+    _finite_number(env.get("strength"), f"{where}.strength", 0.0)
+    _matrix3(env.get("matrix"), f"{where}.matrix")
+    _finite_vec(env.get("offset"), f"{where}.offset")
+    if env.get("interpolation") not in INTERPOLATIONS:
+        raise SceneError(f"{where}.interpolation: expected one of {', '.join(INTERPOLATIONS)}, "
+                         f"got {_short(env.get('interpolation'))}")
+
+
 def validate(scene: Scene) -> Scene:
     """Check every array and header field; raise SceneError naming the first one at fault."""
     arrays = {"positions": scene.positions, "triangles": scene.triangles,
@@ -437,8 +574,10 @@ def validate(scene: Scene) -> Scene:
         raise SceneError(f"source: expected a string, got {_short(scene.source)}")
     if not isinstance(scene.materials, list):
         raise SceneError("materials: expected a list")
+    _check_images(scene.images)
+    _check_texcoords(scene.texcoords, len(tri))
     for i, mat in enumerate(scene.materials):
-        _check_material(i, mat)
+        _check_material(i, mat, scene.images, scene.texcoords)
     if len(mid) and (mid.min() < 0 or mid.max() >= len(scene.materials)):
         raise SceneError(f"material_ids: index out of range [0, {len(scene.materials)})")
     if len(oid) and (oid.min() < 0 or oid.max() >= max(len(scene.objects), 1)):
@@ -456,6 +595,8 @@ def validate(scene: Scene) -> Scene:
     if not isinstance(scene.world, dict):
         raise SceneError(f"world: expected an object, got {_short(scene.world)}")
     _finite_vec(scene.world.get("color"), "world.color", positive=True)
+    if scene.world.get("environment") is not None:
+        _check_environment(scene.world["environment"], scene.images)
     _check_camera(scene.camera)
     _check_render(scene.render)
     _check_emitter_areas(scene)
@@ -492,6 +633,10 @@ def save(scene: Scene, path: str) -> None:
               "object_ids": scene.object_ids}
     if scene.normals is not None:
         arrays["normals"] = scene.normals
+    for i, im in enumerate(scene.images):
+        arrays[f"image_{i}"] = im["pixels"]
+    for i, tc in enumerate(scene.texcoords):
+        arrays[f"texcoord_{i}"] = tc["coords"]
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
@@ -531,6 +676,44 @@ def _read_members(path: str) -> dict:
     return arrays
 
 
+def _read_images(entries, arrays) -> list:
+    """The header's image entries with their pixels, each checked against its recorded hash."""
+    if not isinstance(entries, list):
+        raise SceneError(f"images: expected a list, got {_short(entries)}")
+    if len(entries) > MAX_IMAGES:
+        raise SceneError(f"images: {len(entries)} images (at most {MAX_IMAGES})")
+    images = []
+    for i, entry in enumerate(entries):
+        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
+            raise SceneError(f"images[{i}]: expected an object with a name")
+        where = f"images[{i}] ({_short(entry['name'], 40)})"
+        key = f"image_{i}"
+        if key not in arrays:
+            raise SceneError(f"{where}: missing array {key}")
+        pixels = arrays[key]
+        if not isinstance(entry.get("sha256"), str):
+            raise SceneError(f"{where}.sha256: expected a string")
+        if pixels.dtype == np.float32 and image_hash(pixels) != entry["sha256"]:
+            raise SceneError(f"{where}: pixels do not match their sha256 (a damaged file)")
+        images.append({"name": entry["name"], "source": str(entry.get("source", "")),
+                       "colorspace": entry.get("colorspace", "linear"), "pixels": pixels})
+    return images
+
+
+def _read_texcoords(entries, arrays) -> list:
+    """The header's texture coordinate entries with their arrays."""
+    if not isinstance(entries, list):
+        raise SceneError(f"texcoords: expected a list, got {_short(entries)}")
+    out = []
+    for i, entry in enumerate(entries):
+        if not isinstance(entry, dict):
+            raise SceneError(f"texcoords[{i}]: expected an object")
+        if f"texcoord_{i}" not in arrays:
+            raise SceneError(f"texcoords[{i}]: missing array texcoord_{i}")
+        out.append({**entry, "coords": arrays[f"texcoord_{i}"]})
+    return out
+
+
 def load(path: str) -> Scene:
     """Read and validate a scene file."""
     arrays = _read_members(path)
@@ -554,6 +737,8 @@ def load(path: str) -> Scene:
     if render is not None and not isinstance(render, dict):
         raise SceneError(f"render: expected an object, got {_short(render)}")
     objects = header.get("objects")
+    images = _read_images(header.get("images", []), arrays)
+    texcoords = _read_texcoords(header.get("texcoords", []), arrays)
     scene = Scene(
         positions=arrays["positions"], triangles=arrays["triangles"],
         material_ids=arrays["material_ids"], object_ids=arrays["object_ids"],
@@ -561,7 +746,8 @@ def load(path: str) -> Scene:
         materials=header.get("materials"), lights=header.get("lights"),
         camera=header.get("camera"), world=header.get("world"),
         render={**DEFAULT_RENDER, **(render or {})},
-        objects=[] if objects is None else objects, source=header.get("source", ""))
+        objects=[] if objects is None else objects, source=header.get("source", ""),
+        images=images, texcoords=texcoords)
     if isinstance(scene.camera, dict) and isinstance(scene.camera.get("dof"), dict):
         scene.camera["dof"] = {**DEFAULT_DOF, **scene.camera["dof"]}
     return validate(scene)

@@ -29,11 +29,13 @@ from .jit import jit
 from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
                     VISIBLE_TRANSMISSION, area_lamp_hit, intersect_area_lamp,
                     intersect_point_lamp, point_lamp_hit, seen_by, sun_hit)
-from .lights import pdf_world, sample_light
+from .lights import pdf_world, sample_light, world_radiance
 from .lobes import (DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT, bsdf_eval, bsdf_sample,
                     setup_shader)
 from .sampler import pixel_key, sample_pair
+from .lobes import P_METALLIC, P_ROUGHNESS, SHADER_PRINCIPLED
 from .sampling import power_heuristic, sample_cosine_hemisphere
+from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_color, material_number
 from .triangle_lights import pdf_triangle
 from .vec import dot, max3, mul, neg, row, store, sub, vmul
 
@@ -186,9 +188,9 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
                 w = mis_weight(next_event, pdf_prev, lights.point_pmf[lamp] * density)
                 add_light(radiance, path, beta, light, w)
         if prim[i] < 0:
-            if lights.world[0] > 0.0 or lights.world[1] > 0.0 or lights.world[2] > 0.0:
-                w = mis_weight(next_event, pdf_prev, pdf_world(lights))
-                add_light(radiance, path, beta, lights.world, w)
+            if lights.has_world:
+                w = mis_weight(next_event, pdf_prev, pdf_world(lights, d))
+                add_light(radiance, path, beta, world_radiance(lights, d), w)
             for sun in range(lights.sun_one_minus_cos.shape[0] if emitters_count else 0):
                 # Cycles finds a sun's disc only with its MIS option, camera rays included.
                 flags = lights.sun_flags[sun]
@@ -214,10 +216,11 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
 
 @jit
 def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, stratified, depth,
-              n_active, active, paths, prim, u, v, out, shadows, radiance, lobes, stats):
+              n_active, active, paths, prim, u, v, out, shadows, radiance, lobes, params, stats):
     """Sample every kept hit: a light sample at diffuse and layered vertices (queued as a shadow
     ray), then the BSDF; after Russian roulette the surviving paths' next rays go into `out`.
-    `lobes` is scratch for a layered hit's lobes (lobes.py), `tables` its albedo tables.
+    `lobes` is scratch for a layered hit's lobes (lobes.py), `tables` its albedo tables, `params`
+    for a textured Principled BSDF's parameters.
 
     Returns (paths in out, shadow rays queued).
     """
@@ -237,13 +240,18 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         ng_f, ns_f = mul(ng, side), mul(ns, side)
         mat = mats.of_triangle[tri]
         kind = mats.kind[mat]
+        color = row(mats.color, mat)
+        trans_color = row(mats.trans_color, mat)
+        if mats.textured[mat]:
+            color = material_color(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
+            trans_color = color
         key, sample = paths.key[i], paths.sample[i]
         u_pick, u_roulette = sample_pair(key, sample, 2 + 3 * depth, bits, strat)
         u0, u1 = sample_pair(key, sample, 4 + 3 * depth, bits, strat)
         beta = row(paths.beta, i)
         if kind == DIFFUSE:
             stats[DIFFUSE_HITS] += 1
-            albedo = row(mats.color, mat)
+            albedo = color
             if can_sample_lights:
                 l0, l1 = sample_pair(key, sample, 3 + 3 * depth, bits, strat)
                 wi, target, infinite, weight, pdf_light, flags = sample_light(
@@ -269,10 +277,13 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
             stats[LAYERED_HITS] += 1
             view = neg(d)
             n = bsdf.valid_reflection_normal(ng_f, view, ns_f) if has_normals else ns_f
-            count = setup_shader(lobes, tables, mats.shader[mat], row(mats.color, mat),
-                                 row(mats.trans_color, mat), mats.ior[mat], mats.roughness[mat],
-                                 mats.distribution[mat], mats.principled[mat], n, ns_f, view,
-                                 entering)
+            roughness, shader_params = mats.roughness[mat], mats.principled[mat]
+            if mats.textured[mat]:
+                roughness, shader_params = textured_params(mats, mat, tri, np.float64(u[i]),
+                                                           np.float64(v[i]), params)
+            count = setup_shader(lobes, tables, mats.shader[mat], color, trans_color,
+                                 mats.ior[mat], roughness, mats.distribution[mat], shader_params,
+                                 n, ns_f, view, entering)
             if can_sample_lights:
                 l0, l1 = sample_pair(key, sample, 3 + 3 * depth, bits, strat)
                 wl, target, infinite, weight, pdf_light, flags = sample_light(
@@ -298,8 +309,7 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
             if has_normals and kind != REFRACTION:
                 n = bsdf.valid_reflection_normal(ng_f, neg(d), ns_f)
             new_d, weight, event, valid = bsdf.sample_specular(
-                kind, d, ng_f, n, entering, row(mats.color, mat),
-                row(mats.trans_color, mat), mats.ior[mat], fresnel_model, u0)
+                kind, d, ng_f, n, entering, color, trans_color, mats.ior[mat], fresnel_model, u0)
             count_specular(stats, event, valid)
             if kind != MIRROR:
                 stats[DIELECTRIC_SAMPLES] += 1
@@ -329,6 +339,23 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         out.pdf_prev[n_out] = pdf_prev
         n_out += 1
     return n_out, n_shadow
+
+
+@jit
+def textured_params(mats, mat, tri, b1, b2, params):
+    """(roughness, Principled parameters) of a textured layered material at a hit: its
+    roughness texture's value, and for a Principled BSDF its parameters copied into the scratch
+    row `params` with the roughness and metallic textures' values."""
+    roughness = material_number(mats, mat, ROUGHNESS_SLOT, tri, b1, b2, mats.roughness[mat])
+    if mats.shader[mat] != SHADER_PRINCIPLED:
+        return roughness, mats.principled[mat]
+    for k in range(params.shape[0]):
+        params[k] = mats.principled[mat, k]
+    params[P_ROUGHNESS] = material_number(mats, mat, ROUGHNESS_SLOT, tri, b1, b2,
+                                          mats.principled[mat, P_ROUGHNESS])
+    params[P_METALLIC] = material_number(mats, mat, METALLIC_SLOT, tri, b1, b2,
+                                         mats.principled[mat, P_METALLIC])
+    return roughness, params
 
 
 @jit
