@@ -28,14 +28,19 @@ def sky(h=64, w=128, sun_theta=0.6, sun_phi=0.8, sun_peak=400.0, sun_sigma=0.05)
     return image.astype(np.float32)
 
 
-def write_exr(path, image):
-    """Write a float32 (h, w, 3) image as an OpenEXR file."""
+def write_image(path, image, pixel_type):
+    """Write an (h, w, 3) image of pixel_type ("float", "uint8") to path (format by extension)."""
     import OpenImageIO as oiio
     out = oiio.ImageOutput.create(str(path))
-    assert out.open(str(path), oiio.ImageSpec(image.shape[1], image.shape[0], 3, "float"))
+    assert out.open(str(path), oiio.ImageSpec(image.shape[1], image.shape[0], 3, pixel_type))
     assert out.write_image(np.ascontiguousarray(image))
     out.close()
     return str(path)
+
+
+def write_exr(path, image):
+    """Write a float32 (h, w, 3) image as an OpenEXR file."""
+    return write_image(path, image, "float")
 
 
 def set_hdri_world(scene, image_path, rotation_z=0.0, strength=1.0, interpolation="Linear",

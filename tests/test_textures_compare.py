@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from cycles_reference import Reference
+from hdri import write_image
 from cycles_reference import verdict as _verdict
 
 bpy = pytest.importorskip("bpy")
@@ -25,12 +26,7 @@ FULL = {"resolution_percentage": 100}
 
 def write_png(path, rgb8):
     """An 8-bit RGB PNG."""
-    import OpenImageIO as oiio
-    out = oiio.ImageOutput.create(str(path))
-    assert out.open(str(path), oiio.ImageSpec(rgb8.shape[1], rgb8.shape[0], 3, "uint8"))
-    assert out.write_image(np.ascontiguousarray(rgb8))
-    out.close()
-    return str(path)
+    return write_image(path, rgb8, "uint8")
 
 
 def checker_png(path, n=8):

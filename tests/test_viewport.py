@@ -558,3 +558,29 @@ def _rotation_z(angle):
     m = np.eye(4)
     m[:2, :2] = [[c, -s], [s, c]]
     return m
+
+
+def test_a_texture_added_by_a_material_edit_reads_the_cached_meshes_uvs():
+    """Meshes cached before any material had an image texture have no texture coordinates: the
+    material edit that adds one gets them, as a fresh export does."""
+    from snell.addon.view_updates import Plan
+    open_spheres()
+    obj, shader = next((o, n) for o in bpy.context.scene.objects
+                       if o.type == "MESH" and o.active_material
+                       for n in o.active_material.node_tree.nodes if n.type == "BSDF_DIFFUSE")
+    if not obj.data.uv_layers:
+        obj.data.uv_layers.new()
+    live = LiveExport()
+    live.update(evaluated(), full())
+    image = bpy.data.images.new("checker", 4, 4)
+    image.pixels = np.tile([0.9, 0.1, 0.1, 1.0], 16).tolist()
+    tree = obj.active_material.node_tree
+    node = tree.nodes.new("ShaderNodeTexImage")
+    node.image = image
+    tree.links.new(node.outputs["Color"], shader.inputs[0])
+    content = live.update(evaluated(), Plan(materials=True))
+    fresh, _ = export_depsgraph(evaluated())
+    assert live.extracted and len(content.scene.texcoords) == len(fresh.texcoords) == 1
+    coords = content.scene.texcoords[0]["coords"]
+    assert np.abs(coords).max() > 0
+    assert np.array_equal(coords, fresh.texcoords[0]["coords"])

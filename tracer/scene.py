@@ -270,13 +270,14 @@ def _int_in(value, name, minimum, maximum, what="integer"):
     return value
 
 
-def _matrix(value, name):
+def _matrix(value, name, size=4):
+    """A finite size x size matrix, or a SceneError naming the field."""
     try:
         m = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError, OverflowError):
-        raise SceneError(f"{name}: expected a 4x4 matrix") from None
-    if m.shape != (4, 4):
-        raise SceneError(f"{name}: expected a 4x4 matrix, got shape {m.shape}")
+        raise SceneError(f"{name}: expected a {size}x{size} matrix") from None
+    if m.shape != (size, size):
+        raise SceneError(f"{name}: expected a {size}x{size} matrix, got shape {m.shape}")
     if not np.all(np.isfinite(m)):
         raise SceneError(f"{name}: contains NaN or Inf")
     return m
@@ -331,14 +332,7 @@ def _check_textures(where, kind, textures, images, texcoords):
 
 
 def _matrix3(value, name, singular_ok=False):
-    try:
-        m = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
-        raise SceneError(f"{name}: expected a 3x3 matrix") from None
-    if m.shape != (3, 3):
-        raise SceneError(f"{name}: expected a 3x3 matrix, got shape {m.shape}")
-    if not np.all(np.isfinite(m)):
-        raise SceneError(f"{name}: contains NaN or Inf")
+    m = _matrix(value, name, 3)
     if not singular_ok and not abs(np.linalg.det(m)) > 1e-12:
         raise SceneError(f"{name}: singular (a zero scale in the mapping)")
     return m
