@@ -506,9 +506,9 @@ class Renderer:
                 result.spp += in_pass
                 if adapt:
                     halves.add(done, in_pass)
-                    result.sample_count.reshape(-1)[:] = halves.count.sum(axis=0)
-                    result.sum.reshape(-1, 3)[:] = halves.sum.sum(axis=0)
-                    result.sum_sq.reshape(-1, 3)[:] = halves.sum_sq.sum(axis=0)
+                    np.add(halves.count[0], halves.count[1], out=result.sample_count.reshape(-1))
+                    np.add(halves.sum[0], halves.sum[1], out=total)
+                    np.add(halves.sum_sq[0], halves.sum_sq[1], out=total_sq)
                     if result.spp < spp:
                         halves.check(result.spp, (result.light_sum.reshape(-1, 3), light_half,
                                                   result.light_paths, result.light_paths_a)
