@@ -174,6 +174,7 @@ class Halves:
 
     @property
     def converged(self) -> bool:
+        """Whether both halves have stopped in every pixel."""
         return self.active[0].size == 0 and self.active[1].size == 0
 
     def check(self, done: int, light=()):
@@ -201,8 +202,8 @@ class Halves:
                                                 * math.sqrt(n)]
 
     def mean(self, rows: slice) -> np.ndarray:
-        """The camera samples' image of pixel rows `rows`: the mean of the halves' means (a
-        half without samples left out), (rows, 3)."""
+        """The camera samples' image of the pixels in `rows` (a slice of pixel indices): the
+        mean of the halves' means (a half without samples left out), (pixels, 3)."""
         count = self.count[:, rows, None].astype(np.float64)
         means = self.sum[:, rows] / np.maximum(count, 1.0)
         weights = (count > 0).astype(np.float64)
