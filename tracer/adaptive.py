@@ -22,12 +22,13 @@ The stopping rule differs from Cycles'. Cycles stops a pixel when its own error 
 neighbours' are below the threshold. A pixel's own error is low while its samples have not yet
 met a rare bright path, so that rule stops pixels preferentially while their mean is low: on
 cornell_spheres at threshold 0.01 it darkens the image by 0.2-0.4%, ten standard errors of the
-validator's image-mean test (README, Adaptive sampling). Here each half of a pixel stops on the
-*other* half's evidence: it goes on while the other half's noise level (error x sqrt(samples) at
+validator's image-mean test (README, Adaptive sampling). Here each half of a pixel stops on
+evidence other than its own samples: it goes on while the other half's noise level (error x sqrt(samples) at
 its last estimate), at the pixel or any of its 8 neighbours, predicts an error above the
-threshold at this half's count. A half's stopping time then depends on its own samples only
-through the other half's stopping time, which moves when the other half's level is re-estimated,
-not what it estimates, so each half's mean, and the pixel's, stays unbiased to the validator's
+threshold at this half's count, or the same half's level at any of the 8 neighbours does (their
+samples are not this pixel's). A half's stopping time then depends on its own samples only
+through other halves' stopping times, which move when their levels are re-estimated, not what
+they estimate, so each half's mean, and the pixel's, stays unbiased to the validator's
 precision (tested on the caustic room and both default scenes). The pixel's own noise counts,
 which a rule on the neighbours alone missed: a noisy pixel among calm ones stopped early and its
 neighbours sampled on around it (rings in the sample maps, 1.44x Cycles' error on cornell_dragon
@@ -126,14 +127,16 @@ def errors(active, total, class_a, n, light=None, light_half=None, light_paths=0
 
 
 @jit
-def _dilate(level, width, height, out):
-    """out[y, x] = the largest level in the 3x3 block around (x, y), inside the image."""
+def _dilate(level, width, height, centre, out):
+    """out[y, x] = the largest level in the 3x3 block around (x, y), inside the image, (x, y)
+    itself included if `centre` (0 where nothing is)."""
     for y in range(height):
         for x in range(width):
-            most = level[y, x]
+            most = 0.0
             for yy in range(max(y - 1, 0), min(y + 2, height)):
                 for xx in range(max(x - 1, 0), min(x + 2, width)):
-                    most = max(most, level[yy, xx])
+                    if centre or yy != y or xx != x:
+                        most = max(most, level[yy, xx])
             out[y, x] = most
 
 
@@ -180,8 +183,8 @@ class Halves:
     def check(self, done: int, light=()):
         """After `done` samples (a window's end from the first check on): estimate the error of
         the half (both, at the first check) that just sampled, then keep in each half the pixels
-        where the other half's level around the pixel predicts an error of at least CYCLES_SCALE
-        x threshold at this half's count. `light`: the light tracer's (sums, class-A sums, paths,
+        where the other half's level at or around the pixel, or this half's at its neighbours,
+        predicts an error of at least CYCLES_SCALE x threshold at this half's count. `light`: the light tracer's (sums, class-A sums, paths,
         class-A paths) for errors()."""
         if done < self.first or done % STEP:
             return
@@ -190,14 +193,17 @@ class Halves:
                 n = self.samples[h]
                 error = errors(self.active[h], self.sum[h], self.class_a[h], n, *light)
                 self.level[h, self.active[h]] = error * math.sqrt(n)
-        near = np.empty((2, self.height, self.width))
+        # Each half's levels around each pixel, with the pixel's own (for its other half) and
+        # without (for the same half: its neighbours' samples are not its own).
+        near = np.empty((2, 2, self.height, self.width))
         for h in (0, 1):
-            _dilate(self.level[h].reshape(self.height, self.width), self.width, self.height,
-                    near[h])
+            for centre in (0, 1):
+                _dilate(self.level[h].reshape(self.height, self.width), self.width, self.height,
+                        centre == 1, near[h, centre])
         for h in (0, 1):
             n = self.samples[h]
             if self.active[h].size and n:
-                around = near[1 - h].ravel()[self.active[h]]
+                around = np.maximum(near[1 - h, 1], near[h, 0]).ravel()[self.active[h]]
                 self.active[h] = self.active[h][around >= CYCLES_SCALE * self.threshold
                                                 * math.sqrt(n)]
 
