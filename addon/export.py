@@ -47,10 +47,6 @@ def _active_output(tree, idname):
     return next((n for n in outputs if n.target in ("ALL", "CYCLES")), None)
 
 
-# The inputs an Image Texture may drive (scene.TEXTURABLE).
-TEXTURE_FIELDS = ("color", "roughness", "metallic")
-
-
 def _linked_socket(socket):
     """The output socket feeding an input (through reroutes)."""
     while socket.is_linked:
@@ -83,7 +79,7 @@ class _Inputs:
         sock = self.node.inputs[name]
         source = _follow(sock)
         if source is not None:
-            if (field in TEXTURE_FIELDS and source.bl_idname == "ShaderNodeTexImage"
+            if (field in scene_mod.TEXTURE_SLOTS and source.bl_idname == "ShaderNodeTexImage"
                     and _linked_socket(sock).name == "Color"):
                 self.textures[field] = source
                 return sock
@@ -247,11 +243,6 @@ PRINCIPLED_UNSUPPORTED = (
 WHITE = [1.0, 1.0, 1.0]
 
 
-def inp_textured(mat):
-    """Whether the converter noted textures on the material (see _principled)."""
-    return bool(mat.get("_textured"))
-
-
 def _principled(name, node, inp, issues):
     mat = {"name": name, "kind": "principled"}
     for field, socket in PRINCIPLED_INPUTS.items():
@@ -260,10 +251,8 @@ def _principled(name, node, inp, issues):
     for socket, neutral, rendered in PRINCIPLED_UNSUPPORTED:
         inp.unsupported(socket, neutral, rendered)
     inp.ignored_links("Normal", "Coat Normal", "Tangent")
-    mat["_textured"] = bool(inp.textures)
-    smooth = _as_smooth_glass(mat)
-    del mat["_textured"]
-    return smooth or mat
+    # A textured one stays a Principled BSDF: its inputs vary over the surface.
+    return (not inp.textures and _as_smooth_glass(mat)) or mat
 
 
 def _as_smooth_glass(mat):
@@ -273,8 +262,7 @@ def _as_smooth_glass(mat):
     Cycles' smooth glass: it keeps the kind it had before rough surfaces, so that a scene's
     glass renders as the validator has always held it.
     """
-    exact = (not inp_textured(mat) and mat["transmission"] == 1.0 and mat["metallic"] == 0.0
-             and mat["coat_weight"] == 0.0
+    exact = (mat["transmission"] == 1.0 and mat["metallic"] == 0.0 and mat["coat_weight"] == 0.0
              and mat["roughness"] == 0.0 and mat["color"] == WHITE
              and mat["specular_tint"] == WHITE and mat["specular_ior_level"] == 0.5
              and not scene_mod.emits(mat))
@@ -685,15 +673,15 @@ def convert_world(world, warn, images=None):
     issues = []
     inp = _Inputs(node, issues)
     texture = _follow(node.inputs["Color"])
-    if texture is not None and texture.bl_idname == "ShaderNodeTexEnvironment":
-        strength = max(inp.value("Strength"), 0.0)
-        for issue in issues:
-            warn(f"world {world.name!r}: {issue}")
-        return _environment(world, texture, strength, warn, images if images is not None else [])
-    color = np.array(inp.color("Color")) * max(inp.value("Strength"), 0.0)
+    environment = texture is not None and texture.bl_idname == "ShaderNodeTexEnvironment"
+    # The colour is read only without a map (reading a linked one notes the link).
+    color = None if environment else inp.color("Color")
+    strength = max(inp.value("Strength"), 0.0)
     for issue in issues:
         warn(f"world {world.name!r}: {issue}")
-    return {"color": color.tolist()}
+    if environment:
+        return _environment(world, texture, strength, warn, images if images is not None else [])
+    return {"color": (np.array(color) * strength).tolist()}
 
 
 # Cycles' colour for an image it cannot load (TEX_IMAGE_MISSING_R/G/B).
@@ -701,10 +689,19 @@ MISSING_IMAGE = [1.0, 0.0, 1.0]
 TEXCOORD_DIRECTIONS = ("Generated", "Object")     # in the world, both are the ray direction
 
 
+def _mapping_of(node, issues):
+    """(A, b) of a Mapping node, whose output is A v + b up to a positive factor (ValueError for
+    a type it does not know); its linked inputs are noted in issues."""
+    from ..tracer.environment import mapping_transform
+    inputs = _Inputs(node, issues)
+    kind = node.vector_type
+    location = inputs.vector("Location") if kind in ("POINT", "TEXTURE") else [0.0, 0.0, 0.0]
+    return mapping_transform(kind, location, inputs.vector("Rotation"), inputs.vector("Scale"))
+
+
 def _environment_mapping(world, texture, warn):
     """(A, b): the Environment Texture's coordinate is A d + b for direction d (a Mapping node
     on its Vector input, or none)."""
-    from ..tracer.environment import mapping_transform
     where = f"world {world.name!r}: node {texture.name!r}"
     tm = getattr(texture, "texture_mapping", None)
     if tm is not None and (any(abs(v) > 0 for v in tm.translation)
@@ -721,11 +718,10 @@ def _environment_mapping(world, texture, warn):
              f"cannot evaluate: using the view direction")
         return np.eye(3), np.zeros(3)
     issues = []
-    inputs = _Inputs(source, issues)
-    kind = source.vector_type
-    location = inputs.vector("Location") if kind in ("POINT", "TEXTURE") else [0.0, 0.0, 0.0]
-    rotation = inputs.vector("Rotation")
-    scale = inputs.vector("Scale")
+    try:
+        a, b = _mapping_of(source, issues)
+    except ValueError:
+        a = None
     for issue in issues:
         warn(f"world {world.name!r}: {issue}")
     upstream = _follow(source.inputs["Vector"])
@@ -738,11 +734,7 @@ def _environment_mapping(world, texture, warn):
         warn(f"world {world.name!r}: node {source.name!r}: its Vector is linked to "
              f"{upstream.name!r} ({upstream.bl_idname}), which Snell cannot evaluate: using the "
              f"view direction")
-    try:
-        a, b = mapping_transform(kind, location, rotation, scale)
-        if not abs(np.linalg.det(a)) > 1e-12:
-            raise ValueError("singular")
-    except ValueError:
+    if a is None or not abs(np.linalg.det(a)) > 1e-12:
         warn(f"world {world.name!r}: node {source.name!r}: a zero scale makes the mapping "
              f"singular: ignoring the Mapping node")
         return np.eye(3), np.zeros(3)
@@ -757,7 +749,6 @@ def _texcoord_output(world, node, texcoord, warn):
         warn(f"world {world.name!r}: node {texcoord.name!r}: output {name!r} is not supported in "
              f"the world: using the view direction (Generated)")
     return np.eye(3), np.zeros(3)
-
 
 
 def _environment(world, texture, strength, warn, images):
@@ -899,7 +890,6 @@ class _Exporter:
         """The scene file's texture entry of an Image Texture node, its image and coordinates
         added to the scene's; None (with an issue: the input's unlinked value is used) if it
         cannot be read."""
-        from ..tracer.environment import mapping_transform
         from .images import ImageUnreadable, read_image
         where = f"node {node.name!r}"
         image = node.image
@@ -932,13 +922,7 @@ class _Exporter:
         source_node = _follow(node.inputs["Vector"])
         socket = node.inputs["Vector"]
         if source_node is not None and source_node.bl_idname == "ShaderNodeMapping":
-            m_issues = []
-            inputs = _Inputs(source_node, m_issues)
-            kind = source_node.vector_type
-            location = inputs.vector("Location") if kind in ("POINT", "TEXTURE") else [0, 0, 0]
-            matrix, offset = mapping_transform(kind, location, inputs.vector("Rotation"),
-                                               inputs.vector("Scale"))
-            issues.extend(m_issues)
+            matrix, offset = _mapping_of(source_node, issues)
             socket = source_node.inputs["Vector"]
             source_node = _follow(socket)
         coord = ("uv", "")

@@ -17,6 +17,8 @@ LINEAR_SPACES = ("Linear Rec.709", "Linear", "scene_linear", "Linear BT.709",
                  "Linear Rec.709 (sRGB)")
 DATA_SPACES = ("Non-Color", "Raw", "data")
 SRGB_SPACES = ("sRGB", "sRGB 2.1", "sRGB IEC61966-2.1")
+UNREAD_SOURCES = {"SEQUENCE": "an image sequence", "MOVIE": "a movie",
+                  "TILED": "a tiled (UDIM) image"}
 
 
 class ImageUnreadable(ValueError):
@@ -24,10 +26,12 @@ class ImageUnreadable(ValueError):
 
 
 def srgb_to_linear(v: np.ndarray) -> np.ndarray:
-    """The exact piecewise sRGB decoding (IEC 61966-2-1), float32 in and out."""
-    v = np.asarray(v, np.float32)
-    return np.where(v < 0.04045, np.maximum(v, 0.0) / 12.92,
-                    np.power((np.maximum(v, 0.04045) + 0.055) / 1.055, 2.4)).astype(np.float32)
+    """The exact piecewise sRGB decoding of float32 pixels (the tracer's, textures.py)."""
+    from ..tracer.textures import srgb_to_linear_array
+    v = np.ascontiguousarray(v, np.float32)
+    out = np.empty_like(v)
+    srgb_to_linear_array(v.reshape(-1), out.reshape(-1))
+    return out
 
 
 def _rgb(pixels: np.ndarray) -> np.ndarray:
@@ -80,9 +84,8 @@ def read_image(image, warn, decode=True) -> tuple[np.ndarray, str, str]:
     after interpolation as Cycles does) of a bpy image; warn(text) for what is approximated.
     ImageUnreadable when there is nothing to read."""
     import bpy
-    if image.source in ("SEQUENCE", "MOVIE", "TILED"):
-        raise ImageUnreadable(f"is {'an image sequence' if image.source == 'SEQUENCE' else 'a movie' if image.source == 'MOVIE' else 'a tiled (UDIM) image'}, "
-                              "which Snell does not read")
+    if image.source in UNREAD_SOURCES:
+        raise ImageUnreadable(f"is {UNREAD_SOURCES[image.source]}, which Snell does not read")
     if image.packed_file is not None:
         pixels, source = _read_packed(image), f"packed:{image.name}"
     elif image.source == "FILE":

@@ -34,9 +34,8 @@ import numpy as np
 
 from .jit import jit
 from .sampling import sample_uniform_sphere
-from .textures import REPEAT, sample_image
-
-REC709 = np.array([0.2126, 0.7152, 0.0722])
+from .textures import REC709, REPEAT, sample_image
+from .vec import mat_vec
 
 
 class EnvironmentMap(NamedTuple):
@@ -95,7 +94,7 @@ def _luminance_rows(image, rows, closest):
     wrap in u and v, as Cycles' Repeat extension), so that every texel whose area sees light has
     a weight. Closest reads each texel alone."""
     h = image.shape[0]
-    weights = REC709.astype(np.float32)
+    weights = np.array(REC709, np.float32)
     if closest:
         return np.maximum(image[rows.start:rows.stop] @ weights, 0.0).astype(np.float64)
     index = np.arange(rows.start - 1, rows.stop + 1) % h
@@ -184,17 +183,9 @@ def equirectangular_to_direction(u, v):
 
 
 @jit
-def _apply(m, d):
-    """m d for a 3 x 3 matrix."""
-    return (m[0, 0] * d[0] + m[0, 1] * d[1] + m[0, 2] * d[2],
-            m[1, 0] * d[0] + m[1, 1] * d[1] + m[1, 2] * d[2],
-            m[2, 0] * d[0] + m[2, 1] * d[1] + m[2, 2] * d[2])
-
-
-@jit
 def to_texture(env, d):
     """The texture coordinate of world direction d, A d + b (not normalised)."""
-    t = _apply(env.matrix, d)
+    t = mat_vec(env.matrix, d)
     return (t[0] + env.offset[0], t[1] + env.offset[1], t[2] + env.offset[2])
 
 
@@ -210,7 +201,7 @@ def _unit(t):
 @jit
 def to_world(env, t):
     """The unit world direction whose texture direction is unit t (offset 0): A^-1 t, normalised."""
-    return _unit(_apply(env.inverse, t))[0]
+    return _unit(mat_vec(env.inverse, t))[0]
 
 
 @jit
@@ -260,7 +251,7 @@ def _solid_angle_pdf(env, row, col, sin_theta):
 def _jacobian(env, d):
     """d(texture solid angle) / d(world solid angle) at unit world direction d (offset 0):
     |det A| / |A d|^3."""
-    n = _unit(_apply(env.matrix, d))[1]
+    n = _unit(mat_vec(env.matrix, d))[1]
     return env.det / (n * n * n) if n > 0.0 else 0.0
 
 

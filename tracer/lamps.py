@@ -31,7 +31,7 @@ import numpy as np
 from .jit import jit, jit_inline
 from .sampling import (area_to_solid_angle, one_minus_cos_from_sin2, orthonormal_basis,
                        sample_cosine_hemisphere, sample_uniform_cone, sample_uniform_disk)
-from .vec import add, dot, madd, mul, normalize, row, sub
+from .vec import add, dot, madd, mat_vec, mul, normalize, row, sub
 
 # Per-lamp flags: which rays see the lamp, whether its light samples cast shadows, and whether
 # BSDF-sampled rays find it (Cycles' "multiple importance" option; without it a lamp lights by
@@ -148,9 +148,7 @@ def spot_attenuation(lights, lamp, w):
     if not lights.point_spot[lamp]:
         return 1.0
     m = lights.point_inverse[lamp]
-    local = normalize((m[0, 0] * w[0] + m[0, 1] * w[1] + m[0, 2] * w[2],
-                       m[1, 0] * w[0] + m[1, 1] * w[1] + m[1, 2] * w[2],
-                       m[2, 0] * w[0] + m[2, 1] * w[1] + m[2, 2] * w[2]))
+    local = normalize(mat_vec(m, w))
     x = (-local[2] - lights.point_cos_half[lamp]) * lights.point_smooth[lamp]
     if not x > 0.0:              # also NaN: blend 0 exactly on the cone's edge
         return 0.0

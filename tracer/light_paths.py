@@ -40,7 +40,7 @@ from .lamps import (USES_MIS, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISS
                     intersect_point_lamp, spot_attenuation, spread_attenuation)
 from .lights import AREA, EMISSIVE_TRIANGLE, POINT, SUN
 from .sampler import mix, random_pair
-from .textures import material_color
+from .textures import surface_colors
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
                        sample_uniform_disk, sample_uniform_sphere)
 from .vec import add, dot, madd, mul, neg, row, store, sub
@@ -341,10 +341,7 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
         beta = row(paths.beta, i)
         bounces = paths.bounces[i]
         key = paths.key[i]
-        color, trans_color = row(mats.color, mat), row(mats.trans_color, mat)
-        if mats.textured[mat]:
-            color = material_color(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
-            trans_color = color
+        color, trans_color = surface_colors(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
         if kind == DIFFUSE:
             # This vertex is bounce `bounces + 1` of the camera path that ends here.
             if (bounces == 0 and not caustics.pure) or bounces + 1 > max_depth:

@@ -21,6 +21,7 @@ from .jit import jit, jit_inline
 from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
                     VISIBLE_TRANSMISSION, sample_area_lamp, sample_point_lamp, sample_sun)
 from .sampling import sample_uniform_sphere
+from .textures import REC709
 from .triangle_lights import pdf_triangle, triangle_light_point
 from .vec import mul, normalize, row, sub
 
@@ -81,7 +82,7 @@ class Lights(NamedTuple):
 def luminance(rgb) -> np.ndarray:
     """Rec.709 luminance."""
     rgb = np.asarray(rgb, dtype=np.float64)
-    return rgb @ np.array([0.2126, 0.7152, 0.0722])
+    return rgb @ np.array(REC709)
 
 
 def light_flags(light: dict) -> int:

@@ -12,8 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import bsdf, lobes, microfacet
-from .scene import DISTRIBUTIONS, TEXTURE_SLOTS, emits, material_field
-from .textures import EXTENSIONS
+from .scene import DISTRIBUTIONS, EXTENSIONS, TEXTURE_SLOTS, emits, material_field
 
 
 class Materials(NamedTuple):

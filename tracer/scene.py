@@ -32,7 +32,7 @@ SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 CAMERA_TYPES = ("PERSP", "ORTHO")    # camera.type (version 4); absent: PERSP
 FRESNEL_MODELS = ("exact", "schlick")
 INTERPOLATIONS = ("linear", "closest")
-EXTENSIONS = ("repeat", "extend", "clip", "mirror")     # textures.EXTENSIONS
+EXTENSIONS = ("repeat", "extend", "clip", "mirror")     # textures.REPEAT ... MIRROR
 COLORSPACES = ("linear", "srgb")
 TEXCOORD_KINDS = ("uv", "generated")
 # The inputs an image texture may drive, by material kind (docs/scene-format.md).

@@ -13,8 +13,7 @@ import math
 
 from .jit import jit, jit_inline
 
-REPEAT, EXTEND, CLIP, MIRROR = range(4)
-EXTENSIONS = ("repeat", "extend", "clip", "mirror")
+REPEAT, EXTEND, CLIP, MIRROR = range(4)      # positions in scene.EXTENSIONS
 
 
 @jit
@@ -70,9 +69,16 @@ def srgb_to_linear(c):
     return math.pow((c + 0.055) * (1.0 / 1.055), 2.4)
 
 
+@jit
+def srgb_to_linear_array(values, out):
+    """srgb_to_linear of every value of a flat array, into out (the exporter's sRGB images)."""
+    for i in range(values.shape[0]):
+        out[i] = srgb_to_linear(values[i])
+
+
 # A material's texture slots (Materials.tex columns, scene.TEXTURE_SLOTS).
 COLOR_SLOT, ROUGHNESS_SLOT, METALLIC_SLOT = range(3)
-REC709 = (0.2126, 0.7152, 0.0722)
+REC709 = (0.2126, 0.7152, 0.0722)     # luminance weights of linear Rec.709 RGB
 
 
 @jit_inline
@@ -102,6 +108,16 @@ def material_color(mats, mat, tri, b1, b2):
     if k < 0:
         return (mats.color[mat, 0], mats.color[mat, 1], mats.color[mat, 2])
     return texture_value(mats, k, tri, b1, b2)
+
+
+@jit_inline
+def surface_colors(mats, mat, tri, b1, b2):
+    """(colour, transmission colour) of the material at a hit: a colour texture gives both."""
+    if mats.textured[mat]:
+        color = material_color(mats, mat, tri, b1, b2)
+        return color, color
+    return ((mats.color[mat, 0], mats.color[mat, 1], mats.color[mat, 2]),
+            (mats.trans_color[mat, 0], mats.trans_color[mat, 1], mats.trans_color[mat, 2]))
 
 
 @jit_inline

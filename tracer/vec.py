@@ -74,6 +74,14 @@ def normalize(a):
 
 
 @jit
+def mat_vec(m, a):
+    """m a for a 3 x 3 matrix m."""
+    return (m[0, 0] * a[0] + m[0, 1] * a[1] + m[0, 2] * a[2],
+            m[1, 0] * a[0] + m[1, 1] * a[1] + m[1, 2] * a[2],
+            m[2, 0] * a[0] + m[2, 1] * a[1] + m[2, 2] * a[2])
+
+
+@jit
 def row(array, i):
     """Row i of an (n, 3) array as a vector."""
     return (array[i, 0], array[i, 1], array[i, 2])

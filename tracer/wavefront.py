@@ -30,12 +30,11 @@ from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VIS
                     VISIBLE_TRANSMISSION, area_lamp_hit, intersect_area_lamp,
                     intersect_point_lamp, point_lamp_hit, seen_by, sun_hit)
 from .lights import pdf_world, sample_light, world_radiance
-from .lobes import (DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT, bsdf_eval, bsdf_sample,
-                    setup_shader)
+from .lobes import (DIFFUSE_EVENT, P_METALLIC, P_ROUGHNESS, REFLECT_EVENT, SHADER_PRINCIPLED,
+                    TRANSMIT_EVENT, bsdf_eval, bsdf_sample, setup_shader)
 from .sampler import pixel_key, sample_pair
-from .lobes import P_METALLIC, P_ROUGHNESS, SHADER_PRINCIPLED
 from .sampling import power_heuristic, sample_cosine_hemisphere
-from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_color, material_number
+from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_number, surface_colors
 from .triangle_lights import pdf_triangle
 from .vec import dot, max3, mul, neg, row, store, sub, vmul
 
@@ -240,11 +239,7 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         ng_f, ns_f = mul(ng, side), mul(ns, side)
         mat = mats.of_triangle[tri]
         kind = mats.kind[mat]
-        color = row(mats.color, mat)
-        trans_color = row(mats.trans_color, mat)
-        if mats.textured[mat]:
-            color = material_color(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
-            trans_color = color
+        color, trans_color = surface_colors(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
         key, sample = paths.key[i], paths.sample[i]
         u_pick, u_roulette = sample_pair(key, sample, 2 + 3 * depth, bits, strat)
         u0, u1 = sample_pair(key, sample, 4 + 3 * depth, bits, strat)
