@@ -305,36 +305,37 @@ def test_session_restarts_on_an_edit_and_renders_what_a_fresh_render_does(captur
     assert not snell_threads()
 
 
-def test_session_reports_a_scene_it_cannot_render_and_goes_on():
+@pytest.fixture
+def spheres_session():
+    """The spheres' live export and a one-thread session without coarse passes; stopped after
+    the test, and no worker thread left."""
     open_spheres()
     content = LiveExport().update(evaluated(), full())
     session = view_session.ViewSession(threads=1, coarse=())
-    try:
-        bad = viewport_scene(content, 1)
-        bad.positions = bad.positions.copy()
-        bad.positions[0, 0] = np.nan
-        gen = session.submit(bad, 99, 1)
-        frame = session.wait(lambda f: f.generation == gen, 60)
-        assert frame.final and frame.image is None and "cannot render this scene" in frame.error
-        assert "positions" in frame.error
-        gen = session.submit(viewport_scene(content, 1), content.geometry_version, 1)
-        frame = session.wait(lambda f: f.generation == gen and f.final, 60)
-        assert frame.error is None and frame.image.shape == (REGION[1], REGION[0], 3)
-    finally:
-        session.stop()
+    yield content, session
+    assert session.stop(timeout=60)
     assert not snell_threads()
 
 
-def test_time_limit_ends_a_generation():
-    open_spheres()
-    content = LiveExport().update(evaluated(), full())
-    session = view_session.ViewSession(threads=1, coarse=())
-    try:
-        gen = session.submit(viewport_scene(content, 100000), content.geometry_version, 0, 0.3)
-        frame = session.wait(lambda f: f.generation == gen and f.final, 60)
-        assert frame is not None and 1 <= frame.samples < 100000
-    finally:
-        session.stop()
+def test_session_reports_a_scene_it_cannot_render_and_goes_on(spheres_session):
+    content, session = spheres_session
+    bad = viewport_scene(content, 1)
+    bad.positions = bad.positions.copy()
+    bad.positions[0, 0] = np.nan
+    gen = session.submit(bad, 99, 1)
+    frame = session.wait(lambda f: f.generation == gen, 60)
+    assert frame.final and frame.image is None and "cannot render this scene" in frame.error
+    assert "positions" in frame.error
+    gen = session.submit(viewport_scene(content, 1), content.geometry_version, 1)
+    frame = session.wait(lambda f: f.generation == gen and f.final, 60)
+    assert frame.error is None and frame.image.shape == (REGION[1], REGION[0], 3)
+
+
+def test_time_limit_ends_a_generation(spheres_session):
+    content, session = spheres_session
+    gen = session.submit(viewport_scene(content, 100000), content.geometry_version, 0, 0.3)
+    frame = session.wait(lambda f: f.generation == gen and f.final, 60)
+    assert frame is not None and 1 <= frame.samples < 100000
 
 
 # ---------------------------------------------------------------------------------------------

@@ -487,16 +487,20 @@ def _check_objects(objects):
             raise SceneError(f"objects[{i}].closed: expected true or false, got {_short(obj['closed'])}")
 
 
-def _check_images(images):
+def _image_entries(images):
+    """(index, entry, name for errors) of a list of image entries, each an object with a name."""
     if not isinstance(images, list):
         raise SceneError(f"images: expected a list, got {_short(images)}")
     if len(images) > MAX_IMAGES:
         raise SceneError(f"images: {len(images)} images (at most {MAX_IMAGES})")
     for i, im in enumerate(images):
-        where = f"images[{i}]"
         if not isinstance(im, dict) or not isinstance(im.get("name"), str):
-            raise SceneError(f"{where}: expected an object with a name")
-        where = f"images[{i}] ({_short(im['name'], 40)})"
+            raise SceneError(f"images[{i}]: expected an object with a name")
+        yield i, im, f"images[{i}] ({_short(im['name'], 40)})"
+
+
+def _check_images(images):
+    for _, im, where in _image_entries(images):
         px = im.get("pixels")
         if not isinstance(px, np.ndarray):
             raise SceneError(f"{where}: missing pixels")
@@ -672,15 +676,8 @@ def _read_members(path: str) -> dict:
 
 def _read_images(entries, arrays) -> list:
     """The header's image entries with their pixels, each checked against its recorded hash."""
-    if not isinstance(entries, list):
-        raise SceneError(f"images: expected a list, got {_short(entries)}")
-    if len(entries) > MAX_IMAGES:
-        raise SceneError(f"images: {len(entries)} images (at most {MAX_IMAGES})")
     images = []
-    for i, entry in enumerate(entries):
-        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
-            raise SceneError(f"images[{i}]: expected an object with a name")
-        where = f"images[{i}] ({_short(entry['name'], 40)})"
+    for i, entry, where in _image_entries(entries):
         key = f"image_{i}"
         if key not in arrays:
             raise SceneError(f"{where}: missing array {key}")
