@@ -132,6 +132,9 @@ def _setup_render(p):
     p.add_argument("--caustics", choices=("on", "off"),
                    help="light tracing of caustics (default: the scene's, on); off renders with "
                         "the path tracer alone")
+    p.add_argument("--light-vertices", choices=("on", "off"),
+                   help="connections of camera paths to light vertices (default: the scene's, "
+                        "on); off leaves light next to lamps to the path tracer's two strategies")
     _add_adaptive_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
 
@@ -152,9 +155,10 @@ def cmd_render(args) -> int:
     if args.png:
         _check_output(args.png, ".png", "--png")
     caustics = None if args.caustics is None else args.caustics == "on"
+    vertices = None if args.light_vertices is None else args.light_vertices == "on"
     scene = load_scene(args.scene).with_render(spp=args.spp, max_depth=args.max_depth,
                                                 seed=args.seed, fresnel=args.fresnel,
-                                                caustics=caustics,
+                                                caustics=caustics, light_vertices=vertices,
                                                 noise_threshold=args.noise_threshold,
                                                 min_spp=args.min_spp)
     from .tracer import image

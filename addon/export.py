@@ -806,8 +806,9 @@ def convert_render(scene):
         render["fresnel"] = fresnel.lower()
     elif isinstance(fresnel, int) and 0 <= fresnel < len(scene_mod.FRESNEL_MODELS):
         render["fresnel"] = scene_mod.FRESNEL_MODELS[fresnel]  # items: EXACT, SCHLICK
-    if isinstance(get("caustics"), int):
-        render["caustics"] = bool(get("caustics"))
+    for key in ("caustics", "light_vertices"):
+        if isinstance(get(key), int):
+            render[key] = bool(get(key))
     if isinstance(get("noise_threshold"), (int, float)):
         # Blender keeps the value as a 32-bit float: 7 digits give back the 0.01 typed in.
         render["noise_threshold"] = float(f"{float(get('noise_threshold')):.7g}")

@@ -1,8 +1,8 @@
 """Snell's render settings, stored on every scene as `scene.snell`.
 
 The viewport (addon/viewport.py) reads viewport_spp and viewport_time_limit.
-addon/export.py reads spp, max_depth, seed, fresnel, caustics and the adaptive sampling settings from
-here into the scene file; threads is used by the render engine only.
+addon/export.py reads spp, max_depth, seed, fresnel, caustics, light_vertices and the adaptive
+sampling settings from here into the scene file; threads is used by the render engine only.
 """
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
@@ -59,6 +59,11 @@ class SnellRenderSettings(bpy.types.PropertyGroup):
                     "they light (the same image as the path tracer alone, with far less noise in "
                     "caustics); runs only in scenes with mirrors or glass and a lamp that rays "
                     "can hit")
+    light_vertices: BoolProperty(
+        name="Light Vertices", default=True,
+        description="Connect every diffuse vertex of a camera path to a point that light from a "
+                    "lamp reaches first (the same image, with far less noise where surfaces next "
+                    "to lamps light the scene); runs only with mesh lights or area lamps")
 
 
 def register():

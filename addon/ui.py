@@ -84,6 +84,7 @@ class RENDER_PT_snell_light_paths(SnellPanel, bpy.types.Panel):
                   else "No Cycles equivalent (emitters only)")
         col.prop(props, "fresnel")
         col.prop(props, "caustics")
+        col.prop(props, "light_vertices")
 
 
 class RENDER_PT_snell_performance(SnellPanel, bpy.types.Panel):

@@ -292,9 +292,9 @@ def test_nan_samples_are_counted_and_kept_out_of_the_image(monkeypatch):
     assert np.all(np.isfinite(result.mean()))
 
 
-def _estimators_agree(scene, spp_mis, spp_bsdf, region=None):
+def _estimators_agree(scene, spp_mis, spp_bsdf, region=None, light_vertices=None):
     """Per-pixel and whole-image z-tests between NEE+MIS and BSDF-only renders of one scene."""
-    a = Renderer(scene).render(spp=spp_mis)
+    a = Renderer(scene, light_vertices=light_vertices).render(spp=spp_mis)
     b = Renderer(scene, next_event=False).render(spp=spp_bsdf)
     ma, mb = a.mean().astype(np.float64), b.mean().astype(np.float64)
     va, vb = a.variance_of_mean(), b.variance_of_mean()

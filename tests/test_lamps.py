@@ -185,8 +185,12 @@ def _spot_matrix(position):
 ], ids=["disk", "sphere", "spot", "spread"])
 def test_light_sampling_and_bsdf_sampling_agree_for_lamps_rays_can_hit(light):
     """Light samples with MIS and BSDF samples alone estimate the same image: the densities a
-    hit reports (point_lamp_hit, area_lamp_hit) are those the light sampler used."""
-    _estimators_agree(_lamp_room(light), 256, 2048)
+    hit reports (point_lamp_hit, area_lamp_hit) are those the light sampler used. Without light
+    vertices: BSDF samples alone find the spread lamp from the ceiling so rarely that some pixels
+    hold one hit in 2048 samples, whose variance estimate is then far too small, and the light
+    vertices make the other image's so small that such pixels fail (test_light_vertices.py
+    holds light vertices to the path tracer without them)."""
+    _estimators_agree(_lamp_room(light), 256, 2048, light_vertices=False)
 
 
 def test_light_sampling_and_bsdf_sampling_agree_for_a_sun_disc():

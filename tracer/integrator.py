@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import adaptive, bsdf, jit, light_paths, lobes, wavefront
+from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
 from .lights import LightSampler
@@ -183,13 +184,15 @@ class _Buffers(threading.local):
     """This thread's chunk buffers, made once and reused by every chunk it runs."""
 
     def get(self):
-        """(paths, next paths, shadow rays, radiance, active rows, counters, lobe scratch,
-        Principled parameter scratch) for CHUNK paths."""
+        """(paths, next paths, shadow rays (a light sample and a light-vertex connection per
+        path), radiance, active rows, counters, lobe scratch, Principled parameter scratch,
+        light vertices) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
-                            wavefront.new_shadows(CHUNK), np.empty((CHUNK, 3)),
+                            wavefront.new_shadows(2 * CHUNK), np.empty((CHUNK, 3)),
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64),
-                            np.empty((lobes.MAX_LOBES, lobes.FIELDS)), np.empty(lobes.P_FIELDS))
+                            np.empty((lobes.MAX_LOBES, lobes.FIELDS)), np.empty(lobes.P_FIELDS),
+                            light_vertices_module.new_light_vertices(CHUNK))
         return self.buffers
 
     def light(self):
@@ -206,7 +209,8 @@ class Renderer:
     def __init__(self, scene: Scene, threads: int = 2, next_event: bool = True,
                  sampler: str = "stratified", caustics: bool | str | None = None,
                  light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH,
-                 geometry: Geometry | None = None, env_sampling: bool = True):
+                 geometry: Geometry | None = None, env_sampling: bool = True,
+                 light_vertices: bool | None = None):
         """next_event=False turns light sampling off (BSDF sampling only): a second, independent
         estimator of the same image, which tests use to check the first one. caustics=False
         renders with the path tracer alone (default: the scene's render setting); the light
@@ -226,6 +230,11 @@ class Renderer:
         viewport keeps its BVH while materials, lamps, world or camera change).
         env_sampling=False samples an environment map's directions uniformly instead of by its
         image (an unbiased, noisier estimator, for measurements and tests).
+
+        light_vertices=False leaves out the connections of camera paths to light vertices
+        (light_vertices.py; default: the scene's render setting): the same image, noisier where
+        surfaces next to lamps light the scene. They run only where they can: light sampling on,
+        a lamp that starts them, a diffuse surface and a max depth of 2 or more.
         """
         if sampler not in SAMPLERS:
             raise ValueError(f"sampler: expected one of {SAMPLERS}, got {sampler!r}")
@@ -258,6 +267,13 @@ class Renderer:
         self.light_paths_per_camera_path = float(light_paths_per_camera_path)
         # The path tracer leaves the light tracer's paths to it (not in the pure test mode).
         self.split = self.caustics is not None and not self.caustics.pure
+        want_vertices = (render.get("light_vertices", True) if light_vertices is None
+                         else light_vertices)
+        diffuse = bool(np.any(kind[self.materials.of_triangle] == bsdf.DIFFUSE))
+        self.light_vertices = bool(want_vertices and next_event and diffuse
+                                   and self.max_depth >= 2
+                                   and light_vertices_module.starts_light_vertices(
+                                       self.lights.tables))
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
@@ -301,7 +317,21 @@ class Renderer:
             "light tracing": (self.caustics is not None,
                               "lamps through mirrors and glass" if self.caustics is not None
                               else why_no_light),
+            "light vertices": (self.light_vertices, "mesh lights or area lamps light diffuse "
+                               "surfaces" if self.light_vertices else self._why_no_vertices()),
         }
+
+    def _why_no_vertices(self) -> str:
+        """Why this scene's camera paths connect to no light vertices."""
+        if not self.scene.render.get("light_vertices", True):
+            return "light vertices off"
+        if not self.next_event:
+            return "no light sampling"
+        if self.max_depth < 2:
+            return "max depth below 2"
+        if not light_vertices_module.starts_light_vertices(self.lights.tables):
+            return "no mesh light or area lamp with a spread, MIS, shadows and diffuse rays"
+        return "no diffuse surface"
 
     # -- one chunk of paths ---------------------------------------------------------------
 
@@ -313,12 +343,21 @@ class Renderer:
         (NaN/Inf samples, event counters)."""
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
-        paths, out, shadows, radiance, active, stats, scratch, params = self._buffers.get()
+        paths, out, shadows, radiance, active, stats, scratch, params, lv = self._buffers.get()
         stats[:] = 0
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
         wavefront.generate(self.camera.params(), self.seed, start, in_pass, first_sample, pixels,
                            bits, stratified, n, paths, stats)
+        last_connection = -1
+        if self.light_vertices:
+            # Every camera path's light vertex, before its first bounce (light_vertices.py).
+            last_connection = self.max_depth - 2
+            n_light = light_vertices_module.emit(lights, mesh, bits, stratified, n, paths.key,
+                                                 paths.sample, lv)
+            prim, u, v, _ = geom.intersect(lv.o32[:n_light], lv.d32[:n_light],
+                                           lv.tmax[:n_light])
+            light_vertices_module.hits(lights, mesh, mats, n_light, lv, prim, u, v)
         m = n
         for depth in range(self.max_depth + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
@@ -330,7 +369,7 @@ class Renderer:
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.tables, self.fresnel,
                                               self.next_event, bits, stratified, depth, kept,
                                               active, paths, prim, u, v, out, shadows, radiance,
-                                              scratch, params, stats)
+                                              scratch, params, stats, lv, last_connection)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])

@@ -71,8 +71,14 @@ def sample_regular_polygon(u0, u1, blades, rotation):
 @jit
 def power_heuristic(a, b):
     """MIS weight of strategy a against b (both densities in solid angle)."""
-    a2, b2 = a * a, b * b
-    return a2 / (a2 + b2) if a2 + b2 > 0.0 else 0.0
+    return power_heuristic3(a, b, 0.0)
+
+
+@jit
+def power_heuristic3(a, b, c):
+    """MIS weight of strategy a against b and c (densities in one measure)."""
+    a2, rest = a * a, b * b + c * c
+    return a2 / (a2 + rest) if a2 + rest > 0.0 else 0.0
 
 
 @jit

@@ -45,7 +45,7 @@ MAX_IMAGES = 4096
 # noise_threshold and min_spp: adaptive sampling (tracer/adaptive.py) with Cycles' defaults;
 # a threshold of 0 turns it off, a min_spp of 0 is Cycles' automatic minimum.
 DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact", "caustics": True,
-                  "noise_threshold": 0.01, "min_spp": 0}
+                  "light_vertices": True, "noise_threshold": 0.01, "min_spp": 0}
 # Bounds on integers that size arrays or loops: a file may hold any integer, and one past these
 # would end the render with an overflow or an allocation failure instead of a named field.
 MAX_INT = 2 ** 31 - 1
@@ -470,8 +470,9 @@ def _check_render(render):
         _finite_number(render["noise_threshold"], "render.noise_threshold", minimum=0.0)
     if "min_spp" in render:
         _int_in(render["min_spp"], "render.min_spp", 0, MAX_INT, "an integer")
-    if not isinstance(render.get("caustics", True), bool):
-        raise SceneError(f"render.caustics: expected true or false, got {_short(render.get('caustics'))}")
+    for key in ("caustics", "light_vertices"):
+        if not isinstance(render.get(key, True), bool):
+            raise SceneError(f"render.{key}: expected true or false, got {_short(render.get(key))}")
     if render.get("fresnel") not in FRESNEL_MODELS:
         raise SceneError(f"render.fresnel: expected one of {', '.join(FRESNEL_MODELS)}, "
                          f"got {_short(render.get('fresnel'))}")

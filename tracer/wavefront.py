@@ -29,11 +29,13 @@ from .jit import jit
 from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
                     VISIBLE_TRANSMISSION, area_lamp_hit, intersect_area_lamp,
                     intersect_point_lamp, point_lamp_hit, seen_by, sun_hit)
-from .lights import pdf_world, sample_light, world_radiance
+from .light_vertices import (camera_step_density, connection, direction_to,
+                             light_vertex_density, triangle_density)
+from .lights import AREA, pdf_world, pick_light, sample_light, world_radiance
 from .lobes import (DIFFUSE_EVENT, P_METALLIC, P_ROUGHNESS, REFLECT_EVENT, SHADER_PRINCIPLED,
                     TRANSMIT_EVENT, bsdf_eval, bsdf_sample, setup_shader)
 from .sampler import pixel_key, sample_pair
-from .sampling import power_heuristic, sample_cosine_hemisphere
+from .sampling import power_heuristic, power_heuristic3, sample_cosine_hemisphere
 from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_number, surface_colors
 from .triangle_lights import pdf_triangle
 from .vec import dot, max3, mul, neg, row, store, sub, vmul
@@ -44,9 +46,10 @@ RR_THRESHOLD = 0.1        # ... for paths whose throughput has fallen below this
 # Event counters (RenderResult.stats), by index.
 STATS = ("tir", "tir_absorbed", "rejected", "transmissions", "reflections", "diffuse",
          "rr_killed", "depth_limited", "caustic_splats", "lens_samples", "dielectric_samples",
-         "layered_hits")
+         "layered_hits", "light_vertex_connections")
 (TIR_COUNT, TIR_ABSORBED_COUNT, REJECTED, TRANSMISSIONS, REFLECTIONS, DIFFUSE_HITS, RR_KILLED,
- DEPTH_LIMITED, CAUSTIC_SPLATS, LENS_SAMPLES, DIELECTRIC_SAMPLES, LAYERED_HITS) = range(len(STATS))
+ DEPTH_LIMITED, CAUSTIC_SPLATS, LENS_SAMPLES, DIELECTRIC_SAMPLES, LAYERED_HITS,
+ CONNECTIONS) = range(len(STATS))
 # Light sampling at a layered vertex serves all its lobes.
 VISIBLE_ANY_BSDF = VISIBLE_DIFFUSE | VISIBLE_GLOSSY | VISIBLE_TRANSMISSION
 FAR32 = np.float32(FAR)
@@ -71,6 +74,9 @@ class Paths(NamedTuple):
     caustic: np.ndarray      # (n,) int64: NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was
     #                          diffuse) then CAUSTIC (and every vertex since specular): the light
     #                          tracer's paths, whose emitters the path tracer then skips
+    connect: np.ndarray      # (n,) after a diffuse vertex y1 that a light vertex could stand in
+    #                          for: cos_g(y1, ray) / the density of the camera's step to y1 (the
+    #                          light vertex's MIS density per unit of light_vertex_density), else 0
 
 
 class Shadows(NamedTuple):
@@ -87,7 +93,7 @@ def new_paths(n: int) -> Paths:
     return Paths(np.empty(n, np.int64), np.empty(n, np.uint64), np.empty(n, np.int64),
                  np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3), np.float32),
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
-                 np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64))
+                 np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -108,13 +114,13 @@ def set_ray(paths, i, o, d, tmax):
 
 
 @jit
-def mis_weight(next_event, pdf_bsdf, pdf_light):
+def mis_weight(next_event, pdf_bsdf, pdf_light, pdf_vertex):
     """Weight of light found by BSDF sampling: 1 after the camera and specular bounces (pdf_bsdf
     0: no light sample could have found it) or without light sampling, else the power
-    heuristic."""
+    heuristic against light sampling and the light vertex (light_vertices.py)."""
     if pdf_bsdf == 0.0 or not next_event:
         return 1.0
-    return power_heuristic(pdf_bsdf, pdf_light)
+    return power_heuristic3(pdf_bsdf, pdf_light, pdf_vertex)
 
 
 @jit
@@ -149,6 +155,7 @@ def generate(cam, seed, start, in_pass, first_sample, pixels, bits, stratified, 
         paths.ray_kind[i] = VISIBLE_CAMERA
         paths.pdf_prev[i] = 0.0      # what the camera sees directly gets no MIS weight
         paths.caustic[i] = NO_CAUSTIC
+        paths.connect[i] = 0.0
 
 
 @jit
@@ -176,7 +183,9 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
             t_lamp = intersect_area_lamp(lights, lamp, o, d)
             if 0.0 < t_lamp < t_surface:
                 light, density = area_lamp_hit(lights, lamp, d, t_lamp)
-                w = mis_weight(next_event, pdf_prev, lights.area_pmf[lamp] * density)
+                q = light_vertex_density(lights, AREA, lamp, lights.area_pmf[lamp])
+                w = mis_weight(next_event, pdf_prev, lights.area_pmf[lamp] * density,
+                               q * paths.connect[i])
                 add_light(radiance, path, beta, light, w)
         for lamp in range(lights.point_radius.shape[0] if emitters_count else 0):
             if not seen_by(lights.point_flags[lamp], kind):
@@ -184,24 +193,25 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
             t_lamp = intersect_point_lamp(lights, lamp, o, d)
             if 0.0 < t_lamp < t_surface:
                 light, density = point_lamp_hit(lights, lamp, o, d, t_lamp, pdf_prev)
-                w = mis_weight(next_event, pdf_prev, lights.point_pmf[lamp] * density)
+                w = mis_weight(next_event, pdf_prev, lights.point_pmf[lamp] * density, 0.0)
                 add_light(radiance, path, beta, light, w)
         if prim[i] < 0:
             if lights.has_world:
-                w = mis_weight(next_event, pdf_prev, pdf_world(lights, d))
+                w = mis_weight(next_event, pdf_prev, pdf_world(lights, d), 0.0)
                 add_light(radiance, path, beta, world_radiance(lights, d), w)
             for sun in range(lights.sun_one_minus_cos.shape[0] if emitters_count else 0):
                 # Cycles finds a sun's disc only with its MIS option, camera rays included.
                 flags = lights.sun_flags[sun]
                 if flags & kind and flags & USES_MIS:
                     light, density = sun_hit(lights, sun, d)
-                    w = mis_weight(next_event, pdf_prev, lights.sun_pmf[sun] * density)
+                    w = mis_weight(next_event, pdf_prev, lights.sun_pmf[sun] * density, 0.0)
                     add_light(radiance, path, beta, light, w)
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
         if emitters_count and max3(emission) > 0.0:     # Emission, or a Principled BSDF's
-            w = mis_weight(next_event, pdf_prev, pdf_triangle(lights, prim[i], o, d, t_surface))
+            w = mis_weight(next_event, pdf_prev, pdf_triangle(lights, prim[i], o, d, t_surface),
+                           triangle_density(lights, prim[i]) * paths.connect[i])
             add_light(radiance, path, beta, emission, w)
         if mats.kind[mat] == EMISSION:
             continue
@@ -215,11 +225,13 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
 
 @jit
 def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, stratified, depth,
-              n_active, active, paths, prim, u, v, out, shadows, radiance, lobes, params, stats):
+              n_active, active, paths, prim, u, v, out, shadows, radiance, lobes, params, stats,
+              lv, last_connection):
     """Sample every kept hit: a light sample at diffuse and layered vertices (queued as a shadow
-    ray), then the BSDF; after Russian roulette the surviving paths' next rays go into `out`.
-    `lobes` is scratch for a layered hit's lobes (lobes.py), `tables` its albedo tables, `params`
-    for a textured Principled BSDF's parameters.
+    ray), and up to bounce last_connection (-1: never) the connection to the path's light vertex
+    in `lv` (light_vertices.py; another shadow ray); then the BSDF; after Russian roulette the
+    surviving paths' next rays go into `out`. `lobes` is scratch for a layered hit's lobes
+    (lobes.py), `tables` its albedo tables, `params` for a textured Principled BSDF's parameters.
 
     Returns (paths in out, shadow rays queued).
     """
@@ -244,9 +256,18 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         u_pick, u_roulette = sample_pair(key, sample, 2 + 3 * depth, bits, strat)
         u0, u1 = sample_pair(key, sample, 4 + 3 * depth, bits, strat)
         beta = row(paths.beta, i)
+        path = paths.path[i]
+        connects = depth <= last_connection and lv.found[path]
+        connect = 0.0
         if kind == DIFFUSE:
             stats[DIFFUSE_HITS] += 1
             albedo = color
+            # A light vertex could stand in for this vertex if the camera path sampled it from a
+            # vertex that connects (light_vertices.py): that strategy's MIS density needs the
+            # density of the step here.
+            step = 0.0
+            if depth - 1 <= last_connection and paths.pdf_prev[i] > 0.0:
+                step = camera_step_density(paths.pdf_prev[i], row(paths.o, i), p, ng, d)
             if can_sample_lights:
                 l0, l1 = sample_pair(key, sample, 3 + 3 * depth, bits, strat)
                 wi, target, infinite, weight, pdf_light, flags = sample_light(
@@ -258,14 +279,29 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
                 # mesh it does only for lamps that cast no shadow). BSDF samples below the
                 # geometric surface carry nothing (below), also as in Cycles.
                 if cos > 0.0 and max3(weight) > 0.0:
-                    w = power_heuristic(pdf_light, cos / math.pi) if pdf_light > 0.0 else 1.0
+                    p_vertex = 0.0
+                    cos_g = dot(wi, ng_f)
+                    if step > 0.0 and cos_g > 0.0:
+                        kind_l, k_l, pmf_l = pick_light(lights, u_pick)
+                        p_vertex = light_vertex_density(lights, kind_l, k_l, pmf_l) * cos_g / step
+                    w = power_heuristic3(pdf_light, cos / math.pi, p_vertex) \
+                        if pdf_light > 0.0 else 1.0
                     light = mul(vmul(vmul(beta, albedo), weight), cos / math.pi * w)
-                    n_shadow = deliver_light(shadows, n_shadow, radiance, paths.path[i], light,
+                    n_shadow = deliver_light(shadows, n_shadow, radiance, path, light,
                                              flags, offset_origin(p, ng_f, eps, wi), wi,
                                              target, infinite)
+            if connects:
+                wl, d2 = direction_to(lv, path, p)
+                cos = dot(wl, ns_f)
+                if cos > 0.0 and dot(wl, ng_f) > 0.0:
+                    n_shadow = connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f,
+                                                    eps, wl, d2, mul(albedo, cos / math.pi),
+                                                    cos / math.pi, stats)
             wi, pdf = sample_cosine_hemisphere(ns_f, u0, u1)
             # Shading normals can point a sample into the surface: it carries nothing.
             beta = (0.0, 0.0, 0.0) if dot(wi, ng_f) <= 0.0 else vmul(beta, albedo)
+            if step > 0.0:
+                connect = dot(wi, ng_f) / step
             new_d, ray_kind, pdf_prev = wi, VISIBLE_DIFFUSE, pdf
             caustic = FIRST_DIFFUSE if depth == 0 else NO_CAUSTIC
         elif kind == LAYERED:
@@ -287,10 +323,16 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
                     f, pdf_bsdf = bsdf_eval(lobes, count, view, wl, lit_events(flags))
                     if max3(f) > 0.0:
                         w = power_heuristic(pdf_light, pdf_bsdf) if pdf_light > 0.0 else 1.0
-                        n_shadow = deliver_light(shadows, n_shadow, radiance, paths.path[i],
+                        n_shadow = deliver_light(shadows, n_shadow, radiance, path,
                                                  mul(vmul(vmul(beta, f), weight), w), flags,
                                                  offset_origin(p, ng_f, eps, wl), wl, target,
                                                  infinite)
+            if connects:
+                wl, d2 = direction_to(lv, path, p)
+                f, pdf_bsdf = bsdf_eval(lobes, count, view, wl, lit_events(VISIBLE_ANY_BSDF))
+                if max3(f) > 0.0:
+                    n_shadow = connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f,
+                                                    eps, wl, d2, f, pdf_bsdf, stats)
             new_d, factor, pdf_prev, event, valid = bsdf_sample(lobes, count, ng_f, view, u_pick,
                                                                 u0, u1)
             beta = vmul(beta, factor) if valid else (0.0, 0.0, 0.0)
@@ -332,6 +374,7 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         out.ray_kind[n_out] = ray_kind
         out.caustic[n_out] = caustic
         out.pdf_prev[n_out] = pdf_prev
+        out.connect[n_out] = connect
         n_out += 1
     return n_out, n_shadow
 
@@ -378,6 +421,22 @@ def deliver_light(shadows, n_shadow, radiance, path, light, flags, origin, wi, t
         return n_shadow + 1
     add_light(radiance, path, light, (1.0, 1.0, 1.0), 1.0)
     return n_shadow
+
+
+@jit
+def connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, eps, w, d2, f_cos, pdf,
+                         stats):
+    """Queue the connection of a camera vertex p (throughput beta, BSDF x cosine f_cos and
+    density pdf towards its light vertex along w, at squared distance d2) as shadow ray
+    n_shadow; returns the new shadow-ray count."""
+    light = connection(lv, path, w, d2, f_cos, pdf)
+    if not max3(light) > 0.0:
+        return n_shadow
+    store(shadows.contrib, n_shadow, vmul(beta, light))
+    queue_shadow(shadows, n_shadow, path, offset_origin(p, ng_f, eps, w), w,
+                 row(lv.point, path), False)
+    stats[CONNECTIONS] += 1
+    return n_shadow + 1
 
 
 @jit
