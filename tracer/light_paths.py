@@ -41,6 +41,7 @@ from .lamps import (USES_MIS, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISS
 from .lights import AREA, EMISSIVE_TRIANGLE, POINT, SUN
 from .sampler import mix, random_pair
 from .textures import surface_colors
+from .triangle_lights import uniform_triangle_point
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
                        sample_uniform_disk, sample_uniform_sphere)
 from .vec import add, dot, madd, mul, neg, row, store, sub
@@ -196,11 +197,7 @@ def emit(caustics, lights, mesh, u_pick, u_point, u_dir, emitter):
     kind, i = caustics.emitter_kind[emitter], caustics.emitter_index[emitter]
     zero = (0.0, 0.0, 0.0)
     if kind == EMISSIVE_TRIANGLE:
-        v = lights.tri_corners[i]
-        su = math.sqrt(u_point[0])
-        b2 = u_point[1] * su
-        v0 = row(v, 0)
-        y = madd(madd(v0, su - b2, sub(row(v, 1), v0)), b2, sub(row(v, 2), v0))
+        y = uniform_triangle_point(lights.tri_corners[i], u_point[0], u_point[1])
         w, density = emission_direction(caustics, y, 0.0, u_pick, u_dir[0], u_dir[1])
         normal = row(lights.tri_normal, i)
         cos_y = abs(dot(w, normal))

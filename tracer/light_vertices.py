@@ -39,8 +39,8 @@ from .lights import AREA, EMISSIVE_TRIANGLE, pick_light
 from .sampler import sample_pair
 from .sampling import sample_cosine_hemisphere
 from .textures import surface_colors
-from .triangle_lights import pdf_triangle
-from .vec import dot, madd, mul, neg, row, store, sub
+from .triangle_lights import pdf_triangle, uniform_triangle_point
+from .vec import dot, mul, neg, row, store, sub
 
 # Sampler dimensions of a camera path's light vertex (any numbers apart from the bounces' own).
 PICK_DIMENSION, POINT_DIMENSION, DIRECTION_DIMENSION = 0x4C56_0000, 0x4C56_0001, 0x4C56_0002
@@ -131,11 +131,7 @@ def emit(lights, mesh, bits, stratified, n, keys, samples, lv):
         if q == 0.0:
             continue
         if kind == EMISSIVE_TRIANGLE:
-            c = lights.tri_corners[k]
-            su = math.sqrt(u0)
-            b2 = u1 * su
-            c0 = row(c, 0)
-            y = madd(madd(c0, su - b2, sub(row(c, 1), c0)), b2, sub(row(c, 2), c0))
+            y = uniform_triangle_point(lights.tri_corners[k], u0, u1)
             normal = row(lights.tri_normal, k)
             if u_side >= 0.5:
                 normal = neg(normal)

@@ -75,6 +75,15 @@ def sample_spherical_triangle(a, b, c, u0, u1):
 # -- emissive triangles -------------------------------------------------------------------------
 
 @jit_inline
+def uniform_triangle_point(corners, u0, u1):
+    """A point uniform in area on the triangle of rows corners (3, 3)."""
+    su = math.sqrt(u0)
+    b2 = u1 * su
+    v0 = row(corners, 0)
+    return madd(madd(v0, su - b2, sub(row(corners, 1), v0)), b2, sub(row(corners, 2), v0))
+
+
+@jit_inline
 def near_triangle(lights, light, plane):
     """Whether a point at signed distance `plane` from light triangle `light` samples it in
     solid angle (else in area)."""
@@ -96,9 +105,7 @@ def triangle_light_point(lights, light, q, u0, u1):
         if omega > 0.0 and math.isfinite(t) and t > 0.0:
             return madd(q, t, direction), 1.0 / omega
         return v0, 0.0     # seen edge-on: no light, and the point stays finite (a corner)
-    su = math.sqrt(u0)
-    b2 = u1 * su
-    point = madd(madd(v0, su - b2, sub(v1, v0)), b2, sub(v2, v0))
+    point = uniform_triangle_point(v, u0, u1)
     return point, area_to_solid_angle(point, q, normal, lights.tri_area[light], True)
 
 
