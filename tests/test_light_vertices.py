@@ -128,6 +128,9 @@ def test_scenes_without_light_vertices_say_why_and_never_connect():
     assert point.stats["light_vertex_connections"] == 0
     off = _render(_room("mesh", light_vertices=False), 4)
     assert off.stages["light vertices"] == (False, "light vertices off")
+    turned_off = _render(_room("mesh"), 4, light_vertices=False)     # Renderer's own option
+    assert turned_off.stages["light vertices"] == (False, "light vertices off")
+    assert turned_off.stats["light_vertex_connections"] == 0
     shallow = _render(_room("mesh", max_depth=1), 4)
     assert shallow.stages["light vertices"] == (False, "max depth below 2")
     on = _render(_room("mesh"), 4)

@@ -267,13 +267,8 @@ class Renderer:
         self.light_paths_per_camera_path = float(light_paths_per_camera_path)
         # The path tracer leaves the light tracer's paths to it (not in the pure test mode).
         self.split = self.caustics is not None and not self.caustics.pure
-        want_vertices = (render.get("light_vertices", True) if light_vertices is None
-                         else light_vertices)
-        diffuse = bool(np.any(kind[self.materials.of_triangle] == bsdf.DIFFUSE))
-        self.light_vertices = bool(want_vertices and next_event and diffuse
-                                   and self.max_depth >= 2
-                                   and light_vertices_module.starts_light_vertices(
-                                       self.lights.tables))
+        self.light_vertices, self._why_vertices = self._choose_light_vertices(
+            render.get("light_vertices", True) if light_vertices is None else light_vertices)
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
@@ -317,21 +312,23 @@ class Renderer:
             "light tracing": (self.caustics is not None,
                               "lamps through mirrors and glass" if self.caustics is not None
                               else why_no_light),
-            "light vertices": (self.light_vertices, "mesh lights or area lamps light diffuse "
-                               "surfaces" if self.light_vertices else self._why_no_vertices()),
+            "light vertices": (self.light_vertices, self._why_vertices),
         }
 
-    def _why_no_vertices(self) -> str:
-        """Why this scene's camera paths connect to no light vertices."""
-        if not self.scene.render.get("light_vertices", True):
-            return "light vertices off"
+    def _choose_light_vertices(self, wanted: bool) -> tuple[bool, str]:
+        """(whether camera paths connect to light vertices, why or why not)."""
+        if not wanted:
+            return False, "light vertices off"
         if not self.next_event:
-            return "no light sampling"
+            return False, "no light sampling"
         if self.max_depth < 2:
-            return "max depth below 2"
+            return False, "max depth below 2"
         if not light_vertices_module.starts_light_vertices(self.lights.tables):
-            return "no mesh light or area lamp with a spread, MIS, shadows and diffuse rays"
-        return "no diffuse surface"
+            return False, "no mesh light or area lamp with a spread, MIS, shadows and diffuse rays"
+        used = self.materials.kind[self.materials.of_triangle]
+        if not np.any(used == bsdf.DIFFUSE):
+            return False, "no diffuse surface"
+        return True, "mesh lights or area lamps light diffuse surfaces"
 
     # -- one chunk of paths ---------------------------------------------------------------
 
