@@ -134,7 +134,8 @@ def _setup_render(p):
                         "the path tracer alone")
     p.add_argument("--light-vertices", choices=("on", "off"),
                    help="connections of camera paths to light vertices (default: the scene's, "
-                        "on); off leaves light next to lamps to the path tracer's two strategies")
+                        "on: where an adaptive render measures that they pay); off leaves light "
+                        "next to lamps to the path tracer's two strategies")
     _add_adaptive_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
 

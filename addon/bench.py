@@ -95,7 +95,8 @@ def _snell_point(spec):
         "embree_share_of_wall": result.embree_time_s / (wall * result.threads),
         "nan_samples": result.nan_count, "threads": result.threads,
         "light_paths": result.light_paths, "caustic_splats": result.stats.get("caustic_splats", 0),
-        "skipped_stages": sorted(name for name, (runs, _) in result.stages.items() if not runs)}
+        "skipped_stages": sorted(name for name, (runs, _) in result.stages.items() if not runs),
+        "stages": {name: {"runs": runs, "why": why} for name, (runs, why) in result.stages.items()}}
 
 
 def _cycles_point(spec):
@@ -362,7 +363,10 @@ def definitions(opts: Options) -> dict:
         "skipped_stages": "Snell only: the optional stages the scene does not need and Snell does not "
                           "run (lens sampling without depth of field, dielectric sampling without "
                           "glass, next-event estimation without lamps or world light, the world "
-                          "when it is black, light tracing without mirror or glass and a lamp)",
+                          "when it is black, light tracing without mirror or glass and a lamp, "
+                          "light vertices where an adaptive render measured that they do not pay)",
+        "stages": "Snell only: every optional stage, whether it ran and why (the render's own "
+                  "account: RenderResult.stages)",
         "caustic_relmse": f"relMSE over the caustic region only: the pixels where the light "
                           f"tracer's image (at the largest Snell point) is at least "
                           f"{cb.CAUSTIC_SHARE:g} of the reference",

@@ -63,7 +63,9 @@ class SnellRenderSettings(bpy.types.PropertyGroup):
         name="Light Vertices", default=True,
         description="Connect every diffuse vertex of a camera path to a point that light from a "
                     "lamp reaches first (the same image, with far less noise where surfaces next "
-                    "to lamps light the scene); runs only with mesh lights or area lamps")
+                    "to lamps light the scene); runs only with mesh lights or area lamps. "
+                    "Adaptive renders measure in their first samples whether the connections "
+                    "save more samples than their rays cost, and keep them only if they do")
 
 
 def register():

@@ -71,6 +71,42 @@ def test_the_error_estimate_of_known_noise(n):
     assert abs(error.mean() / expected - 1) < 4 * 0.755 / math.sqrt(pixels)
 
 
+def test_samples_to_error_of_exact_samples():
+    """Per-sample variances v_c (n - 1 in the denominator) of a pixel of value m: a mean of k
+    samples has |I_c - A_c| ~ sqrt(2 v_c / (pi k)), so k = (sqrt(2 / pi) sum_c sqrt(v_c) /
+    ((EPSILON + sqrt(sum_c m_c)) e))^2 reaches error e; no spread needs no samples."""
+    samples = np.array([[[0.1, 0.2, 0.0], [0.3, 0.2, 0.4], [0.2, 0.2, 0.5], [0.0, 0.2, 0.3]]])
+    total, total_sq = samples.sum(axis=1), (samples * samples).sum(axis=1)
+    mean = np.array([[0.1, 0.2, 0.3]])
+    v = samples[0].var(axis=0, ddof=1)
+    expected = (math.sqrt(2 / math.pi) * np.sqrt(v).sum()
+                / ((adaptive.EPSILON + math.sqrt(0.6)) * 0.05)) ** 2
+    assert adaptive.samples_to_error(total, total_sq, 4, mean, 0.05) == \
+        pytest.approx([expected], rel=1e-12)
+    assert v[1] == 0.0 and v[0] > 0.0
+
+
+def test_predicted_samples_spread_to_the_neighbours_between_the_bounds():
+    """One noisy pixel in a calm 5 x 5 image: it and its 8 neighbours are predicted to sample
+    as long as it does (a pixel samples while a neighbour is noisy), capped; the rest the least."""
+    n, width = 16, 5
+    total = np.full((width * width, 3), 0.2 * n)
+    total_sq = total * total / n                 # no spread
+    noisy = 2 * width + 3                        # (x, y) = (3, 2)
+    total_sq[noisy] *= 2.0                       # variance 0.04 per channel
+    mean = total / n
+    need = adaptive.samples_to_error(total[noisy:noisy + 1], total_sq[noisy:noisy + 1], n,
+                                     mean[noisy:noisy + 1], adaptive.CYCLES_SCALE * 0.01)[0]
+    assert 64 < need < 1e5
+    for most, expected in ((10 ** 6, need), (64 + 1, 64 + 1)):
+        predicted = adaptive.predicted_samples(total, total_sq, n, mean, 0.01, 32, most, width,
+                                               width)
+        block = np.zeros((width, width), bool)
+        block[1:4, 2:5] = True
+        assert predicted[block] == pytest.approx(expected, rel=1e-12)
+        assert (predicted[~block] == 32).all()
+
+
 def simulate(sigma, threshold, least, spp, size=48, seed=1):
     """Adaptive sampling of a size x size grey image of known noise (sigma: a number or one per
     pixel), window by window as the integrator runs it; returns the Halves."""

@@ -149,6 +149,8 @@ def test_quick_bench_fills_every_key(tmp_path):
     assert "dielectric sampling" in dragon["snell"]["points"][0]["skipped_stages"]
     assert "world" in spheres["snell"]["points"][0]["skipped_stages"]
     assert "dielectric sampling" not in spheres["snell"]["points"][0]["skipped_stages"]
+    assert dragon["snell"]["points"][0]["stages"]["dielectric sampling"] == {
+        "runs": False, "why": "no smooth glass"}
     assert all("caustic_relmse" not in p and p["light_paths"] == 0 for p in dragon["snell"]["points"])
     html = (report / "bench.html").read_text()
     assert html.count("<polyline") == 6 and "cornell_dragon" in html

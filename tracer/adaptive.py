@@ -65,6 +65,28 @@ def first_check(least: int) -> int:
     return max(2 * STEP, -(-least // STEP) * STEP)
 
 
+def samples_to_error(total, total_sq, n, mean, error):
+    """The samples each pixel needs for Cycles' error of its mean to fall to `error`, from n
+    samples' sums and sums of squares (rows of (pixels, 3)) and the pixel's value `mean`."""
+    variance = np.maximum(total_sq - total * total / n, 0.0) / (n - 1)
+    # For a mean of k samples |I - A| per channel is half-normal: sqrt(2 / pi) sqrt(variance / k).
+    spread = math.sqrt(2.0 / math.pi) * np.sqrt(variance).sum(axis=1)
+    intensity = np.maximum(mean.sum(axis=1), 0.0)
+    scale = EPSILON + np.where(intensity < 1.0, np.sqrt(intensity), intensity)
+    return (spread / (scale * error)) ** 2
+
+
+def predicted_samples(total, total_sq, n, mean, threshold, least, most, width, height):
+    """The samples adaptive sampling is predicted to give each pixel, (height, width), from n
+    samples' sums (as for samples_to_error): enough for the error at the pixel and its 8
+    neighbours to reach the threshold (Halves.check keeps a pixel while a neighbour is noisy),
+    between least and most."""
+    needed = samples_to_error(total, total_sq, n, mean, CYCLES_SCALE * threshold)
+    around = np.empty((height, width))
+    _dilate(needed.reshape(height, width), width, height, True, around)
+    return np.clip(around, least, most)
+
+
 def half_of(sample: int) -> int:
     """Which half (0 or 1) sample index `sample` belongs to."""
     return (sample // STEP) & 1

@@ -36,6 +36,7 @@ SAMPLERS = ("stratified", "independent")
 # Caustics). From 1/64 to 1/8 the product is flat within the timing noise; more light paths only
 # cost time, since the camera paths' own noise then dominates even in the caustics.
 LIGHT_PATHS_PER_CAMERA_PATH = 0.125
+_NO_ROWS = np.zeros((0, 3))     # film: no class-A image
 
 
 @dataclass
@@ -185,11 +186,12 @@ class _Buffers(threading.local):
 
     def get(self):
         """(paths, next paths, shadow rays (a light sample and a light-vertex connection per
-        path), radiance, active rows, counters, lobe scratch, Principled parameter scratch,
-        light vertices) for CHUNK paths."""
+        path), radiance, radiance without light vertices (a pilot's), active rows, counters,
+        lobe scratch, Principled parameter scratch, light vertices) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
                             wavefront.new_shadows(2 * CHUNK), np.empty((CHUNK, 3)),
+                            np.empty((CHUNK, 3)),
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64),
                             np.empty((lobes.MAX_LOBES, lobes.FIELDS)), np.empty(lobes.P_FIELDS),
                             light_vertices_module.new_light_vertices(CHUNK))
@@ -210,7 +212,7 @@ class Renderer:
                  sampler: str = "stratified", caustics: bool | str | None = None,
                  light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH,
                  geometry: Geometry | None = None, env_sampling: bool = True,
-                 light_vertices: bool | None = None):
+                 light_vertices: bool | None = None, light_vertex_pilot: bool = True):
         """next_event=False turns light sampling off (BSDF sampling only): a second, independent
         estimator of the same image, which tests use to check the first one. caustics=False
         renders with the path tracer alone (default: the scene's render setting); the light
@@ -234,7 +236,9 @@ class Renderer:
         light_vertices=False leaves out the connections of camera paths to light vertices
         (light_vertices.py; default: the scene's render setting): the same image, noisier where
         surfaces next to lamps light the scene. They run only where they can: light sampling on,
-        a lamp that starts them, a diffuse surface and a max depth of 2 or more.
+        a lamp that starts them, a diffuse surface and a max depth of 2 or more. Where they run,
+        an adaptive render measures whether they pay (render, _pilot_choice) unless
+        light_vertex_pilot=False, which keeps them throughout as a fixed-sample render does.
         """
         if sampler not in SAMPLERS:
             raise ValueError(f"sampler: expected one of {SAMPLERS}, got {sampler!r}")
@@ -269,6 +273,7 @@ class Renderer:
         self.split = self.caustics is not None and not self.caustics.pure
         self.light_vertices, self._why_vertices = self._choose_light_vertices(
             render.get("light_vertices", True) if light_vertices is None else light_vertices)
+        self.light_vertex_pilot = bool(light_vertex_pilot)
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
@@ -333,50 +338,61 @@ class Renderer:
     # -- one chunk of paths ---------------------------------------------------------------
 
     def trace_chunk(self, start: int, n: int, in_pass: int, first_sample: int, pixels: np.ndarray,
-                    bits: int, total: np.ndarray, total_sq: np.ndarray, class_a: np.ndarray):
+                    bits: int, total: np.ndarray, total_sq: np.ndarray, class_a: np.ndarray,
+                    vertices: bool | None = None, pilot: tuple | None = None):
         """Trace paths start .. start + n of a pass (in_pass samples per pixel of `pixels`, or of
         every pixel when it is empty; the first sample being first_sample) and add them to the
-        (pixels, 3) sums, class-A samples also to `class_a` if it has rows (adaptive.py). Returns
-        (NaN/Inf samples, event counters)."""
+        (pixels, 3) sums, class-A samples also to `class_a` if it has rows (adaptive.py), with
+        light vertices if `vertices` (default: where they run). pilot: (sums, sums of squares)
+        that get the same samples without light vertices (wavefront.emitters). Returns (NaN/Inf
+        samples, event counters)."""
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
-        paths, out, shadows, radiance, active, stats, scratch, params, lv = self._buffers.get()
+        (paths, out, shadows, radiance, without, active, stats, scratch, params,
+         lv) = self._buffers.get()
+        without = without[:n] if pilot is not None else without[:0]
         stats[:] = 0
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
+        wavefront.clear(without, without.shape[0])
         wavefront.generate(self.camera.params(), self.seed, start, in_pass, first_sample, pixels,
                            bits, stratified, n, paths, stats)
         last_connection = -1
-        if self.light_vertices:
+        if self.light_vertices and (vertices is None or vertices):
             # Every camera path's light vertex, before its first bounce (light_vertices.py).
             last_connection = self.max_depth - 2
             n_light = light_vertices_module.emit(lights, mesh, bits, stratified, n, paths.key,
                                                  paths.sample, lv)
             prim, u, v, _ = geom.intersect(lv.o32[:n_light], lv.d32[:n_light],
                                            lv.tmax[:n_light])
+            stats[wavefront.VERTEX_RAYS] += n_light
             light_vertices_module.hits(lights, mesh, mats, n_light, lv, prim, u, v)
         m = n
         for depth in range(self.max_depth + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
             kept = wavefront.emitters(lights, mats, self.next_event, self.split,
-                                      depth, self.max_depth, m, paths, prim, t, radiance, active,
-                                      stats)
+                                      depth, self.max_depth, m, paths, prim, t, radiance,
+                                      without, active, stats)
             if kept == 0:
                 break
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.tables, self.fresnel,
                                               self.next_event, bits, stratified, depth, kept,
                                               active, paths, prim, u, v, out, shadows, radiance,
-                                              scratch, params, stats, lv, last_connection)
+                                              without, scratch, params, stats, lv,
+                                              last_connection)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])
-                wavefront.shadow_rays(n_shadow, blocked, shadows, radiance)
+                wavefront.shadow_rays(n_shadow, blocked, shadows, radiance, without)
             paths, out = out, paths
             if m == 0:
                 break
         with self._film_lock:
             bad = wavefront.film(radiance, n, start, in_pass, first_sample, pixels, total,
                                  total_sq, class_a)
+            if pilot is not None:
+                wavefront.film(without, n, start, in_pass, first_sample, pixels, *pilot,
+                               _NO_ROWS)
         return bad, stats.copy()
 
     def trace_light_chunk(self, pass_index: int, start: int, n: int):
@@ -451,7 +467,6 @@ class Renderer:
         total, total_sq = result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3)
         all_pixels = np.zeros(0, np.int64)      # film and generate: every pixel, in order
         sampling = all_pixels
-        no_class_a = np.zeros((0, 3))           # film: no class-A image
         halves = None
         if adapt:
             result.sample_count = np.zeros((h, w), np.int32)
@@ -471,6 +486,13 @@ class Renderer:
             passes = max(1, min(batches, spp))
         embree_before, rays_before = self.geometry.embree_time, self.geometry.ray_count
         counters = np.zeros(len(wavefront.STATS), np.int64)
+        # Adaptive renders measure whether light vertices pay (_pilot_choice): until the first
+        # error estimate every path also carries its light as it would without them.
+        pilot = None
+        if adapt and self.light_vertices and self.light_vertex_pilot:
+            pilot = (np.zeros((npix, 3)), np.zeros((npix, 3)))
+        vertices = self.light_vertices
+        pilot_rays = 0
         start = time.perf_counter()
         light_share = 1.0
         k = 0
@@ -494,7 +516,7 @@ class Renderer:
                     if adapt:
                         in_pass = min(in_pass, window_end - done)
                 count = n_rows * in_pass
-                film, film_sq, class_a = total, total_sq, no_class_a
+                film, film_sq, class_a = total, total_sq, _NO_ROWS
                 if keep_batches:
                     film = pass_sum
                     pass_sum[:] = 0.0
@@ -504,12 +526,15 @@ class Renderer:
                 # order with any number of threads (float addition is not associative).
                 size = max(1, CHUNK // in_pass) * in_pass
                 jobs = [(s, min(size, count - s)) for s in range(0, count, size)]
+                rays_then = self.geometry.ray_count
                 for bad, stats in pool.map(
                         lambda job: (0, 0) if stop is not None and stop.is_set() else
                         self.trace_chunk(job[0], job[1], in_pass, done, sampling, bits, film,
-                                         film_sq, class_a), jobs):
+                                         film_sq, class_a, vertices, pilot), jobs):
                     result.nan_count += bad
                     counters += stats
+                if pilot is not None:
+                    pilot_rays += self.geometry.ray_count - rays_then
                 if stop is not None and stop.is_set():
                     result.cancelled = True
                     break
@@ -545,6 +570,13 @@ class Renderer:
                     np.add(halves.count[0], halves.count[1], out=result.sample_count.reshape(-1))
                     np.add(halves.sum[0], halves.sum[1], out=total)
                     np.add(halves.sum_sq[0], halves.sum_sq[1], out=total_sq)
+                    if pilot is not None and result.spp == halves.first:
+                        light = (result.light_sum.reshape(-1, 3) / result.light_paths
+                                 if self.split else 0.0)
+                        vertices, why = _pilot_choice(total, total_sq, pilot, result.spp, light,
+                                                      halves, spp, pilot_rays, counters)
+                        result.stages["light vertices"] = (vertices, why)
+                        pilot = None
                     if result.spp < spp:
                         halves.check(result.spp, (result.light_sum.reshape(-1, 3), light_half,
                                                   result.light_paths, result.light_paths_a)
@@ -584,6 +616,30 @@ class Renderer:
             if film_a is not None and first < n_a:
                 wavefront.splat(pixels, contributions, film_a)
             counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+
+
+def _pilot_choice(total, total_sq, without, n, light, halves, most, rays, counters):
+    """(whether the rest of an adaptive render uses light vertices, why), from its first n
+    samples in every pixel: their sums and sums of squares with light vertices (total,
+    total_sq) and without (`without`), `light` the light tracer's image (or 0), `halves` the
+    render's adaptive.Halves, `most` its cap, `rays` the camera rays the samples took and
+    `counters` their wavefront.STATS.
+
+    Each estimator's cost is the samples adaptive sampling is predicted to give all pixels
+    (adaptive.predicted_samples) times its rays per sample; without light vertices a path saves
+    their rays (the ray from the lamp and the connections). Rays, not seconds, so that the
+    choice, and the image, depend on the seed alone. A pixel's own samples sway the choice by
+    one pixel's share of an image-wide sum; either way every sample is unbiased."""
+    saved = counters[wavefront.VERTEX_RAYS] + counters[wavefront.CONNECTIONS]
+    mean = total / n + light
+    cost = [float(adaptive.predicted_samples(s, sq, n, mean, halves.threshold, halves.first,
+                                             most, halves.width, halves.height).sum()) * r
+            for (s, sq), r in (((total, total_sq), rays), (without, rays - saved))]
+    ratio = cost[0] / cost[1] if cost[1] > 0.0 else 1.0
+    if ratio <= 1.0:
+        return True, (f"mesh lights or area lamps light diffuse surfaces; measured: {ratio:.2f}x "
+                      "the rays to the noise threshold with them")
+    return False, f"measured: {ratio:.2f}x the rays to the noise threshold with them"
 
 
 def _share_on(light, pixels) -> float:

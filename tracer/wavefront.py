@@ -46,10 +46,10 @@ RR_THRESHOLD = 0.1        # ... for paths whose throughput has fallen below this
 # Event counters (RenderResult.stats), by index.
 STATS = ("tir", "tir_absorbed", "rejected", "transmissions", "reflections", "diffuse",
          "rr_killed", "depth_limited", "caustic_splats", "lens_samples", "dielectric_samples",
-         "layered_hits", "light_vertex_connections")
+         "layered_hits", "light_vertex_connections", "light_vertex_rays")
 (TIR_COUNT, TIR_ABSORBED_COUNT, REJECTED, TRANSMISSIONS, REFLECTIONS, DIFFUSE_HITS, RR_KILLED,
  DEPTH_LIMITED, CAUSTIC_SPLATS, LENS_SAMPLES, DIELECTRIC_SAMPLES, LAYERED_HITS,
- CONNECTIONS) = range(len(STATS))
+ CONNECTIONS, VERTEX_RAYS) = range(len(STATS))
 # Light sampling at a layered vertex serves all its lobes.
 VISIBLE_ANY_BSDF = VISIBLE_DIFFUSE | VISIBLE_GLOSSY | VISIBLE_TRANSMISSION
 FAR32 = np.float32(FAR)
@@ -86,6 +86,7 @@ class Shadows(NamedTuple):
     d32: np.ndarray          # (n, 3) float32
     tmax: np.ndarray         # (n,) float32 segment length
     contrib: np.ndarray      # (n, 3) radiance the path gets if the segment is free
+    without: np.ndarray      # (n, 3) the same without light vertices (a pilot's, see emitters)
 
 
 def new_paths(n: int) -> Paths:
@@ -99,7 +100,8 @@ def new_paths(n: int) -> Paths:
 def new_shadows(n: int) -> Shadows:
     """Uninitialised shadow-ray buffers for n rays."""
     return Shadows(np.empty(n, np.int64), np.empty((n, 3), np.float32),
-                   np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)))
+                   np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
+                   np.empty((n, 3)))
 
 
 @jit
@@ -128,6 +130,15 @@ def add_light(radiance, path, beta, light, w):
     """radiance[path] += beta * light * w."""
     for k in range(3):
         radiance[path, k] += beta[k] * light[k] * w
+
+
+@jit
+def add_light_both(radiance, without, path, beta, light, w, w_without):
+    """add_light with weight w and, when `without` has rows (a pilot), to the radiance without
+    light vertices with w_without, their weight where no light vertex competes."""
+    add_light(radiance, path, beta, light, w)
+    if without.shape[0] > 0:
+        add_light(without, path, beta, light, w_without)
 
 
 @jit
@@ -160,9 +171,13 @@ def generate(cam, seed, start, in_pass, first_sample, pixels, bits, stratified, 
 
 @jit
 def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, prim, t, radiance,
-             active, stats):
+             without, active, stats):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
+
+    `without` (when it has rows) gets the light the same paths would carry without light
+    vertices: the path tracer's samples are the same, only the MIS weights of light that a light
+    vertex could have found change. A pilot compares the two (integrator.py, _pilot_choice).
 
     Lamps have no surface, as in Cycles: a ray adds the light of every lamp it crosses before its
     hit (or escape) and goes on as if the lamp were not there. A lamp is seen by the rays its
@@ -184,9 +199,10 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
             if 0.0 < t_lamp < t_surface:
                 light, density = area_lamp_hit(lights, lamp, d, t_lamp)
                 q = light_vertex_density(lights, AREA, lamp, lights.area_pmf[lamp])
-                w = mis_weight(next_event, pdf_prev, lights.area_pmf[lamp] * density,
-                               q * paths.connect[i])
-                add_light(radiance, path, beta, light, w)
+                pdf_light = lights.area_pmf[lamp] * density
+                add_light_both(radiance, without, path, beta, light,
+                               mis_weight(next_event, pdf_prev, pdf_light, q * paths.connect[i]),
+                               mis_weight(next_event, pdf_prev, pdf_light, 0.0))
         for lamp in range(lights.point_radius.shape[0] if emitters_count else 0):
             if not seen_by(lights.point_flags[lamp], kind):
                 continue
@@ -194,25 +210,27 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
             if 0.0 < t_lamp < t_surface:
                 light, density = point_lamp_hit(lights, lamp, o, d, t_lamp, pdf_prev)
                 w = mis_weight(next_event, pdf_prev, lights.point_pmf[lamp] * density, 0.0)
-                add_light(radiance, path, beta, light, w)
+                add_light_both(radiance, without, path, beta, light, w, w)
         if prim[i] < 0:
             if lights.has_world:
                 w = mis_weight(next_event, pdf_prev, pdf_world(lights, d), 0.0)
-                add_light(radiance, path, beta, world_radiance(lights, d), w)
+                add_light_both(radiance, without, path, beta, world_radiance(lights, d), w, w)
             for sun in range(lights.sun_one_minus_cos.shape[0] if emitters_count else 0):
                 # Cycles finds a sun's disc only with its MIS option, camera rays included.
                 flags = lights.sun_flags[sun]
                 if flags & kind and flags & USES_MIS:
                     light, density = sun_hit(lights, sun, d)
                     w = mis_weight(next_event, pdf_prev, lights.sun_pmf[sun] * density, 0.0)
-                    add_light(radiance, path, beta, light, w)
+                    add_light_both(radiance, without, path, beta, light, w, w)
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
         if emitters_count and max3(emission) > 0.0:     # Emission, or a Principled BSDF's
-            w = mis_weight(next_event, pdf_prev, pdf_triangle(lights, prim[i], o, d, t_surface),
-                           triangle_density(lights, prim[i]) * paths.connect[i])
-            add_light(radiance, path, beta, emission, w)
+            pdf_light = pdf_triangle(lights, prim[i], o, d, t_surface)
+            add_light_both(radiance, without, path, beta, emission,
+                           mis_weight(next_event, pdf_prev, pdf_light,
+                                      triangle_density(lights, prim[i]) * paths.connect[i]),
+                           mis_weight(next_event, pdf_prev, pdf_light, 0.0))
         if mats.kind[mat] == EMISSION:
             continue
         if depth == max_depth:
@@ -225,13 +243,14 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
 
 @jit
 def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, stratified, depth,
-              n_active, active, paths, prim, u, v, out, shadows, radiance, lobes, params, stats,
-              lv, last_connection):
+              n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes, params,
+              stats, lv, last_connection):
     """Sample every kept hit: a light sample at diffuse and layered vertices (queued as a shadow
     ray), and up to bounce last_connection (-1: never) the connection to the path's light vertex
     in `lv` (light_vertices.py; another shadow ray); then the BSDF; after Russian roulette the
     surviving paths' next rays go into `out`. `lobes` is scratch for a layered hit's lobes
-    (lobes.py), `tables` its albedo tables, `params` for a textured Principled BSDF's parameters.
+    (lobes.py), `tables` its albedo tables, `params` for a textured Principled BSDF's parameters;
+    `without` as for emitters.
 
     Returns (paths in out, shadow rays queued).
     """
@@ -284,12 +303,15 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
                     if step > 0.0 and cos_g > 0.0:
                         kind_l, k_l, pmf_l = pick_light(lights, u_pick)
                         p_vertex = light_vertex_density(lights, kind_l, k_l, pmf_l) * cos_g / step
-                    w = power_heuristic3(pdf_light, cos / math.pi, p_vertex) \
-                        if pdf_light > 0.0 else 1.0
-                    light = mul(vmul(vmul(beta, albedo), weight), cos / math.pi * w)
-                    n_shadow = deliver_light(shadows, n_shadow, radiance, path, light,
-                                             flags, offset_origin(p, ng_f, eps, wi), wi,
-                                             target, infinite)
+                    w, w_without = 1.0, 1.0
+                    if pdf_light > 0.0:
+                        w = power_heuristic3(pdf_light, cos / math.pi, p_vertex)
+                        w_without = power_heuristic3(pdf_light, cos / math.pi, 0.0)
+                    light = mul(vmul(vmul(beta, albedo), weight), cos / math.pi)
+                    n_shadow = deliver_light(shadows, n_shadow, radiance, without, path,
+                                             mul(light, w), mul(light, w_without), flags,
+                                             offset_origin(p, ng_f, eps, wi), wi, target,
+                                             infinite)
             if connects:
                 wl, d2 = direction_to(lv, path, p)
                 cos = dot(wl, ns_f)
@@ -323,8 +345,9 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
                     f, pdf_bsdf = bsdf_eval(lobes, count, view, wl, lit_events(flags))
                     if max3(f) > 0.0:
                         w = power_heuristic(pdf_light, pdf_bsdf) if pdf_light > 0.0 else 1.0
-                        n_shadow = deliver_light(shadows, n_shadow, radiance, path,
-                                                 mul(vmul(vmul(beta, f), weight), w), flags,
+                        light = mul(vmul(vmul(beta, f), weight), w)
+                        n_shadow = deliver_light(shadows, n_shadow, radiance, without, path,
+                                                 light, light, flags,
                                                  offset_origin(p, ng_f, eps, wl), wl, target,
                                                  infinite)
             if connects:
@@ -410,16 +433,20 @@ def lit_events(flags):
 
 
 @jit
-def deliver_light(shadows, n_shadow, radiance, path, light, flags, origin, wi, target,
-                  infinite):
-    """A light sample's contribution: behind a shadow ray from origin (queued as ray n_shadow),
-    or added at once for a lamp that casts no shadow (lamps.* flags). Returns the new
-    shadow-ray count."""
+def deliver_light(shadows, n_shadow, radiance, without, path, light, light_without, flags,
+                  origin, wi, target, infinite):
+    """A light sample's contribution (light_without: its share without light vertices, for
+    `without` as in emitters): behind a shadow ray from origin (queued as ray n_shadow), or
+    added at once for a lamp that casts no shadow (lamps.* flags). Returns the new shadow-ray
+    count."""
     if flags & CASTS_SHADOW:
         store(shadows.contrib, n_shadow, light)
+        store(shadows.without, n_shadow, light_without)
         queue_shadow(shadows, n_shadow, path, origin, wi, target, infinite)
         return n_shadow + 1
     add_light(radiance, path, light, (1.0, 1.0, 1.0), 1.0)
+    if without.shape[0] > 0:
+        add_light(without, path, light_without, (1.0, 1.0, 1.0), 1.0)
     return n_shadow
 
 
@@ -433,6 +460,7 @@ def connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, eps, w, d2,
     if not max3(light) > 0.0:
         return n_shadow
     store(shadows.contrib, n_shadow, vmul(beta, light))
+    store(shadows.without, n_shadow, (0.0, 0.0, 0.0))
     queue_shadow(shadows, n_shadow, path, offset_origin(p, ng_f, eps, w), w,
                  row(lv.point, path), False)
     stats[CONNECTIONS] += 1
@@ -472,12 +500,16 @@ def count_specular(stats, event, valid):
 
 
 @jit
-def shadow_rays(n, blocked, shadows, radiance):
-    """Add the light of every shadow ray that nothing blocked (Embree: 0 where blocked)."""
+def shadow_rays(n, blocked, shadows, radiance, without):
+    """Add the light of every shadow ray that nothing blocked (Embree: 0 where blocked), and
+    when `without` has rows their light without light vertices to it."""
+    tracking = without.shape[0] > 0
     for j in range(n):
         if blocked[j] != 0:
             for k in range(3):
                 radiance[shadows.path[j], k] += shadows.contrib[j, k]
+                if tracking:
+                    without[shadows.path[j], k] += shadows.without[j, k]
 
 
 @jit
