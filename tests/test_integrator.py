@@ -8,7 +8,7 @@ import pytest
 
 from builders import box, camera, icosphere, make_scene, quad
 from snell.tracer.camera import Camera
-from snell.tracer.integrator import Renderer, render
+from snell.tracer.integrator import CHUNK, Renderer, render
 
 WHITE = [1.0, 1.0, 1.0]
 LOSSLESS = {
@@ -286,8 +286,11 @@ def test_nan_samples_are_counted_and_kept_out_of_the_image(monkeypatch):
         return original(radiance, n, *args)
     monkeypatch.setattr(wavefront, "film", poisoned)
     result = render(scene)
-    # One pass of 128 paths (64 pixels x 2 samples) in one chunk.
-    expected_bad = len(set(range(0, 128, 7)) | set(range(0, 128, 11)))
+    # One pass of 128 paths (64 pixels x 2 samples) in chunks; each chunk poisons its own rows.
+    from snell.tracer.integrator import _jobs
+    chunks = [n for _, n in _jobs(0, 128, 2)]
+    assert len(chunks) == 4
+    expected_bad = sum(len(set(range(0, n, 7)) | set(range(0, n, 11))) for n in chunks)
     assert result.nan_count == expected_bad
     assert np.all(np.isfinite(result.mean()))
 
@@ -424,3 +427,21 @@ def test_mean_rounds_once_into_float32_without_a_float64_copy():
         tracemalloc.stop()
     assert image.dtype == np.float32 and np.array_equal(image, (total / 7).astype(np.float32))
     assert peak < image.nbytes + (1 << 20)
+
+
+@pytest.mark.parametrize("begin, end, unit", [(0, 1 << 17, 2), (0, 9600, 16), (0, 80, 16),
+                                              (0, 3 * CHUNK + 3, 3), (5, 7, 1), (100, 1100, 1)])
+def test_a_pass_splits_into_even_jobs_of_whole_pixels(begin, end, unit):
+    """Jobs cover the pass in order, hold whole pixels' samples and at most CHUNK paths, and come
+    in a multiple of JOB_MULTIPLE (fewer only when there are fewer pixels), even to one pixel:
+    small adaptive passes keep both threads busy."""
+    from snell.tracer.integrator import JOB_MULTIPLE, _jobs
+    jobs = _jobs(begin, end, unit)
+    starts = [s for s, _ in jobs]
+    sizes = [n for _, n in jobs]
+    assert starts[0] == begin and sum(sizes) == end - begin
+    assert all(a + n == b for (a, n), b in zip(jobs, starts[1:]))
+    assert all(n % unit == 0 and 0 < n <= CHUNK for n in sizes)
+    units = (end - begin) // unit
+    assert len(jobs) % JOB_MULTIPLE == 0 or len(jobs) == units
+    assert max(sizes) - min(sizes) <= unit

@@ -30,6 +30,7 @@ from .scene import DEFAULT_RENDER, FRESNEL_MODELS, Scene
 
 CHUNK = 1 << 13           # paths per chunk: measured best (8k-16k) for Python overhead vs cache
 PASS_PATHS = 1 << 17      # aim for about this many paths per progressive pass
+JOB_MULTIPLE = 4          # a pass's jobs come in multiples of this: 1, 2 or 4 threads end together
 SAMPLERS = ("stratified", "independent")
 # Light paths traced per camera path when the light tracer runs (light_paths.py): the value of
 # least relMSE x time on cornell_spheres at 32 spp (tools/measure_caustics_split.py; README,
@@ -524,8 +525,7 @@ class Renderer:
                     film, film_sq, class_a = halves.film(done)
                 # Chunks hold whole pixels' samples, so that each pixel's sum is added in the same
                 # order with any number of threads (float addition is not associative).
-                size = max(1, CHUNK // in_pass) * in_pass
-                jobs = [(s, min(size, count - s)) for s in range(0, count, size)]
+                jobs = _jobs(0, count, in_pass)
                 rays_then = self.geometry.ray_count
                 for bad, stats in pool.map(
                         lambda job: (0, 0) if stop is not None and stop.is_set() else
@@ -608,14 +608,27 @@ class Renderer:
         if film_a is not None:
             film_a[:] = 0.0
         # Jobs never straddle n_a, so each job's splats belong to one half.
-        jobs = [(s, min(CHUNK, end - s)) for begin, end in ((0, n_a), (n_a, n_light))
-                for s in range(begin, end, CHUNK)]
+        jobs = _jobs(0, n_a, 1) + _jobs(n_a, n_light, 1)
         for (first, _), (pixels, contributions) in zip(jobs, pool.map(
                 lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs)):
             wavefront.splat(pixels, contributions, film)
             if film_a is not None and first < n_a:
                 wavefront.splat(pixels, contributions, film_a)
             counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+
+
+def _jobs(begin: int, end: int, unit: int) -> list:
+    """(start, count) jobs covering begin .. end in whole units (a pixel's samples in a pass),
+    at most CHUNK paths each, of equal size give or take a unit, and as many as the next multiple
+    of JOB_MULTIPLE (the units allowing): adaptive sampling's small passes then keep every thread
+    busy. The split depends on the counts alone, so the image does not depend on the threads."""
+    units = (end - begin) // unit
+    if units <= 0:
+        return []
+    count = -(-units // max(1, CHUNK // unit))
+    count = min(units, -(-count // JOB_MULTIPLE) * JOB_MULTIPLE)
+    bounds = [begin + i * units // count * unit for i in range(count + 1)]
+    return [(a, b - a) for a, b in zip(bounds, bounds[1:])]
 
 
 def _pilot_choice(total, total_sq, without, n, light, halves, most, rays, counters):
