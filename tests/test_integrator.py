@@ -295,6 +295,18 @@ def test_nan_samples_are_counted_and_kept_out_of_the_image(monkeypatch):
     assert np.all(np.isfinite(result.mean()))
 
 
+def test_non_finite_light_splats_are_counted_and_left_out():
+    """The light tracer's splats: a NaN or Inf one is counted and dropped, its pixel keeps the
+    others."""
+    from snell.tracer import wavefront
+    film = np.zeros((3, 3))
+    pixels = np.array([0, 1, 1, 2])
+    contributions = np.array([[1.0, 1.0, 1.0], [np.nan, 0.0, 0.0], [2.0, 2.0, 2.0],
+                              [1.0, np.inf, 1.0]])
+    assert wavefront.splat(pixels, contributions, film) == 2
+    assert np.array_equal(film, [[1.0, 1.0, 1.0], [2.0, 2.0, 2.0], [0.0, 0.0, 0.0]])
+
+
 def _estimators_agree(scene, spp_mis, spp_bsdf, region=None, light_vertices=None):
     """Per-pixel and whole-image z-tests between NEE+MIS and BSDF-only renders of one scene."""
     a = Renderer(scene, light_vertices=light_vertices).render(spp=spp_mis)

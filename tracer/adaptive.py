@@ -177,6 +177,7 @@ class Halves:
         self.level = np.zeros((2, npix))     # error x sqrt(samples) at the half's last estimate
         self.active = [np.arange(npix, dtype=np.int64), np.arange(npix, dtype=np.int64)]
         self.samples = [0, 0]                # samples of each half in every pixel still in it
+        self._union = None                   # union(), until a check changes the halves
 
     def pixels(self, sample: int) -> np.ndarray:
         """The pixels that take sample index `sample` (sorted)."""
@@ -194,8 +195,13 @@ class Halves:
         self.samples[h] += n
 
     def union(self) -> np.ndarray:
-        """The pixels either half still samples (sorted)."""
-        return np.union1d(self.active[0], self.active[1])
+        """The pixels either half still samples (sorted; the same array until a check)."""
+        if self._union is None:
+            either = np.zeros(self.count.shape[1], bool)
+            either[self.active[0]] = True
+            either[self.active[1]] = True
+            self._union = np.flatnonzero(either)
+        return self._union
 
     @property
     def converged(self) -> bool:
@@ -228,6 +234,7 @@ class Halves:
                 around = np.maximum(near[1 - h, 1], near[h, 0]).ravel()[self.active[h]]
                 self.active[h] = self.active[h][around >= CYCLES_SCALE * self.threshold
                                                 * math.sqrt(n)]
+        self._union = None
 
     def mean(self, rows: slice) -> np.ndarray:
         """The camera samples' image of the pixels in `rows` (a slice of pixel indices): the

@@ -496,6 +496,7 @@ class Renderer:
         pilot_rays = 0
         start = time.perf_counter()
         light_share = 1.0
+        union = None                            # adaptive: the pixels either half samples
         k = 0
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             while result.spp < spp:
@@ -543,13 +544,12 @@ class Renderer:
                     n_light = max(2, int(round(self.light_paths_per_camera_path * npix * in_pass
                                                * light_share)))
                     n_a = n_light // 2 if adapt else n_light
-                    self._trace_light_pass(pool, k, n_light, n_a, pass_light,
-                                           pass_light_a if adapt else None, counters)
-                    result.nan_count += _zero_non_finite(pass_light)
+                    result.nan_count += self._trace_light_pass(
+                        pool, k, n_light, n_a, pass_light, pass_light_a if adapt else None,
+                        counters)
                     result.light_sum.reshape(-1, 3)[:] += pass_light
                     result.light_paths += n_light
                     if adapt:
-                        result.nan_count += _zero_non_finite(pass_light_a)
                         light_half += pass_light_a
                         result.light_paths_a += n_a
                         result.light_pass_sq.reshape(-1, 3)[:] += pass_light * pass_light / n_light
@@ -581,10 +581,12 @@ class Renderer:
                         halves.check(result.spp, (result.light_sum.reshape(-1, 3), light_half,
                                                   result.light_paths, result.light_paths_a)
                                      if self.split else ())
-                        sampling = halves.union()
-                        result.active_share = sampling.shape[0] / npix
-                        if traces_light:
-                            light_share = _share_on(pass_light, sampling)
+                        if halves.union() is not union:      # a check changed the halves
+                            union = halves.union()
+                            result.active_share = union.shape[0] / npix
+                            if traces_light:
+                                light_share = _share_on(pass_light, union)
+                        sampling = union
                 result.time_s = time.perf_counter() - start
                 result.embree_time_s = self.geometry.embree_time - embree_before
                 result.rays = self.geometry.ray_count - rays_before
@@ -601,20 +603,23 @@ class Renderer:
         result.time_s = time.perf_counter() - start
         return result
 
-    def _trace_light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters):
+    def _trace_light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters) -> int:
         """Trace a pass's n_light light paths into film (rows of (pixels, 3)); film_a (if not
-        None) gets those of the first n_a, adaptive sampling's half A of the light tracer."""
+        None) gets those of the first n_a, adaptive sampling's half A of the light tracer.
+        Returns how many splats were NaN or Inf (left out)."""
         film[:] = 0.0
         if film_a is not None:
             film_a[:] = 0.0
         # Jobs never straddle n_a, so each job's splats belong to one half.
         jobs = _jobs(0, n_a, 1) + _jobs(n_a, n_light, 1)
+        bad = 0
         for (first, _), (pixels, contributions) in zip(jobs, pool.map(
                 lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs)):
-            wavefront.splat(pixels, contributions, film)
+            bad += wavefront.splat(pixels, contributions, film)
             if film_a is not None and first < n_a:
                 wavefront.splat(pixels, contributions, film_a)
             counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+        return bad
 
 
 def _jobs(begin: int, end: int, unit: int) -> list:
@@ -678,13 +683,6 @@ def _variance_of_mean(total, total_sq, k):
     """The variance of the mean of k independent values (samples, or batch images) per pixel,
     from their sum and sum of squares."""
     return np.maximum((total_sq - total * total / k) / (k - 1), 0.0) / k
-
-
-def _zero_non_finite(rows: np.ndarray) -> int:
-    """Set non-finite entries' rows to 0; returns how many rows had one."""
-    bad = ~np.isfinite(rows).all(axis=1)
-    rows[bad] = 0.0
-    return int(bad.sum())
 
 
 def render(scene: Scene, *, threads: int = 2, progress=None, spp: int | None = None) -> RenderResult:

@@ -514,10 +514,17 @@ def shadow_rays(n, blocked, shadows, radiance, without):
 
 @jit
 def splat(pixels, contributions, film):
-    """Add each contribution to its pixel's row of the film."""
+    """Add each finite contribution to its pixel's row of the film; returns how many were not
+    (NaN or Inf, left out)."""
+    bad = 0
     for j in range(pixels.shape[0]):
+        if not (math.isfinite(contributions[j, 0]) and math.isfinite(contributions[j, 1])
+                and math.isfinite(contributions[j, 2])):
+            bad += 1
+            continue
         for k in range(3):
             film[pixels[j], k] += contributions[j, k]
+    return bad
 
 
 @jit
