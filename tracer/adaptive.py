@@ -68,12 +68,23 @@ def first_check(least: int) -> int:
 def samples_to_error(total, total_sq, n, mean, error):
     """The samples each pixel needs for Cycles' error of its mean to fall to `error`, from n
     samples' sums and sums of squares (rows of (pixels, 3)) and the pixel's value `mean`."""
-    variance = np.maximum(total_sq - total * total / n, 0.0) / (n - 1)
-    # For a mean of k samples |I - A| per channel is half-normal: sqrt(2 / pi) sqrt(variance / k).
-    spread = math.sqrt(2.0 / math.pi) * np.sqrt(variance).sum(axis=1)
-    intensity = np.maximum(mean.sum(axis=1), 0.0)
-    scale = EPSILON + np.where(intensity < 1.0, np.sqrt(intensity), intensity)
-    return (spread / (scale * error)) ** 2
+    out = np.empty(total.shape[0])
+    _samples_to_error(total, total_sq, float(n), mean, float(error), out)
+    return out
+
+
+@jit
+def _samples_to_error(total, total_sq, n, mean, error, out):
+    for p in range(total.shape[0]):
+        spread = 0.0
+        for k in range(3):
+            variance = max(total_sq[p, k] - total[p, k] * total[p, k] / n, 0.0) / (n - 1.0)
+            spread += math.sqrt(variance)
+        # For a mean of m samples |I - A| per channel is half-normal, of mean
+        # sqrt(2 / pi) sqrt(variance / m): the error pixel_error finds, on average.
+        intensity = max(mean[p, 0] + mean[p, 1] + mean[p, 2], 0.0)
+        needed = math.sqrt(2.0 / math.pi) * spread / ((EPSILON + normalisation(intensity)) * error)
+        out[p] = needed * needed
 
 
 def predicted_samples(total, total_sq, n, mean, threshold, least, most, width, height):
