@@ -244,3 +244,19 @@ def test_a_render_skips_what_the_scene_does_not_need():
     assert glass.stages["dielectric sampling"] == (True, "glass")
     assert glass.stages["lens sampling"] == (True, "depth of field")
     assert glass.stages["light tracing"][0] is True
+
+
+def test_the_light_tracer_follows_the_camera_between_orthographic_and_perspective():
+    """The light tracer connects to a pinhole or a thin lens: an orthographic camera turns it off
+    and a perspective one back on, whichever the renderer was built with (the viewport switches
+    views on one renderer)."""
+    scene = caustic_room(8)
+    ortho_scene = scene.with_camera(type="ORTHO", ortho_scale=2.0)
+    for built in (Renderer(scene), Renderer(ortho_scene)):
+        ortho = built.with_camera(ortho_scene.camera)
+        assert ortho.caustics is None and not ortho.split
+        assert ortho.stages()["light tracing"] == (False, "orthographic camera")
+        perspective = built.with_camera(scene.camera)
+        assert perspective.caustics is not None and perspective.split
+        assert perspective.stages()["light tracing"][0]
+        assert perspective.render(spp=2).light_paths > 0

@@ -262,16 +262,12 @@ class Renderer:
         self.seed = int(render["seed"])
         self.fresnel = FRESNEL_MODELS.index(render["fresnel"])
         want_caustics = render.get("caustics", True) if caustics is None else caustics
-        # The light tracer connects to a pinhole or a thin lens; an orthographic camera leaves
-        # every path to the path tracer (the same image, noisier caustics).
-        if self.camera.ortho:
-            want_caustics = False
-        self.caustics = (light_paths.caustics_tables(scene, self.lights, self.geometry, kind,
-                                                     pure=want_caustics == "pure")
-                         if want_caustics else None)
+        # Built whatever the camera, so that with_camera can switch the light tracer either way.
+        self._caustic_tables = (light_paths.caustics_tables(scene, self.lights, self.geometry,
+                                                            kind, pure=want_caustics == "pure")
+                                if want_caustics else None)
+        self._use_camera_for_caustics()
         self.light_paths_per_camera_path = float(light_paths_per_camera_path)
-        # The path tracer leaves the light tracer's paths to it (not in the pure test mode).
-        self.split = self.caustics is not None and not self.caustics.pure
         self.light_vertices, self._why_vertices = self._choose_light_vertices(
             render.get("light_vertices", True) if light_vertices is None else light_vertices)
         self.light_vertex_pilot = bool(light_vertex_pilot)
@@ -285,11 +281,18 @@ class Renderer:
         other.scene = copy.copy(self.scene)
         other.scene.camera = camera
         other.camera = Camera(camera)
-        if other.camera.ortho:          # as __init__: no light tracer for orthographic cameras
-            other.caustics, other.split = None, False
+        other._use_camera_for_caustics()
         other._buffers = _Buffers()
         other._film_lock = threading.Lock()
         return other
+
+    def _use_camera_for_caustics(self):
+        """Run the light tracer (where the scene has one) unless the camera is orthographic:
+        the light tracer connects to a pinhole or a thin lens, so an orthographic camera leaves
+        every path to the path tracer (the same image, noisier caustics)."""
+        self.caustics = None if self.camera.ortho else self._caustic_tables
+        # The path tracer leaves the light tracer's paths to it (not in the pure test mode).
+        self.split = self.caustics is not None and not self.caustics.pure
 
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
