@@ -99,3 +99,9 @@ def store(array, i, a):
 def max3(a):
     """The largest component."""
     return max(a[0], max(a[1], a[2]))
+
+
+@jit
+def finite_row(array, i):
+    """Whether row i of an (n, 3) array is finite (no NaN or Inf)."""
+    return math.isfinite(array[i, 0]) and math.isfinite(array[i, 1]) and math.isfinite(array[i, 2])

@@ -38,7 +38,7 @@ from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic, power_heuristic3, sample_cosine_hemisphere
 from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_number, surface_colors
 from .triangle_lights import pdf_triangle
-from .vec import dot, max3, mul, neg, row, store, sub, vmul
+from .vec import dot, finite_row, max3, mul, neg, row, store, sub, vmul
 
 STRATIFIED_BOUNCES = 2    # bounces whose light and BSDF samples are stratified (then random)
 RR_START = 3              # Russian roulette from this bounce on ...
@@ -518,8 +518,7 @@ def splat(pixels, contributions, film):
     (NaN or Inf, left out)."""
     bad = 0
     for j in range(pixels.shape[0]):
-        if not (math.isfinite(contributions[j, 0]) and math.isfinite(contributions[j, 1])
-                and math.isfinite(contributions[j, 2])):
+        if not finite_row(contributions, j):
             bad += 1
             continue
         for k in range(3):
@@ -542,8 +541,7 @@ def film(radiance, n, start, in_pass, first_sample, pixels, total, total_sq, hal
     bad = 0
     with_half = half.shape[0] > 0
     for i in range(n):
-        if not (math.isfinite(radiance[i, 0]) and math.isfinite(radiance[i, 1])
-                and math.isfinite(radiance[i, 2])):
+        if not finite_row(radiance, i):
             bad += 1
             continue
         g = start + i
