@@ -252,7 +252,7 @@ def test_stopping_leaves_the_image_unbiased():
     """Each half of a pixel stops on the other half's noise, and the pixel is the mean of the
     halves' means, so its mean is unbiased: an adaptive render agrees with a fixed one in pixels, tiles and the image mean, and the same
     test sees a 3% error. (Cycles' rule, which stops a pixel on its own error too, darkens
-    cornell_spheres by 0.2-0.4% at 0.01: README, Adaptive sampling.)"""
+    cornell_spheres by 0.2-0.4% at 0.01: docs/design/adaptive-sampling.md.)"""
     result, stats = room_agreement(0.02)
     assert 0.2 < result.saved_share < 0.95
     assert stats["verdict"] == metrics.CONSISTENT, {k: stats[k] for k in ("tests", "mean_z")}

@@ -6,11 +6,11 @@ consistent; deliberate errors in the Snell scene (roughness x 1.1, IOR + 0.05) m
 The numbers in the comments were measured at these settings (seed 0, 2 threads).
 
 Cycles 5.0 evaluates rough refraction for pairs of directions that no microfacet refracts into
-each other (the README's one deliberate difference), so its light sampling adds light that its
-BSDF sampling never produces; Snell's refraction is zero there. Where that light is large enough
-to measure (a rough glass sphere seen against the lamp), the slow tests below hold Snell against
-Cycles with that lamp's light sampling turned off, and show the difference. The slow tests also
-render the Cornell box rows at 16 x the samples.
+each other (the one deliberate difference in docs/design/rough-surfaces.md), so its light
+sampling adds light that its BSDF sampling never produces; Snell's refraction is zero there.
+Where that light is large enough to measure (a rough glass sphere seen against the lamp), the slow
+tests below hold Snell against Cycles with that lamp's light sampling turned off, and show the
+difference. The slow tests also render the Cornell box rows at 16 x the samples.
 """
 from __future__ import annotations
 
@@ -352,13 +352,13 @@ def test_backlit_rough_glass_consistent_with_cycles_bsdf_sampling(backlit):
 
 
 # ... and so darker than Cycles as users render it: mean ratio 0.9967 +- 0.0006, image-mean z -5.1
-# (the only failing test). If this starts to pass, Cycles or Snell changed: see the README's
-# "Rough surfaces and the Principled BSDF".
+# (the only failing test). If this starts to pass, Cycles or Snell changed: see
+# docs/design/rough-surfaces.md.
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="Cycles 5.0 evaluates rough refraction for pairs of "
-                   "directions no microfacet refracts into each other (README, the one deliberate "
-                   "difference): its light sampling adds light that its BSDF sampling and Snell "
-                   "do not")
+                   "directions no microfacet refracts into each other (docs/design/"
+                   "rough-surfaces.md, the one deliberate difference): its light sampling adds "
+                   "light that its BSDF sampling and Snell do not")
 def test_backlit_rough_glass_consistent_with_cycles_light_sampling(backlit):
     verdict, detail = _verdict(backlit["light_sampling"])
     assert verdict == "consistent", detail
