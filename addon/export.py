@@ -984,11 +984,11 @@ class _Exporter:
         if mesh is None:
             return
         if mesh.dropped:
-            self.warn(f"object {name!r}: dropped {mesh.dropped} zero-area triangle(s)")
+            self.warn(f"object {name!r}: dropped {mesh.dropped} {DROPPED_TRIANGLES}")
         if len(mesh.triangles) == 0:
             return
         if abs(_det3(matrix)) < 1e-30:
-            self.warn(f"object {name!r}: singular world matrix (zero scale), skipped")
+            self.warn(f"object {name!r}: {ZERO_SCALE}")
             return
         slots = [s.material for s in obj.material_slots] or [None]
         mat_ids, used = mesh.material_ids(tuple(self.material_id(m, name) for m in slots))
@@ -998,8 +998,7 @@ class _Exporter:
             for i in used:
                 mat = self.materials[i]
                 if scene_mod.refracts(mat):
-                    self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} on a mesh "
-                              f"that is not closed (its edges are not all shared by two triangles)")
+                    self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} {OPEN_MESH}")
         self.parts.append((mesh, matrix, mat_ids, object_id))
 
     def mesh_of(self, inst):
@@ -1074,6 +1073,20 @@ def _to_world(mesh, matrices):
     flip = (np.linalg.det(m3) < 0)[:, None, None]
     triangles = np.where(flip, mesh.triangles[:, [0, 2, 1]], mesh.triangles)
     return positions, normals, triangles
+
+
+# Notes whose cause Cycles renders the same way: a zero-area triangle covers no pixel in either
+# renderer, a zero-scale object none, and glass on an open mesh refracts at the same surfaces.
+DROPPED_TRIANGLES = "zero-area triangle(s)"
+ZERO_SCALE = "singular world matrix (zero scale), skipped"
+OPEN_MESH = "on a mesh that is not closed (its edges are not all shared by two triangles)"
+SAME_IN_CYCLES = (DROPPED_TRIANGLES, ZERO_SCALE, OPEN_MESH)
+
+
+def differs_from_cycles(warning: str) -> bool:
+    """Whether an exporter warning means Snell renders something Cycles renders differently
+    (the validator's "not comparable"); the notes in SAME_IN_CYCLES do not."""
+    return not any(warning.endswith(note) for note in SAME_IN_CYCLES)
 
 
 def export_depsgraph(depsgraph, *, source=""):

@@ -72,7 +72,8 @@ def cmd_compare(args) -> int:
     data = report.write_comparison(args.report, result, figures=figures)
     html = os.path.join(args.report, "report.html")
     if result.get("cycles"):
-        print(f"snell compare: {data['verdict']}: z-pass {data['z_pass_fraction']:.4f}, "
+        failed = data.get("failed_tests") or []
+        print(f"snell compare: {data['verdict']}{' (' + ', '.join(failed) + ')' if failed else ''}: z-pass {data['z_pass_fraction']:.4f}, "
               f"relMSE {data['relmse']:.4g}, FLIP {data['flip'] if data['flip'] is None else round(data['flip'], 4)}, "
               f"Snell {data['snell']['time_s']:.1f}s, Cycles {data['cycles']['time_s']:.1f}s -> {html}")
     else:
@@ -90,7 +91,9 @@ def cmd_study(args) -> int:
                            n_seeds=args.cycles_seeds, threads=args.threads, progress=progress)
     data = report.write_study(args.report, args.study, rows, study.NOTES[args.study])
     for row in data["settings"]:
-        print(f"snell study {args.study}: {row['label']}: {row['verdict']}")
+        failed = row.get("failed_tests") or []
+        print(f"snell study {args.study}: {row['label']}: {row['verdict']}"
+              + (f" ({', '.join(failed)})" if failed else ""))
     print(f"snell study {args.study}: {data['verdict']} -> {os.path.join(args.report, 'report.html')}")
     return 0
 
@@ -101,3 +104,50 @@ COMMANDS = [
     ("study", "the seed's depth, focus or aperture study, Snell and Cycles side by side",
      setup_study, cmd_study),
 ]
+
+
+def setup_false_alarms(p):
+    from ..addon.false_alarms import BY_NAME, CONFIGS  # bpy-free module
+    p.add_argument("--report", required=True, metavar="DIR",
+                   help="directory for report.html and metrics.json (created)")
+    p.add_argument("--runs", type=int_at_least(1), default=30,
+                   help="independent runs per configuration (default 30)")
+    p.add_argument("--config", action="append", choices=sorted(BY_NAME), metavar="NAME",
+                   help="a configuration (repeat for more; default: every null configuration: "
+                        + ", ".join(c.name for c in CONFIGS) + "); NAME:ERROR ones are power runs")
+    p.add_argument("--power", action="store_true",
+                   help="also the power runs (deliberate errors): their detection rates")
+    p.add_argument("--cache", metavar="DIR", default=os.path.join("out", "false-alarms"),
+                   help="where runs are kept, to evaluate again without rendering "
+                        "(default out/false-alarms)")
+    p.add_argument("--threads", type=int_at_least(1), default=2, help="threads for each renderer")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+
+
+def cmd_false_alarms(args) -> int:
+    check_writable_directory(args.report, "--report", report=True)
+    try:
+        os.makedirs(args.cache, exist_ok=True)
+    except OSError as exc:
+        raise CliError(f"--cache {args.cache}: cannot create it ({exc.strerror})") from None
+    _needs_bpy()
+    from ..addon import false_alarms as fa
+    from ..addon.validate import Progress
+    from . import report
+    configs = ([fa.BY_NAME[n] for n in args.config] if args.config else
+               list(fa.CONFIGS) + (list(fa.POWER) if args.power else []))
+    progress = Progress(sys.stderr, enabled=not args.quiet)
+    results = fa.evaluate(configs, args.cache, args.runs, args.threads,
+                          lambda name, done, total: progress.line(
+                              f"false alarms: {name}: run {done}/{total}", final=done == total))
+    rows, overall = fa.summary(results)
+    report.write_false_alarms(args.report, rows, overall, configs, fa.CURVES)
+    for test, (fails, n, rate, lo, hi) in overall.items():
+        print(f"snell false-alarms: {test}: {fails}/{n} = {rate:.3f} (95% {lo:.3f}-{hi:.3f})")
+    print(f"snell false-alarms: -> {os.path.join(args.report, 'report.html')}")
+    return 0
+
+
+COMMANDS.append(("false-alarms", "how often the verdict calls correct renders inconsistent: "
+                 "null runs over seeds, rates with 95% intervals", setup_false_alarms,
+                 cmd_false_alarms))

@@ -1,33 +1,42 @@
 """Statistics for comparing two Monte Carlo images: tests, verdict and error metrics. No bpy.
 
-Each image comes with its per-pixel mean, the variance of that mean and the degrees of freedom of
-the variance estimate (Snell: spp - 1, from its per-pixel sums of squares; Cycles: K - 1 for K
-independent seeds). The difference of two unbiased estimates of the same image has mean zero.
+Each image is an Estimate: its per-pixel mean, the variance of that mean and the degrees of
+freedom of the variance estimate, and, where the renderer made them, the independent, equally
+weighted images it is the mean of (Snell: 16 batches; Cycles: K seeds). The difference of two
+unbiased estimates of the same image has mean zero.
 
-The verdict combines three tests, each at family-wise level ALPHA = 0.01 (Sidak):
+The verdict combines four tests. The whole verdict has level ALPHA = 0.01: each test runs at the
+Sidak level sidak(ALPHA, 4) = 0.0025 (docs/validation.md has their measured false-alarm rates).
 1. pixels: per pixel and channel, t = (a - b) / sqrt(va + vb) with Welch-Satterthwaite degrees of
-   freedom (a z-test when both variances are well estimated; the t distribution keeps it honest
-   with few Cycles seeds). A pixel passes when all its channels pass. Pass: at least
-   PIXEL_PASS_FRACTION of the pixels pass (the slack absorbs the heavy tails of caustic pixels).
-   Where both variances are 0 (lamps seen directly, black background) the values must agree to a
-   relative 1e-4.
-2. blocks: the same test on the means of BLOCK x BLOCK pixel tiles (catches small errors spread
-   over a region, e.g. an IOR or focus error). Pass: every tile passes.
-3. image: the same test on each channel's image mean (catches small global errors, e.g. one more
-   bounce). Pass: all three channels pass.
-4. sharpness (when the reference comes as two independent halves, e.g. Cycles seeds split in
-   two): a matched filter for blur changes. The template w = Laplacian of Gaussian (sigma
-   LOG_SIGMA px) of half A; S = sum w (a - b_B) over pixels and channels, with variance
-   sum w^2 (va + vb_B); w is clipped at the 95th percentile of |w| (from half A) so that a few
-   extreme, heavy-tailed edges (a lamp's outline) cannot dominate. w does not depend on a or b_B, so under agreement S has mean 0 exactly;
-   a focus or aperture error changes the image by about its Laplacian and adds up here instead of
-   cancelling inside tiles. Pass: |z| below the two-sided ALPHA level.
+   freedom (a t-test keeps it honest with few Cycles seeds), Sidak over all pixel channels. A
+   pixel passes when all its channels pass. Pass: at least PIXEL_PASS_FRACTION of the pixels
+   pass. Where both variances are 0 (lamps seen directly, black background) the values must
+   agree to a relative 1e-4.
+2. tiles: the same test on the means of BLOCK x BLOCK tiles (catches small errors spread over a
+   region, e.g. an IOR or focus error), Sidak over tiles and channels. Pass: every tile passes.
+3. image mean: the same test on each channel's image mean, its variance from the spread of the
+   images' own means where both sides have images (that counts the correlations between pixels
+   a light tracer's splats make), Sidak over the 3 channels.
+4. sharpness: a matched filter for blur changes. The template w is the Laplacian of Gaussian
+   (sigma LOG_SIGMA px) of the grey image of the first half of the tested images (or, without
+   them, of the reference's), clipped at its 95th percentile of |w| so that a few extreme edges
+   cannot dominate; S = sum w (a2 - b) over pixels of the grey images of the rest, and the
+   variance of S comes from the spread of sum w x over those images (the channels and
+   neighbouring pixels are correlated, which a sum of per-pixel variances misses). w does not
+   depend on a2 or b, so under agreement S has mean 0 exactly.
+The light tracer's allowance (tests 1-3): a path tracer (Cycles) finds the light that only Snell's
+light tracer carries (caustics from small lamps) on rare paths, so its mean there is low in most
+runs and its variance estimate too small. Where the tested Estimate has such light, "too bright"
+is tested on (a - light) - b, which a path tracer's estimate cannot push up, and "too dark" on
+a - b as usual; the sharpness test leaves out the pixels where the light tracer carries more
+than CAUSTIC_SHARE of the template.
 Consistent when all tests pass, inconsistent otherwise. "Not comparable" is decided by the caller
 (settings that Cycles cannot match).
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,15 +49,17 @@ EXACT_RTOL = 1e-4
 
 CONSISTENT, INCONSISTENT, NOT_COMPARABLE = "consistent", "inconsistent", "not comparable"
 
-RULE = (f"consistent when (1) at least {PIXEL_PASS_FRACTION:.2%} of pixels pass a per-pixel "
-        f"two-sided Welch z/t-test of the difference (Sidak-corrected over all pixel channels to a "
-        f"family-wise alpha of {ALPHA}; zero-variance pixels must agree to a relative "
-        f"{EXACT_RTOL:g}), (2) every {BLOCK}x{BLOCK}-pixel tile mean passes the same test "
-        f"(Sidak over tiles and channels, alpha {ALPHA}) and (3) each channel's image mean passes "
-        f"it (Sidak over 3 channels, alpha {ALPHA}) and (4) a matched-filter test of the difference against "
-        f"the Laplacian of an independent half of the Cycles seeds passes at alpha {ALPHA} "
-        f"(catches blur changes: focus, aperture); inconsistent otherwise; not comparable when a "
-        f"setting cannot be matched in Cycles")
+RULE = (f"consistent when each of four tests passes at level {ALPHA / 4:.4g} (Sidak, so that "
+        f"the whole verdict has level {ALPHA}): (1) at least {PIXEL_PASS_FRACTION:.2%} of pixels "
+        f"pass a per-pixel Welch t-test of the difference (Sidak over all pixel channels; "
+        f"zero-variance pixels must agree to a relative {EXACT_RTOL:g}), (2) every "
+        f"{BLOCK}x{BLOCK}-pixel tile mean passes the same test (Sidak over tiles and channels), "
+        f"(3) each channel's image mean passes it and (4) a matched filter of the difference "
+        f"against the Laplacian of an independent half of the tested images passes (catches "
+        f"blur changes: focus, aperture); variances of (3) and (4) from the spread of the "
+        f"renderers' batches and seeds; where Snell's light tracer carries light, Snell is "
+        f"'too bright' only if it is so without that light; inconsistent otherwise; not "
+        f"comparable when a setting cannot be matched in Cycles")
 
 
 def sidak(alpha: float, m: int) -> float:
@@ -104,27 +115,6 @@ def laplacian_of_gaussian(img, sigma=LOG_SIGMA):
     return p[:-2, 1:-1] + p[2:, 1:-1] + p[1:-1, :-2] + p[1:-1, 2:] - 4 * g
 
 
-def sharpness_test(a, va, dfa, half_a, half_b, vb_half, dfb_half):
-    """(z, p, df) of the matched-filter test described in the module docstring."""
-    w = laplacian_of_gaussian(half_a)
-    # Clip the template so that a few extreme edges (a lamp's outline) cannot dominate: their
-    # pixels have heavy-tailed noise and would turn the sum into a test of a handful of pixels.
-    # The clip level comes from half A only, so w stays independent of a and b_B.
-    q = float(np.percentile(np.abs(w), TEMPLATE_CLIP_PERCENTILE))
-    if q > 0:
-        w = np.clip(w, -q, q)
-    d = np.asarray(a, np.float64) - half_b
-    s = float(np.sum(w * d))
-    wa, wb = w * w * va, w * w * vb_half
-    var = float(wa.sum() + wb.sum())
-    if var <= 0:
-        return 0.0, 1.0, float("inf")
-    denom = float((wa * wa).sum() / dfa + (wb * wb).sum() / dfb_half)
-    df = var * var / denom if denom > 0 else float("inf")
-    z = s / math.sqrt(var)
-    return z, float(_two_sided_p(np.array(z), np.array(df))), df
-
-
 def relmse(image, reference, eps=RELMSE_EPS, drop=RELMSE_DROP) -> float:
     """Mean of (I - R)^2 / (R^2 + eps) over pixels and channels, the largest `drop` fraction of
     the terms (fireflies) left out."""
@@ -140,67 +130,221 @@ def rmse(image, reference) -> float:
     return float(math.sqrt(np.mean(d * d)))
 
 
-def compare(a, va, dfa, b, vb, dfb, *, halves=None):
-    """All statistics of image a (test, e.g. Snell) against image b (reference, e.g. Cycles).
+@dataclass
+class Estimate:
+    """One renderer's image as a Monte Carlo estimate: the per-pixel mean (H, W, 3), the variance
+    of that mean and its degrees of freedom. Optionally the independent, equally weighted images
+    whose mean it is (a renderer's batches or seeds: the variance of any linear statistic then
+    comes from their spread, which counts correlations between pixels and channels), and the part
+    of the mean that only a light tracer carries (`light`, with `rest_var` the variance of
+    mean - light): light a path tracer finds only on rare paths (caustics from small lamps)."""
+    mean: np.ndarray
+    var: np.ndarray
+    df: float
+    images: np.ndarray | None = None
+    light: np.ndarray | None = None
+    light_images: np.ndarray | None = None
+    rest_var: np.ndarray | None = None
 
-    a, b: (H, W, 3) means; va, vb: variances of those means; dfa, dfb: their degrees of freedom.
-    halves: optional (mean A, mean B, variance of mean B, dof of B) of two independent halves
-    of the reference for the sharpness test (skipped without them).
-    Returns a dict of plain numbers plus the maps under "maps" (z, diff, pass mask).
-    """
-    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    va, vb = np.asarray(va, np.float64), np.asarray(vb, np.float64)
-    if a.shape != b.shape:
-        raise ValueError(f"image shapes differ: {a.shape} vs {b.shape}")
-    h, w, _ = a.shape
-    diff = a - b
+    @classmethod
+    def from_images(cls, images, light_images=None) -> "Estimate":
+        """The estimate that is the mean of n >= 2 independent images (n, H, W, 3)."""
+        images = np.asarray(images, np.float64)
+        n = len(images)
+        light = rest_var = None
+        if light_images is not None:
+            light_images = np.asarray(light_images, np.float64)
+            light = light_images.mean(axis=0)
+            rest_var = (images - light_images).var(axis=0, ddof=1) / n
+        return cls(images.mean(axis=0), images.var(axis=0, ddof=1) / n, n - 1, images, light,
+                   light_images, rest_var)
 
-    # 1. pixels
-    t, p, _ = welch(diff, va, vb, dfa, dfb)
-    noisy = (va + vb) > 0
-    m = int(noisy.sum())
-    alpha_px = sidak(ALPHA, m)
-    exact_ok = np.abs(diff) <= EXACT_RTOL * np.maximum(np.abs(a), np.abs(b)) + 1e-7
+    def rest(self):
+        """(mean, variance) of the part a path tracer carries too: mean - light."""
+        if self.light is None:
+            return self.mean, self.var
+        return self.mean - self.light, self.rest_var
+
+
+def _directions(d_lo, va_lo, d_hi, va_hi, vb, dfa, dfb):
+    """(z, df) of the difference a - b with the light tracer's allowance: z = t of a - b where
+    that is negative (a too dark), t of (a - light) - b where that is positive (a too bright even
+    without the light only its light tracer carries), 0 between. Without light, d_hi is d_lo."""
+    t_lo, _, df_lo = welch(d_lo, va_lo, vb, dfa, dfb)
+    if d_hi is d_lo:
+        return t_lo, df_lo
+    t_hi, _, df_hi = welch(d_hi, va_hi, vb, dfa, dfb)
+    z = np.where(t_hi > 0, t_hi, np.where(t_lo < 0, t_lo, 0.0))
+    return z, np.where(t_hi > 0, df_hi, df_lo)
+
+
+def _pixel_test(a, b, alpha):
+    a_rest, va_rest = a.rest()
+    diff = a.mean - b.mean
+    d_hi = diff if a.light is None else a_rest - b.mean
+    z, df = _directions(diff, a.var, d_hi, va_rest, b.var, a.df, b.df)
+    p = np.where(z != 0, _two_sided_p(z, df), 1.0)
+    noisy = (a.var + b.var) > 0
+    alpha_px = sidak(alpha, int(noisy.sum()))
+    exact_ok = np.abs(diff) <= EXACT_RTOL * np.maximum(np.abs(a.mean), np.abs(b.mean)) + 1e-7
     # A difference within float rounding passes even where a variance is not zero: a pixel that
     # sees one constant (a texture's flat region, interpolated with weights that sum to 1 only
     # to rounding) has a variance of rounding size, and its z would be meaningless.
     ok = np.where(noisy, (p >= alpha_px) | exact_ok, exact_ok)
-    pixel_ok = ok.all(axis=2)
-    pass_fraction = float(pixel_ok.mean())
-    exact_fail = int((~exact_ok & ~noisy).any(axis=2).sum())
+    return z, ok.all(axis=2), int((~exact_ok & ~noisy).any(axis=2).sum()), alpha_px
 
-    # 2. tiles
-    k = BLOCK if min(h, w) >= 2 * BLOCK else max(1, min(h, w) // 2)
+
+def _tile_test(a, b, k, alpha):
     n = k * k
-    bd, bva, bvb = _blocks(diff, k) / n, _blocks(va, k) / n ** 2, _blocks(vb, k) / n ** 2
-    # Welch-Satterthwaite dof of a sum of variances: (sum v)^2 / sum(v^2 / df)
-    bdfa = _blocks(va * va, k) / n ** 4
-    bdfb = _blocks(vb * vb, k) / n ** 4
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bdfa = np.where(bdfa > 0, bva * bva / (bdfa / dfa), np.inf)
-        bdfb = np.where(bdfb > 0, bvb * bvb / (bdfb / dfb), np.inf)
-    bt, bp, _ = welch(bd, bva, bvb, bdfa, bdfb)
-    bnoisy = (bva + bvb) > 0
-    alpha_blk = sidak(ALPHA, int(bnoisy.sum()))
-    babs = _blocks(np.abs(a) + np.abs(b), k) / n
-    bexact = np.abs(bd) <= EXACT_RTOL * babs + 1e-7
-    block_ok = np.where(bnoisy, (bp >= alpha_blk) | bexact, bexact)
-    blocks_failed = int((~block_ok).any(axis=2).sum())
 
-    # 3. image means per channel
-    npx = h * w
-    ma, mb = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
-    sva, svb = va.sum(axis=(0, 1)) / float(npx) ** 2, vb.sum(axis=(0, 1)) / float(npx) ** 2
-    # Welch-Satterthwaite dof of the mean, df (sum v)^2 / sum v^2, with the 1 / npx^4 of both
-    # sides cancelled: npx ** 4 as a Python int passes uint64 from 256x256 pixels on, and numpy
-    # then divides in object dtype (scipy's t-distribution cannot take that).
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cdfa = np.where(sva > 0, dfa * va.sum(axis=(0, 1)) ** 2 / (va * va).sum(axis=(0, 1)), np.inf)
-        cdfb = np.where(svb > 0, dfb * vb.sum(axis=(0, 1)) ** 2 / (vb * vb).sum(axis=(0, 1)), np.inf)
-    ct, cp, _ = welch(ma - mb, sva, svb, cdfa, cdfb)
-    alpha_ch = sidak(ALPHA, 3)
-    channel_ok = np.where((sva + svb) > 0, cp >= alpha_ch,
-                          np.abs(ma - mb) <= EXACT_RTOL * np.maximum(np.abs(ma), np.abs(mb)) + 1e-7)
+    def t(d, va, dfa):
+        bd, bva, bvb = _blocks(d, k) / n, _blocks(va, k) / n ** 2, _blocks(b.var, k) / n ** 2
+        # Welch-Satterthwaite dof of a sum of variances: (sum v)^2 / sum(v^2 / df)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            da = _blocks(va * va, k) / n ** 4
+            db = _blocks(b.var * b.var, k) / n ** 4
+            dfa_t = np.where(da > 0, bva * bva / (da / dfa), np.inf)
+            dfb_t = np.where(db > 0, bvb * bvb / (db / b.df), np.inf)
+        tt, _, df = welch(bd, bva, bvb, dfa_t, dfb_t)
+        return tt, df, bva + bvb
+
+    diff = a.mean - b.mean
+    t_lo, df_lo, v_lo = t(diff, a.var, a.df)
+    if a.light is None:
+        z, df = t_lo, df_lo
+    else:
+        a_rest, va_rest = a.rest()
+        t_hi, df_hi, _ = t(a_rest - b.mean, va_rest, a.df)
+        z = np.where(t_hi > 0, t_hi, np.where(t_lo < 0, t_lo, 0.0))
+        df = np.where(t_hi > 0, df_hi, df_lo)
+    noisy = v_lo > 0
+    alpha_tile = sidak(alpha, int(noisy.sum()))
+    p = np.where(z != 0, _two_sided_p(z, df), 1.0)
+    bd = _blocks(diff, k) / n
+    bexact = np.abs(bd) <= EXACT_RTOL * _blocks(np.abs(a.mean) + np.abs(b.mean), k) / n + 1e-7
+    ok = np.where(noisy, (p >= alpha_tile) | bexact, bexact)
+    return z, ok
+
+
+def _channel_means(images):
+    return images.mean(axis=(1, 2))
+
+
+def _image_mean_test(a, b, alpha):
+    """Per channel: (z, ok, se of a's mean, se of b's mean, how the variances were estimated)."""
+    npx = a.mean.shape[0] * a.mean.shape[1]
+
+    def side(e, rest=False):
+        """(mean, variance of the mean, dof) of a side's image mean per channel."""
+        if e.images is not None:
+            images = e.images - e.light_images if rest and e.light_images is not None else e.images
+            m = _channel_means(images)
+            return m.mean(axis=0), m.var(axis=0, ddof=1) / len(m), np.full(3, len(m) - 1.0)
+        mean, var = e.rest() if rest else (e.mean, e.var)
+        # Welch-Satterthwaite dof of the mean, df (sum v)^2 / sum v^2, with the 1 / npx^4 of
+        # both sides cancelled (npx ** 4 passes uint64 from 256x256 pixels on).
+        s = var.sum(axis=(0, 1))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            df = np.where(s > 0, e.df * s ** 2 / (var * var).sum(axis=(0, 1)), np.inf)
+        return mean.mean(axis=(0, 1)), s / float(npx) ** 2, df
+
+    ma, sva, dfa = side(a)
+    mb, svb, dfb = side(b)
+    t_lo, _, df_lo = welch(ma - mb, sva, svb, dfa, dfb)
+    z, df = t_lo, df_lo
+    if a.light is not None:
+        mr, svr, dfr = side(a, rest=True)
+        t_hi, _, df_hi = welch(mr - mb, svr, svb, dfr, dfb)
+        z = np.where(t_hi > 0, t_hi, np.where(t_lo < 0, t_lo, 0.0))
+        df = np.where(t_hi > 0, df_hi, df_lo)
+    alpha_ch = sidak(alpha, 3)
+    p = np.where(z != 0, _two_sided_p(z, df), 1.0)
+    ok = np.where((sva + svb) > 0, p >= alpha_ch,
+                  np.abs(ma - mb) <= EXACT_RTOL * np.maximum(np.abs(ma), np.abs(mb)) + 1e-7)
+    how = "batches" if a.images is not None and b.images is not None else "pixels"
+    return z, ok, ma, mb, sva, svb, how
+
+
+CAUSTIC_SHARE = 0.05   # sharpness: pixels where a light tracer carries more are left out
+
+
+def _grey(x):
+    return np.asarray(x, np.float64).sum(axis=-1)
+
+
+def sharpness_test(a: Estimate, b: Estimate):
+    """(z, df, template source, share of pixels left out) of the matched filter for blur changes
+    (module docstring), or None when neither side has images to build an independent template."""
+    half = None
+    if a.images is not None and len(a.images) >= 4:
+        h = len(a.images) // 2
+        template = a.images[:h].mean(axis=0)
+        light = a.light_images[:h].mean(axis=0) if a.light_images is not None else None
+        a_stat, b_stat, half = a.images[h:], b.images, "tested"
+    elif b.images is not None and len(b.images) >= 4:
+        h = len(b.images) // 2
+        template, light = b.images[:h].mean(axis=0), a.light
+        a_stat, b_stat, half = None, b.images[h:], "reference"
+    if half is None:
+        return None
+    w = laplacian_of_gaussian(_grey(template)[..., None])[..., 0]
+    # Clip the template so that a few extreme edges (a lamp's outline) cannot dominate: their
+    # pixels have heavy-tailed noise and would turn the sum into a test of a handful of pixels.
+    q = float(np.percentile(np.abs(w), TEMPLATE_CLIP_PERCENTILE))
+    if q > 0:
+        w = np.clip(w, -q, q)
+    # Where a light tracer carries much of a pixel, the reference's path tracer finds that light
+    # on rare paths, and its mean there is low in most runs: leave those pixels out. The mask
+    # comes from the template's data, independent of the sums below.
+    left_out = 0.0
+    if light is not None:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = np.where(_grey(template) > 0, _grey(light) / _grey(template), 0.0)
+        caustic = share > CAUSTIC_SHARE
+        w = np.where(caustic, 0.0, w)
+        left_out = float(caustic.mean())
+
+    def side(images, estimate):
+        """(sum w x, its variance, dof) from images, else from per-pixel variances with the
+        channels taken as fully correlated (an upper bound: their covariance is unknown)."""
+        if images is not None:
+            s = np.einsum("hw,nhw->n", w, _grey(images))
+            return float(s.mean()), float(s.var(ddof=1) / len(s)), len(s) - 1.0
+        sd = np.sqrt(estimate.var).sum(axis=-1)
+        return float(np.sum(w * _grey(estimate.mean))), float(np.sum(w * w * sd * sd)), estimate.df
+
+    sa, va, dfa = side(a_stat, a)
+    sb, vb, dfb = side(b_stat, b)
+    t, _, df = welch(np.array(sa - sb), np.array(va), np.array(vb), dfa, dfb)
+    return float(t), float(df), half, left_out
+
+
+def compare(a, va, dfa, b, vb, dfb, *, error_metrics=True):
+    """compare_estimates of two images given as (H, W, 3) means, the variances of those means
+    and their degrees of freedom (no images: no light allowance, no sharpness test)."""
+    return compare_estimates(Estimate(np.asarray(a, np.float64), np.asarray(va, np.float64), dfa),
+                             Estimate(np.asarray(b, np.float64), np.asarray(vb, np.float64), dfb),
+                             error_metrics=error_metrics)
+
+
+def compare_estimates(a: Estimate, b: Estimate, *, error_metrics=True):
+    """All statistics of estimate a (tested, e.g. Snell) against estimate b (reference, e.g.
+    Cycles): the tests, the verdict and error metrics, plus the maps under "maps" (z, diff,
+    pass masks). error_metrics=False leaves out relMSE, RMSE and FLIP."""
+    if a.mean.shape != b.mean.shape:
+        raise ValueError(f"image shapes differ: {a.mean.shape} vs {b.mean.shape}")
+    h, w, _ = a.mean.shape
+    diff = a.mean - b.mean
+    sharp = sharpness_test(a, b)
+    n_tests = 3 + (sharp is not None)
+    alpha = sidak(ALPHA, n_tests)
+
+    t, pixel_ok, exact_fail, alpha_px = _pixel_test(a, b, alpha)
+    pass_fraction = float(pixel_ok.mean())
+    k = BLOCK if min(h, w) >= 2 * BLOCK else max(1, min(h, w) // 2)
+    bt, block_ok = _tile_test(a, b, k, alpha)
+    tile_fail = (~block_ok).any(axis=2)
+    ct, channel_ok, ma, mb, sva, svb, how = _image_mean_test(a, b, alpha)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(mb != 0, ma / mb, np.nan)
         ratio_se = np.where(mb != 0, np.abs(ratio) * np.sqrt(sva / np.maximum(ma, 1e-300) ** 2
@@ -208,39 +352,46 @@ def compare(a, va, dfa, b, vb, dfb, *, halves=None):
 
     tests = {
         "pixels": bool(pass_fraction >= PIXEL_PASS_FRACTION),
-        "tiles": blocks_failed == 0,
+        "tiles": not tile_fail.any(),
         "image_mean": bool(channel_ok.all()),
     }
-    sharp_z = sharp_p = None
-    if halves is not None:
-        sharp_z, sharp_p, _ = sharpness_test(a, va, dfa, *halves)
-        tests["sharpness"] = bool(sharp_p >= ALPHA)
+    sharp_z = sharp_p = sharp_df = None
+    if sharp is not None:
+        sharp_z, sharp_df, template, left_out = sharp
+        sharp_p = float(_two_sided_p(np.array(sharp_z), np.array(sharp_df)))
+        tests["sharpness"] = bool(sharp_p >= alpha)
     verdict = CONSISTENT if all(tests.values()) else INCONSISTENT
-
-    # error metrics (b is the reference)
-    mse = float((diff * diff).mean())
-    noise = float((va + vb).mean())
     zmap = np.take_along_axis(t, np.argmax(np.abs(t), axis=2)[..., None], axis=2)[..., 0]
-
+    tile_z = np.take_along_axis(bt, np.argmax(np.abs(bt), axis=2)[..., None], axis=2)[..., 0]
     chans = ("r", "g", "b")
-    return {
+    out = {
         "verdict": verdict,
         "tests": tests,
+        "failed_tests": [name for name, ok in tests.items() if not ok],
         "rule": RULE,
+        "alpha": ALPHA,
+        "alpha_test": alpha,
         "z_pass_fraction": pass_fraction,
-        "pixels": npx,
+        "pixels": h * w,
         "pixels_failed": int((~pixel_ok).sum()),
         "pixels_exact_failed": exact_fail,
-        "alpha": ALPHA,
         "alpha_pixel": alpha_px,
         "z_critical_normal": _z_critical(alpha_px),
         "tile_size": k,
         "tiles": int(block_ok.shape[0] * block_ok.shape[1]),
-        "tiles_failed": blocks_failed,
+        "tiles_failed": int(tile_fail.sum()),
+        "failing_tiles": [{"row": int(r), "col": int(c), "z": float(tile_z[r, c]),
+                           "y0": int(r * k), "x0": int(c * k), "size": k}
+                          for r, c in zip(*np.nonzero(tile_fail))],
         "tile_max_abs_z": float(np.max(np.abs(bt))) if bt.size else 0.0,
         "max_abs_z": float(np.max(np.abs(t))) if t.size else 0.0,
+        "light_allowance": a.light is not None,
         "sharpness_z": sharp_z,
         "sharpness_p": sharp_p,
+        "sharpness_df": sharp_df,
+        "sharpness_template": None if sharp is None else f"{template} half",
+        "sharpness_left_out": None if sharp is None else left_out,
+        "mean_variance_from": how,
         "mean_a": dict(zip(chans, map(float, ma))),
         "mean_b": dict(zip(chans, map(float, mb))),
         "mean_a_se": dict(zip(chans, map(float, np.sqrt(sva)))),
@@ -248,16 +399,17 @@ def compare(a, va, dfa, b, vb, dfb, *, halves=None):
         "mean_z": dict(zip(chans, map(float, ct))),
         "mean_ratio": dict(zip(chans, map(float, ratio))),
         "mean_ratio_se": dict(zip(chans, map(float, ratio_se))),
-        "relmse": relmse(a, b),
-        "relmse_eps": RELMSE_EPS,
-        "relmse_dropped_fraction": RELMSE_DROP,
-        "rmse": math.sqrt(mse),
-        "bias_rmse": math.sqrt(max(mse - noise, 0.0)),
-        "noise_rmse": math.sqrt(noise),
-        "flip": flip(b, a),
-        "maps": {"z": zmap, "diff": diff, "pixel_ok": pixel_ok},
+        "maps": {"z": zmap, "diff": diff, "pixel_ok": pixel_ok, "tile_z": tile_z,
+                 "tile_ok": ~tile_fail},
     }
-
+    if error_metrics:
+        mse = float((diff * diff).mean())
+        noise = float((a.var + b.var).mean())
+        out.update({"relmse": relmse(a.mean, b.mean), "relmse_eps": RELMSE_EPS,
+                    "relmse_dropped_fraction": RELMSE_DROP, "rmse": math.sqrt(mse),
+                    "bias_rmse": math.sqrt(max(mse - noise, 0.0)),
+                    "noise_rmse": math.sqrt(noise), "flip": flip(b.mean, a.mean)})
+    return out
 
 def _z_critical(alpha):
     from scipy import stats
@@ -276,3 +428,4 @@ def flip(reference, test):
         return 0.0
     _, mean, _ = flip_evaluator.evaluate(ref, tst, "HDR", applyMagma=False)
     return float(mean)
+

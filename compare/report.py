@@ -38,6 +38,17 @@ def diverging(values, limit):
     return np.rint(np.clip(rgb, 0, 1) * 255).astype(np.uint8)
 
 
+def outline_tiles(pixels8, tiles, colour=(0, 0, 0)):
+    """The image with a one-pixel frame drawn inside each tile ({"y0", "x0", "size"})."""
+    out = pixels8.copy()
+    for t in tiles:
+        y0, x0, k = t["y0"], t["x0"], t["size"]
+        y1, x1 = min(y0 + k, out.shape[0]) - 1, min(x0 + k, out.shape[1]) - 1
+        out[y0, x0:x1 + 1] = out[y1, x0:x1 + 1] = colour
+        out[y0:y1 + 1, x0] = out[y0:y1 + 1, x1] = colour
+    return out
+
+
 def colour_bar(limit, width=256, height=14):
     ramp = np.linspace(-limit, limit, width)[None, :].repeat(height, axis=0)
     return diverging(ramp, limit)
@@ -106,7 +117,9 @@ def metrics_json(result) -> dict:
     keys = ("verdict", "statistical_verdict", "not_comparable", "rule", "tests", "z_pass_fraction",
             "pixels", "pixels_failed", "pixels_exact_failed", "alpha", "alpha_pixel",
             "z_critical_normal", "tile_size", "tiles", "tiles_failed", "tile_max_abs_z",
-            "sharpness_z", "sharpness_p",
+            "sharpness_z", "sharpness_p", "sharpness_df", "sharpness_template",
+            "sharpness_left_out", "failed_tests", "failing_tiles", "alpha_test", "light_allowance",
+            "mean_variance_from", "exporter_notes",
             "max_abs_z", "mean_a", "mean_b", "mean_a_se", "mean_b_se", "mean_z", "mean_ratio",
             "mean_ratio_se", "relmse", "relmse_eps", "relmse_dropped_fraction", "rmse",
             "bias_rmse", "noise_rmse", "flip", "label", "scene", "exporter_warnings",
@@ -212,7 +225,8 @@ def comparison_images(result):
         lim = float(np.percentile(np.abs(diff), 99)) or 1e-6
         limits["diff"] = lim
         imgs["diff"] = diverging(diff, lim)
-        imgs["z"] = diverging(result["maps"]["z"], Z_RANGE)
+        imgs["z"] = outline_tiles(diverging(result["maps"]["z"], Z_RANGE),
+                                  result.get("failing_tiles", ()))
         limits["z"] = Z_RANGE
     return imgs, limits
 
@@ -224,6 +238,8 @@ def _numbers_table(result):
     if result.get("cycles"):
         t = result["tests"]
         rows += [
+            ["failed tests", ", ".join(result.get("failed_tests") or []) or "none"],
+            ["level of each test (whole verdict 1%)", f"{result.get('alpha_test', result['alpha']):.4g}"],
             ["test 1: pixels passing (z-pass fraction)",
              f"{result['z_pass_fraction']:.5f} ({result['pixels_failed']} of {result['pixels']} fail"
              f"{'; ' + str(result['pixels_exact_failed']) + ' zero-variance mismatches' if result['pixels_exact_failed'] else ''})"
@@ -237,7 +253,9 @@ def _numbers_table(result):
         ]
         if "sharpness" in t:
             rows.append(["test 4: sharpness (matched filter on the Laplacian)",
-                         f"z {result['sharpness_z']:.2f}, p {result['sharpness_p']:.3g} -> "
+                         f"z {result['sharpness_z']:.2f}, p {result['sharpness_p']:.3g}, "
+                         f"dof {result.get('sharpness_df') or 0:.0f} (template: "
+                         f"{result.get('sharpness_template')}) -> "
                          f"{'pass' if t['sharpness'] else 'FAIL'}"])
         for c in ch:
             rows.append([f"mean {c}: Snell / Cycles",
@@ -261,17 +279,33 @@ def _numbers_table(result):
     return _table(rows, ["quantity", "value"])
 
 
-def _settings_tables(result):
+def _settings_tables(result, forced=True):
     parts = []
     if result.get("not_comparable"):
         parts.append("<h3>Not comparable</h3><ul>" + "".join(
             f"<li>{html.escape(s)}</li>" for s in result["not_comparable"]) + "</ul>")
-    if result.get("cycles_settings"):
+    if forced and result.get("cycles_settings"):
         parts.append("<h3>Settings forced on Cycles</h3>" +
                      _table(result["cycles_settings"], ["setting", "value", "why"]))
     if result.get("snell_settings"):
         parts.append("<h3>Snell settings</h3>" + _table(result["snell_settings"], ["setting", "value", "note"]))
     return "\n".join(parts)
+
+
+def _forced_once(rows):
+    """The settings forced on Cycles, once for a study page: the rows that vary between the
+    study's settings are marked."""
+    tables = [r.get("cycles_settings") or [] for r in rows]
+    tables = [t for t in tables if t]
+    if not tables:
+        return ""
+    values = {}
+    for t in tables:
+        for key, value, _ in t:
+            values.setdefault(key, set()).add(str(value))
+    shown = [[key, value if len(values[key]) == 1 else "varies by setting", why]
+             for key, value, why in tables[0]]
+    return "<h2>Settings forced on Cycles</h2>" + _table(shown, ["setting", "value", "why"])
 
 
 def _figures(pngs, limits, prefix=""):
@@ -289,6 +323,32 @@ def _figures(pngs, limits, prefix=""):
         parts.append(f"<figure>{_img(pngs[name], prefix + name)}<figcaption>{caption[name]}"
                      f"{legend}</figcaption></figure>")
     return "\n".join(parts)
+
+
+def _differences(result):
+    """The failing tiles (outlined on the z map), the objects they show and the exporter
+    warnings that name those objects."""
+    tiles = result.get("failing_tiles") or []
+    if not tiles:
+        return ""
+    rows, named = [], set()
+    for t in sorted(tiles, key=lambda t: -abs(t["z"]))[:20]:
+        objects = t.get("objects") or []
+        named.update(name for name, _ in objects)
+        rows.append([f"rows {t['y0']}-{t['y0'] + t['size'] - 1}, columns {t['x0']}-{t['x0'] + t['size'] - 1}",
+                     f"{t['z']:+.2f}",
+                     ", ".join(f"{name} ({share:.0%})" for name, share in objects) or "n/a"])
+    more = f"<p class='small'>and {len(tiles) - 20} more tiles</p>" if len(tiles) > 20 else ""
+    related = [w for w in result.get("exporter_warnings") or []
+               if any(repr(name) in w for name in named)]
+    part = ("<h3>Where the images differ</h3><p class='small'>Tiles that fail the tile test "
+            "(outlined on the z map; z > 0: Snell brighter), and the objects their pixels see "
+            "first (share of the tile's camera rays).</p>" +
+            _table(rows, ["tile", "z", "objects"]) + more)
+    if related:
+        part += ("<p>Exporter warnings about these objects:</p><ul>" +
+                 "".join(f"<li>{html.escape(w)}</li>" for w in related) + "</ul>")
+    return part
 
 
 def write_comparison(directory, result, title=None, figures=()):
@@ -317,9 +377,14 @@ def _write_comparison(directory, result, title, figures):
             f"<p class='small'>Both images: linear result through Blender's Standard view transform, "
             f"exposure 0, shown at {DISPLAY_WIDTH} px wide (nearest neighbour).</p>\n"
             f"<h2>Numbers</h2>\n{_numbers_table(result)}\n{_settings_tables(result)}")
+    body += _differences(result)
     if result.get("exporter_warnings"):
         body += "<h3>Exporter warnings</h3><ul>" + "".join(
             f"<li>{html.escape(w)}</li>" for w in result["exporter_warnings"]) + "</ul>"
+    if result.get("exporter_notes"):
+        body += ("<p class='small'>Of these, the verdict does not count (Cycles renders their "
+                 "cause the same way): " + "; ".join(html.escape(w) for w in result["exporter_notes"])
+                 + "</p>")
     with open(os.path.join(directory, "report.html"), "w") as f:
         f.write(_page(title, body))
     data = metrics_json(result)
@@ -375,9 +440,11 @@ def _write_study(directory, name, rows, notes):
             f"<h2>{html.escape(row['label'])} <span class='verdict {_verdict_class(v)}' "
             f"style='font-size:0.7em'>{html.escape(v)}</span></h2>\n<div>{_figures(pngs, limits)}</div>\n"
             f"<details><summary>numbers and settings</summary>{_numbers_table(row)}"
-            f"{_settings_tables(row)}</details>")
+            f"{_settings_tables(row, forced=False)}{_differences(row)}</details>")
         cyc = row.get("cycles")
-        table.append([row["label"], v, row.get("z_pass_fraction"), row.get("relmse"), row.get("flip"),
+        failed = ", ".join(row.get("failed_tests") or []) if cyc else "n/a"
+        table.append([row["label"], v, failed or "none", row.get("z_pass_fraction"),
+                      row.get("relmse"), row.get("flip"),
                       f"{row['snell']['time_s']:.2f} s", f"{cyc['time_s']:.2f} s" if cyc else "n/a"])
         entry = metrics_json(row)
         entry["setting"] = row.get("setting")
@@ -392,14 +459,128 @@ def _write_study(directory, name, rows, notes):
             f"({sum(v == 'consistent' for v in verdicts)} of {len(verdicts)} settings consistent)</div>\n"
             + "".join(f"<p class='small'>{html.escape(n)}</p>" for n in notes) +
             f"<p class='small'>Rule per setting: {html.escape(metrics.RULE)}.</p>\n"
-            + _table(table, ["setting", "verdict", "z-pass fraction", "relMSE", "FLIP", "Snell time",
-                             "Cycles time"]) +
+            + _table(table, ["setting", "verdict", "failed tests", "z-pass fraction", "relMSE",
+                             "FLIP", "Snell time", "Cycles time"]) +
+            _forced_once(rows) +
             f"<h2>Contact sheet</h2><figure><img style='width:auto' alt='contact sheet' "
             f"src='{_data_uri(sheet)}'></figure>\n" + "\n".join(sections))
     with open(os.path.join(directory, "report.html"), "w") as f:
         f.write(_page(f"Snell {name} study", body))
     data["notes"] = list(notes)
     _write_json(os.path.join(directory, "metrics.json"), _plain(data))
+    return data
+
+
+# ---------------------------------------------------------------------------------------------
+# False alarms
+
+
+POWER_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")
+
+
+def power_svg(curves, panel_w=300, panel_h=240) -> str:
+    """Inline SVG: per error kind, the share of runs the verdict called inconsistent against
+    the error's size, one line per sample count. curves: {kind: {spp: [(size, rate)]}}."""
+    m = {"l": 46, "r": 10, "t": 26, "b": 40}
+    w, h = panel_w - m["l"] - m["r"], panel_h - m["t"] - m["b"]
+    parts = []
+    for i, (kind, lines) in enumerate(curves.items()):
+        ox = i * panel_w
+        sizes = sorted({x for pts in lines.values() for x, _ in pts})
+        span = (sizes[0], sizes[-1]) if len(sizes) > 1 else (sizes[0] - 1, sizes[0] + 1)
+
+        def X(v):
+            return ox + m["l"] + (math.log(v / span[0]) / math.log(span[1] / span[0])) * w \
+                if span[0] > 0 else ox + m["l"] + (v - span[0]) / (span[1] - span[0]) * w
+
+        def Y(r):
+            return m["t"] + (1 - r) * h
+
+        g = [f'<rect x="{ox + m["l"]}" y="{m["t"]}" width="{w}" height="{h}" fill="white" '
+             f'stroke="#888"/>',
+             f'<text x="{ox + m["l"] + w / 2}" y="16" text-anchor="middle" font-weight="bold">'
+             f'{html.escape(kind)}</text>']
+        for r in (0.0, 0.5, 0.9, 1.0):
+            g.append(f'<line x1="{ox + m["l"]}" y1="{Y(r):.1f}" x2="{ox + m["l"] + w}" '
+                     f'y2="{Y(r):.1f}" stroke="{"#f4a" if r == 0.9 else "#ddd"}"/>')
+            g.append(f'<text x="{ox + m["l"] - 4}" y="{Y(r) + 4:.1f}" text-anchor="end">{r:g}</text>')
+        for v in sizes:
+            g.append(f'<text x="{X(v):.1f}" y="{m["t"] + h + 14}" text-anchor="middle">{v:g}</text>')
+        g.append(f'<text x="{ox + m["l"] + w / 2}" y="{panel_h - 6}" text-anchor="middle">'
+                 f'error size</text>')
+        for k, (spp, pts) in enumerate(sorted(lines.items())):
+            c = POWER_COLOURS[k % len(POWER_COLOURS)]
+            pts = sorted(pts)
+            g.append(f'<polyline points="{" ".join(f"{X(x):.1f},{Y(r):.1f}" for x, r in pts)}" '
+                     f'fill="none" stroke="{c}" stroke-width="2"/>')
+            g += [f'<circle cx="{X(x):.1f}" cy="{Y(r):.1f}" r="3" fill="{c}"/>' for x, r in pts]
+            ly = m["t"] + h - 8 - 14 * k
+            g.append(f'<text x="{ox + m["l"] + w - 6}" y="{ly}" text-anchor="end" fill="{c}">'
+                     f'{spp} spp</text>')
+        parts.append("\n".join(g))
+    total_w = panel_w * max(1, len(curves))
+    return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{total_w}" height="{panel_h}" '
+            f'viewBox="0 0 {total_w} {panel_h}" font-family="sans-serif" font-size="11">\n'
+            + "\n".join(parts) + "\n</svg>\n")
+
+
+def power_curves(rows, configs):
+    """{kind: {spp: [(size, detection rate)]}} of the rows whose configuration is among
+    `configs` (power runs of growing error size), for power_svg."""
+    by_name = {c.name: c for c in configs}
+    curves = {}
+    for row in rows:
+        c = by_name.get(row["config"])
+        if c is None or not c.error or isinstance(c.error[1], str):
+            continue
+        kind, size = c.error
+        size = abs(size - 1.0) if kind in ("roughness", "focus", "aperture", "lamps") else abs(size)
+        curves.setdefault(kind, {}).setdefault(c.spp, []).append(
+            (round(size, 6), row["verdict"] / row["runs"]))
+    return {k: v for k, v in curves.items() if sum(len(p) for p in v.values()) >= 2}
+
+
+def write_false_alarms(directory, rows, overall, configs, curves=()):
+    """report.html and metrics.json of `snell false-alarms` (all or nothing): the whole
+    verdict's and each test's failure rate over the null runs with their 95% intervals, the
+    failures per configuration, and the configurations."""
+    with atomic_directory(directory) as tmp:
+        tests = [t for t in overall if t != "verdict"] + ["verdict"] if overall else []
+        rates = [[t, f"{v[0]} / {v[1]}", f"{v[2]:.3f}", f"{v[3]:.3f} - {v[4]:.3f}"]
+                 for t, v in ((t, overall[t]) for t in tests)]
+        per = [[r["config"], r["runs"], *[r.get(t, "") for t in tests]] for r in rows]
+        settings = [[c.name, c.scene, c.spp, f"{c.scale}%", c.cycles_seeds,
+                     c.max_depth if c.max_depth is not None else "scene's",
+                     ", ".join(f"{k} {v:g}" for k, v in c.camera) or "scene's",
+                     "Cycles vs Cycles" if c.mode == "cycles" else "Snell vs Cycles",
+                     "" if not c.error else f"{c.error[0]} {c.error[1]}"] for c in configs]
+        curves = power_curves(rows, curves)
+        svg = power_svg(curves) if curves else ""
+        if svg:
+            with open(os.path.join(tmp, "power.svg"), "w") as f:
+                f.write(svg)
+        body = ("<h1>Snell's validator: false alarms and power</h1>\n"
+                "<p>Null runs render a correct configuration with independent seeds and apply "
+                "the full verdict; a failure is a false alarm. Rates come with exact "
+                "(Clopper-Pearson) 95% intervals. Power runs (a configuration with a deliberate "
+                "error, named CONFIG:ERROR) count detections instead and are not in the "
+                f"overall rates.</p>\n<p class='small'>Rule: {html.escape(metrics.RULE)}.</p>"
+                "<h2>Overall (null runs)</h2>" +
+                _table(rates, ["test", "failures / runs", "rate", "95% interval"]) +
+                "<h2>Failures per configuration</h2>" +
+                _table(per, ["configuration", "runs", *tests]) +
+                ("<h2>Power: share of runs caught against the error's size</h2>"
+                 "<p class='small'>Relative errors (roughness, focus) as the fraction off; IOR "
+                 "as the difference. The pink line is 9 of 10.</p>" + svg if svg else "") +
+                "<h2>Configurations</h2>" +
+                _table(settings, ["name", "scene", "spp", "resolution", "Cycles seeds",
+                                  "max depth", "camera", "compared", "error"]))
+        with open(os.path.join(tmp, "report.html"), "w") as f:
+            f.write(_page("Snell false alarms", body))
+        data = {"overall": {t: dict(zip(("failures", "runs", "rate", "low", "high"), v))
+                            for t, v in overall.items()},
+                "configurations": rows, "rule": metrics.RULE}
+        _write_json(os.path.join(tmp, "metrics.json"), _plain(data))
     return data
 
 

@@ -28,9 +28,12 @@ class Reference:
     def compare(self, modify=lambda s: s, noise_threshold=0.0, spp=None):
         """The validator's report dict for Snell (modify: a deliberate change) against Cycles."""
         from snell.addon import validate
+        from snell.tracer.integrator import Renderer
         scene = modify(self.scene)
         result = validate.snell_render(scene, spp or self.spp, noise_threshold=noise_threshold)
-        return validate.compare_renders(result, self.cycles, settings=validate.snell_settings(scene))
+        index = Renderer(scene, caustics=False, light_vertices=False).object_index()
+        return validate.compare_renders(result, self.cycles, settings=validate.snell_settings(scene),
+                                        objects=(index, [o["name"] for o in scene.objects]))
 
 
 def verdict(result):

@@ -82,22 +82,43 @@ def test_sidak_and_relmse_definitions():
     assert r["rmse"] == pytest.approx(0.1)
 
 
+def _batches(rng, truth, n, scale=0.2):
+    """n independent images of truth with noise shared by the three channels (as a white
+    light's paths share it)."""
+    noise = scale * rng.standard_normal((n,) + truth.shape[:2] + (1,))
+    return truth[None] * (1 + noise)
+
+
 def test_sharpness_test_catches_blur_and_is_centred_under_agreement():
     rng = np.random.default_rng(2)
     truth = np.zeros((64, 64, 3))
     truth[16:48, 16:48] = 1.0
     truth += 0.1
     blurred = metrics._blur(truth, 0.7)
-    halves = []
-    for _ in range(2):
-        m, v = _noisy(rng, blurred, 64, 0.2)
-        halves.append((m, v))
-    a, va = _noisy(rng, blurred, 256, 0.2)
-    z, p, _ = metrics.sharpness_test(a, va, 255, halves[0][0], halves[1][0], halves[1][1], 63)
-    assert p > 0.01
-    a2, va2 = _noisy(rng, metrics._blur(truth, 0.8), 256, 0.2)
-    z2, p2, _ = metrics.sharpness_test(a2, va2, 255, halves[0][0], halves[1][0], halves[1][1], 63)
-    assert z2 > 3 and p2 < 0.01
+    reference = metrics.Estimate.from_images(_batches(rng, blurred, 8))
+    same = metrics.Estimate.from_images(_batches(rng, blurred, 16))
+    z, df, template, _ = metrics.sharpness_test(same, reference)
+    assert template == "tested" and abs(z) < 3
+    wrong = metrics.Estimate.from_images(_batches(rng, metrics._blur(truth, 0.8), 16))
+    z2, _, _, _ = metrics.sharpness_test(wrong, reference)
+    assert z2 > 4
+
+
+def test_sharpness_variance_counts_correlated_channels():
+    """With the three channels' noise shared (white light), a sum of per-channel variances is a
+    third of the sharpness sum's; from the images' spread the test keeps its level. Over 200
+    null trials at the test's level 0.0025 more than 4 rejections has probability 2e-4; the
+    per-pixel variance sum (the old test) gave z about sqrt(3) too large, about 8% rejections."""
+    rng = np.random.default_rng(7)
+    truth = metrics._blur(np.pad(np.ones((16, 16, 3)), 8) + 0.1, 0.7)
+    rejected = 0
+    alpha = metrics.sidak(metrics.ALPHA, 4)
+    for _ in range(200):
+        a = metrics.Estimate.from_images(_batches(rng, truth, 16))
+        b = metrics.Estimate.from_images(_batches(rng, truth, 8))
+        z, df, _, _ = metrics.sharpness_test(a, b)
+        rejected += float(metrics._two_sided_p(np.array(z), np.array(df))) < alpha
+    assert rejected <= 4
 
 
 # ---------------------------------------------------------------------------------------------
@@ -221,8 +242,12 @@ def test_schlick_fresnel_is_caught(glass):
 
 
 def test_ior_off_by_005_is_caught(glass):
-    verdict, detail = _verdict(glass.compare(lambda s: _glass(s, ior=lambda m: m["ior"] + 0.05)))
+    result = glass.compare(lambda s: _glass(s, ior=lambda m: m["ior"] + 0.05))
+    verdict, detail = _verdict(result)
     assert verdict == "inconsistent", detail
+    # The report names what the failing tiles show: the glass sphere fills this framing.
+    worst = max(result["failing_tiles"], key=lambda t: abs(t["z"]))
+    assert worst["objects"][0][0] == "GlassSphere", worst
 
 
 @pytest.mark.parametrize("delta", [-1, 1])

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from cycles_reference import Reference
-from hdri import write_image
 from cycles_reference import verdict as _verdict
 
 bpy = pytest.importorskip("bpy")
@@ -24,67 +23,9 @@ common = importlib.import_module("common")
 FULL = {"resolution_percentage": 100}
 
 
-def write_png(path, rgb8):
-    """An 8-bit RGB PNG."""
-    return write_image(path, rgb8, "uint8")
-
-
-def checker_png(path, n=8):
-    """An n x n checker of two colours (8-bit sRGB values)."""
-    rows, cols = np.indices((n, n))
-    light, dark = np.array([230, 200, 120]), np.array([40, 70, 150])
-    image = np.where(((rows + cols) % 2 == 0)[..., None], light, dark).astype(np.uint8)
-    return write_png(path, image)
-
-
-def stripes_png(path, n=8):
-    """Vertical stripes of roughness 0.15 and 0.6 (grey 8-bit values, read as Non-Color)."""
-    values = np.where(np.arange(n) % 2 == 0, round(0.15 * 255), round(0.6 * 255))
-    image = np.repeat(np.tile(values, (n, 1))[..., None], 3, axis=2).astype(np.uint8)
-    return write_png(path, image)
-
-
-def _image_material(name, shader, image_path, input_name, interpolation, colorspace, **values):
-    """A material whose shader's input_name comes from an Image Texture of image_path."""
-    mat = common.material(name, shader, (0.8, 0.8, 0.8), **values)
-    tree = mat.node_tree
-    node = next(n for n in tree.nodes if n.bl_idname.startswith("ShaderNodeBsdf"))
-    tex = tree.nodes.new("ShaderNodeTexImage")
-    tex.image = bpy.data.images.load(image_path)
-    tex.image.colorspace_settings.name = colorspace
-    tex.interpolation = interpolation
-    tree.links.new(tex.outputs["Color"], node.inputs[input_name])
-    return mat
-
-
-def _plane(name, location, size, mat):
-    bpy.ops.mesh.primitive_plane_add(size=size, location=location)
-    obj = bpy.context.active_object
-    obj.name = name
-    obj.data.materials.append(mat)
-    return obj
-
-
-def build_floors(path, checker, stripes):
-    """Two floors side by side under an area lamp: the checker on a Diffuse BSDF's Color, the
-    stripes on a metallic Principled BSDF's Roughness."""
-    scene = common.reset()
-    common.setup_render(scene, (64, 32))
-    common.set_world(scene, (0.05, 0.05, 0.06))
-    floor = _image_material("Checker", "diffuse", checker, "Color", "Linear", "sRGB")
-    metal = _image_material("RoughStripes", "principled", stripes, "Roughness", "Closest",
-                            "Non-Color", Metallic=1.0)
-    _plane("CheckerFloor", (-1.05, 0.0, 0.0), 2.0, floor)
-    _plane("MetalFloor", (1.05, 0.0, 0.0), 2.0, metal)
-    light = bpy.data.lights.new("Lamp", "AREA")
-    light.energy = 300.0
-    light.size = 1.0
-    lamp = bpy.data.objects.new("Lamp", light)
-    lamp.location = (0.3, 1.5, 2.0)
-    lamp.rotation_euler = (-0.6, 0.0, 0.0)
-    scene.collection.objects.link(lamp)
-    common.camera(scene, (0.0, -3.2, 2.2), (0.0, 0.2, 0.0), lens=32.0)
-    return common.save(path)
+textured = importlib.import_module("textured_floors")
+checker_png, stripes_png, build_floors = textured.checker_png, textured.stripes_png, textured.build_floors
+_plane = textured.plane
 
 
 @pytest.fixture(scope="module")

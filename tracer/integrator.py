@@ -54,6 +54,12 @@ class RenderResult:
     batch_sq: np.ndarray | None = None
     light_batch_sum: np.ndarray | None = None
     light_batch_sq: np.ndarray | None = None
+    # With batches, each pass's whole image (camera samples plus the light tracer's share) and,
+    # in the hybrid, the light tracer's share alone, float32 (H, W, 3) in pass order: the
+    # validator estimates the variance of any linear statistic (a tile mean, the image mean, a
+    # filtered sum) from their spread, and knows which light only the light tracer carries.
+    batch_images: list = field(default_factory=list)
+    light_batch_images: list = field(default_factory=list)
     spp: int = 0
     light_paths: int = 0
     light_in_image: bool = False     # the hybrid: the light tracer's splats are part of the image
@@ -426,6 +432,21 @@ class Renderer:
             return np.zeros(0, np.int64), np.zeros((0, 3))
         return np.concatenate(pixels), np.concatenate(contributions)
 
+    def object_index(self, per_side: int = 2) -> np.ndarray:
+        """The object each pixel sees first, int32 (H, W, per_side^2): one camera ray through
+        the lens centre at each of per_side x per_side points of the pixel; -1 where a ray
+        misses (the validator names the objects under the tiles that fail)."""
+        w, h = self.camera.width, self.camera.height
+        grid = (np.arange(per_side) + 0.5) / per_side
+        u = np.stack(np.meshgrid(grid, grid, indexing="ij"), 0).reshape(2, -1)
+        pixels = np.repeat(np.arange(w * h, dtype=np.int64), u.shape[1])
+        o, d, far = self.camera.generate(pixels, np.tile(u, (1, w * h)), None)
+        prim, _, _, _ = self.geometry.intersect(np.ascontiguousarray(o.T, np.float32),
+                                                np.ascontiguousarray(d.T, np.float32),
+                                                far.astype(np.float32))
+        objects = np.where(prim >= 0, self.scene.object_ids[np.maximum(prim, 0)], -1)
+        return objects.astype(np.int32).reshape(h, w, -1)
+
     # -- passes ----------------------------------------------------------------------------
 
     def render(self, spp: int | None = None, progress=None, batches: int | None = None,
@@ -565,7 +586,10 @@ class Renderer:
                         _add_batch(result.light_batch_sum, result.light_batch_sq, light_image)
                         if self.split:
                             image += light_image
+                            result.light_batch_images.append(
+                                light_image.reshape(h, w, 3).astype(np.float32))
                     _add_batch(result.batch_sum, result.batch_sq, image)
+                    result.batch_images.append(image.reshape(h, w, 3).astype(np.float32))
                     result.batches += 1
                 result.spp += in_pass
                 if adapt:
