@@ -21,7 +21,7 @@ import numpy as np
 
 from ..compare import metrics
 from . import cycles
-from .validate import BATCHES, load_snell_scene
+from .validate import load_snell_scene, snell_render
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SNELL, EXACT = "snell", "cycles"     # what takes the tested image's place
@@ -194,10 +194,9 @@ class NullRuns:
             camera={**dict(c.camera), "resolution_percentage": c.scale}).images).astype(np.float32)
 
     def _snell(self, run: int, error=()):
-        from ..tracer.integrator import Renderer
+        """Snell's batch images and light tracer share, rendered as `snell compare` does."""
         scene = apply_error(self.scene().with_render(seed=self.config.seed(run)), error)
-        result = Renderer(scene, threads=self.threads, sampler="independent",
-                          light_vertices=False).render(batches=min(BATCHES, self.config.spp))
+        result = snell_render(scene, self.config.spp, threads=self.threads)
         light = np.stack(result.light_batch_images) if result.light_batch_images else None
         return np.stack(result.batch_images), light
 
