@@ -27,7 +27,7 @@ import numpy as np
 
 from ..compare import bench as cb
 from ..compare import metrics
-from ..compare.sample_map import sample_map_png
+from ..pages.sample_map import sample_map_png
 from ..tracer.atomic import atomic_directory
 from . import cycles
 from .console import stdout_silenced

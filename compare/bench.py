@@ -222,7 +222,7 @@ def light_share(light, reference) -> np.ndarray:
 
 def share_map_png(light, reference) -> bytes:
     """A grey PNG of the light tracer's share of the reference per pixel (black 0, white 1)."""
-    from .report import png_bytes
+    from ..pages.images import png_bytes
     grey = np.round(np.clip(light_share(light, reference), 0.0, 1.0) * 255).astype(np.uint8)
     return png_bytes(np.repeat(grey[..., None], 3, axis=2))
 
@@ -324,62 +324,13 @@ def renderers(scene) -> list:
     return [r for r in ("snell", "snell_path_tracer", "cycles") if r in scene]
 
 
-def _decades(lo, hi):
-    a, b = math.floor(math.log10(lo)), math.ceil(math.log10(hi))
-    if a == b:
-        b = a + 1
-    return a, b
-
-
-def svg_plot(scenes, panel_w=360, panel_h=280) -> str:
+def svg_plot(scenes) -> str:
     """One inline SVG: a log-log panel of relMSE against wall time for each scene."""
-    m = {"l": 58, "r": 12, "t": 26, "b": 40}
-    parts = []
-    for i, sc in enumerate(scenes):
-        pts = {r: [(p["wall_s"], p["relmse"]) for p in sc[r]["points"]
-                   if p["wall_s"] > 0 and p["relmse"] > 0] for r in renderers(sc)}
-        allp = [q for p in pts.values() for q in p]
-        if not allp:
-            continue
-        x0, x1 = _decades(min(p[0] for p in allp), max(p[0] for p in allp))
-        y0, y1 = _decades(min(p[1] for p in allp), max(p[1] for p in allp))
-        ox = i * panel_w
-        w, h = panel_w - m["l"] - m["r"], panel_h - m["t"] - m["b"]
-
-        def X(t):
-            return ox + m["l"] + (math.log10(t) - x0) / (x1 - x0) * w
-
-        def Y(e):
-            return m["t"] + (1 - (math.log10(e) - y0) / (y1 - y0)) * h
-
-        g = [f'<rect x="{ox + m["l"]}" y="{m["t"]}" width="{w}" height="{h}" fill="white" stroke="#888"/>',
-             f'<text x="{ox + m["l"] + w / 2}" y="16" text-anchor="middle" font-weight="bold">'
-             f'{html.escape(sc["name"])}</text>']
-        for d in range(x0, x1 + 1):
-            x = X(10.0 ** d)
-            g.append(f'<line x1="{x:.1f}" y1="{m["t"]}" x2="{x:.1f}" y2="{m["t"] + h}" stroke="#ddd"/>')
-            g.append(f'<text x="{x:.1f}" y="{m["t"] + h + 14}" text-anchor="middle">{10.0 ** d:g}</text>')
-        for d in range(y0, y1 + 1):
-            y = Y(10.0 ** d)
-            g.append(f'<line x1="{ox + m["l"]}" y1="{y:.1f}" x2="{ox + m["l"] + w}" y2="{y:.1f}" stroke="#ddd"/>')
-            g.append(f'<text x="{ox + m["l"] - 4}" y="{y + 4:.1f}" text-anchor="end">1e{d}</text>')
-        g.append(f'<text x="{ox + m["l"] + w / 2}" y="{panel_h - 6}" text-anchor="middle">wall time (s)</text>')
-        g.append(f'<text transform="translate({ox + 13},{m["t"] + h / 2}) rotate(-90)" '
-                 f'text-anchor="middle">relMSE</text>')
-        for k, (r, p) in enumerate(pts.items()):
-            c = COLOURS[r]
-            line = " ".join(f"{X(t):.1f},{Y(e):.1f}" for t, e in p)
-            g.append(f'<polyline points="{line}" fill="none" stroke="{c}" stroke-width="2"/>')
-            g += [f'<circle cx="{X(t):.1f}" cy="{Y(e):.1f}" r="3" fill="{c}"/>' for t, e in p]
-            ly = m["t"] + 14 + 16 * k
-            g.append(f'<line x1="{ox + m["l"] + w - 150}" y1="{ly - 4}" x2="{ox + m["l"] + w - 132}" '
-                     f'y2="{ly - 4}" stroke="{c}" stroke-width="2"/>')
-            g.append(f'<text x="{ox + m["l"] + w - 128}" y="{ly}">{LABELS[r]}</text>')
-        parts.append("\n".join(g))
-    total_w = panel_w * max(1, len(scenes))
-    return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{total_w}" height="{panel_h}" '
-            f'viewBox="0 0 {total_w} {panel_h}" font-family="sans-serif" font-size="11">\n'
-            + "\n".join(parts) + "\n</svg>\n")
+    from ..pages.plots import loglog_svg
+    return loglog_svg([(sc["name"], [(LABELS[r], COLOURS[r],
+                                      [(p["wall_s"], p["relmse"]) for p in sc[r]["points"]])
+                                     for r in renderers(sc)]) for sc in scenes],
+                      "wall time (s)", "relMSE")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -492,14 +443,14 @@ def markdown_table(data) -> str:
 
 def _share_maps(data, maps):
     """The HTML of each scene's light-tracer share map and caustic-region figures."""
-    from .report import _data_uri
+    from ..pages.html_page import data_uri
     out = []
     for sc in data["scenes"]:
         png = (maps or {}).get(sc["name"])
         region = sc.get("caustic_region")
         if png is None or not region:
             continue
-        out.append(f"<figure><img src='{_data_uri(png)}' width='{2 * sc['width']}'>"
+        out.append(f"<figure><img src='{data_uri(png)}' width='{2 * sc['width']}'>"
                    f"<figcaption>{html.escape(sc['name'])}: the light tracer carries "
                    f"{100 * region['light_share_of_image']:.1f}% of the image; caustic region "
                    f"(share at least {region['share_threshold']:g}): {region['pixels']} pixels "
@@ -513,14 +464,14 @@ def _share_maps(data, maps):
 
 def _adaptive_section(data, sample_maps):
     """The HTML of the "as users render" comparison: its table and each scene's sample maps."""
-    from .report import _data_uri
+    from ..pages.html_page import data_uri
     rows = adaptive_rows(data)
     if not rows:
         return ""
     figures = []
     for sc in data["scenes"]:
         for r, png in (sample_maps or {}).get(sc["name"], {}).items():
-            figures.append(f"<figure><img src='{_data_uri(png)}'><figcaption>"
+            figures.append(f"<figure><img src='{data_uri(png)}'><figcaption>"
                            f"{html.escape(sc['name'])}: {LABELS[r]}'s samples per pixel at "
                            f"threshold {sc['adaptive']['map_threshold']:g}</figcaption></figure>")
     s, d = data["settings"], data["definitions"]
@@ -535,7 +486,7 @@ def _adaptive_section(data, sample_maps):
 def write_html(path, data, svg, maps=None, sample_maps=None):
     """The bench page; maps: {scene name: PNG of the light tracer's share}; sample_maps: {scene
     name: {renderer: PNG of its samples per pixel}}."""
-    from .report import _page  # the validator's page frame and CSS
+    from ..pages.html_page import page
     d = data["definitions"]
     s = data["settings"]
     refs = "".join(
@@ -559,4 +510,4 @@ def write_html(path, data, svg, maps=None, sample_maps=None):
                                                for k, v in d.items()) + "</ul>\n"
         f"<h2>References</h2><ul>{refs}</ul>\n")
     with open(path, "w") as f:
-        f.write(_page("snell bench", body))
+        f.write(page("snell bench", body))

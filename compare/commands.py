@@ -66,7 +66,7 @@ def cmd_compare(args) -> int:
                                     progress=progress, noise_threshold=args.noise_threshold)
     figures = []
     if "samples" in result["snell"]:
-        from .sample_map import sample_map_png
+        from ..pages.sample_map import sample_map_png
         figures.append(("samples", sample_map_png(result["snell"]["samples"]),
                         "Snell's samples per pixel (adaptive sampling)"))
     data = report.write_comparison(args.report, result, figures=figures)

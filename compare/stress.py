@@ -17,7 +17,8 @@ from statistics import NormalDist
 
 import numpy as np
 
-from .report import _data_uri, _page, colour_bar, diverging, png_bytes, upscale
+from ..pages.html_page import data_uri, page
+from ..pages.images import colour_bar, diverging, png_bytes, upscale
 from . import stress_extremes, stress_glass, stress_lens, stress_lights
 from .stress_cases import AT_MOST, EXACT, STATISTICAL, UNSUPPORTED, Case
 from ..tracer.image import to_srgb8
@@ -251,7 +252,7 @@ def write_html(path, data):
             f"{html.escape(verdict)}</div>\n<p class='small'>{html.escape(data['rule'])}.</p>\n"
             + "\n".join(out) + _worst_figures(data))
     with open(path, "w") as f:
-        f.write(_page("snell stress", body))
+        f.write(page("snell stress", body))
 
 
 def _worst_figures(data):
@@ -260,14 +261,14 @@ def _worst_figures(data):
         return ""
     image, error, label = images
     parts = [f"<h2>Worst case: {html.escape(data['worst'])}</h2>",
-             f"<figure><img alt='image' src='{_data_uri(png_bytes(upscale(to_srgb8(image), 256)))}'>"
+             f"<figure><img alt='image' src='{data_uri(png_bytes(upscale(to_srgb8(image), 256)))}'>"
              f"<figcaption>image (Standard view)</figcaption></figure>"]
     if error is not None:
         lim = float(np.nanmax(np.abs(error))) if np.size(error) else 0.0
         lim = lim if lim > 0 and math.isfinite(lim) else 1e-6
-        parts.append(f"<figure><img alt='error' src='{_data_uri(png_bytes(upscale(diverging(error, lim), 256)))}'>"
+        parts.append(f"<figure><img alt='error' src='{data_uri(png_bytes(upscale(diverging(error, lim), 256)))}'>"
                      f"<figcaption>{html.escape(label)}<br><img class='bar' alt='scale' "
-                     f"src='{_data_uri(png_bytes(colour_bar(lim)))}'><br>"
+                     f"src='{data_uri(png_bytes(colour_bar(lim)))}'><br>"
                      f"<span class='small'>blue {-lim:.3g} · white 0 · red +{lim:.3g}</span>"
                      f"</figcaption></figure>")
     return "\n".join(parts)

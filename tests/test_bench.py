@@ -200,7 +200,7 @@ def test_sample_summary():
 
 
 def test_sample_map_ramp_and_vmax():
-    from snell.compare import sample_map as sm
+    from snell.pages import sample_map as sm
     counts = np.arange(12).reshape(3, 4) * 10            # 0 .. 110
     rgb = sm.sample_map_rgb(counts)
     assert rgb.shape == (3, 4, 3) and rgb.dtype == np.uint8
@@ -222,7 +222,7 @@ def test_sample_map_ramp_and_vmax():
 
 def test_sample_map_png_has_map_bar_and_caption(tmp_path):
     oiio = pytest.importorskip("OpenImageIO")
-    from snell.compare import sample_map as sm
+    from snell.pages import sample_map as sm
     counts = np.full((32, 64), 40)
     counts[:16] = 200
     path = tmp_path / "map.png"
