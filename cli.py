@@ -377,15 +377,15 @@ def _setup_stress(p):
 
 
 def cmd_stress(args) -> int:
-    """Render scenes with exact answers and judge each against its bound (compare/stress.py)."""
+    """Render scenes with exact answers and judge each against its bound (stress/runner.py)."""
     if args.report:
         check_writable_directory(args.report, "--report", report=True)
-    from .compare import stress
+    from .stress import runner
     log = (lambda s: print(f"snell stress: {s}", file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
-    data = stress.run(quick=args.quick, threads=args.threads, log=log)
-    print(stress.terminal_table(data))
+    data = runner.run(quick=args.quick, threads=args.threads, log=log)
+    print(runner.terminal_table(data))
     if args.report:
-        stress.write_report(args.report, data)
+        runner.write_report(args.report, data)
     verdict = "all pass" if data["passed"] else f"FAILED: {', '.join(data['failed'])}"
     print(f"snell stress: {len(data['cases'])} cases in {_duration(data['total_s'])}, {verdict}"
           + (f" -> {os.path.join(args.report, 'stress.html')}" if args.report else ""))

@@ -1,4 +1,4 @@
-"""`snell stress`: run the stress cases (compare/stress_cases.py), judge them, write the report.
+"""`snell stress`: run the stress cases (stress/cases.py), judge them, write the report.
 
 Each case's error is judged against a bound derived from its own samples: exact cases against
 float rounding plus the samples the integrator counted as ended early, statistical cases against
@@ -19,8 +19,8 @@ import numpy as np
 
 from ..pages.html_page import data_uri, page
 from ..pages.images import colour_bar, diverging, png_bytes, upscale
-from . import stress_extremes, stress_glass, stress_lens, stress_lights
-from .stress_cases import AT_MOST, EXACT, STATISTICAL, UNSUPPORTED, Case
+from . import extremes, glass, lens, lights
+from .cases import AT_MOST, EXACT, STATISTICAL, UNSUPPORTED, Case
 from ..tracer.image import to_srgb8
 
 ALPHA = 0.01
@@ -32,9 +32,9 @@ CASE_KEYS = ("id", "group", "measures", "failure_means", "check", "analytic", "m
 
 def all_cases(quick: bool = False) -> list[Case]:
     """Every case of the matrix, or the --quick subset."""
-    cases = (stress_glass.furnace_cases() + stress_glass.slab_cases() + stress_glass.nested_cases()
-             + stress_lens.lens_cases() + stress_lights.light_cases()
-             + stress_glass.degenerate_cases() + stress_extremes.extreme_cases(quick))
+    cases = (glass.furnace_cases() + glass.slab_cases() + glass.nested_cases()
+             + lens.lens_cases() + lights.light_cases()
+             + glass.degenerate_cases() + extremes.extreme_cases(quick))
     return [c for c in cases if c.quick] if quick else cases
 
 
