@@ -17,8 +17,8 @@ import sys
 import time
 
 from .addon.console import stdout_silenced
-from .compare.bench_command import CLI as BENCH_COMMAND
-from .compare.commands import COMMANDS as COMPARE_COMMANDS
+from .validation.bench_command import CLI as BENCH_COMMAND
+from .validation.commands import COMMANDS as COMPARE_COMMANDS
 from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
                      check_writable_directory, int_at_least, number_at_least, print_error, warn)
 from .tracer.progress import describe_adaptive, pixels_sampling, time_left

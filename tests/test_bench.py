@@ -12,8 +12,8 @@ import warnings
 import numpy as np
 import pytest
 
-from snell.compare import bench as cb
-from snell.compare import metrics
+from snell.validation import bench_curves as cb
+from snell.validation import metrics
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENES = [os.path.join(REPO, "scenes", n) for n in ("cornell_spheres.blend", "cornell_dragon.blend")]
@@ -239,7 +239,7 @@ def test_sample_map_png_has_map_bar_and_caption(tmp_path):
 
 
 def test_cycles_adaptive_settings():
-    from snell.addon import cycles
+    from snell.validation import cycles
     settings = {k: v for k, v, _ in cycles.adaptive_settings(8, 0.01, 1024, 5, 2)}
     assert settings["cycles.use_adaptive_sampling"] is True
     assert settings["cycles.adaptive_threshold"] == 0.01
@@ -264,7 +264,7 @@ def test_cycles_samples_rendered_scale_its_sample_count_pass():
     early when every pixel converged (cornell_dragon at 0.1 stopped at 80 of 1024: read over
     1024 its pixels had 614 to 1024 samples in half a second; over 80, 48 to 80, 48 being
     Cycles' first check after its minimum of 32)."""
-    from snell.addon import cycles
+    from snell.validation import cycles
     lines = ["Remaining: 00:07.88 | Mem: 17M | Sample 64/1024",
              "Remaining: 00:06.24 | Mem: 17M | Sample 80/1024",
              "Remaining: 00:06.24 | Mem: 17M | Sample 0/1024"]      # the last line, after it
@@ -275,7 +275,7 @@ def test_cycles_samples_rendered_scale_its_sample_count_pass():
 
 def test_thresholds_argument():
     import argparse
-    from snell.compare.bench_command import thresholds
+    from snell.validation.bench_command import thresholds
     assert thresholds("0.1,0.01") == (0.1, 0.01) and thresholds("none") == ()
     for bad in ("0.1,x", "0", "1.5"):
         with pytest.raises(argparse.ArgumentTypeError):

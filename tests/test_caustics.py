@@ -14,7 +14,7 @@ import pytest
 
 from builders import box, camera, icosphere, make_scene, quad
 from snell.addon import window
-from snell.compare import metrics
+from snell.validation import metrics
 from snell.tracer.integrator import Renderer
 
 BATCHES = 16

@@ -10,7 +10,7 @@ import os
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PACKAGE = "snell"
-SUBPACKAGES = ("addon", "compare", "tracer")  # pyproject's packages, besides the root
+SUBPACKAGES = ("addon", "pages", "stress", "tracer", "validation")  # pyproject's packages, besides the root
 
 
 def package_modules(root=ROOT) -> dict:
@@ -96,7 +96,7 @@ def test_graph_sees_relative_and_function_level_imports():
     graph = import_graph()
     assert "snell.tracer.scene" in graph["snell.cli"]            # module level, from .x import y
     assert "snell.addon.export" in graph["snell.cli"]            # inside load_scene()
-    assert "snell.compare.report" in graph["snell.compare.commands"]  # from . import report
+    assert "snell.validation.report" in graph["snell.validation.commands"]  # from . import report
     assert "snell.addon.registration" in graph["snell"]         # the root package, in register()
 
 

@@ -16,12 +16,12 @@ import sys
 
 import numpy as np
 
-from snell.addon import false_alarms as fa
-from snell.compare import metrics
+from snell.validation import false_alarms as fa
+from snell.validation import metrics
 
 
 def old_compare(module, a, b):
-    """The old module's statistics of one run, as its validate.compare_renders computed them."""
+    """The old module's statistics of one run, as its compare.compare_renders computed them."""
     k = len(b)
     halves = None
     if k >= 4:

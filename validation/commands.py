@@ -38,7 +38,7 @@ def setup_compare(p):
 
 
 def setup_study(p):
-    from ..addon.study import STUDIES  # bpy-free module
+    from .study import STUDIES  # bpy-free module
     p.add_argument("study", choices=sorted(STUDIES), help="which of the seed's studies")
     _common(p)
 
@@ -58,12 +58,11 @@ def _needs_bpy():
 def cmd_compare(args) -> int:
     _check(args)
     _needs_bpy()
-    from ..addon import validate
-    from . import report
-    progress = validate.Progress(sys.stderr, enabled=not args.quiet)
-    result = validate.compare_blend(args.scene, spp=args.spp, max_depth=args.max_depth, seed=args.seed,
-                                    scale=args.scale, n_seeds=args.cycles_seeds, threads=args.threads,
-                                    progress=progress, noise_threshold=args.noise_threshold)
+    from . import compare, report
+    progress = compare.Progress(sys.stderr, enabled=not args.quiet)
+    result = compare.compare_blend(args.scene, spp=args.spp, max_depth=args.max_depth, seed=args.seed,
+                                   scale=args.scale, n_seeds=args.cycles_seeds, threads=args.threads,
+                                   progress=progress, noise_threshold=args.noise_threshold)
     figures = []
     if "samples" in result["snell"]:
         from ..pages.sample_map import sample_map_png
@@ -84,9 +83,8 @@ def cmd_compare(args) -> int:
 def cmd_study(args) -> int:
     _check(args)
     _needs_bpy()
-    from ..addon import study, validate
-    from . import report
-    progress = validate.Progress(sys.stderr, enabled=not args.quiet)
+    from . import compare, report, study
+    progress = compare.Progress(sys.stderr, enabled=not args.quiet)
     rows = study.run_study(args.study, args.scene, spp=args.spp, seed=args.seed, scale=args.scale,
                            n_seeds=args.cycles_seeds, threads=args.threads, progress=progress)
     data = report.write_study(args.report, args.study, rows, study.NOTES[args.study])
@@ -107,7 +105,7 @@ COMMANDS = [
 
 
 def setup_false_alarms(p):
-    from ..addon.false_alarms import BY_NAME, CONFIGS  # bpy-free module
+    from .false_alarms import BY_NAME, CONFIGS  # bpy-free module
     p.add_argument("--report", required=True, metavar="DIR",
                    help="directory for report.html and metrics.json (created)")
     p.add_argument("--runs", type=int_at_least(1), default=30,
@@ -131,9 +129,9 @@ def cmd_false_alarms(args) -> int:
     except OSError as exc:
         raise CliError(f"--cache {args.cache}: cannot create it ({exc.strerror})") from None
     _needs_bpy()
-    from ..addon import false_alarms as fa
-    from ..addon.validate import Progress
+    from . import false_alarms as fa
     from . import report
+    from .compare import Progress
     configs = ([fa.BY_NAME[n] for n in args.config] if args.config else
                list(fa.CONFIGS) + (list(fa.POWER) if args.power else []))
     progress = Progress(sys.stderr, enabled=not args.quiet)

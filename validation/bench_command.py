@@ -10,7 +10,7 @@ import os
 import sys
 
 from ..errors import CliError, check_input_file, check_writable_directory, int_at_least
-from . import bench as cb
+from . import bench_curves
 
 
 def thresholds(text):
@@ -66,18 +66,18 @@ def setup_cli(p):
 def cmd(args) -> int:
     """Run `snell bench`; the exit status."""
     try:
-        from ..addon import bench as ab
+        from . import bench
     except ModuleNotFoundError as exc:
         if exc.name != "bpy":
             raise
         raise CliError("snell bench needs Blender's bpy module (pip install 'snell[blender]')") from None
-    scenes = args.scenes or ab.DEFAULT_SCENES
+    scenes = args.scenes or bench.DEFAULT_SCENES
     for s in scenes:
-        if s in ab.DEFAULT_SCENES and not os.path.exists(s):
+        if s in bench.DEFAULT_SCENES and not os.path.exists(s):
             raise CliError(f"{s}: no such file (build it with scenes/build_all.py)")
         check_input_file(s)
     check_writable_directory(args.report, "--report", report=True)
-    opts = ab.Options(**(ab.QUICK if args.quick else {}))
+    opts = bench.Options(**(bench.QUICK if args.quick else {}))
     for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),
                        ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"), ("ref_seeds", "ref_seeds"),
                        ("ref_spp", "ref_spp"), ("repeat", "repeat"), ("caustics", "caustics"),
@@ -86,27 +86,27 @@ def cmd(args) -> int:
             setattr(opts, attr, getattr(args, name))
     log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr, flush=True))
     try:
-        data = ab.run(scenes, args.report, opts, cache_dir=args.cache, log=log)
-    except ab.PointError as exc:
+        data = bench.run(scenes, args.report, opts, cache_dir=args.cache, log=log)
+    except bench.PointError as exc:
         raise CliError(str(exc)) from None
-    print(cb.markdown_table(data))
+    print(bench_curves.markdown_table(data))
     for sc in data["scenes"]:
         eq = sc["time_to_equal_error"]
         print(f"snell bench: {sc['name']}: time to relMSE {eq['target_relmse']:.3g}: Snell / Cycles = "
-              f"{cb.fmt(eq['ratio'])} (fits {cb.fmt(eq['fit_ratio'])})")
+              f"{bench_curves.fmt(eq['ratio'])} (fits {bench_curves.fmt(eq['fit_ratio'])})")
         if "path_tracer_time_to_equal_error" in sc:
             pt = sc["path_tracer_time_to_equal_error"]
             print(f"snell bench: {sc['name']}: path tracer only: time to relMSE "
-                  f"{pt['target_relmse']:.3g}: Snell / Cycles = {cb.fmt(pt['ratio'])}")
+                  f"{pt['target_relmse']:.3g}: Snell / Cycles = {bench_curves.fmt(pt['ratio'])}")
         if "caustic_gain_at_equal_time" in sc:
             print(f"snell bench: {sc['name']}: caustic region relMSE at equal time: path tracer "
-                  f"only / hybrid = {cb.fmt(sc['caustic_gain_at_equal_time']['median'])}")
+                  f"only / hybrid = {bench_curves.fmt(sc['caustic_gain_at_equal_time']['median'])}")
         if "adaptive" in sc:
             at = sc["adaptive"]["map_threshold"]
             eq = next(e for e in sc["adaptive"]["equal_threshold"] if e["threshold"] == at)
             print(f"snell bench: {sc['name']}: adaptive at threshold {at:g}: Snell / Cycles at "
-                  f"equal error = {cb.fmt(eq['ratio'])} (time {cb.fmt(eq['time_ratio'])}, "
-                  f"relMSE {cb.fmt(eq['relmse_ratio'])} at equal threshold)")
+                  f"equal error = {bench_curves.fmt(eq['ratio'])} (time {bench_curves.fmt(eq['time_ratio'])}, "
+                  f"relMSE {bench_curves.fmt(eq['relmse_ratio'])} at equal threshold)")
     print(f"snell bench: {data['total_s']:.1f} s -> {os.path.join(args.report, 'bench.html')}")
     return 0
 

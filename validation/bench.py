@@ -4,7 +4,7 @@ then both adaptive at the same noise thresholds ("as users render", _adaptive_co
 For each scene: a reference (a long Cycles render as K seeds, cached on disk, see
 compare/bench.py cache_key), then for each renderer the ladder 1, 2, 4, ... spp until max_spp or
 until the next point is predicted (twice this point's wall time) to pass the time cap. Each point
-runs in its own child process (`python -m snell.addon.bench point SPEC OUT`) so that its peak
+runs in its own child process (`python -m snell.validation.bench point SPEC OUT`) so that its peak
 memory is its own: the child's VmHWM (peak RSS of its own address space; ru_maxrss is not used
 because Linux carries the parent's high-water mark into it over fork and exec), which includes
 Python, numpy and the bpy module (reported too, as the baseline of a child that only imports them)
@@ -25,12 +25,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ..compare import bench as cb
-from ..compare import metrics
+from ..addon.console import stdout_silenced
 from ..pages.sample_map import sample_map_png
 from ..tracer.atomic import atomic_directory
-from . import cycles
-from .console import stdout_silenced
+from . import bench_curves, cycles, metrics
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_SCENES = [os.path.join(REPO, "scenes", "cornell_spheres.blend"),
@@ -73,7 +71,7 @@ def default_cache_dir() -> str:
 
 def _snell_point(spec):
     from ..tracer.integrator import Renderer
-    from .export import export_blend
+    from ..addon.export import export_blend
     start = time.perf_counter()
     scene, _ = export_blend(spec["blend"])
     export_s = time.perf_counter() - start
@@ -103,7 +101,7 @@ def _cycles_point(spec):
     import bpy
 
     from ..tracer.image import read_exr
-    from .blendfile import open_blend
+    from ..addon.blendfile import open_blend
     if spec["threshold"]:
         settings = cycles.adaptive_settings(spec["max_depth"], spec["threshold"], spec["spp"],
                                             CYCLES_SEED, spec["threads"])
@@ -193,7 +191,7 @@ def run_point(kind, blend, spp, opts: Options, caustics=True, threshold=None):
         spec_path, out = os.path.join(tmp, "spec.json"), os.path.join(tmp, "out")
         with open(spec_path, "w") as f:
             json.dump(spec, f)
-        proc = subprocess.run([sys.executable, "-m", "snell.addon.bench", "point", spec_path, out],
+        proc = subprocess.run([sys.executable, "-m", "snell.validation.bench", "point", spec_path, out],
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         err = proc.stderr
         if proc.returncode != 0 or not os.path.exists(out + ".json"):
@@ -221,8 +219,8 @@ def reference(blend, opts: Options, cache_dir, log):
     settings = {"seeds": seeds, "spp_per_seed": opts.ref_spp, "max_depth": opts.max_depth,
                 "resolution_percentage": opts.scale, "forced": forced}
     version = bpy.app.version_string
-    key = cb.cache_key(blend, settings, version)
-    hit = cb.cache_load(cache_dir, key)
+    key = bench_curves.cache_key(blend, settings, version)
+    hit = bench_curves.cache_load(cache_dir, key)
     if hit is not None:
         mean, var, meta = hit
         cached = True
@@ -236,9 +234,9 @@ def reference(blend, opts: Options, cache_dir, log):
         mean, var = res.mean, res.variance_of_mean
         meta = {"render_s": res.time_s, "threads": opts.threads, "blender": version,
                 "settings": settings, "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-        cb.cache_store(cache_dir, key, mean, var, meta)
+        bench_curves.cache_store(cache_dir, key, mean, var, meta)
         cached = False
-    noise = cb.reference_noise(mean, var)
+    noise = bench_curves.reference_noise(mean, var)
     info = {"key": key, "cached": cached, "seeds": len(seeds), "spp_per_seed": opts.ref_spp,
             "spp": len(seeds) * opts.ref_spp, "render_s": meta["render_s"],
             "render_threads": meta["threads"], "blender": version,
@@ -255,14 +253,14 @@ def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, thresho
     # Repeats of a point render the same image (same seed); only the timings differ.
     runs = [run_point(kind, blend, spp, opts, caustics, threshold) for _ in range(opts.repeat)]
     image, light, counts, _ = runs[0]
-    stats = cb.median_run([r[3] for r in runs])
+    stats = bench_curves.median_run([r[3] for r in runs])
     if image.shape != ref.shape:
         raise PointError(f"{kind} image {image.shape} differs from the reference {ref.shape}")
     h, w = ref.shape[:2]
     if counts is None:  # a ladder point: spp in every pixel
         counts = np.full((h, w), spp, np.int32)
     # The child's stats last: Snell's saved_share is its own (RenderResult.saved_share).
-    p = {"spp": spp, **cb.errors(image, ref), **cb.sample_summary(counts, spp), **stats}
+    p = {"spp": spp, **bench_curves.errors(image, ref), **bench_curves.sample_summary(counts, spp), **stats}
     p["peak_rss_above_baseline_mb"] = p["peak_rss_mb"] - baseline_mb
     p["efficiency"] = p["relmse"] * p["wall_s"]
     p["samples_per_second"] = h * w * p["mean_spp"] / p["render_s"] if p["render_s"] > 0 else 0.0
@@ -281,7 +279,7 @@ def _ladder(kind, blend, ref, opts, baseline_mb, log, caustics=True):
         p, image, light, _ = _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics)
         points.append(p)
         images.append((image, light))
-        spp = cb.next_spp(spp, p["wall_s"], max_spp=opts.max_spp, time_cap_s=opts.time_cap_s)
+        spp = bench_curves.next_spp(spp, p["wall_s"], max_spp=opts.max_spp, time_cap_s=opts.time_cap_s)
     return points, images
 
 
@@ -301,15 +299,15 @@ def _adaptive_comparison(blend, ref, opts, baseline_mb, log):
     """(the scene's "adaptive" entry, {renderer: sample map PNG}): Snell and Cycles adaptive at
     opts.thresholds, their equal-threshold ratios, and the maps at the threshold nearest 0.01."""
     entry, pngs = {}, {}
-    at = cb.nearest_threshold(opts.thresholds)
-    for kind in cb.ADAPTIVE_RENDERERS:
+    at = bench_curves.nearest_threshold(opts.thresholds)
+    for kind in bench_curves.ADAPTIVE_RENDERERS:
         points, counts = _as_users_render(kind, blend, ref, opts, baseline_mb, log,
                                           caustics=opts.caustics != "off")
         entry[kind] = {"points": points}
         i = [p["threshold"] for p in points].index(at)
         # One scale for both renderers' maps (the cap), so their colours compare.
         pngs[kind] = sample_map_png(counts[i], vmax=opts.adaptive_max_spp)
-    entry["equal_threshold"] = cb.equal_threshold(entry["snell"]["points"],
+    entry["equal_threshold"] = bench_curves.equal_threshold(entry["snell"]["points"],
                                                   entry["cycles"]["points"])
     entry["map_threshold"] = at
     return entry, pngs
@@ -321,12 +319,12 @@ def _caustic_region(light, ref):
     if light is None:
         return np.zeros(ref.shape[:2], bool), {"pixels": 0, "fraction": 0.0,
                                                "light_share_of_image": 0.0,
-                                               "share_threshold": cb.CAUSTIC_SHARE}
-    mask = cb.light_share(light, ref) >= cb.CAUSTIC_SHARE
+                                               "share_threshold": bench_curves.CAUSTIC_SHARE}
+    mask = bench_curves.light_share(light, ref) >= bench_curves.CAUSTIC_SHARE
     return mask, {"pixels": int(mask.sum()), "fraction": float(mask.mean()),
                   "light_share_of_image": float(light.sum(dtype=np.float64)
                                                 / max(ref.sum(), 1e-300)),
-                  "share_threshold": cb.CAUSTIC_SHARE}
+                  "share_threshold": bench_curves.CAUSTIC_SHARE}
 
 
 
@@ -369,7 +367,7 @@ def definitions(opts: Options) -> dict:
                   "account: RenderResult.stages)",
         "caustic_relmse": f"relMSE over the caustic region only: the pixels where the light "
                           f"tracer's image (at the largest Snell point) is at least "
-                          f"{cb.CAUSTIC_SHARE:g} of the reference",
+                          f"{bench_curves.CAUSTIC_SHARE:g} of the reference",
         "caustic_gain_at_equal_time": "for each Snell point, the path tracer alone's caustic "
                                       "relMSE at the same wall time (log-log interpolation "
                                       "between its ladder points) over Snell's; median over points",
@@ -409,7 +407,7 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
     start = time.perf_counter()
     # Each scene is exported once first: a file Blender cannot open or Snell cannot render
     # fails here, with its name, rather than in a child process minutes into the run.
-    from .export import export_blend
+    from ..addon.export import export_blend
     for blend in scenes:
         with stdout_silenced():
             export_blend(blend)
@@ -438,18 +436,18 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
                  "height": int(ref.shape[0]), "width": int(ref.shape[1]),
                  "reference": ref_info, "caustic_region": region}
         for key, (points, _) in ladders.items():
-            scene[key] = {"points": points, "efficiency": cb.efficiency_summary(points)}
-        scene["time_to_equal_error"] = cb.equal_error(scene["snell"]["points"],
+            scene[key] = {"points": points, "efficiency": bench_curves.efficiency_summary(points)}
+        scene["time_to_equal_error"] = bench_curves.equal_error(scene["snell"]["points"],
                                                       scene["cycles"]["points"])
         if "snell_path_tracer" in scene:
-            scene["path_tracer_time_to_equal_error"] = cb.equal_error(
+            scene["path_tracer_time_to_equal_error"] = bench_curves.equal_error(
                 scene["snell_path_tracer"]["points"], scene["cycles"]["points"])
             if mask.any():
-                scene["caustic_gain_at_equal_time"] = cb.gain_at_equal_time(
+                scene["caustic_gain_at_equal_time"] = bench_curves.gain_at_equal_time(
                     scene["snell"]["points"], scene["snell_path_tracer"]["points"],
                     "caustic_relmse")
         if light is not None:
-            maps[name] = cb.share_map_png(light, ref)
+            maps[name] = bench_curves.share_map_png(light, ref)
         if opts.thresholds:
             log(f"{name}: as users render (adaptive)")
             scene["adaptive"], sample_maps[name] = _adaptive_comparison(
@@ -457,7 +455,7 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
         out_scenes.append(scene)
     import bpy
     data = {
-        "schema": cb.SCHEMA,
+        "schema": bench_curves.SCHEMA,
         "quick": opts.quick,
         "settings": {**asdict(opts), "resolution_percentage": opts.scale, "cache_dir": cache_dir,
                      "snell_seed": SNELL_SEED, "cycles_seed": CYCLES_SEED},
@@ -468,12 +466,12 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
         "scenes": out_scenes,
         "total_s": time.perf_counter() - start,
     }
-    svg = cb.svg_plot(out_scenes)
+    svg = bench_curves.svg_plot(out_scenes)
     with atomic_directory(report_dir) as tmp:
         with open(os.path.join(tmp, "bench.svg"), "w") as f:
             f.write(svg)
-        cb.write_json(os.path.join(tmp, "bench.json"), data)
-        cb.write_html(os.path.join(tmp, "bench.html"), data, svg, maps, sample_maps)
+        bench_curves.write_json(os.path.join(tmp, "bench.json"), data)
+        bench_curves.write_html(os.path.join(tmp, "bench.html"), data, svg, maps, sample_maps)
     return data
 
 
@@ -481,4 +479,4 @@ if __name__ == "__main__":
     if len(sys.argv) == 4 and sys.argv[1] == "point":
         _child(sys.argv[2], sys.argv[3])
     else:
-        sys.exit("usage: python -m snell.addon.bench point SPEC.json OUT")
+        sys.exit("usage: python -m snell.validation.bench point SPEC.json OUT")
