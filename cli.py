@@ -17,13 +17,12 @@ import sys
 import time
 
 from .addon.console import stdout_silenced
-from .validation.bench_command import CLI as BENCH_COMMAND
-from .validation.commands import COMMANDS as COMPARE_COMMANDS
 from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
                      check_writable_directory, int_at_least, number_at_least, print_error, warn)
 from .tracer.progress import describe_adaptive, pixels_sampling, time_left
 from .tracer.scene import (DEFAULT_RENDER, FRESNEL_MODELS, LIGHT_KINDS, MATERIAL_KINDS, SceneError,
                            aperture_radius, load, save)
+from .validation.commands import COMMANDS as VALIDATION_COMMANDS
 
 SCENE_EXTENSIONS = (".blend", ".snell")
 
@@ -403,8 +402,7 @@ COMMANDS = [
     ("stress", "render scenes with exact answers; table, JSON and HTML; exit 1 if a case fails",
      _setup_stress, cmd_stress),
 ]
-COMMANDS += COMPARE_COMMANDS  # compare, study (compare/commands.py)
-COMMANDS.append(BENCH_COMMAND)  # bench (compare/bench.py)
+COMMANDS += VALIDATION_COMMANDS  # compare, study, false-alarms, bench (validation/commands.py)
 
 
 def build_parser() -> argparse.ArgumentParser:

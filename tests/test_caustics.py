@@ -21,7 +21,7 @@ BATCHES = 16
 
 
 def agree(a, va, dfa, b, vb, dfb):
-    """The validator's statistics (compare/metrics.py: per-pixel Welch t-tests, 8x8 tiles and
+    """The validator's statistics (validation/metrics.py: per-pixel Welch t-tests, 8x8 tiles and
     image means, with degrees of freedom) find the two estimates consistent; returns them."""
     stats = metrics.compare(a, va, dfa, b, vb, dfb)
     stats.pop("maps")
