@@ -17,13 +17,12 @@ import sys
 import time
 
 from .addon.console import stdout_silenced
-from .compare.bench_command import CLI as BENCH_COMMAND
-from .compare.commands import COMMANDS as COMPARE_COMMANDS
 from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
                      check_writable_directory, int_at_least, number_at_least, print_error, warn)
 from .tracer.progress import describe_adaptive, pixels_sampling, time_left
 from .tracer.scene import (DEFAULT_RENDER, FRESNEL_MODELS, LIGHT_KINDS, MATERIAL_KINDS, SceneError,
                            aperture_radius, load, save)
+from .validation.commands import COMMANDS as VALIDATION_COMMANDS
 
 SCENE_EXTENSIONS = (".blend", ".snell")
 
@@ -377,15 +376,15 @@ def _setup_stress(p):
 
 
 def cmd_stress(args) -> int:
-    """Render scenes with exact answers and judge each against its bound (compare/stress.py)."""
+    """Render scenes with exact answers and judge each against its bound (stress/runner.py)."""
     if args.report:
         check_writable_directory(args.report, "--report", report=True)
-    from .compare import stress
+    from .stress import runner
     log = (lambda s: print(f"snell stress: {s}", file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
-    data = stress.run(quick=args.quick, threads=args.threads, log=log)
-    print(stress.terminal_table(data))
+    data = runner.run(quick=args.quick, threads=args.threads, log=log)
+    print(runner.terminal_table(data))
     if args.report:
-        stress.write_report(args.report, data)
+        runner.write_report(args.report, data)
     verdict = "all pass" if data["passed"] else f"FAILED: {', '.join(data['failed'])}"
     print(f"snell stress: {len(data['cases'])} cases in {_duration(data['total_s'])}, {verdict}"
           + (f" -> {os.path.join(args.report, 'stress.html')}" if args.report else ""))
@@ -403,8 +402,7 @@ COMMANDS = [
     ("stress", "render scenes with exact answers; table, JSON and HTML; exit 1 if a case fails",
      _setup_stress, cmd_stress),
 ]
-COMMANDS += COMPARE_COMMANDS  # compare, study (compare/commands.py)
-COMMANDS.append(BENCH_COMMAND)  # bench (compare/bench.py)
+COMMANDS += VALIDATION_COMMANDS  # compare, study, false-alarms, bench (validation/commands.py)
 
 
 def build_parser() -> argparse.ArgumentParser:

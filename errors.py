@@ -1,6 +1,6 @@
 """User errors and how they reach the user: CliError, the one-line message, argument types.
 
-Every command module (cli.py, compare/commands.py, compare/bench_command.py, ...) imports these
+Every command module (cli.py, validation/commands.py, addon/blendfile.py, ...) imports these
 from here; this module imports nothing from the package, so it sits below all of them and the
 commands never need to import cli.py (which imports them to dispatch).
 """

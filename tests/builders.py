@@ -3,24 +3,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from snell.compare import stress_geometry  # the package's own meshes (snell stress)
+from snell.stress import geometry  # the package's own meshes (snell stress)
 from snell.tracer.scene import Scene, validate
 
 
 def icosphere(subdivisions: int = 3, radius: float = 1.0, center=(0.0, 0.0, 0.0)):
     """A closed, outward-wound sphere mesh: (positions float32, triangles int32, normals float32)."""
-    return stress_geometry.icosphere(subdivisions, radius, center)
+    return geometry.icosphere(subdivisions, radius, center)
 
 
 def quad(center, half_x, half_y, normal_sign=1.0):
     """An axis-aligned quad in the z = center[2] plane facing +Z (or -Z), float32 positions."""
-    pos, tri = stress_geometry.quad(center, half_x, half_y, normal_sign)
+    pos, tri = geometry.quad(center, half_x, half_y, normal_sign)
     return pos.astype(np.float32), tri
 
 
 def box(lo, hi):
     """A closed axis-aligned box with outward winding, float32 positions."""
-    pos, tri = stress_geometry.box(lo, hi)
+    pos, tri = geometry.box(lo, hi)
     return pos.astype(np.float32), tri
 
 

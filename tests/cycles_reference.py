@@ -1,5 +1,5 @@
 """A Cycles reference rendered once, and Snell renders compared against it (the validator's
-statistics, snell.addon.validate), shared by the tests that hold scenes against Cycles."""
+statistics, snell.validation.compare), shared by the tests that hold scenes against Cycles."""
 from __future__ import annotations
 
 SPP = 256       # samples per pixel in both renderers: Cycles as 8 seeds of SPP / 8
@@ -11,9 +11,9 @@ class Reference:
     """A Cycles reference plus the exported Snell scene at the test resolution."""
 
     def __init__(self, blend, dof=None, framing=None, max_depth=None, spp=SPP, cycles_seeds=8):
-        from snell.addon import validate
+        from snell.validation import compare
         self.blend, self.spp = blend, spp
-        scene, self.warnings = validate.load_snell_scene(blend)
+        scene, self.warnings = compare.load_snell_scene(blend)
         dof, framing = dict(dof or {}), dict(framing or {})
         framing = {"resolution_percentage": SCALE, **framing}
         scene = scene.with_camera(**framing).with_render(
@@ -21,19 +21,19 @@ class Reference:
         if dof:
             scene = scene.with_camera(dof={"use_dof": True, **dof})
         self.scene = scene
-        self.cycles = validate.cycles_render(blend, spp=spp, max_depth=scene.render["max_depth"],
-                                             seed=SEED, camera={**dof, **framing},
-                                             n_seeds=cycles_seeds)
+        self.cycles = compare.cycles_render(blend, spp=spp, max_depth=scene.render["max_depth"],
+                                            seed=SEED, camera={**dof, **framing},
+                                            n_seeds=cycles_seeds)
 
     def compare(self, modify=lambda s: s, noise_threshold=0.0, spp=None):
         """The validator's report dict for Snell (modify: a deliberate change) against Cycles."""
-        from snell.addon import validate
+        from snell.validation import compare
         from snell.tracer.integrator import Renderer
         scene = modify(self.scene)
-        result = validate.snell_render(scene, spp or self.spp, noise_threshold=noise_threshold)
+        result = compare.snell_render(scene, spp or self.spp, noise_threshold=noise_threshold)
         index = Renderer(scene, caustics=False, light_vertices=False).object_index()
-        return validate.compare_renders(result, self.cycles, settings=validate.snell_settings(scene),
-                                        objects=(index, [o["name"] for o in scene.objects]))
+        return compare.compare_renders(result, self.cycles, settings=compare.snell_settings(scene),
+                                       objects=(index, [o["name"] for o in scene.objects]))
 
 
 def verdict(result):

@@ -51,7 +51,7 @@ def install(stage, marker):
         from snell.tracer import integrator
         _before(integrator, "Geometry", marker)
     elif stage == "cycles":
-        from snell.addon import cycles
+        from snell.validation import cycles
         _before(cycles, "_render_one", marker)
     elif stage == "render":
         from snell.tracer import integrator

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from builders import camera, make_scene, quad
-from snell.compare import metrics
+from snell.validation import metrics
 from snell.tracer import adaptive
 from snell.tracer.integrator import Renderer
 

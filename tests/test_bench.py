@@ -12,8 +12,8 @@ import warnings
 import numpy as np
 import pytest
 
-from snell.compare import bench as cb
-from snell.compare import metrics
+from snell.validation import bench, bench_curves, bench_report
+from snell.validation import metrics
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENES = [os.path.join(REPO, "scenes", n) for n in ("cornell_spheres.blend", "cornell_dragon.blend")]
@@ -27,18 +27,18 @@ def test_time_at_error_interpolates_log_log():
     # relMSE = 1 / t exactly: the time at error e is 1 / e
     t = [1.0, 2.0, 4.0, 8.0]
     e = [1.0, 0.5, 0.25, 0.125]
-    assert cb.time_at_error(t, e, 0.3) == pytest.approx(1 / 0.3)
-    assert cb.time_at_error(t, e, 2.0) == 1.0      # reached at the first point
-    assert cb.time_at_error(t, e, 0.1) is None     # never reached
+    assert bench_curves.time_at_error(t, e, 0.3) == pytest.approx(1 / 0.3)
+    assert bench_curves.time_at_error(t, e, 2.0) == 1.0      # reached at the first point
+    assert bench_curves.time_at_error(t, e, 0.1) is None     # never reached
     # the first crossing counts, even if the curve comes back up (noise)
-    assert cb.time_at_error([1, 2, 4], [1.0, 0.2, 0.5], 0.5) == pytest.approx(
+    assert bench_curves.time_at_error([1, 2, 4], [1.0, 0.2, 0.5], 0.5) == pytest.approx(
         math.exp(math.log(2) * math.log(2) / math.log(5)))
 
 
 def test_equal_error_ratio_and_target():
     snell = _points([2, 4, 8, 16], [0.8, 0.4, 0.2, 0.1])        # relMSE x time = 1.6
     cycles = _points([1, 2, 4], [0.8, 0.4, 0.2])                # relMSE x time = 0.8
-    eq = cb.equal_error(snell, cycles)
+    eq = bench_curves.equal_error(snell, cycles)
     assert eq["target_relmse"] == pytest.approx(0.2)           # larger of the two minima
     assert eq["snell_s"] == pytest.approx(8) and eq["cycles_s"] == pytest.approx(4)
     assert eq["ratio"] == pytest.approx(2) and eq["fit_ratio"] == pytest.approx(2)
@@ -52,7 +52,7 @@ def test_relmse_drops_fireflies_and_matches_the_validator():
     img[0, 0, 0] = 1e6  # a firefly: dropped by the outlier rule (0.1 % of 3072 terms = 3)
     terms = np.sort(((img - ref) ** 2 / (ref ** 2 + metrics.RELMSE_EPS)).ravel())
     assert metrics.relmse(img, ref) == pytest.approx(terms[:-3].mean())
-    errs = cb.errors(img, ref)
+    errs = bench_curves.errors(img, ref)
     c = metrics.compare(img, np.full(ref.shape, 0.01), 10, ref, np.full(ref.shape, 0.01), 10)
     assert errs["relmse"] == pytest.approx(c["relmse"]) and errs["relmse"] < 1
     assert errs["rmse"] == pytest.approx(c["rmse"])
@@ -61,22 +61,22 @@ def test_relmse_drops_fireflies_and_matches_the_validator():
 def test_cache_key_and_roundtrip(tmp_path):
     blend = tmp_path / "a.blend"
     blend.write_bytes(b"abc")
-    k1 = cb.cache_key(blend, {"spp": 4}, "5.0.1")
-    assert k1 == cb.cache_key(blend, {"spp": 4}, "5.0.1")
-    assert k1 != cb.cache_key(blend, {"spp": 8}, "5.0.1")
-    assert k1 != cb.cache_key(blend, {"spp": 4}, "5.1.0")
+    k1 = bench.cache_key(blend, {"spp": 4}, "5.0.1")
+    assert k1 == bench.cache_key(blend, {"spp": 4}, "5.0.1")
+    assert k1 != bench.cache_key(blend, {"spp": 8}, "5.0.1")
+    assert k1 != bench.cache_key(blend, {"spp": 4}, "5.1.0")
     blend.write_bytes(b"abd")
-    assert k1 != cb.cache_key(blend, {"spp": 4}, "5.0.1")
-    assert cb.cache_load(tmp_path, k1) is None
+    assert k1 != bench.cache_key(blend, {"spp": 4}, "5.0.1")
+    assert bench.cache_load(tmp_path, k1) is None
     m = np.ones((2, 3, 3))
-    cb.cache_store(tmp_path, k1, m, m * 0.5, {"render_s": 1.5})
-    mean, var, meta = cb.cache_load(tmp_path, k1)
+    bench.cache_store(tmp_path, k1, m, m * 0.5, {"render_s": 1.5})
+    mean, var, meta = bench.cache_load(tmp_path, k1)
     assert np.allclose(mean, 1) and np.allclose(var, 0.5) and meta == {"render_s": 1.5}
 
 
 def test_missing_values_finds_nulls():
-    assert cb.missing_values({"a": [1.0, {"b": 2}]}) == []
-    assert cb.missing_values({"a": [1.0, {"b": None}], "c": float("nan")}) == ["a[1].b", "c"]
+    assert bench_report.missing_values({"a": [1.0, {"b": 2}]}) == []
+    assert bench_report.missing_values({"a": [1.0, {"b": None}], "c": float("nan")}) == ["a[1].b", "c"]
 
 
 @pytest.mark.skipif(not all(map(os.path.isfile, SCENES)), reason="reference scenes not built")
@@ -85,11 +85,11 @@ def test_median_run_keeps_one_whole_run():
     runs = [{"wall_s": 12.0, "render_s": 11.0, "export_s": 1.0, "peak_rss_mb": 300},
             {"wall_s": 10.0, "render_s": 7.0, "export_s": 3.0, "peak_rss_mb": 310},
             {"wall_s": 11.0, "render_s": 10.5, "export_s": 0.5, "peak_rss_mb": 305}]
-    p = cb.median_run(runs)
+    p = bench_curves.median_run(runs)
     assert (p["wall_s"], p["render_s"], p["export_s"]) == (11.0, 10.5, 0.5)
     assert p["peak_rss_mb"] == 310 and p["runs"] == 3 and p["wall_s_runs"] == [12.0, 10.0, 11.0]
-    assert cb.median_run(runs[:2])["wall_s"] == 10.0           # even count: the lower median
-    assert cb.median_run(runs[:1]) == {**runs[0], "runs": 1, "wall_s_runs": [12.0]}
+    assert bench_curves.median_run(runs[:2])["wall_s"] == 10.0           # even count: the lower median
+    assert bench_curves.median_run(runs[:1]) == {**runs[0], "runs": 1, "wall_s_runs": [12.0]}
 
 
 def test_quick_bench_fills_every_key(tmp_path):
@@ -103,7 +103,7 @@ def test_quick_bench_fills_every_key(tmp_path):
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     data = json.loads((report / "bench.json").read_text())
-    assert cb.missing_values(data) == []
+    assert bench_report.missing_values(data) == []
     assert data["quick"] is True and len(data["scenes"]) == 2
     for sc in data["scenes"]:
         assert sc["reference"]["cached"] is False and sc["reference"]["spp"] == 4 * 64
@@ -170,7 +170,7 @@ def test_equal_threshold_interpolates_along_snells_curve():
     # Snell: relMSE = 0.1 / t; Cycles at each threshold reaches relMSE 0.05 and 0.0125.
     snell = _adaptive_points([0.01, 0.1], [8.0, 1.0], [0.0125, 0.1], [400, 50])
     cycles = _adaptive_points([0.1, 0.01], [1.0, 2.0], [0.05, 0.0125], [100, 800])
-    eq = cb.equal_threshold(snell, cycles)
+    eq = bench_curves.equal_threshold(snell, cycles)
     assert [e["threshold"] for e in eq] == [0.1, 0.01]          # loosest first
     loose, tight = eq
     # Snell needs t = 0.1 / 0.05 = 2 s for Cycles' 0.05, Cycles took 1 s
@@ -186,21 +186,21 @@ def test_equal_threshold_swaps_roles_when_snell_never_gets_as_low():
     # along its curve (relMSE = 0.04 / t: 2 s), Snell took 3 s.
     snell = _adaptive_points([0.1, 0.01], [1.0, 3.0], [0.05, 0.02], [50, 400])
     cycles = _adaptive_points([0.1, 0.01], [1.0, 4.0], [0.04, 0.01], [60, 500])
-    tight = cb.equal_threshold(snell, cycles)[1]
+    tight = bench_curves.equal_threshold(snell, cycles)[1]
     assert tight["along"] == "cycles" and tight["target_relmse"] == pytest.approx(0.02)
     assert tight["cycles_s"] == pytest.approx(2.0) and tight["ratio"] == pytest.approx(1.5)
     # the summary's and the maps' threshold: nearest 0.01 in log scale
-    assert cb.nearest_threshold([0.1, 0.03, 0.003]) == 0.03    # log10 distances 0.48 < 0.52
-    assert cb.nearest_threshold([0.1, 0.005]) == 0.005         # 0.30 < 1
+    assert bench_curves.nearest_threshold([0.1, 0.03, 0.003]) == 0.03    # log10 distances 0.48 < 0.52
+    assert bench_curves.nearest_threshold([0.1, 0.005]) == 0.005         # 0.30 < 1
 
 
 def test_sample_summary():
-    s = cb.sample_summary(np.array([[4, 8], [16, 4]]), 16)
+    s = bench_curves.sample_summary(np.array([[4, 8], [16, 4]]), 16)
     assert s == {"mean_spp": 8.0, "pixel_spp_min": 4, "pixel_spp_max": 16, "saved_share": 0.5}
 
 
 def test_sample_map_ramp_and_vmax():
-    from snell.compare import sample_map as sm
+    from snell.pages import sample_map as sm
     counts = np.arange(12).reshape(3, 4) * 10            # 0 .. 110
     rgb = sm.sample_map_rgb(counts)
     assert rgb.shape == (3, 4, 3) and rgb.dtype == np.uint8
@@ -222,7 +222,7 @@ def test_sample_map_ramp_and_vmax():
 
 def test_sample_map_png_has_map_bar_and_caption(tmp_path):
     oiio = pytest.importorskip("OpenImageIO")
-    from snell.compare import sample_map as sm
+    from snell.pages import sample_map as sm
     counts = np.full((32, 64), 40)
     counts[:16] = 200
     path = tmp_path / "map.png"
@@ -239,7 +239,7 @@ def test_sample_map_png_has_map_bar_and_caption(tmp_path):
 
 
 def test_cycles_adaptive_settings():
-    from snell.addon import cycles
+    from snell.validation import cycles
     settings = {k: v for k, v, _ in cycles.adaptive_settings(8, 0.01, 1024, 5, 2)}
     assert settings["cycles.use_adaptive_sampling"] is True
     assert settings["cycles.adaptive_threshold"] == 0.01
@@ -264,7 +264,7 @@ def test_cycles_samples_rendered_scale_its_sample_count_pass():
     early when every pixel converged (cornell_dragon at 0.1 stopped at 80 of 1024: read over
     1024 its pixels had 614 to 1024 samples in half a second; over 80, 48 to 80, 48 being
     Cycles' first check after its minimum of 32)."""
-    from snell.addon import cycles
+    from snell.validation import cycles
     lines = ["Remaining: 00:07.88 | Mem: 17M | Sample 64/1024",
              "Remaining: 00:06.24 | Mem: 17M | Sample 80/1024",
              "Remaining: 00:06.24 | Mem: 17M | Sample 0/1024"]      # the last line, after it
@@ -275,7 +275,7 @@ def test_cycles_samples_rendered_scale_its_sample_count_pass():
 
 def test_thresholds_argument():
     import argparse
-    from snell.compare.bench_command import thresholds
+    from snell.validation.commands import thresholds
     assert thresholds("0.1,0.01") == (0.1, 0.01) and thresholds("none") == ()
     for bad in ("0.1,x", "0", "1.5"):
         with pytest.raises(argparse.ArgumentTypeError):

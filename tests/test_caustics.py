@@ -14,14 +14,14 @@ import pytest
 
 from builders import box, camera, icosphere, make_scene, quad
 from snell.addon import window
-from snell.compare import metrics
+from snell.validation import metrics
 from snell.tracer.integrator import Renderer
 
 BATCHES = 16
 
 
 def agree(a, va, dfa, b, vb, dfb):
-    """The validator's statistics (compare/metrics.py: per-pixel Welch t-tests, 8x8 tiles and
+    """The validator's statistics (validation/metrics.py: per-pixel Welch t-tests, 8x8 tiles and
     image means, with degrees of freedom) find the two estimates consistent; returns them."""
     stats = metrics.compare(a, va, dfa, b, vb, dfb)
     stats.pop("maps")

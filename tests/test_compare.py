@@ -19,7 +19,7 @@ import pytest
 
 from cycles_reference import SPP, Reference
 from cycles_reference import verdict as _verdict
-from snell.compare import metrics, report
+from snell.validation import metrics, report
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -366,9 +366,9 @@ def test_cli_compare_writes_report(blends, tmp_path):
 
 def test_cli_study_depth_marks_depth_0_not_comparable(blends, tmp_path, monkeypatch):
     blend = _blend(blends, "cornell_spheres")
-    from snell.addon import study
+    from snell.validation import study
     monkeypatch.setitem(study.STUDIES, "depth", [{"max_depth": 0}, {"max_depth": 2}])
-    from snell.compare import commands
+    from snell.validation import commands
     out = tmp_path / "study"
     args = commands_args(blend, out)
     assert commands.cmd_study(args) == 0

@@ -86,13 +86,13 @@ def test_hdri_rotated_5_degrees_is_caught(spheres):
 
 def _export_world(tmp_path, setup):
     """Export a one-sphere scene whose world `setup(scene)` makes: (world dict, images, warnings)."""
-    from snell.addon import validate
+    from snell.validation import compare
     scene = common.reset()
     common.setup_render(scene, (8, 8))
     setup(scene)
     common.uv_sphere("S", (0.0, 0.0, 0.0), 0.5, common.material("D", "diffuse"))
     common.camera(scene, (0.0, -5.0, 0.0), (0.0, 0.0, 0.0))
-    exported, warnings = validate.load_snell_scene(common.save(str(tmp_path / "w.blend")))
+    exported, warnings = compare.load_snell_scene(common.save(str(tmp_path / "w.blend")))
     return exported.world, exported.images, warnings
 
 

@@ -1,6 +1,7 @@
 """The packaged extension: build the zips, install one into a throw-away user extension repository
 through the bpy module, enable it as Blender does, render the default scene with F12's operator
-and compare with `snell render`; then disable, check Blender is clean, and enable again."""
+and compare with `snell render`; import every module the zip ships; then disable, check Blender
+is clean, and enable again."""
 import json
 import os
 import subprocess
@@ -18,8 +19,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 # Runs in a fresh process whose Blender user resources are a temporary directory.
 INSTALL_AND_RENDER = textwrap.dedent('''
-    import importlib.machinery, json, os, sys
-    zip_path, blend, exr, ext_root = sys.argv[1:5]
+    import importlib, importlib.machinery, json, os, sys
+    zip_path, blend, exr, ext_root, shipped = sys.argv[1:6]
 
     class BundledWheelsOnly:
         """Import embreex, numba and llvmlite only from the extension's own site-packages (the
@@ -53,6 +54,13 @@ INSTALL_AND_RENDER = textwrap.dedent('''
     out["kernel_cache"] = sys.modules[module + ".tracer.jit"].cache_dir()
     out["kernels_compiled_s"] = sys.modules[module + ".addon.final"].last_render["kernels_compiled_s"]
     out["snell_module"] = sys.modules[module].__file__
+    # Every module the zip ships imports inside Blender (the render above imports only some).
+    out["import_failures"] = {}
+    for name in json.loads(shipped):
+        try:
+            importlib.import_module(".".join([module] + ([name] if name else [])))
+        except Exception as exc:
+            out["import_failures"][name] = f"{type(exc).__name__}: {exc}"
 
     def traces():
         panels = sorted(n for n in dir(bpy.types)
@@ -74,6 +82,17 @@ INSTALL_AND_RENDER = textwrap.dedent('''
     out["engine_after_reenable"] = scene.render.engine
     print("RESULT " + json.dumps(out))
 ''')
+
+
+def shipped_modules(zip_path) -> list:
+    """The dotted names (below the extension's package; "" for its __init__) of the .py files in
+    the zip."""
+    names = []
+    for n in zipfile.ZipFile(zip_path).namelist():
+        if n.endswith(".py"):
+            parts = n[:-3].split("/")
+            names.append(".".join(parts[:-1] if parts[-1] == "__init__" else parts))
+    return sorted(names)
 
 
 @pytest.fixture(scope="module")
@@ -107,6 +126,17 @@ def test_build_makes_one_zip_per_platform_with_its_wheels(built):
                                                       ".git", "dist/"))
                     or "__pycache__" in n or n.endswith(".blend")]
         assert not [n for n in names if "numpy" in n.lower()]
+        # The extension is addon/, tracer/, errors.py and __init__.py: not the command line nor
+        # what only it runs (the validator, snell stress, their pages), which Blender cannot import.
+        assert not [n for n in names if n.startswith(("validation/", "stress/", "pages/", "compare/"))
+                    or n == "cli.py"]
+        assert {m for m in shipped_modules(built / name) if "." not in m} == {
+            "", "addon", "errors", "tracer"}
+        # Everything in addon/ ships.
+        addon = sorted(os.path.relpath(os.path.join(d, f), ROOT).replace(os.sep, "/")
+                       for d, _, files in os.walk(os.path.join(ROOT, "addon")) if "__pycache__" not in d
+                       for f in files if f.endswith(".py"))
+        assert sorted(n for n in names if n.startswith("addon/") and n.endswith(".py")) == addon
 
 
 def test_installed_extension_renders_like_snell_render(built, tmp_path):
@@ -118,14 +148,18 @@ def test_installed_extension_renders_like_snell_render(built, tmp_path):
     resources = tmp_path / "blender_user"
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(resources))
     ext_root = str(resources / "extensions")
-    proc = subprocess.run([sys.executable, "-c", INSTALL_AND_RENDER, str(built / "snell-0.1.0-linux_x64.zip"),
-                           str(blend), str(tmp_path / "engine.exr"), ext_root],
+    zip_path = built / "snell-0.1.0-linux_x64.zip"
+    shipped = shipped_modules(zip_path)
+    proc = subprocess.run([sys.executable, "-c", INSTALL_AND_RENDER, str(zip_path),
+                           str(blend), str(tmp_path / "engine.exr"), ext_root, json.dumps(shipped)],
                           capture_output=True, text=True, timeout=600, env=env, cwd=tmp_path)
     lines = [line for line in proc.stdout.splitlines() if line.startswith("RESULT ")]
     assert proc.returncode == 0 and lines, proc.stdout[-3000:] + proc.stderr[-3000:]
     out = json.loads(lines[-1][len("RESULT "):])
     assert out["enabled"]
     assert out["snell_module"].startswith(ext_root)
+    assert "addon.batch" in shipped and "tracer.integrator" in shipped and "errors" in shipped
+    assert out["import_failures"] == {}
     assert all(path.startswith(ext_root) for path in out["wheels"])   # the bundled wheels
     # Kernels are compiled on the first render after install, into the extension's user directory.
     assert out["kernel_cache"].startswith(str(resources / "extensions" / ".user"))

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from snell.addon import false_alarms as fa
-from snell.compare import metrics
+from snell.validation import false_alarms as fa
+from snell.validation import metrics
 
 
 def _room(h=32, w=32):

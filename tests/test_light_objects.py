@@ -27,23 +27,23 @@ class Room:
     """The room with one light: its Cycles reference and its exported Snell scene."""
 
     def __init__(self, directory, name, light=None, spp=SPP):
-        from snell.addon import validate
+        from snell.validation import compare
         path = str(directory / f"{name}.blend")
         args = [sys.executable, os.path.join(ROOT, "scenes", "light_room.py"), path]
         subprocess.run(args + ([json.dumps(light)] if light else []), check=True,
                        capture_output=True)
-        scene, self.warnings = validate.load_snell_scene(path)
+        scene, self.warnings = compare.load_snell_scene(path)
         self.spp = spp
         self.scene = scene.with_camera(resolution_percentage=SCALE).with_render(spp=spp, seed=SEED)
-        self.cycles = validate.cycles_render(path, spp=spp, max_depth=self.scene.render["max_depth"],
-                                             seed=SEED, camera={"resolution_percentage": SCALE})
+        self.cycles = compare.cycles_render(path, spp=spp, max_depth=self.scene.render["max_depth"],
+                                            seed=SEED, camera={"resolution_percentage": SCALE})
 
     def compare(self, modify=lambda s: s):
         """The validator's report dict for Snell (with a deliberate change) against Cycles."""
-        from snell.addon import validate
+        from snell.validation import compare
         scene = modify(self.scene)
-        result = validate.snell_render(scene, self.spp)
-        return validate.compare_renders(result, self.cycles, settings=validate.snell_settings(scene))
+        result = compare.snell_render(scene, self.spp)
+        return compare.compare_renders(result, self.cycles, settings=compare.snell_settings(scene))
 
 
 def _verdict(result):

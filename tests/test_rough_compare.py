@@ -163,8 +163,8 @@ def _denser(name):
 def _close_up(blend, centre, width):
     """Framing overrides (lens, shift) that fill the frame's width with `width` metres around
     the world point `centre`, from the scene camera's own position and direction."""
-    from snell.addon import validate
-    cam = validate.load_snell_scene(blend)[0].camera
+    from snell.validation import compare
+    cam = compare.load_snell_scene(blend)[0].camera
     m = np.array(cam["matrix"], np.float64)
     x, y, z = m[:3, :3].T @ (np.asarray(centre, np.float64) - m[:3, 3])
     return {**FULL, "lens": cam["sensor_width"] * -z / width, "shift_x": x / width,
@@ -327,14 +327,14 @@ def backlit(scene_dir):
     """The rough glass spheres (0.1, 0.4) against the Cornell box's lamp at 4096 spp: Snell once,
     Cycles with the lamp's light sampling on (as users render; 8 seeds) and off (BSDF sampling
     alone, whose room is noisier: 16 seeds of 256)."""
-    from snell.addon import validate
+    from snell.validation import compare
     spheres = GLASS[:2]
     on = _reference(_built(scene_dir, "backlit", build_backlit, spheres), spp=16 * SPP)
     off = _reference(_built(scene_dir, "backlit_bsdf", build_backlit, spheres,
                             light_sampling=False), spp=16 * SPP, cycles_seeds=16)
-    result = validate.snell_render(on.scene, on.spp)
-    return {name: validate.compare_renders(result, reference.cycles)
-            for name, reference in (("light_sampling", on), ("bsdf_sampling", off))}
+    result = compare.snell_render(on.scene, on.spp)
+    return {name: compare.compare_renders(result, reference.cycles)
+           for name, reference in (("light_sampling", on), ("bsdf_sampling", off))}
 
 
 # Cycles' two estimators disagree here: over the roughness-0.4 sphere's disk its image with the

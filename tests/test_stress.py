@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from snell import cli
-from snell.compare import stress
-from snell.compare import stress_cases as sc
-from snell.compare import stress_extremes
+from snell.stress import runner
+from snell.stress import cases as sc
+from snell.stress import extremes
 from snell.tracer import integrator
 
 
@@ -23,13 +23,13 @@ def _case(case_id):
     return matches[0]
 
 
-ALL_CASES = stress.all_cases   # the real matrix, also where a test replaces it
+ALL_CASES = runner.all_cases   # the real matrix, also where a test replaces it
 QUICK_FAMILY = sum(1 for c in ALL_CASES(quick=True) if c.check == sc.STATISTICAL)
 
 
 def _run(cases):
     """Run some cases with the bound they have in the --quick suite."""
-    return stress.run(cases, threads=2, family_size=QUICK_FAMILY)
+    return runner.run(cases, threads=2, family_size=QUICK_FAMILY)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -71,28 +71,28 @@ def test_judge_rules():
     z = 3.0
     exact = _fake(sc.EXACT)
     # A deficit equal to the counted events passes; one more lost sample does not.
-    assert stress.judge(exact, sc.Outcome(0.75, tolerance=1e-12, allowance=0.25), z)["passed"]
-    assert not stress.judge(exact, sc.Outcome(0.75, tolerance=1e-12, allowance=0.2), z)["passed"]
-    assert not stress.judge(exact, sc.Outcome(1.0, tolerance=1e-12, nan_count=1), z)["passed"]
+    assert runner.judge(exact, sc.Outcome(0.75, tolerance=1e-12, allowance=0.25), z)["passed"]
+    assert not runner.judge(exact, sc.Outcome(0.75, tolerance=1e-12, allowance=0.2), z)["passed"]
+    assert not runner.judge(exact, sc.Outcome(1.0, tolerance=1e-12, nan_count=1), z)["passed"]
     stat = _fake(sc.STATISTICAL)
-    assert stress.judge(stat, sc.Outcome(1.029, se=0.01), z)["passed"]
-    assert not stress.judge(stat, sc.Outcome(1.031, se=0.01), z)["passed"]
-    assert not stress.judge(stat, sc.Outcome(0.5, se=0.0), z)["passed"]
-    assert not stress.judge(stat, sc.Outcome(math.nan, se=0.01), z)["passed"]
+    assert runner.judge(stat, sc.Outcome(1.029, se=0.01), z)["passed"]
+    assert not runner.judge(stat, sc.Outcome(1.031, se=0.01), z)["passed"]
+    assert not runner.judge(stat, sc.Outcome(0.5, se=0.0), z)["passed"]
+    assert not runner.judge(stat, sc.Outcome(math.nan, se=0.01), z)["passed"]
     at_most = _fake(sc.AT_MOST, 10.0)
-    assert stress.judge(at_most, sc.Outcome(12.0, allowance=2.0), z)["passed"]
-    assert not stress.judge(at_most, sc.Outcome(12.5, allowance=2.0), z)["passed"]
+    assert runner.judge(at_most, sc.Outcome(12.0, allowance=2.0), z)["passed"]
+    assert not runner.judge(at_most, sc.Outcome(12.5, allowance=2.0), z)["passed"]
     known = _fake(sc.STATISTICAL, expected_failure="why")
-    row = stress.judge(known, sc.Outcome(2.0, se=0.01), z)
+    row = runner.judge(known, sc.Outcome(2.0, se=0.01), z)
     assert row["status"] == "expected failure" and row["passed"]
-    row = stress.judge(known, sc.Outcome(1.0, se=0.01), z)     # a fix must update the table
+    row = runner.judge(known, sc.Outcome(1.0, se=0.01), z)     # a fix must update the table
     assert row["status"] == "unexpected pass" and not row["passed"]
-    assert stress.judge(_fake(sc.UNSUPPORTED), None, z)["status"] == "not supported"
+    assert runner.judge(_fake(sc.UNSUPPORTED), None, z)["status"] == "not supported"
 
 
 def test_z_critical_is_sidak():
-    assert stress.z_critical(1) == pytest.approx(2.5758, abs=1e-4)
-    assert stress.z_critical(20) > stress.z_critical(10) > stress.z_critical(1)
+    assert runner.z_critical(1) == pytest.approx(2.5758, abs=1e-4)
+    assert runner.z_critical(20) > runner.z_critical(10) > runner.z_critical(1)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -160,9 +160,9 @@ def test_a_lost_sample_fails_the_furnace(monkeypatch):
 
 
 def test_memory_bound_counts_the_accumulation_buffers():
-    assert stress_extremes.working_set_bytes(2, 1024 * 1024) < 2 * 1024 * 1024 * 3 * 8   # smaller than the sums
+    assert extremes.working_set_bytes(2, 1024 * 1024) < 2 * 1024 * 1024 * 3 * 8   # smaller than the sums
     # A pass's jobs grow with the image (a Future per chunk), 0.25 byte per pixel against 48.
-    grows = stress_extremes.working_set_bytes(2, 8192 * 8192) - stress_extremes.working_set_bytes(2, 1024 * 1024)
+    grows = extremes.working_set_bytes(2, 8192 * 8192) - extremes.working_set_bytes(2, 1024 * 1024)
     assert grows < 0.01 * 2 * 8192 * 8192 * 3 * 8
 
 
@@ -184,7 +184,7 @@ def test_quick_suite_passes_and_writes_stable_report(tmp_path, capsys):
     assert groups == {"white furnace", "glass slab", "nested and coincident", "thin lens", "lights",
                       "degenerate geometry", "image extremes"}
     for c in data["cases"]:
-        assert set(c) == set(stress.CASE_KEYS)
+        assert set(c) == set(runner.CASE_KEYS)
         assert c["failure_means"] and c["measures"]
         assert c["nan_inf"] == 0
         assert c["status"] in ("pass", "expected failure", "not supported"), c
@@ -196,7 +196,7 @@ def test_quick_suite_passes_and_writes_stable_report(tmp_path, capsys):
 
 def test_exit_status_1_when_a_case_fails(monkeypatch, tmp_path, capsys):
     broken = dataclasses.replace(_case("two coplanar emissive faces"), analytic=2.0)
-    monkeypatch.setattr(stress, "all_cases", lambda quick: [broken])
+    monkeypatch.setattr(runner, "all_cases", lambda quick: [broken])
     assert cli.main(["stress", "--report", str(tmp_path / "r")]) == 1
     printed = capsys.readouterr().out
     assert "FAIL" in printed and "two coplanar emissive faces" in printed
@@ -207,7 +207,7 @@ def test_exit_status_1_when_a_case_fails(monkeypatch, tmp_path, capsys):
 def test_a_crashing_case_is_a_failure_not_a_traceback(monkeypatch, capsys):
     def crash(threads, seed):
         raise ValueError("boom")
-    monkeypatch.setattr(stress, "all_cases",
+    monkeypatch.setattr(runner, "all_cases",
                         lambda quick: [dataclasses.replace(_case("two coplanar emissive faces"), run=crash)])
     assert cli.main(["stress"]) == 1
     assert "FAIL" in capsys.readouterr().out
@@ -221,14 +221,14 @@ def test_report_directory_must_have_a_parent(capsys):
 
 @pytest.mark.slow
 def test_full_matrix_passes(tmp_path):
-    data = stress.run(quick=False, threads=2)
-    stress.write_report(str(tmp_path), data)
+    data = runner.run(quick=False, threads=2)
+    runner.write_report(str(tmp_path), data)
     assert data["passed"], data["failed"]
 
 
 def test_poisson_quantile():
     from scipy import stats
-    from snell.compare.stress_lens import poisson_quantile
+    from snell.stress.lens import poisson_quantile
     for mean in (0.0034, 0.5, 3.0, 20.0):
         for alpha in (1e-2, 1e-4):
             assert poisson_quantile(mean, alpha) == stats.poisson.isf(alpha, mean)

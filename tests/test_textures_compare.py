@@ -98,7 +98,7 @@ def test_roughness_texture_scaled_is_caught(floors):
 def test_exporter_reports_textures_it_cannot_map(tmp_path):
     """A procedural texture, math between an image and the BSDF, and an image's Alpha are each
     reported with the material, node and input named, and the input's unlinked value is used."""
-    from snell.addon import validate
+    from snell.validation import compare
     scene = common.reset()
     common.setup_render(scene, (8, 8))
     png = checker_png(tmp_path / "c.png")
@@ -115,7 +115,7 @@ def test_exporter_reports_textures_it_cannot_map(tmp_path):
     tree.links.new(image.outputs["Alpha"], bsdf.inputs["Metallic"])
     _plane("P", (0.0, 0.0, 0.0), 2.0, mat)
     common.camera(scene, (0.0, -3.0, 2.0), (0.0, 0.0, 0.0))
-    exported, warnings = validate.load_snell_scene(common.save(str(tmp_path / "m.blend")))
+    exported, warnings = compare.load_snell_scene(common.save(str(tmp_path / "m.blend")))
     (converted,) = exported.materials
     assert "textures" not in converted
     assert converted["color"] == [0.5, 0.5, 0.5] and converted["roughness"] == pytest.approx(0.4)

@@ -34,8 +34,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     from snell.addon.export import export_blend
-    from snell.compare.bench import CAUSTIC_SHARE, light_share
-    from snell.compare.metrics import relmse
+    from snell.validation.bench_curves import CAUSTIC_SHARE, light_share
+    from snell.validation.metrics import relmse
     from snell.tracer import integrator
     from snell.tracer.integrator import Renderer
 

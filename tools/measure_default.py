@@ -9,7 +9,7 @@ import argparse
 import statistics
 import time
 
-from snell.addon.cycles import render_seeds
+from snell.validation.cycles import render_seeds
 from snell.addon.export import export_blend
 from snell.tracer.integrator import Renderer
 

@@ -27,8 +27,8 @@ def main():
     args = parser.parse_args()
     import hdri
     import test_environment_compare as spheres
-    from snell.addon.validate import load_snell_scene
-    from snell.compare.metrics import relmse
+    from snell.validation.compare import load_snell_scene
+    from snell.validation.metrics import relmse
     from snell.tracer.integrator import Renderer
     tmp = tempfile.mkdtemp()
     exr = hdri.write_exr(os.path.join(tmp, "sky.exr"), hdri.sky())

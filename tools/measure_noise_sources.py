@@ -32,7 +32,7 @@ def render(scene, threads, **settings):
 
 def by_depth(scene, depths, spp, threads):
     """Print each max depth's variance figures (module docstring, part 1)."""
-    from snell.compare.metrics import RELMSE_EPS
+    from snell.validation.metrics import RELMSE_EPS
 
     results = {d: render(scene, threads, spp=spp, max_depth=d, noise_threshold=0.0)
                for d in depths}

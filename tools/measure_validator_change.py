@@ -2,10 +2,11 @@
 same cached runs (`snell false-alarms --power` renders them), as Markdown tables.
 
 Run: python tools/measure_validator_change.py --cache out/false-alarms --old OLD_METRICS.py
-OLD_METRICS.py is an earlier compare/metrics.py (git show REV:compare/metrics.py > FILE); its
-compare(a, va, dfa, b, vb, dfb, halves=...) is applied as that revision's validate.py did (the
-reference's seeds split in halves for its sharpness test). The runs are rendered as the current
-validator renders them, so the "before" column isolates the statistics.
+OLD_METRICS.py is an earlier validation/metrics.py (git show REV:validation/metrics.py > FILE;
+compare/metrics.py before issue 28); its compare(a, va, dfa, b, vb, dfb, halves=...) is applied
+as that revision's validate.py did (the reference's seeds split in halves for its sharpness
+test). The runs are rendered as the current validator renders them, so the "before" column
+isolates the statistics.
 """
 from __future__ import annotations
 
@@ -16,12 +17,12 @@ import sys
 
 import numpy as np
 
-from snell.addon import false_alarms as fa
-from snell.compare import metrics
+from snell.validation import false_alarms as fa
+from snell.validation import metrics
 
 
 def old_compare(module, a, b):
-    """The old module's statistics of one run, as its validate.compare_renders computed them."""
+    """The old module's statistics of one run, as its compare.compare_renders computed them."""
     k = len(b)
     halves = None
     if k >= 4:
@@ -62,7 +63,7 @@ def fmt(rate):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--cache", default="out/false-alarms")
-    p.add_argument("--old", required=True, help="an earlier compare/metrics.py")
+    p.add_argument("--old", required=True, help="an earlier validation/metrics.py")
     p.add_argument("--runs", type=int, default=30)
     args = p.parse_args(argv)
     old = load_module(args.old)

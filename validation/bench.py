@@ -1,10 +1,10 @@
 """`snell bench`: Snell and Cycles at a ladder of sample counts against a converged reference,
 then both adaptive at the same noise thresholds ("as users render", _adaptive_comparison).
 
-For each scene: a reference (a long Cycles render as K seeds, cached on disk, see
-compare/bench.py cache_key), then for each renderer the ladder 1, 2, 4, ... spp until max_spp or
-until the next point is predicted (twice this point's wall time) to pass the time cap. Each point
-runs in its own child process (`python -m snell.addon.bench point SPEC OUT`) so that its peak
+For each scene: a reference (a long Cycles render as K seeds, cached on disk, see cache_key),
+then for each renderer the ladder 1, 2, 4, ... spp until max_spp or until the next point is
+predicted (twice this point's wall time) to pass the time cap. Each point
+runs in its own child process (`python -m snell.validation.bench point SPEC OUT`) so that its peak
 memory is its own: the child's VmHWM (peak RSS of its own address space; ru_maxrss is not used
 because Linux carries the parent's high-water mark into it over fork and exec), which includes
 Python, numpy and the bpy module (reported too, as the baseline of a child that only imports them)
@@ -14,6 +14,7 @@ the .blend + render (including its EXR write). Interpreter start-up and `import 
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import platform
@@ -25,12 +26,14 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ..compare import bench as cb
-from ..compare import metrics
-from ..compare.sample_map import sample_map_png
-from ..tracer.atomic import atomic_directory
-from . import cycles
-from .console import stdout_silenced
+from ..addon.console import stdout_silenced
+from ..pages.sample_map import sample_map_png
+from ..tracer.atomic import atomic_directory, atomic_path
+from . import cycles, metrics
+from .bench_curves import (ADAPTIVE_RENDERERS, CAUSTIC_SHARE, efficiency_summary, equal_error,
+                           equal_threshold, errors, gain_at_equal_time, light_share, median_run,
+                           nearest_threshold, next_spp, reference_noise, sample_summary)
+from .bench_report import SCHEMA, share_map_png, svg_plot, write_html, write_json
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_SCENES = [os.path.join(REPO, "scenes", "cornell_spheres.blend"),
@@ -73,7 +76,7 @@ def default_cache_dir() -> str:
 
 def _snell_point(spec):
     from ..tracer.integrator import Renderer
-    from .export import export_blend
+    from ..addon.export import export_blend
     start = time.perf_counter()
     scene, _ = export_blend(spec["blend"])
     export_s = time.perf_counter() - start
@@ -103,7 +106,7 @@ def _cycles_point(spec):
     import bpy
 
     from ..tracer.image import read_exr
-    from .blendfile import open_blend
+    from ..addon.blendfile import open_blend
     if spec["threshold"]:
         settings = cycles.adaptive_settings(spec["max_depth"], spec["threshold"], spec["spp"],
                                             CYCLES_SEED, spec["threads"])
@@ -193,7 +196,7 @@ def run_point(kind, blend, spp, opts: Options, caustics=True, threshold=None):
         spec_path, out = os.path.join(tmp, "spec.json"), os.path.join(tmp, "out")
         with open(spec_path, "w") as f:
             json.dump(spec, f)
-        proc = subprocess.run([sys.executable, "-m", "snell.addon.bench", "point", spec_path, out],
+        proc = subprocess.run([sys.executable, "-m", "snell.validation.bench", "point", spec_path, out],
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         err = proc.stderr
         if proc.returncode != 0 or not os.path.exists(out + ".json"):
@@ -209,7 +212,41 @@ def run_point(kind, blend, spp, opts: Options, caustics=True, threshold=None):
 
 
 # ---------------------------------------------------------------------------------------------
-# Reference
+# Reference, cached on disk
+
+
+def cache_key(blend_path, settings: dict, blender_version: str) -> str:
+    """sha256 of the .blend bytes, the reference settings (JSON, sorted) and Blender's version."""
+    h = hashlib.sha256()
+    with open(blend_path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    h.update(json.dumps(settings, sort_keys=True, default=str).encode())
+    h.update(blender_version.encode())
+    return h.hexdigest()[:32]
+
+
+def cache_load(directory, key):
+    """(mean, variance_of_mean, meta) from the cache, or None."""
+    path = os.path.join(directory, f"ref-{key}.npz")
+    if not os.path.isfile(path):
+        return None
+    try:
+        with np.load(path) as z:
+            meta = json.loads(str(z["meta"]))
+            return z["mean"], z["variance_of_mean"], meta
+    except (OSError, ValueError, KeyError):
+        return None  # a damaged entry is rendered again
+
+
+def cache_store(directory, key, mean, variance_of_mean, meta):
+    os.makedirs(directory, exist_ok=True)
+    path = os.path.join(directory, f"ref-{key}.npz")
+    with atomic_path(path) as tmp:
+        np.savez_compressed(tmp, mean=np.asarray(mean, np.float32),
+                            variance_of_mean=np.asarray(variance_of_mean, np.float32),
+                            meta=np.array(json.dumps(meta, sort_keys=True, default=str)))
+    return path
 
 
 def reference(blend, opts: Options, cache_dir, log):
@@ -221,8 +258,8 @@ def reference(blend, opts: Options, cache_dir, log):
     settings = {"seeds": seeds, "spp_per_seed": opts.ref_spp, "max_depth": opts.max_depth,
                 "resolution_percentage": opts.scale, "forced": forced}
     version = bpy.app.version_string
-    key = cb.cache_key(blend, settings, version)
-    hit = cb.cache_load(cache_dir, key)
+    key = cache_key(blend, settings, version)
+    hit = cache_load(cache_dir, key)
     if hit is not None:
         mean, var, meta = hit
         cached = True
@@ -236,9 +273,9 @@ def reference(blend, opts: Options, cache_dir, log):
         mean, var = res.mean, res.variance_of_mean
         meta = {"render_s": res.time_s, "threads": opts.threads, "blender": version,
                 "settings": settings, "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-        cb.cache_store(cache_dir, key, mean, var, meta)
+        cache_store(cache_dir, key, mean, var, meta)
         cached = False
-    noise = cb.reference_noise(mean, var)
+    noise = reference_noise(mean, var)
     info = {"key": key, "cached": cached, "seeds": len(seeds), "spp_per_seed": opts.ref_spp,
             "spp": len(seeds) * opts.ref_spp, "render_s": meta["render_s"],
             "render_threads": meta["threads"], "blender": version,
@@ -255,14 +292,14 @@ def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, thresho
     # Repeats of a point render the same image (same seed); only the timings differ.
     runs = [run_point(kind, blend, spp, opts, caustics, threshold) for _ in range(opts.repeat)]
     image, light, counts, _ = runs[0]
-    stats = cb.median_run([r[3] for r in runs])
+    stats = median_run([r[3] for r in runs])
     if image.shape != ref.shape:
         raise PointError(f"{kind} image {image.shape} differs from the reference {ref.shape}")
     h, w = ref.shape[:2]
     if counts is None:  # a ladder point: spp in every pixel
         counts = np.full((h, w), spp, np.int32)
     # The child's stats last: Snell's saved_share is its own (RenderResult.saved_share).
-    p = {"spp": spp, **cb.errors(image, ref), **cb.sample_summary(counts, spp), **stats}
+    p = {"spp": spp, **errors(image, ref), **sample_summary(counts, spp), **stats}
     p["peak_rss_above_baseline_mb"] = p["peak_rss_mb"] - baseline_mb
     p["efficiency"] = p["relmse"] * p["wall_s"]
     p["samples_per_second"] = h * w * p["mean_spp"] / p["render_s"] if p["render_s"] > 0 else 0.0
@@ -281,7 +318,7 @@ def _ladder(kind, blend, ref, opts, baseline_mb, log, caustics=True):
         p, image, light, _ = _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics)
         points.append(p)
         images.append((image, light))
-        spp = cb.next_spp(spp, p["wall_s"], max_spp=opts.max_spp, time_cap_s=opts.time_cap_s)
+        spp = next_spp(spp, p["wall_s"], max_spp=opts.max_spp, time_cap_s=opts.time_cap_s)
     return points, images
 
 
@@ -301,32 +338,31 @@ def _adaptive_comparison(blend, ref, opts, baseline_mb, log):
     """(the scene's "adaptive" entry, {renderer: sample map PNG}): Snell and Cycles adaptive at
     opts.thresholds, their equal-threshold ratios, and the maps at the threshold nearest 0.01."""
     entry, pngs = {}, {}
-    at = cb.nearest_threshold(opts.thresholds)
-    for kind in cb.ADAPTIVE_RENDERERS:
+    at = nearest_threshold(opts.thresholds)
+    for kind in ADAPTIVE_RENDERERS:
         points, counts = _as_users_render(kind, blend, ref, opts, baseline_mb, log,
                                           caustics=opts.caustics != "off")
         entry[kind] = {"points": points}
         i = [p["threshold"] for p in points].index(at)
         # One scale for both renderers' maps (the cap), so their colours compare.
         pngs[kind] = sample_map_png(counts[i], vmax=opts.adaptive_max_spp)
-    entry["equal_threshold"] = cb.equal_threshold(entry["snell"]["points"],
-                                                  entry["cycles"]["points"])
+    entry["equal_threshold"] = equal_threshold(entry["snell"]["points"], entry["cycles"]["points"])
     entry["map_threshold"] = at
     return entry, pngs
 
 
 def _caustic_region(light, ref):
     """The pixels where the light tracer's image `light` (None: it did not run) carries at least
-    CAUSTIC_SHARE (compare/bench.py) of the reference, and their summary."""
+    CAUSTIC_SHARE (bench_curves.py) of the reference, and their summary."""
     if light is None:
         return np.zeros(ref.shape[:2], bool), {"pixels": 0, "fraction": 0.0,
                                                "light_share_of_image": 0.0,
-                                               "share_threshold": cb.CAUSTIC_SHARE}
-    mask = cb.light_share(light, ref) >= cb.CAUSTIC_SHARE
+                                               "share_threshold": CAUSTIC_SHARE}
+    mask = light_share(light, ref) >= CAUSTIC_SHARE
     return mask, {"pixels": int(mask.sum()), "fraction": float(mask.mean()),
                   "light_share_of_image": float(light.sum(dtype=np.float64)
                                                 / max(ref.sum(), 1e-300)),
-                  "share_threshold": cb.CAUSTIC_SHARE}
+                  "share_threshold": CAUSTIC_SHARE}
 
 
 
@@ -369,7 +405,7 @@ def definitions(opts: Options) -> dict:
                   "account: RenderResult.stages)",
         "caustic_relmse": f"relMSE over the caustic region only: the pixels where the light "
                           f"tracer's image (at the largest Snell point) is at least "
-                          f"{cb.CAUSTIC_SHARE:g} of the reference",
+                          f"{CAUSTIC_SHARE:g} of the reference",
         "caustic_gain_at_equal_time": "for each Snell point, the path tracer alone's caustic "
                                       "relMSE at the same wall time (log-log interpolation "
                                       "between its ladder points) over Snell's; median over points",
@@ -409,7 +445,7 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
     start = time.perf_counter()
     # Each scene is exported once first: a file Blender cannot open or Snell cannot render
     # fails here, with its name, rather than in a child process minutes into the run.
-    from .export import export_blend
+    from ..addon.export import export_blend
     for blend in scenes:
         with stdout_silenced():
             export_blend(blend)
@@ -438,18 +474,18 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
                  "height": int(ref.shape[0]), "width": int(ref.shape[1]),
                  "reference": ref_info, "caustic_region": region}
         for key, (points, _) in ladders.items():
-            scene[key] = {"points": points, "efficiency": cb.efficiency_summary(points)}
-        scene["time_to_equal_error"] = cb.equal_error(scene["snell"]["points"],
-                                                      scene["cycles"]["points"])
+            scene[key] = {"points": points, "efficiency": efficiency_summary(points)}
+        scene["time_to_equal_error"] = equal_error(scene["snell"]["points"],
+                                                   scene["cycles"]["points"])
         if "snell_path_tracer" in scene:
-            scene["path_tracer_time_to_equal_error"] = cb.equal_error(
+            scene["path_tracer_time_to_equal_error"] = equal_error(
                 scene["snell_path_tracer"]["points"], scene["cycles"]["points"])
             if mask.any():
-                scene["caustic_gain_at_equal_time"] = cb.gain_at_equal_time(
+                scene["caustic_gain_at_equal_time"] = gain_at_equal_time(
                     scene["snell"]["points"], scene["snell_path_tracer"]["points"],
                     "caustic_relmse")
         if light is not None:
-            maps[name] = cb.share_map_png(light, ref)
+            maps[name] = share_map_png(light, ref)
         if opts.thresholds:
             log(f"{name}: as users render (adaptive)")
             scene["adaptive"], sample_maps[name] = _adaptive_comparison(
@@ -457,7 +493,7 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
         out_scenes.append(scene)
     import bpy
     data = {
-        "schema": cb.SCHEMA,
+        "schema": SCHEMA,
         "quick": opts.quick,
         "settings": {**asdict(opts), "resolution_percentage": opts.scale, "cache_dir": cache_dir,
                      "snell_seed": SNELL_SEED, "cycles_seed": CYCLES_SEED},
@@ -468,12 +504,12 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
         "scenes": out_scenes,
         "total_s": time.perf_counter() - start,
     }
-    svg = cb.svg_plot(out_scenes)
+    svg = svg_plot(out_scenes)
     with atomic_directory(report_dir) as tmp:
         with open(os.path.join(tmp, "bench.svg"), "w") as f:
             f.write(svg)
-        cb.write_json(os.path.join(tmp, "bench.json"), data)
-        cb.write_html(os.path.join(tmp, "bench.html"), data, svg, maps, sample_maps)
+        write_json(os.path.join(tmp, "bench.json"), data)
+        write_html(os.path.join(tmp, "bench.html"), data, svg, maps, sample_maps)
     return data
 
 
@@ -481,4 +517,4 @@ if __name__ == "__main__":
     if len(sys.argv) == 4 and sys.argv[1] == "point":
         _child(sys.argv[2], sys.argv[3])
     else:
-        sys.exit("usage: python -m snell.addon.bench point SPEC.json OUT")
+        sys.exit("usage: python -m snell.validation.bench point SPEC.json OUT")

@@ -12,7 +12,7 @@ Cycles gets aperture_fstop = lens_mm * 1e-3 / (2 b) and the same focus distance.
 """
 from __future__ import annotations
 
-from . import validate
+from . import compare
 
 STUDIES = {
     "depth": [{"max_depth": m} for m in (0, 1, 2, 3, 4, 5, 100)],
@@ -38,8 +38,8 @@ def label(setting):
 
 
 def run_study(name, blend_path, *, spp=None, seed=None, max_depth=None, scale=None,
-              n_seeds=validate.DEFAULT_CYCLES_SEEDS, progress=None, threads=2):
-    """[(setting, result dict)] for one study; each result as validate.compare_blend returns."""
+              n_seeds=compare.DEFAULT_CYCLES_SEEDS, progress=None, threads=2):
+    """[(setting, result dict)] for one study; each result as compare.compare_blend returns."""
     if name not in STUDIES:
         raise ValueError(f"unknown study {name!r} (expected one of {', '.join(STUDIES)})")
     rows = []
@@ -48,9 +48,9 @@ def run_study(name, blend_path, *, spp=None, seed=None, max_depth=None, scale=No
         depth = setting.get("max_depth", max_depth)
         if progress is not None and progress.enabled:
             progress.line(f"study {name}: {label(setting)}", final=True)
-        result = validate.compare_blend(blend_path, spp=spp, max_depth=depth, seed=seed, scale=scale,
-                                        n_seeds=n_seeds, threads=threads, progress=progress,
-                                        camera=camera or None)
+        result = compare.compare_blend(blend_path, spp=spp, max_depth=depth, seed=seed, scale=scale,
+                                       n_seeds=n_seeds, threads=threads, progress=progress,
+                                       camera=camera or None)
         result["label"] = label(setting)
         result["setting"] = dict(setting)
         rows.append(result)

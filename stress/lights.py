@@ -5,11 +5,11 @@ import math
 
 import numpy as np
 
-from .stress_cases import (EXACT, STATISTICAL, UNIT_ROUNDING, Case, Outcome, material, render,
-                           settings_of)
-from .stress_geometry import WHITE, camera, icosphere, quad, scene
-from .stress_glass import SLAB_IOR
-from .stress_lens import SENSOR_MM
+from .cases import (EXACT, STATISTICAL, UNIT_ROUNDING, Case, Outcome, material, render,
+                    settings_of)
+from .geometry import WHITE, camera, icosphere, quad, scene
+from .glass import SLAB_IOR
+from .lens import SENSOR_MM
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,9 +1,9 @@
 """The cases of `snell stress`: what a case is, how its outcome is measured, and the matrix.
 
-The cases themselves live by group: stress_glass.py (white furnaces, slabs, nested and degenerate
-surfaces), stress_lens.py (thin lens), stress_lights.py (lamps) and stress_extremes.py (image
-sizes, peak memory). A case renders one or more tracer Scenes (built in Python, no bpy) and returns an Outcome: the
-measured value and what bounds its error. Four kinds of check (compare/stress.py applies them):
+The cases themselves live by group: glass.py (white furnaces, slabs, nested and degenerate
+surfaces), lens.py (thin lens), lights.py (lamps) and extremes.py (image sizes, peak memory). A
+case renders one or more tracer Scenes (built in Python, no bpy) and returns an Outcome: the
+measured value and what bounds its error. Four kinds of check (stress/runner.py applies them):
 
 - exact: every sample has a known value (a white furnace: exactly 1). The only error allowed is
   float rounding (`tolerance`) plus `allowance`, the share of samples the integrator itself
@@ -28,7 +28,7 @@ from typing import Callable
 import numpy as np
 
 from ..tracer.integrator import Renderer
-from .stress_geometry import WHITE
+from .geometry import WHITE
 
 EXACT, STATISTICAL, AT_MOST, UNSUPPORTED = "exact", "statistical", "at most", "not supported"
 UNIT_ROUNDING = 2.0 ** -53

@@ -1,4 +1,4 @@
-"""`snell stress`: run the stress cases (compare/stress_cases.py), judge them, write the report.
+"""`snell stress`: run the stress cases (stress/cases.py), judge them, write the report.
 
 Each case's error is judged against a bound derived from its own samples: exact cases against
 float rounding plus the samples the integrator counted as ended early, statistical cases against
@@ -17,9 +17,10 @@ from statistics import NormalDist
 
 import numpy as np
 
-from .report import _data_uri, _page, colour_bar, diverging, png_bytes, upscale
-from . import stress_extremes, stress_glass, stress_lens, stress_lights
-from .stress_cases import AT_MOST, EXACT, STATISTICAL, UNSUPPORTED, Case
+from ..pages.html_page import data_uri, page
+from ..pages.images import colour_bar, diverging, png_bytes, upscale
+from . import extremes, glass, lens, lights
+from .cases import AT_MOST, EXACT, STATISTICAL, UNSUPPORTED, Case
 from ..tracer.image import to_srgb8
 
 ALPHA = 0.01
@@ -31,9 +32,9 @@ CASE_KEYS = ("id", "group", "measures", "failure_means", "check", "analytic", "m
 
 def all_cases(quick: bool = False) -> list[Case]:
     """Every case of the matrix, or the --quick subset."""
-    cases = (stress_glass.furnace_cases() + stress_glass.slab_cases() + stress_glass.nested_cases()
-             + stress_lens.lens_cases() + stress_lights.light_cases()
-             + stress_glass.degenerate_cases() + stress_extremes.extreme_cases(quick))
+    cases = (glass.furnace_cases() + glass.slab_cases() + glass.nested_cases()
+             + lens.lens_cases() + lights.light_cases()
+             + glass.degenerate_cases() + extremes.extreme_cases(quick))
     return [c for c in cases if c.quick] if quick else cases
 
 
@@ -251,7 +252,7 @@ def write_html(path, data):
             f"{html.escape(verdict)}</div>\n<p class='small'>{html.escape(data['rule'])}.</p>\n"
             + "\n".join(out) + _worst_figures(data))
     with open(path, "w") as f:
-        f.write(_page("snell stress", body))
+        f.write(page("snell stress", body))
 
 
 def _worst_figures(data):
@@ -260,14 +261,14 @@ def _worst_figures(data):
         return ""
     image, error, label = images
     parts = [f"<h2>Worst case: {html.escape(data['worst'])}</h2>",
-             f"<figure><img alt='image' src='{_data_uri(png_bytes(upscale(to_srgb8(image), 256)))}'>"
+             f"<figure><img alt='image' src='{data_uri(png_bytes(upscale(to_srgb8(image), 256)))}'>"
              f"<figcaption>image (Standard view)</figcaption></figure>"]
     if error is not None:
         lim = float(np.nanmax(np.abs(error))) if np.size(error) else 0.0
         lim = lim if lim > 0 and math.isfinite(lim) else 1e-6
-        parts.append(f"<figure><img alt='error' src='{_data_uri(png_bytes(upscale(diverging(error, lim), 256)))}'>"
+        parts.append(f"<figure><img alt='error' src='{data_uri(png_bytes(upscale(diverging(error, lim), 256)))}'>"
                      f"<figcaption>{html.escape(label)}<br><img class='bar' alt='scale' "
-                     f"src='{_data_uri(png_bytes(colour_bar(lim)))}'><br>"
+                     f"src='{data_uri(png_bytes(colour_bar(lim)))}'><br>"
                      f"<span class='small'>blue {-lim:.3g} · white 0 · red +{lim:.3g}</span>"
                      f"</figcaption></figure>")
     return "\n".join(parts)

@@ -5,10 +5,10 @@ import math
 
 import numpy as np
 
-from .stress_cases import (EXACT, LOSSLESS, STATISTICAL, Case, Outcome, fresnel_unpolarised,
-                           furnace_outcome, image_mean, material, render, settings_of,
-                           Z_LABEL, slab_transmission, z_map)
-from .stress_geometry import WHITE, box, camera, icosphere, quad, rotate_x, scene
+from .cases import (EXACT, LOSSLESS, STATISTICAL, Case, Outcome, fresnel_unpolarised,
+                    furnace_outcome, image_mean, material, render, settings_of,
+                    Z_LABEL, slab_transmission, z_map)
+from .geometry import WHITE, box, camera, icosphere, quad, rotate_x, scene
 
 
 # ---------------------------------------------------------------------------------------------

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .report import png_bytes, text_label, upscale
+from .images import png_bytes, text_label, upscale
 
 # viridis at 9 evenly spaced points (matplotlib's table, sampled); linear between them.
 VIRIDIS = np.array([

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .console import stdout_silenced
+from ..addon.console import stdout_silenced
 
 
 class NoCyclesEquivalent(ValueError):
@@ -238,7 +238,7 @@ def _render_one(blend_path, settings, camera, workdir):
     import bpy
 
     from ..tracer.image import read_exr
-    from .blendfile import open_blend, render_still
+    from ..addon.blendfile import open_blend, render_still
     open_blend(blend_path)
     scene = bpy.context.scene
     _apply(scene, settings)

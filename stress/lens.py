@@ -5,8 +5,8 @@ import math
 
 import numpy as np
 
-from .stress_cases import AT_MOST, STATISTICAL, Case, Outcome, render, settings_of
-from .stress_geometry import WHITE, camera, quad, scene
+from .cases import AT_MOST, STATISTICAL, Case, Outcome, render, settings_of
+from .geometry import WHITE, camera, quad, scene
 
 
 # ---------------------------------------------------------------------------------------------

@@ -12,9 +12,8 @@ import time
 
 import numpy as np
 
-from ..compare import metrics
-from . import cycles
-from .console import stdout_silenced
+from ..addon.console import stdout_silenced
+from . import cycles, metrics
 
 DEFAULT_CYCLES_SEEDS = 8
 
@@ -56,7 +55,7 @@ class Progress:
 
 def load_snell_scene(blend_path):
     """(Scene, exporter warnings) for a .blend."""
-    from .export import export_blend
+    from ..addon.export import export_blend
     with stdout_silenced():
         return export_blend(blend_path)
 
@@ -207,7 +206,7 @@ def compare_blend(blend_path, *, spp=None, max_depth=None, seed=None, scale=None
     r = scene.render
     snell_result = snell_render(scene, r["spp"], progress.snell(), threads,
                                 noise_threshold=noise_threshold)
-    from .export import differs_from_cycles
+    from ..addon.export import differs_from_cycles
     not_comparable = [f"exporter: {w}" for w in warnings if differs_from_cycles(w)]
     notes = [w for w in warnings if not differs_from_cycles(w)]
     try:

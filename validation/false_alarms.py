@@ -19,9 +19,8 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from ..compare import metrics
-from . import cycles
-from .validate import load_snell_scene, snell_render
+from . import cycles, metrics
+from .compare import load_snell_scene, snell_render
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SNELL, EXACT = "snell", "cycles"     # what takes the tested image's place

@@ -7,35 +7,24 @@ same for both renderers; the difference and z-score maps use a blue-white-red sc
 """
 from __future__ import annotations
 
-import base64
-import datetime
 import html
 import json
 import math
 import os
-import tempfile
 
 import numpy as np
 
+from ..pages.html_page import DISPLAY_WIDTH, data_uri, img, page, table
+from ..pages.images import colour_bar, diverging, png_bytes, text_label, upscale
+from ..pages.plots import rate_svg
 from ..tracer.atomic import atomic_directory
 from ..tracer.image import to_srgb8
 
-DISPLAY_WIDTH = 256  # CSS pixels per image (nearest-neighbour upscaling of small renders)
 Z_RANGE = 6.0
 
 
 # ---------------------------------------------------------------------------------------------
 # Pixels
-
-
-def diverging(values, limit):
-    """Blue (-limit) - white (0) - red (+limit) as uint8 (H, W, 3)."""
-    t = np.clip(np.nan_to_num(np.asarray(values, np.float64)) / max(limit, 1e-30), -1.0, 1.0)
-    pos, neg = np.clip(t, 0, 1)[..., None], np.clip(-t, 0, 1)[..., None]
-    white = np.ones(t.shape + (3,))
-    red, blue = np.array([0.75, 0.05, 0.05]), np.array([0.05, 0.2, 0.8])
-    rgb = white * (1 - pos - neg) + red * pos + blue * neg
-    return np.rint(np.clip(rgb, 0, 1) * 255).astype(np.uint8)
 
 
 def outline_tiles(pixels8, tiles, colour=(0, 0, 0)):
@@ -49,47 +38,9 @@ def outline_tiles(pixels8, tiles, colour=(0, 0, 0)):
     return out
 
 
-def colour_bar(limit, width=256, height=14):
-    ramp = np.linspace(-limit, limit, width)[None, :].repeat(height, axis=0)
-    return diverging(ramp, limit)
-
-
-def png_bytes(pixels8) -> bytes:
-    """Encode a uint8 (H, W, 3) array as PNG through OpenImageIO."""
-    import OpenImageIO as oiio
-    pixels8 = np.ascontiguousarray(pixels8, np.uint8)
-    h, w, c = pixels8.shape
-    fd, tmp = tempfile.mkstemp(suffix=".png")
-    os.close(fd)
-    try:
-        out = oiio.ImageOutput.create(tmp)
-        out.open(tmp, oiio.ImageSpec(w, h, c, "uint8"))
-        out.write_image(pixels8)
-        out.close()
-        with open(tmp, "rb") as f:
-            return f.read()
-    finally:
-        os.remove(tmp)
-
-
-def text_label(text, width, height=22, size=14):
-    """A dark strip with white text (OpenImageIO's built-in font)."""
-    import OpenImageIO as oiio
-    buf = oiio.ImageBuf(oiio.ImageSpec(width, height, 3, "float"))
-    oiio.ImageBufAlgo.fill(buf, (0.12, 0.12, 0.12))
-    oiio.ImageBufAlgo.render_text(buf, 4, height - 6, text, size, "", (1, 1, 1))
-    return np.rint(np.clip(buf.get_pixels(oiio.FLOAT), 0, 1) * 255).astype(np.uint8)
-
-
-def upscale(pixels8, width):
-    """Nearest-neighbour upscale to about `width` pixels wide (integer factor, at least 1)."""
-    k = max(1, width // pixels8.shape[1])
-    return pixels8.repeat(k, axis=0).repeat(k, axis=1)
-
-
-def _pad_to(img, h, w):
+def _pad_to(pixels8, h, w):
     out = np.full((h, w, 3), 40, np.uint8)
-    out[:img.shape[0], :img.shape[1]] = img
+    out[:pixels8.shape[0], :pixels8.shape[1]] = pixels8
     return out
 
 
@@ -148,69 +99,8 @@ def _write_json(path, data):
 # HTML
 
 
-CSS = """
-body { font-family: sans-serif; margin: 1.5em; background: #fafafa; color: #222; }
-.verdict { font-size: 1.6em; padding: 0.4em 0.8em; display: inline-block; border-radius: 6px; }
-.consistent { background: #c8f0c8; } .inconsistent { background: #f5c2c2; }
-.not-comparable { background: #e6e6e6; }
-figure { display: inline-block; margin: 0.4em; vertical-align: top; text-align: center; }
-figure img { width: %dpx; image-rendering: pixelated; border: 1px solid #999; }
-img.bar { height: 14px; image-rendering: auto; }
-table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }
-td, th { border: 1px solid #bbb; padding: 0.2em 0.6em; text-align: left; }
-.small { font-size: 0.85em; color: #555; }
-""" % DISPLAY_WIDTH
-
-LOAD_CHECK = """
-<script>
-window.addEventListener('load', function () {
-  var imgs = Array.prototype.slice.call(document.images);
-  var ok = imgs.length > 0 && imgs.every(function (i) { return i.complete && i.naturalWidth > 0; });
-  document.body.setAttribute('data-images', ok ? 'decoded' : 'broken');
-  document.body.setAttribute('data-image-count', String(imgs.length));
-});
-</script>
-"""
-
-
-def _data_uri(png: bytes) -> str:
-    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
-
-
-def _img(png, alt, cls=""):
-    c = f' class="{cls}"' if cls else ""
-    return f'<img{c} alt="{html.escape(alt)}" src="{_data_uri(png)}">'
-
-
 def _verdict_class(v):
     return (v or "not comparable").replace(" ", "-")
-
-
-def _fmt(x, digits=4):
-    if x is None:
-        return "n/a"
-    if isinstance(x, float):
-        if not math.isfinite(x):
-            return str(x)
-        return f"{x:.{digits}g}"
-    return html.escape(str(x))
-
-
-def _table(rows, header=None):
-    out = ["<table>"]
-    if header:
-        out.append("<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>")
-    for row in rows:
-        out.append("<tr>" + "".join(f"<td>{_fmt(c)}</td>" for c in row) + "</tr>")
-    out.append("</table>")
-    return "\n".join(out)
-
-
-def _page(title, body):
-    stamp = datetime.datetime.now().isoformat(timespec="seconds")
-    return (f"<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
-            f"<title>{html.escape(title)}</title><style>{CSS}</style></head>\n<body>\n{body}\n"
-            f"<p class='small'>Generated by snell at {stamp}.</p>{LOAD_CHECK}</body></html>\n")
 
 
 def comparison_images(result):
@@ -276,7 +166,7 @@ def _numbers_table(result):
                if snell.get("noise_threshold") else f"{snell['spp']} spp")
     rows.append(["Snell time", f"{snell['time_s']:.2f} s ({samples}, "
                                f"{snell['nan_samples']} NaN/Inf samples)"])
-    return _table(rows, ["quantity", "value"])
+    return table(rows, ["quantity", "value"])
 
 
 def _settings_tables(result, forced=True):
@@ -286,9 +176,9 @@ def _settings_tables(result, forced=True):
             f"<li>{html.escape(s)}</li>" for s in result["not_comparable"]) + "</ul>")
     if forced and result.get("cycles_settings"):
         parts.append("<h3>Settings forced on Cycles</h3>" +
-                     _table(result["cycles_settings"], ["setting", "value", "why"]))
+                     table(result["cycles_settings"], ["setting", "value", "why"]))
     if result.get("snell_settings"):
-        parts.append("<h3>Snell settings</h3>" + _table(result["snell_settings"], ["setting", "value", "note"]))
+        parts.append("<h3>Snell settings</h3>" + table(result["snell_settings"], ["setting", "value", "note"]))
     return "\n".join(parts)
 
 
@@ -305,7 +195,7 @@ def _forced_once(rows):
             values.setdefault(key, set()).add(str(value))
     shown = [[key, value if len(values[key]) == 1 else "varies by setting", why]
              for key, value, why in tables[0]]
-    return "<h2>Settings forced on Cycles</h2>" + _table(shown, ["setting", "value", "why"])
+    return "<h2>Settings forced on Cycles</h2>" + table(shown, ["setting", "value", "why"])
 
 
 def _figures(pngs, limits, prefix=""):
@@ -318,9 +208,9 @@ def _figures(pngs, limits, prefix=""):
         legend = ""
         if name in limits:
             lim = limits[name]
-            legend = (f"<br>{_img(png_bytes(colour_bar(lim)), 'colour scale', 'bar')}<br>"
+            legend = (f"<br>{img(png_bytes(colour_bar(lim)), 'colour scale', 'bar')}<br>"
                       f"<span class='small'>blue {-lim:.3g} · white 0 · red +{lim:.3g}</span>")
-        parts.append(f"<figure>{_img(pngs[name], prefix + name)}<figcaption>{caption[name]}"
+        parts.append(f"<figure>{img(pngs[name], prefix + name)}<figcaption>{caption[name]}"
                      f"{legend}</figcaption></figure>")
     return "\n".join(parts)
 
@@ -344,7 +234,7 @@ def _differences(result):
     part = ("<h3>Where the images differ</h3><p class='small'>Tiles that fail the tile test "
             "(outlined on the z map; z > 0: Snell brighter), and the objects their pixels see "
             "first (share of the tile's camera rays).</p>" +
-            _table(rows, ["tile", "z", "objects"]) + more)
+            table(rows, ["tile", "z", "objects"]) + more)
     if related:
         part += ("<p>Exporter warnings about these objects:</p><ul>" +
                  "".join(f"<li>{html.escape(w)}</li>" for w in related) + "</ul>")
@@ -371,7 +261,7 @@ def _write_comparison(directory, result, title, figures):
             f"<div class='verdict {_verdict_class(v)}'>{html.escape(v)}</div>\n"
             f"<p class='small'>Rule: {html.escape(result['rule'])}.</p>\n"
             f"<div>{_figures(pngs, limits)}"
-            + "".join(f"<figure>{_img(png, name)}<figcaption>{html.escape(caption)}</figcaption>"
+            + "".join(f"<figure>{img(png, name)}<figcaption>{html.escape(caption)}</figcaption>"
                       f"</figure>" for name, png, caption in figures)
             + "</div>\n"
             f"<p class='small'>Both images: linear result through Blender's Standard view transform, "
@@ -386,7 +276,7 @@ def _write_comparison(directory, result, title, figures):
                  "cause the same way): " + "; ".join(html.escape(w) for w in result["exporter_notes"])
                  + "</p>")
     with open(os.path.join(directory, "report.html"), "w") as f:
-        f.write(_page(title, body))
+        f.write(page(title, body))
     data = metrics_json(result)
     _write_json(os.path.join(directory, "metrics.json"), data)
     return data
@@ -428,7 +318,7 @@ def _write_study(directory, name, rows, notes):
     sheet = png_bytes(contact_sheet(rows))
     with open(os.path.join(directory, "contact_sheet.png"), "wb") as f:
         f.write(sheet)
-    sections, table, data = [], [], {"study": name, "settings": []}
+    sections, summary, data = [], [], {"study": name, "settings": []}
     for i, row in enumerate(rows):
         imgs, limits = comparison_images(row)
         pngs = {k: png_bytes(v) for k, v in imgs.items()}
@@ -443,7 +333,7 @@ def _write_study(directory, name, rows, notes):
             f"{_settings_tables(row, forced=False)}{_differences(row)}</details>")
         cyc = row.get("cycles")
         failed = ", ".join(row.get("failed_tests") or []) if cyc else "n/a"
-        table.append([row["label"], v, failed or "none", row.get("z_pass_fraction"),
+        summary.append([row["label"], v, failed or "none", row.get("z_pass_fraction"),
                       row.get("relmse"), row.get("flip"),
                       f"{row['snell']['time_s']:.2f} s", f"{cyc['time_s']:.2f} s" if cyc else "n/a"])
         entry = metrics_json(row)
@@ -459,13 +349,13 @@ def _write_study(directory, name, rows, notes):
             f"({sum(v == 'consistent' for v in verdicts)} of {len(verdicts)} settings consistent)</div>\n"
             + "".join(f"<p class='small'>{html.escape(n)}</p>" for n in notes) +
             f"<p class='small'>Rule per setting: {html.escape(metrics.RULE)}.</p>\n"
-            + _table(table, ["setting", "verdict", "failed tests", "z-pass fraction", "relMSE",
+            + table(summary, ["setting", "verdict", "failed tests", "z-pass fraction", "relMSE",
                              "FLIP", "Snell time", "Cycles time"]) +
             _forced_once(rows) +
             f"<h2>Contact sheet</h2><figure><img style='width:auto' alt='contact sheet' "
-            f"src='{_data_uri(sheet)}'></figure>\n" + "\n".join(sections))
+            f"src='{data_uri(sheet)}'></figure>\n" + "\n".join(sections))
     with open(os.path.join(directory, "report.html"), "w") as f:
-        f.write(_page(f"Snell {name} study", body))
+        f.write(page(f"Snell {name} study", body))
     data["notes"] = list(notes)
     _write_json(os.path.join(directory, "metrics.json"), _plain(data))
     return data
@@ -475,53 +365,11 @@ def _write_study(directory, name, rows, notes):
 # False alarms
 
 
-POWER_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")
-
-
-def power_svg(curves, panel_w=300, panel_h=240) -> str:
+def power_svg(curves) -> str:
     """Inline SVG: per error kind, the share of runs the verdict called inconsistent against
     the error's size, one line per sample count. curves: {kind: {spp: [(size, rate)]}}."""
-    m = {"l": 46, "r": 10, "t": 26, "b": 40}
-    w, h = panel_w - m["l"] - m["r"], panel_h - m["t"] - m["b"]
-    parts = []
-    for i, (kind, lines) in enumerate(curves.items()):
-        ox = i * panel_w
-        sizes = sorted({x for pts in lines.values() for x, _ in pts})
-        span = (sizes[0], sizes[-1]) if len(sizes) > 1 else (sizes[0] - 1, sizes[0] + 1)
-
-        def X(v):
-            return ox + m["l"] + (math.log(v / span[0]) / math.log(span[1] / span[0])) * w \
-                if span[0] > 0 else ox + m["l"] + (v - span[0]) / (span[1] - span[0]) * w
-
-        def Y(r):
-            return m["t"] + (1 - r) * h
-
-        g = [f'<rect x="{ox + m["l"]}" y="{m["t"]}" width="{w}" height="{h}" fill="white" '
-             f'stroke="#888"/>',
-             f'<text x="{ox + m["l"] + w / 2}" y="16" text-anchor="middle" font-weight="bold">'
-             f'{html.escape(kind)}</text>']
-        for r in (0.0, 0.5, 0.9, 1.0):
-            g.append(f'<line x1="{ox + m["l"]}" y1="{Y(r):.1f}" x2="{ox + m["l"] + w}" '
-                     f'y2="{Y(r):.1f}" stroke="{"#f4a" if r == 0.9 else "#ddd"}"/>')
-            g.append(f'<text x="{ox + m["l"] - 4}" y="{Y(r) + 4:.1f}" text-anchor="end">{r:g}</text>')
-        for v in sizes:
-            g.append(f'<text x="{X(v):.1f}" y="{m["t"] + h + 14}" text-anchor="middle">{v:g}</text>')
-        g.append(f'<text x="{ox + m["l"] + w / 2}" y="{panel_h - 6}" text-anchor="middle">'
-                 f'error size</text>')
-        for k, (spp, pts) in enumerate(sorted(lines.items())):
-            c = POWER_COLOURS[k % len(POWER_COLOURS)]
-            pts = sorted(pts)
-            g.append(f'<polyline points="{" ".join(f"{X(x):.1f},{Y(r):.1f}" for x, r in pts)}" '
-                     f'fill="none" stroke="{c}" stroke-width="2"/>')
-            g += [f'<circle cx="{X(x):.1f}" cy="{Y(r):.1f}" r="3" fill="{c}"/>' for x, r in pts]
-            ly = m["t"] + h - 8 - 14 * k
-            g.append(f'<text x="{ox + m["l"] + w - 6}" y="{ly}" text-anchor="end" fill="{c}">'
-                     f'{spp} spp</text>')
-        parts.append("\n".join(g))
-    total_w = panel_w * max(1, len(curves))
-    return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{total_w}" height="{panel_h}" '
-            f'viewBox="0 0 {total_w} {panel_h}" font-family="sans-serif" font-size="11">\n'
-            + "\n".join(parts) + "\n</svg>\n")
+    return rate_svg({kind: [(f"{spp} spp", pts) for spp, pts in sorted(lines.items())]
+                     for kind, lines in curves.items()}, "error size")
 
 
 def power_curves(rows, configs):
@@ -566,17 +414,17 @@ def write_false_alarms(directory, rows, overall, configs, curves=()):
                 "error, named CONFIG:ERROR) count detections instead and are not in the "
                 f"overall rates.</p>\n<p class='small'>Rule: {html.escape(metrics.RULE)}.</p>"
                 "<h2>Overall (null runs)</h2>" +
-                _table(rates, ["test", "failures / runs", "rate", "95% interval"]) +
+                table(rates, ["test", "failures / runs", "rate", "95% interval"]) +
                 "<h2>Failures per configuration</h2>" +
-                _table(per, ["configuration", "runs", *tests]) +
+                table(per, ["configuration", "runs", *tests]) +
                 ("<h2>Power: share of runs caught against the error's size</h2>"
                  "<p class='small'>Relative errors (roughness, focus) as the fraction off; IOR "
                  "as the difference. The pink line is 9 of 10.</p>" + svg if svg else "") +
                 "<h2>Configurations</h2>" +
-                _table(settings, ["name", "scene", "spp", "resolution", "Cycles seeds",
+                table(settings, ["name", "scene", "spp", "resolution", "Cycles seeds",
                                   "max depth", "camera", "compared", "error"]))
         with open(os.path.join(tmp, "report.html"), "w") as f:
-            f.write(_page("Snell false alarms", body))
+            f.write(page("Snell false alarms", body))
         data = {"overall": {t: dict(zip(("failures", "runs", "rate", "low", "high"), v))
                             for t, v in overall.items()},
                 "configurations": rows, "rule": metrics.RULE}

@@ -8,10 +8,10 @@ import sys
 
 from ..tracer import wavefront
 from ..tracer.integrator import CHUNK, PASS_PATHS
-from .stress_cases import (AT_MOST, ENDED_EVENTS, EXACT, UNIT_ROUNDING, Case, Outcome,
-                           furnace_outcome, material, render)
-from .stress_geometry import WHITE, camera, quad, scene
-from .stress_glass import SLAB_IOR, furnace_scene
+from .cases import (AT_MOST, ENDED_EVENTS, EXACT, UNIT_ROUNDING, Case, Outcome,
+                    furnace_outcome, material, render)
+from .geometry import WHITE, camera, quad, scene
+from .glass import SLAB_IOR, furnace_scene
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,0 +1,223 @@
+"""The numbers of `snell bench`: error metrics against the reference, the ladder's next step,
+the error-against-time curves and their fits, time to equal error, the caustic region. No bpy
+(the renders run in bench.py, the JSON, plot and page are bench_report.py's).
+
+Definitions (stated again in bench.json under "definitions"):
+- relMSE = mean over pixels and channels of (I - R)^2 / (R^2 + eps), eps = metrics.RELMSE_EPS,
+  after dropping the largest metrics.RELMSE_DROP fraction of the per-value terms (fireflies); the
+  same rule as `snell compare` (metrics.py).
+- RMSE = sqrt(mean((I - R)^2)), no values dropped. FLIP = mean HDR-FLIP (metrics.flip).
+- efficiency figure = relMSE x wall time (constant for an unbiased renderer; lower wins).
+- time to equal error: per renderer, log(time) is interpolated piecewise-linearly in log(relMSE)
+  along the ladder, at the first point where the curve reaches the target; the target is the
+  larger of the two renderers' smallest reached relMSE, so both curves reach it.
+- as users render: both renderers adaptive at the same noise thresholds; at each threshold,
+  Snell's time to Cycles' relMSE along Snell's threshold curve (the same interpolation) over
+  Cycles' time, and the plain time and relMSE ratios (equal_threshold).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import metrics
+
+# ---------------------------------------------------------------------------------------------
+# Error metrics against the converged reference
+
+
+def errors(image, reference) -> dict:
+    flip = metrics.flip(reference, image)
+    return {"relmse": metrics.relmse(image, reference), "rmse": metrics.rmse(image, reference),
+            "flip": float("nan") if flip is None else flip}
+
+
+def reference_noise(reference, variance_of_mean) -> dict:
+    """The reference's own error: the expected relMSE and RMSE its noise alone adds to a point."""
+    r = np.asarray(reference, np.float64)
+    v = np.asarray(variance_of_mean, np.float64)
+    return {"relmse": float(np.mean(v / (r * r + metrics.RELMSE_EPS))),
+            "rmse": float(math.sqrt(np.mean(v)))}
+
+
+# ---------------------------------------------------------------------------------------------
+# Ladder and curves
+
+
+def next_spp(spp: int, wall_s: float, *, max_spp: int, time_cap_s: float):
+    """The ladder's next sample count (doubling), or None when it would pass max_spp or, predicted
+    as twice this point's wall time, the time cap."""
+    nxt = spp * 2
+    if nxt > max_spp or 2.0 * wall_s > time_cap_s:
+        return None
+    return nxt
+
+
+def median_run(runs: list) -> dict:
+    """One point's stats from repeated runs: those of the run with the median wall time (the
+    lower one of an even count, so that its parts still add up), with the largest peak memory
+    and every run's wall time."""
+    ordered = sorted(runs, key=lambda r: r["wall_s"])
+    out = dict(ordered[(len(ordered) - 1) // 2])
+    out["peak_rss_mb"] = max(r["peak_rss_mb"] for r in runs)
+    out["runs"] = len(runs)
+    out["wall_s_runs"] = [r["wall_s"] for r in runs]
+    return out
+
+
+def time_at_error(times, errs, target):
+    """Seconds at which the log-log curve (points in ladder order) first reaches `target`:
+    log t interpolated linearly in log error between the two points around the crossing.
+    None if the curve never reaches it."""
+    pts = [(float(t), float(e)) for t, e in zip(times, errs) if t > 0 and e > 0]
+    if not pts or target <= 0:
+        return None
+    if pts[0][1] <= target:
+        return pts[0][0]  # reached at the first point (no extrapolation to earlier times)
+    for (t0, e0), (t1, e1) in zip(pts, pts[1:]):
+        if e1 <= target:
+            if e1 == e0:
+                return t1
+            f = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
+            return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0)))
+    return None
+
+
+def sample_summary(counts, cap) -> dict:
+    """Mean, smallest and largest samples per pixel of an (H, W) count array, and the share of
+    the budget (cap in every pixel) left unused (RenderResult.saved_share's definition)."""
+    counts = np.asarray(counts, np.int64)
+    mean = float(counts.mean())
+    return {"mean_spp": mean, "pixel_spp_min": int(counts.min()),
+            "pixel_spp_max": int(counts.max()), "saved_share": 1.0 - mean / cap}
+
+
+def loglog_fit(times, errs):
+    """Least-squares line log(error) = intercept + slope log(time); slope near -1 when unbiased."""
+    x = np.log(np.asarray(times, np.float64))
+    y = np.log(np.asarray(errs, np.float64))
+    if len(x) < 2 or np.ptp(x) == 0:
+        return {"slope": float("nan"), "intercept": float(y.mean()) if len(y) else float("nan")}
+    slope, intercept = np.polyfit(x, y, 1)
+    return {"slope": float(slope), "intercept": float(intercept)}
+
+
+def unit_slope_fit(times, errs):
+    """The least-squares line of slope -1 (an unbiased renderer's): log(error) = a - log(time),
+    a = mean(log(error x time)); its time at error e is exp(a) / e."""
+    a = float(np.mean(np.log(np.asarray(errs, np.float64) * np.asarray(times, np.float64))))
+    return {"slope": -1.0, "intercept": a}
+
+
+def equal_error(snell_points, cycles_points) -> dict:
+    """Time-to-equal-error of Snell over Cycles at the larger of the two smallest relMSEs."""
+    ts, es = [p["wall_s"] for p in snell_points], [p["relmse"] for p in snell_points]
+    tc, ec = [p["wall_s"] for p in cycles_points], [p["relmse"] for p in cycles_points]
+    target = max(min(es), min(ec))
+    t_s, t_c = time_at_error(ts, es, target), time_at_error(tc, ec, target)
+    us, uc = unit_slope_fit(ts, es), unit_slope_fit(tc, ec)
+    nan = float("nan")
+    return {
+        "target_relmse": target,
+        "snell_s": nan if t_s is None else t_s,
+        "cycles_s": nan if t_c is None else t_c,
+        "ratio": nan if not (t_s and t_c) else t_s / t_c,
+        # free least-squares slopes, to judge the ladder (-1 once fixed costs no longer dominate)
+        "snell_slope": loglog_fit(ts, es)["slope"],
+        "cycles_slope": loglog_fit(tc, ec)["slope"],
+        # slope -1 fits: the ratio of geometric-mean relMSE x time, the same at every target
+        "fit_ratio": math.exp(us["intercept"] - uc["intercept"]),
+    }
+
+
+def equal_threshold(snell_points, cycles_points) -> list:
+    """At each noise threshold both renderers ran (points with "threshold", "wall_s", "relmse"):
+    Snell / Cycles time to equal error, and the plain time and relMSE ratios.
+
+    The target is Cycles' relMSE at the threshold; Snell's time to it is interpolated along
+    Snell's threshold curve (time_at_error, loosest threshold first). Where Snell's curve never
+    gets that low, the roles swap: Snell's relMSE at the threshold, Cycles' time to it along
+    Cycles' curve (which reaches it, having gone lower), so the ratio is always one of equal error."""
+    def curve(points):
+        ordered = sorted(points, key=lambda p: -p["threshold"])
+        return [p["wall_s"] for p in ordered], [p["relmse"] for p in ordered]
+
+    ts, es = curve(snell_points)
+    tc, ec = curve(cycles_points)
+    snell_at = {p["threshold"]: p for p in snell_points}
+    out = []
+    for c in sorted(cycles_points, key=lambda p: -p["threshold"]):
+        s = snell_at.get(c["threshold"])
+        if s is None:
+            continue
+        t_s, t_c, target = time_at_error(ts, es, c["relmse"]), c["wall_s"], c["relmse"]
+        along = "snell"
+        if t_s is None:
+            t_s, target, along = s["wall_s"], s["relmse"], "cycles"
+            t_c = time_at_error(tc, ec, target)
+        out.append({"threshold": c["threshold"], "target_relmse": target, "along": along,
+                    "snell_s": t_s, "cycles_s": t_c, "ratio": t_s / t_c,
+                    "time_ratio": s["wall_s"] / c["wall_s"],
+                    "relmse_ratio": s["relmse"] / c["relmse"],
+                    "mean_spp_ratio": s["mean_spp"] / c["mean_spp"]})
+    return out
+
+
+# The renderers of the "as users render" comparison (both adaptive at the same thresholds).
+ADAPTIVE_RENDERERS = ("snell", "cycles")
+
+
+def nearest_threshold(thresholds, wanted=0.01):
+    """The threshold nearest `wanted` in log scale (the summary's and the sample maps' point)."""
+    return min(thresholds, key=lambda t: abs(math.log(t / wanted)))
+
+
+def error_at_time(times, errs, t):
+    """The log-log curve's error at time t (linear in log-log between the points around it,
+    extended from the nearest two outside them); None without two points."""
+    pts = sorted((float(a), float(e)) for a, e in zip(times, errs) if a > 0 and e > 0)
+    if len(pts) < 2 or t <= 0:
+        return None
+    lt = math.log(t)
+    i = 1
+    while i < len(pts) - 1 and math.log(pts[i][0]) < lt:
+        i += 1
+    (t0, e0), (t1, e1) = pts[i - 1], pts[i]
+    if t1 == t0:
+        return e1
+    f = (lt - math.log(t0)) / (math.log(t1) - math.log(t0))
+    return math.exp(math.log(e0) + f * (math.log(e1) - math.log(e0)))
+
+
+def gain_at_equal_time(points, other, key) -> dict:
+    """How many times lower `key` is in `points` than in `other` at the same wall time: at each
+    of `points`, other's error at that time (log-log interpolation, extrapolated from its two
+    nearest points outside its range) over this point's. The median is over the points inside
+    other's time range, or over all of them when none is."""
+    to = [p["wall_s"] for p in other]
+    ratios = []
+    for p in points:
+        e = error_at_time(to, [q[key] for q in other], p["wall_s"])
+        if e is not None and p[key] > 0:
+            ratios.append({"wall_s": p["wall_s"], "spp": p["spp"], "ratio": e / p[key],
+                           "extrapolated": not min(to) <= p["wall_s"] <= max(to)})
+    inside = [r["ratio"] for r in ratios if not r["extrapolated"]] or [r["ratio"] for r in ratios]
+    return {"key": key, "median": float(np.median(inside)) if inside else 0.0, "points": ratios}
+
+
+# The caustic region: pixels where the light tracer's image is at least this share of the
+# reference (the light that glass and mirrors focus, which a path tracer finds by rare paths).
+CAUSTIC_SHARE = 0.1
+
+
+def light_share(light, reference) -> np.ndarray:
+    """The light tracer's image over the reference per pixel (channels summed), (H, W)."""
+    return (np.asarray(light, np.float64).sum(axis=2)
+            / np.maximum(np.asarray(reference, np.float64).sum(axis=2), 1e-6))
+
+
+def efficiency_summary(points) -> dict:
+    """relMSE x wall time per point; the median over the ladder and the value at the last point."""
+    eff = [p["relmse"] * p["wall_s"] for p in points]
+    return {"median": float(np.median(eff)), "last": float(eff[-1])}
