@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .export import _Exporter, _mesh_arrays, _to_world, rendered_instances
+from .export import rendered_instances
+from .export.depsgraph import _Exporter, _mesh_arrays, _to_world
 
 
 @dataclass

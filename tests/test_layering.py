@@ -10,7 +10,8 @@ import os
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PACKAGE = "snell"
-SUBPACKAGES = ("addon", "compare", "tracer")  # pyproject's packages, besides the root
+# pyproject's packages, besides the root, as folders (a nested package is "parent/child").
+SUBPACKAGES = ("addon", "addon/export", "compare", "tracer")
 
 
 def package_modules(root=ROOT) -> dict:
@@ -21,7 +22,7 @@ def package_modules(root=ROOT) -> dict:
         for name in sorted(os.listdir(folder)):
             if not name.endswith(".py"):
                 continue
-            parts = [PACKAGE] + ([sub] if sub else [])
+            parts = [PACKAGE] + (sub.split("/") if sub else [])
             if name != "__init__.py":
                 parts.append(name[:-3])
             modules[".".join(parts)] = os.path.join(folder, name)
@@ -129,3 +130,11 @@ def test_tracer_imports_only_the_tracer_and_never_bpy():
         assert above == [], f"{module} imports {above}"
         blender = sorted(d for d in deps if d == "bpy" or d.startswith("bpy."))
         assert blender == [], f"{module} imports {blender}"
+
+
+def test_subpackages_are_pyproject_packages():
+    # A package missing from pyproject's list is left out of the installed snell.
+    import tomllib
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
+        packages = tomllib.load(f)["tool"]["setuptools"]["packages"]
+    assert sorted(packages) == sorted([PACKAGE] + [f"{PACKAGE}.{s.replace('/', '.')}" for s in SUBPACKAGES])

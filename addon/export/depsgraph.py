@@ -14,8 +14,8 @@ import warnings as _pywarnings
 
 import numpy as np
 
-from ..tracer import scene as scene_mod
-from ..tracer.scene import Scene, SceneError
+from ...tracer import scene as scene_mod
+from ...tracer.scene import Scene, SceneError
 
 GREY = [0.8, 0.8, 0.8]
 DEFAULT_MATERIAL = {"name": "(default grey)", "kind": "diffuse", "color": GREY}
@@ -692,7 +692,7 @@ TEXCOORD_DIRECTIONS = ("Generated", "Object")     # in the world, both are the r
 def _mapping_of(node, issues):
     """(A, b) of a Mapping node, whose output is A v + b up to a positive factor (ValueError for
     a type it does not know); its linked inputs are noted in issues."""
-    from ..tracer.environment import mapping_transform
+    from ...tracer.environment import mapping_transform
     inputs = _Inputs(node, issues)
     kind = node.vector_type
     location = inputs.vector("Location") if kind in ("POINT", "TEXTURE") else [0.0, 0.0, 0.0]
@@ -753,7 +753,7 @@ def _texcoord_output(world, node, texcoord, warn):
 
 def _environment(world, texture, strength, warn, images):
     """The world dict of an Environment Texture into a Background of this strength."""
-    from .images import ImageUnreadable, read_image
+    from ..images import ImageUnreadable, read_image
     where = f"world {world.name!r}: node {texture.name!r}"
     if texture.projection != "EQUIRECTANGULAR":
         warn(f"{where}: {texture.projection.lower().replace('_', ' ')} projection is not "
@@ -891,7 +891,7 @@ class _Exporter:
         """The scene file's texture entry of an Image Texture node, its image and coordinates
         added to the scene's; None (with an issue: the input's unlinked value is used) if it
         cannot be read."""
-        from .images import ImageUnreadable, read_image
+        from ..images import ImageUnreadable, read_image
         where = f"node {node.name!r}"
         image = node.image
         if image is None:
@@ -1141,8 +1141,8 @@ def export_blend(path):
     """Open a .blend file and export its active scene: (Scene, warnings)."""
     import bpy
 
-    from .blendfile import open_blend
-    from .properties import ensure_readable
+    from ..blendfile import open_blend
+    from ..properties import ensure_readable
     ensure_readable()  # scene.snell: the render settings the add-on saved in the file
     open_blend(path)
     # Blender offers only the viewport depsgraph outside a render; the file was just opened
