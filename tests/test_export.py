@@ -11,7 +11,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from snell.addon import export  # noqa: E402
-from snell.addon.export import depsgraph  # noqa: E402
+from snell.addon.export import depsgraph, materials  # noqa: E402
 from snell.tracer import scene as scene_mod  # noqa: E402
 from snell.tracer.scene import SceneError  # noqa: E402
 
@@ -359,7 +359,7 @@ def test_every_distribution_blender_offers_is_mapped(bl):
                        "glass": {"GGX", "MULTI_GGX", "BECKMANN"},
                        "refraction": {"GGX", "BECKMANN"}, "principled": {"GGX", "MULTI_GGX"}}
     for kind, identifiers in offered.items():
-        assert {depsgraph.BLENDER_DISTRIBUTIONS[i] for i in identifiers - {"ASHIKHMIN_SHIRLEY"}} \
+        assert {materials.BLENDER_DISTRIBUTIONS[i] for i in identifiers - {"ASHIKHMIN_SHIRLEY"}} \
             == set(scene_mod.MATERIAL_DISTRIBUTIONS[kind])
     mat = common.material("Brushed", "glossy", (0.5, 0.5, 0.5), Roughness=0.3)
     bsdf(mat).distribution = "ASHIKHMIN_SHIRLEY"
@@ -377,10 +377,10 @@ def test_scene_file_defaults_are_blenders(kind):
     node = tree.nodes.new({"glossy": "ShaderNodeBsdfGlossy", "glass": "ShaderNodeBsdfGlass",
                            "refraction": "ShaderNodeBsdfRefraction",
                            "principled": "ShaderNodeBsdfPrincipled"}[kind])
-    inputs = depsgraph.PRINCIPLED_INPUTS if kind == "principled" else {"roughness": "Roughness"}
+    inputs = materials.PRINCIPLED_INPUTS if kind == "principled" else {"roughness": "Roughness"}
     for field, default in scene_mod.MATERIAL_DEFAULTS[kind].items():
         if field == "distribution":
-            assert depsgraph.BLENDER_DISTRIBUTIONS[node.distribution] == default
+            assert materials.BLENDER_DISTRIBUTIONS[node.distribution] == default
         else:
             value = node.inputs[inputs[field]].default_value
             assert np.allclose(value[:3] if isinstance(default, list) else value, default, atol=1e-6), field
@@ -396,9 +396,9 @@ def test_blenders_default_material_is_principled_with_its_defaults(bl):
     m, warnings = exported_material(bl, mat)
     assert warnings == []
     assert m["kind"] == "principled"
-    for field, socket in depsgraph.PRINCIPLED_INPUTS.items():
+    for field, socket in materials.PRINCIPLED_INPUTS.items():
         assert np.allclose(m[field], unlinked_value(node.inputs[socket])), field
-    assert m["distribution"] == depsgraph.BLENDER_DISTRIBUTIONS[node.distribution]
+    assert m["distribution"] == materials.BLENDER_DISTRIBUTIONS[node.distribution]
 
 
 PRINCIPLED_VALUES = {   # a principled material with every input away from its default
@@ -415,9 +415,9 @@ def test_principled_fields_come_from_their_inputs(bl):
     assert warnings == []
     assert m.pop("name") == "P" and m.pop("kind") == "principled" and m.pop("distribution") == "ggx"
     assert np.allclose(m.pop("color"), [0.2, 0.3, 0.4])
-    assert set(m) == set(depsgraph.PRINCIPLED_INPUTS) - {"color"}
+    assert set(m) == set(materials.PRINCIPLED_INPUTS) - {"color"}
     for field, value in m.items():
-        given = PRINCIPLED_VALUES[depsgraph.PRINCIPLED_INPUTS[field]]
+        given = PRINCIPLED_VALUES[materials.PRINCIPLED_INPUTS[field]]
         assert np.allclose(value, given[:3] if isinstance(given, tuple) else given), field
 
 
