@@ -11,7 +11,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from snell.addon import export  # noqa: E402
-from snell.addon.export import depsgraph, materials  # noqa: E402
+from snell.addon.export import depsgraph, materials, meshes  # noqa: E402
 from snell.tracer import scene as scene_mod  # noqa: E402
 from snell.tracer.scene import SceneError  # noqa: E402
 
@@ -128,8 +128,8 @@ def test_linked_duplicates_each_with_its_own_matrix(bl):
 
 def test_instancing_converts_each_mesh_once(bl, monkeypatch):
     calls = []
-    original = depsgraph._mesh_arrays
-    monkeypatch.setattr(depsgraph, "_mesh_arrays", lambda obj, *a: calls.append(obj.name) or original(obj, *a))
+    original = depsgraph.mesh_arrays
+    monkeypatch.setattr(depsgraph, "mesh_arrays", lambda obj, *a: calls.append(obj.name) or original(obj, *a))
     a = cube("A", location=(-3.0, 0.0, 0.0))
     b = a.copy()
     b.name = "B"
@@ -187,7 +187,7 @@ def test_split_vertices_one_vertex_per_distinct_normal():
     # Vertex 60 carries 20 distinct normals: more than the rounds, so the sort finishes it.
     verts[:40] = 60
     normals[:40] = np.repeat(rng.normal(size=(20, 3)).astype(np.float32), 2, axis=0)
-    slot = depsgraph._split_vertices(verts, normals, 70)
+    slot = meshes._split_vertices(verts, normals, 70)
     keys = np.empty(len(verts), [("v", np.int32), ("n", np.uint32, 3)])
     keys["v"], keys["n"] = verts, normals.view(np.uint32)
     _, inverse = np.unique(keys.view(np.dtype((np.void, 16))), return_inverse=True)
@@ -195,7 +195,7 @@ def test_split_vertices_one_vertex_per_distinct_normal():
     # Same partition of the corners: slot and inverse determine each other.
     assert len(np.unique(slot)) == len(np.unique(inverse))
     assert len(np.unique(np.stack([slot, inverse]), axis=1).T) == len(np.unique(inverse))
-    triangles, first = depsgraph._compact(slot, np.arange(2000).reshape(-1, 2))
+    triangles, first = meshes._compact(slot, np.arange(2000).reshape(-1, 2))
     assert np.array_equal(triangles.ravel(), np.unique(slot, return_inverse=True)[1].reshape(-1))
     assert np.array_equal(slot[first], np.unique(slot))
 
@@ -209,7 +209,7 @@ def test_split_vertices_one_vertex_per_distinct_normal():
     (np.zeros((0, 3), int), False),
 ])
 def test_is_closed(tris, closed):
-    assert depsgraph._is_closed(np.array(tris, np.int32).reshape(-1, 3), 5) is closed
+    assert meshes._is_closed(np.array(tris, np.int32).reshape(-1, 3), 5) is closed
 
 
 def test_material_slots_per_triangle(bl):
