@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+
 def _read(collection, prop, count, dtype):
     """collection.foreach_get(prop) into a new flat array of count values."""
     out = np.empty(count, dtype)
