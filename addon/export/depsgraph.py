@@ -17,9 +17,10 @@ from ...tracer import scene as scene_mod
 from ...tracer.scene import Scene, SceneError
 from .camera import convert_camera
 from .lights import convert_light
-from .materials import Inputs, active_output, convert_material, follow, linked_socket
+from .materials import Inputs, active_output, convert_material, follow
 from .meshes import mesh_arrays, to_world
 from .settings import convert_render
+from .textures import ImageTextures, mapping_of, uses_image_textures
 
 
 # ---------------------------------------------------------------------------------------------
@@ -65,16 +66,6 @@ MISSING_IMAGE = [1.0, 0.0, 1.0]
 TEXCOORD_DIRECTIONS = ("Generated", "Object")     # in the world, both are the ray direction
 
 
-def _mapping_of(node, issues):
-    """(A, b) of a Mapping node, whose output is A v + b up to a positive factor (ValueError for
-    a type it does not know); its linked inputs are noted in issues."""
-    from ...tracer.environment import mapping_transform
-    inputs = Inputs(node, issues)
-    kind = node.vector_type
-    location = inputs.vector("Location") if kind in ("POINT", "TEXTURE") else [0.0, 0.0, 0.0]
-    return mapping_transform(kind, location, inputs.vector("Rotation"), inputs.vector("Scale"))
-
-
 def _environment_mapping(world, texture, warn):
     """(A, b): the Environment Texture's coordinate is A d + b for direction d (a Mapping node
     on its Vector input, or none)."""
@@ -95,7 +86,7 @@ def _environment_mapping(world, texture, warn):
         return np.eye(3), np.zeros(3)
     issues = []
     try:
-        a, b = _mapping_of(source, issues)
+        a, b = mapping_of(source, issues)
     except ValueError:
         a = None
     for issue in issues:
@@ -129,7 +120,7 @@ def _texcoord_output(world, node, texcoord, warn):
 
 def _environment(world, texture, strength, warn, images):
     """The world dict of an Environment Texture into a Background of this strength."""
-    from ..images import ImageUnreadable, read_image
+    from .images import ImageUnreadable, read_image
     where = f"world {world.name!r}: node {texture.name!r}"
     if texture.projection != "EQUIRECTANGULAR":
         warn(f"{where}: {texture.projection.lower().replace('_', ' ')} projection is not "
@@ -162,13 +153,6 @@ def _environment(world, texture, strength, warn, images):
 # The depsgraph walk
 
 
-def _uses_image_textures():
-    """Whether any material has an Image Texture node (then meshes keep their UV maps)."""
-    import bpy
-    return any(node.bl_idname == "ShaderNodeTexImage" for mat in bpy.data.materials
-               if mat.node_tree is not None for node in mat.node_tree.nodes)
-
-
 def _hidden_from_render(obj):
     """A viewport depsgraph still holds objects hidden from render; a render one does not."""
     orig = obj.original
@@ -190,9 +174,8 @@ class _Exporter:
         self.objects = []
         self.lights = []
         self.images = []  # the scene's images: {"name", "source", "pixels"}
-        self.image_index = {}  # bpy image pointer -> index in self.images (textures)
-        self.texcoord_keys = []  # (kind, UV map name) of the textures' coordinates
-        self.want_texcoords = _uses_image_textures()
+        self.textures = ImageTextures(self.images)
+        self.want_texcoords = uses_image_textures()
         self._hidden = {}  # original object pointer -> hidden from render
 
     def warn(self, message):
@@ -215,7 +198,7 @@ class _Exporter:
             if nodes:
                 textures = {}
                 for field, node in nodes.items():
-                    spec = self.texture(node, issues)
+                    spec = self.textures.convert(node, issues)
                     if spec is not None:
                         textures[field] = spec
                 if textures:
@@ -228,71 +211,10 @@ class _Exporter:
             self.warn(f"object {obj_name!r}, material {mat_name!r}: {issue}")
         return index
 
-    def texture(self, node, issues):
-        """The scene file's texture entry of an Image Texture node, its image and coordinates
-        added to the scene's; None (with an issue: the input's unlinked value is used) if it
-        cannot be read."""
-        from ..images import ImageUnreadable, read_image
-        where = f"node {node.name!r}"
-        image = node.image
-        if image is None:
-            issues.append(f"{where}: no image: using the input's unlinked value")
-            return None
-        key = image.original.as_pointer() if hasattr(image, "original") else image.as_pointer()
-        if key not in self.image_index:
-            notes = []
-            try:
-                pixels, source, colorspace = read_image(image, notes.append, decode=False)
-            except ImageUnreadable as exc:
-                issues.append(f"{where}: image {image.name!r} {exc}: using the input's unlinked "
-                              f"value")
-                return None
-            for note in notes:
-                issues.append(f"{where}: image {image.name!r}: {note}")
-            self.images.append({"name": image.name, "source": source, "colorspace": colorspace,
-                                "pixels": pixels})
-            self.image_index[key] = len(self.images) - 1
-        interpolation = node.interpolation.lower()
-        if interpolation not in ("linear", "closest"):
-            issues.append(f"{where}: {node.interpolation} interpolation is not supported: using "
-                          f"Linear")
-            interpolation = "linear"
-        if node.projection != "FLAT":
-            issues.append(f"{where}: {node.projection.lower()} projection is not supported: "
-                          f"using Flat")
-        matrix, offset = np.eye(3), np.zeros(3)
-        source_node = follow(node.inputs["Vector"])
-        socket = node.inputs["Vector"]
-        if source_node is not None and source_node.bl_idname == "ShaderNodeMapping":
-            matrix, offset = _mapping_of(source_node, issues)
-            socket = source_node.inputs["Vector"]
-            source_node = follow(socket)
-        coord = ("uv", "")
-        if source_node is None:
-            pass
-        elif source_node.bl_idname == "ShaderNodeUVMap":
-            coord = ("uv", source_node.uv_map)
-        elif source_node.bl_idname == "ShaderNodeTexCoord":
-            output = linked_socket(socket).name
-            if output == "Generated":
-                coord = ("generated", "")
-            elif output != "UV":
-                issues.append(f"{where}: texture coordinate {output!r} is not supported: using "
-                              f"the active UV map")
-        else:
-            issues.append(f"{where}: its Vector is linked to {source_node.name!r}, which Snell "
-                          f"cannot evaluate: using the active UV map")
-        if coord not in self.texcoord_keys:
-            self.texcoord_keys.append(coord)
-        return {"image": self.image_index[key], "texcoord": self.texcoord_keys.index(coord),
-                "interpolation": interpolation, "extension": node.extension.lower(),
-                "matrix": np.asarray(matrix, np.float64).tolist(),
-                "offset": np.asarray(offset, np.float64).tolist()}
-
     def texcoords(self):
         """The scene's texture coordinate entries: each key's coordinates over every part."""
         out = []
-        for kind, name in self.texcoord_keys:
+        for kind, name in self.textures.texcoord_keys:
             parts = []
             for mesh, matrix, _, _ in self.parts:
                 coords = mesh.texcoord(kind, name)
