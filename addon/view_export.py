@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .export import rendered_instances
-from .export.depsgraph import _Exporter
+from .export.depsgraph import Exporter
 from .export.meshes import mesh_arrays, to_world
 
 
@@ -35,7 +35,7 @@ class Content:
         return scene
 
 
-class _CachedExporter(_Exporter):
+class _CachedExporter(Exporter):
     """The exporter with its meshes and world-space arrays taken from a LiveExport."""
 
     def __init__(self, depsgraph, live):

@@ -137,4 +137,13 @@ def test_subpackages_are_pyproject_packages():
     import tomllib
     with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
         packages = tomllib.load(f)["tool"]["setuptools"]["packages"]
-    assert sorted(packages) == sorted([PACKAGE] + [f"{PACKAGE}.{s.replace('/', '.')}" for s in SUBPACKAGES])
+    listed = [PACKAGE] + [f"{PACKAGE}.{sub.replace('/', '.')}" for sub in SUBPACKAGES]
+    assert sorted(packages) == sorted(listed)
+
+
+def test_export_datablock_modules_do_not_import_the_walk():
+    # addon/export: the walk (depsgraph.py) calls the modules of the datablocks, never the reverse.
+    walk = "snell.addon.export.depsgraph"
+    importers = sorted(m for m, deps in import_graph().items()
+                       if m.startswith("snell.addon.export.") and walk in deps)
+    assert importers == []

@@ -1,10 +1,9 @@
-"""Convert a Blender depsgraph into a Snell Scene (docs/scene-format.md).
+"""The depsgraph walk: Exporter visits a depsgraph's rendered instances and assembles the Scene.
 
-Everything goes through the evaluated depsgraph, so modifiers, instances and world matrices are
-the ones Cycles sees. Mesh arrays are read with foreach_get into NumPy; each distinct evaluated
-mesh is converted once, and at the end transformed for all its instances in one batch. Whatever
-Snell cannot render exactly is rendered with a stated fallback and reported in the returned
-warnings.
+Each instance goes to its datablock's module (lights.py, meshes.py, materials.py and
+textures.py); the camera, world and render settings are converted once. Each distinct evaluated
+mesh is converted once, and at the end transformed for all its instances in one batch.
+export_depsgraph is the entry point; export_blend and export_to_file open a .blend file first.
 """
 from __future__ import annotations
 
@@ -32,7 +31,9 @@ def _hidden_from_render(obj):
     return bool(colls) and all(c.hide_render for c in colls)
 
 
-class _Exporter:
+class Exporter:
+    """One export: the scene's materials, meshes, lights and images as instances are added."""
+
     def __init__(self, depsgraph):
         self.depsgraph = depsgraph
         self.warnings = []
@@ -49,6 +50,7 @@ class _Exporter:
         self._hidden = {}  # original object pointer -> hidden from render
 
     def warn(self, message):
+        """Add a warning, unless it was given already."""
         if message not in self._warned:
             self._warned.add(message)
             self.warnings.append(message)
@@ -61,6 +63,8 @@ class _Exporter:
         return self._hidden[key]
 
     def material_id(self, mat, obj_name):
+        """The scene's index of a Blender material (None: the default), converted on first use;
+        its issues are warned for the object."""
         key = mat.original if mat is not None else None
         if key not in self.material_ids:
             converted, issues = convert_material(mat)
@@ -168,6 +172,7 @@ class _Exporter:
         return positions, normals, triangles
 
     def scene(self, bl_scene, camera, source):
+        """The Scene of the instances added, with this camera and the scene's world and settings."""
         positions, normals, triangles = self.geometry()
         n_tris = [len(p[0].triangles) for p in self.parts]
         material_ids = (np.concatenate([p[2] for p in self.parts]) if self.parts
@@ -196,7 +201,6 @@ def _det3(m):
     return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
 
 
-
 # Notes whose cause Cycles renders the same way: a zero-area triangle covers no pixel in either
 # renderer, a zero-scale object none, and glass on an open mesh refracts at the same surfaces.
 DROPPED_TRIANGLES = "zero-area triangle(s)"
@@ -215,7 +219,7 @@ def export_depsgraph(depsgraph, *, source=""):
     """Convert an evaluated depsgraph into (Scene, warnings)."""
     bl_scene = depsgraph.scene
     camera = convert_camera(bl_scene, depsgraph)
-    ex = _Exporter(depsgraph)
+    ex = Exporter(depsgraph)
     for inst in rendered_instances(depsgraph, ex):
         ex.add_instance(inst)
     scene = ex.scene(bl_scene, camera, source)
