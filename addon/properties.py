@@ -1,8 +1,9 @@
 """Snell's render settings, stored on every scene as `scene.snell`.
 
 The viewport (addon/viewport.py) reads viewport_spp and viewport_time_limit.
-addon/export.py reads spp, max_depth, seed, fresnel, caustics, light_vertices and the adaptive
-sampling settings from here into the scene file; threads is used by the render engine only.
+addon/export/settings.py reads spp, max_depth, seed, fresnel, caustics, light_vertices and the
+adaptive sampling settings from here into the scene file; threads is used by the render engine
+only.
 """
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty

@@ -15,7 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .export import _Exporter, _mesh_arrays, _to_world, rendered_instances
+from .export import rendered_instances
+from .export.depsgraph import Exporter
+from .export.meshes import mesh_arrays, to_world
 
 
 @dataclass
@@ -33,7 +35,7 @@ class Content:
         return scene
 
 
-class _CachedExporter(_Exporter):
+class _CachedExporter(Exporter):
     """The exporter with its meshes and world-space arrays taken from a LiveExport."""
 
     def __init__(self, depsgraph, live):
@@ -49,7 +51,7 @@ class _CachedExporter(_Exporter):
         # A mesh cached before any material had an image texture has no texture coordinates.
         if name not in self.live.meshes or (self.want_texcoords and cached is not None
                                             and cached.coords is None):
-            self.live.meshes[name] = _mesh_arrays(inst.object, self.want_texcoords)
+            self.live.meshes[name] = mesh_arrays(inst.object, self.want_texcoords)
             self.live.extracted.append(name)
         return self.live.meshes[name]
 
@@ -67,9 +69,9 @@ class LiveExport:
     """The scene as the viewport last exported it, and the per-object arrays behind it."""
 
     def __init__(self):
-        self.meshes = {}        # object name -> its local-space _Mesh (None: no mesh)
-        self.world = {}         # part name -> (_Mesh, matrix bytes, positions, normals, triangles)
-        self.parts_key = None   # the (name, _Mesh, matrix bytes) of each part, in order
+        self.meshes = {}        # object name -> its local-space Mesh (None: no mesh)
+        self.world = {}         # part name -> (Mesh, matrix bytes, positions, normals, triangles)
+        self.parts_key = None   # the (name, Mesh, matrix bytes) of each part, in order
         self.arrays = None      # (positions, normals, triangles) of the last assembly
         self.geometry_version = 0
         self.content = None
@@ -102,7 +104,7 @@ class LiveExport:
             m = matrix.tobytes()
             cached = self.world.get(name)
             if cached is None or cached[0] is not mesh or cached[1] != m:
-                p, n, t = _to_world(mesh, matrix[None])
+                p, n, t = to_world(mesh, matrix[None])
                 cached = self.world[name] = (mesh, m, p[0], n[0], t[0])
                 self.transformed.append(name)
             key.append((name, mesh, m))

@@ -46,7 +46,9 @@ def _before(owner, name, marker):
 def install(stage, marker):
     if stage == "export":
         from snell.addon import export
-        _before(export, "export_depsgraph", marker)
+        from snell.addon.export import depsgraph
+        _before(depsgraph, "export_depsgraph", marker)           # what export_blend calls
+        export.export_depsgraph = depsgraph.export_depsgraph     # what the engine imports
     elif stage == "build":
         from snell.tracer import integrator
         _before(integrator, "Geometry", marker)

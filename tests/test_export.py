@@ -11,6 +11,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from snell.addon import export  # noqa: E402
+from snell.addon.export import depsgraph, materials, meshes  # noqa: E402
 from snell.tracer import scene as scene_mod  # noqa: E402
 from snell.tracer.scene import SceneError  # noqa: E402
 
@@ -127,8 +128,8 @@ def test_linked_duplicates_each_with_its_own_matrix(bl):
 
 def test_instancing_converts_each_mesh_once(bl, monkeypatch):
     calls = []
-    original = export._mesh_arrays
-    monkeypatch.setattr(export, "_mesh_arrays", lambda obj, *a: calls.append(obj.name) or original(obj, *a))
+    original = depsgraph.mesh_arrays
+    monkeypatch.setattr(depsgraph, "mesh_arrays", lambda obj, *a: calls.append(obj.name) or original(obj, *a))
     a = cube("A", location=(-3.0, 0.0, 0.0))
     b = a.copy()
     b.name = "B"
@@ -186,7 +187,7 @@ def test_split_vertices_one_vertex_per_distinct_normal():
     # Vertex 60 carries 20 distinct normals: more than the rounds, so the sort finishes it.
     verts[:40] = 60
     normals[:40] = np.repeat(rng.normal(size=(20, 3)).astype(np.float32), 2, axis=0)
-    slot = export._split_vertices(verts, normals, 70)
+    slot = meshes._split_vertices(verts, normals, 70)
     keys = np.empty(len(verts), [("v", np.int32), ("n", np.uint32, 3)])
     keys["v"], keys["n"] = verts, normals.view(np.uint32)
     _, inverse = np.unique(keys.view(np.dtype((np.void, 16))), return_inverse=True)
@@ -194,7 +195,7 @@ def test_split_vertices_one_vertex_per_distinct_normal():
     # Same partition of the corners: slot and inverse determine each other.
     assert len(np.unique(slot)) == len(np.unique(inverse))
     assert len(np.unique(np.stack([slot, inverse]), axis=1).T) == len(np.unique(inverse))
-    triangles, first = export._compact(slot, np.arange(2000).reshape(-1, 2))
+    triangles, first = meshes._compact(slot, np.arange(2000).reshape(-1, 2))
     assert np.array_equal(triangles.ravel(), np.unique(slot, return_inverse=True)[1].reshape(-1))
     assert np.array_equal(slot[first], np.unique(slot))
 
@@ -208,7 +209,7 @@ def test_split_vertices_one_vertex_per_distinct_normal():
     (np.zeros((0, 3), int), False),
 ])
 def test_is_closed(tris, closed):
-    assert export._is_closed(np.array(tris, np.int32).reshape(-1, 3), 5) is closed
+    assert meshes._is_closed(np.array(tris, np.int32).reshape(-1, 3), 5) is closed
 
 
 def test_material_slots_per_triangle(bl):
@@ -358,7 +359,7 @@ def test_every_distribution_blender_offers_is_mapped(bl):
                        "glass": {"GGX", "MULTI_GGX", "BECKMANN"},
                        "refraction": {"GGX", "BECKMANN"}, "principled": {"GGX", "MULTI_GGX"}}
     for kind, identifiers in offered.items():
-        assert {export.BLENDER_DISTRIBUTIONS[i] for i in identifiers - {"ASHIKHMIN_SHIRLEY"}} \
+        assert {materials.BLENDER_DISTRIBUTIONS[i] for i in identifiers - {"ASHIKHMIN_SHIRLEY"}} \
             == set(scene_mod.MATERIAL_DISTRIBUTIONS[kind])
     mat = common.material("Brushed", "glossy", (0.5, 0.5, 0.5), Roughness=0.3)
     bsdf(mat).distribution = "ASHIKHMIN_SHIRLEY"
@@ -376,10 +377,10 @@ def test_scene_file_defaults_are_blenders(kind):
     node = tree.nodes.new({"glossy": "ShaderNodeBsdfGlossy", "glass": "ShaderNodeBsdfGlass",
                            "refraction": "ShaderNodeBsdfRefraction",
                            "principled": "ShaderNodeBsdfPrincipled"}[kind])
-    inputs = export.PRINCIPLED_INPUTS if kind == "principled" else {"roughness": "Roughness"}
+    inputs = materials.PRINCIPLED_INPUTS if kind == "principled" else {"roughness": "Roughness"}
     for field, default in scene_mod.MATERIAL_DEFAULTS[kind].items():
         if field == "distribution":
-            assert export.BLENDER_DISTRIBUTIONS[node.distribution] == default
+            assert materials.BLENDER_DISTRIBUTIONS[node.distribution] == default
         else:
             value = node.inputs[inputs[field]].default_value
             assert np.allclose(value[:3] if isinstance(default, list) else value, default, atol=1e-6), field
@@ -395,9 +396,9 @@ def test_blenders_default_material_is_principled_with_its_defaults(bl):
     m, warnings = exported_material(bl, mat)
     assert warnings == []
     assert m["kind"] == "principled"
-    for field, socket in export.PRINCIPLED_INPUTS.items():
+    for field, socket in materials.PRINCIPLED_INPUTS.items():
         assert np.allclose(m[field], unlinked_value(node.inputs[socket])), field
-    assert m["distribution"] == export.BLENDER_DISTRIBUTIONS[node.distribution]
+    assert m["distribution"] == materials.BLENDER_DISTRIBUTIONS[node.distribution]
 
 
 PRINCIPLED_VALUES = {   # a principled material with every input away from its default
@@ -414,9 +415,9 @@ def test_principled_fields_come_from_their_inputs(bl):
     assert warnings == []
     assert m.pop("name") == "P" and m.pop("kind") == "principled" and m.pop("distribution") == "ggx"
     assert np.allclose(m.pop("color"), [0.2, 0.3, 0.4])
-    assert set(m) == set(export.PRINCIPLED_INPUTS) - {"color"}
+    assert set(m) == set(materials.PRINCIPLED_INPUTS) - {"color"}
     for field, value in m.items():
-        given = PRINCIPLED_VALUES[export.PRINCIPLED_INPUTS[field]]
+        given = PRINCIPLED_VALUES[materials.PRINCIPLED_INPUTS[field]]
         assert np.allclose(value, given[:3] if isinstance(given, tuple) else given), field
 
 

@@ -223,3 +223,11 @@ def test_pages_and_stress_never_import_bpy():
         if package_of(module) in ("snell.pages", "snell.stress"):
             blender = sorted(d for d in deps if d == "bpy" or d.startswith("bpy."))
             assert blender == [], f"{module} imports {blender}"
+
+
+def test_export_datablock_modules_do_not_import_the_walk():
+    # addon/export: the walk (depsgraph.py) calls the modules of the datablocks, never the reverse.
+    walk = "snell.addon.export.depsgraph"
+    importers = sorted(m for m, deps in import_graph().items()
+                       if m.startswith("snell.addon.export.") and walk in deps)
+    assert importers == []

@@ -27,7 +27,7 @@ class ImageUnreadable(ValueError):
 
 def srgb_to_linear(v: np.ndarray) -> np.ndarray:
     """The exact piecewise sRGB decoding of float32 pixels (the tracer's, textures.py)."""
-    from ..tracer.textures import srgb_to_linear_array
+    from ...tracer.textures import srgb_to_linear_array
     v = np.ascontiguousarray(v, np.float32)
     out = np.empty_like(v)
     srgb_to_linear_array(v.reshape(-1), out.reshape(-1))

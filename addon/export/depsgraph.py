@@ -1,0 +1,288 @@
+"""The depsgraph walk: Exporter visits a depsgraph's rendered instances and assembles the Scene.
+
+Each instance goes to its datablock's module (lights.py, meshes.py, materials.py and
+textures.py); the camera, world and render settings are converted once. Each distinct evaluated
+mesh is converted once, and at the end transformed for all its instances in one batch.
+export_depsgraph is the entry point; export_blend and export_to_file open a .blend file first.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ...tracer import scene as scene_mod
+from ...tracer.scene import Scene, SceneError
+from .camera import convert_camera
+from .lights import convert_light
+from .materials import convert_material
+from .meshes import mesh_arrays, to_world
+from .settings import convert_render
+from .textures import ImageTextures, uses_image_textures
+from .world import convert_world
+
+
+def _hidden_from_render(obj):
+    """A viewport depsgraph still holds objects hidden from render; a render one does not."""
+    orig = obj.original
+    if orig.hide_render:
+        return True
+    colls = orig.users_collection
+    return bool(colls) and all(c.hide_render for c in colls)
+
+
+class Exporter:
+    """One export: the scene's materials, meshes, lights and images as instances are added."""
+
+    def __init__(self, depsgraph):
+        self.depsgraph = depsgraph
+        self.warnings = []
+        self._warned = set()
+        self.materials = []
+        self.material_ids = {}  # Blender material (or None) -> index
+        self.meshes = {}  # evaluated geometry pointer -> Mesh
+        self.parts = []  # (Mesh, world matrix, material ids per triangle, object id)
+        self.objects = []
+        self.lights = []
+        self.images = []  # the scene's images: {"name", "source", "pixels"}
+        self.textures = ImageTextures(self.images)
+        self.want_texcoords = uses_image_textures()
+        self._hidden = {}  # original object pointer -> hidden from render
+
+    def warn(self, message):
+        """Add a warning, unless it was given already."""
+        if message not in self._warned:
+            self._warned.add(message)
+            self.warnings.append(message)
+
+    def hidden_from_render(self, obj):
+        """_hidden_from_render, once per object (all the instances of one instancer ask)."""
+        key = obj.original.as_pointer()
+        if key not in self._hidden:
+            self._hidden[key] = _hidden_from_render(obj)
+        return self._hidden[key]
+
+    def material_id(self, mat, obj_name):
+        """The scene's index of a Blender material (None: the default), converted on first use;
+        its issues are warned for the object."""
+        key = mat.original if mat is not None else None
+        if key not in self.material_ids:
+            converted, issues = convert_material(mat)
+            nodes = converted.pop("_textures", None)
+            if nodes:
+                textures = {}
+                for field, node in nodes.items():
+                    spec = self.textures.convert(node, issues)
+                    if spec is not None:
+                        textures[field] = spec
+                if textures:
+                    converted["textures"] = textures
+            self.material_ids[key] = (len(self.materials), issues)
+            self.materials.append(converted)
+        index, issues = self.material_ids[key]
+        mat_name = mat.name if mat is not None else "(none)"
+        for issue in issues:
+            self.warn(f"object {obj_name!r}, material {mat_name!r}: {issue}")
+        return index
+
+    def texcoords(self):
+        """The scene's texture coordinate entries: each key's coordinates over every part."""
+        out = []
+        for kind, name in self.textures.texcoord_keys:
+            parts = []
+            for mesh, matrix, _, _ in self.parts:
+                coords = mesh.texcoord(kind, name)
+                if _det3(matrix) < 0:        # to_world swaps two corners of mirrored parts
+                    coords = coords[:, [0, 2, 1]]
+                parts.append(coords)
+            coords = np.concatenate(parts) if parts else np.zeros((0, 3, 3), np.float32)
+            out.append({"kind": kind, "name": name,
+                        "coords": np.ascontiguousarray(coords, np.float32)})
+        return out
+
+    def add_instance(self, inst):
+        """Record one depsgraph instance; the geometry is transformed later, per mesh (scene())."""
+        obj = inst.object
+        name = f"{inst.parent.name}/{obj.name}" if inst.is_instance and inst.parent else obj.name
+        matrix = np.array(inst.matrix_world, np.float64)
+        if not np.isfinite(matrix).all():
+            raise SceneError(f"object {name!r}: world matrix contains NaN or Inf")
+        if obj.type == "LIGHT":
+            light = convert_light(obj, matrix, self.warn)
+            if light is not None:
+                light["name"] = name
+                self.lights.append(light)
+            return
+        # Curves, surfaces, metaballs and text reach the depsgraph twice: as themselves and as
+        # the mesh instance their evaluation makes. Cycles renders the mesh; so does Snell.
+        if obj.type != "MESH":
+            return
+        mesh = self.mesh_of(inst)
+        if mesh is None:
+            return
+        if mesh.dropped:
+            self.warn(f"object {name!r}: dropped {mesh.dropped} {DROPPED_TRIANGLES}")
+        if len(mesh.triangles) == 0:
+            return
+        if abs(_det3(matrix)) < 1e-30:
+            self.warn(f"object {name!r}: {ZERO_SCALE}")
+            return
+        slots = [s.material for s in obj.material_slots] or [None]
+        mat_ids, used = mesh.material_ids(tuple(self.material_id(m, name) for m in slots))
+        object_id = len(self.objects)
+        self.objects.append({"name": name, "closed": mesh.closed})
+        if not mesh.closed:
+            for i in used:
+                mat = self.materials[i]
+                if scene_mod.refracts(mat):
+                    self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} {OPEN_MESH}")
+        self.parts.append((mesh, matrix, mat_ids, object_id))
+
+    def mesh_of(self, inst):
+        """The local-space Mesh of an instance's evaluated object (None if it has no mesh)."""
+        obj = inst.object
+        # Objects sharing evaluated geometry (linked duplicates, instances) share one conversion;
+        # with modifiers each object's evaluated data is its own.
+        key = (obj.type == "MESH" and obj.data.as_pointer()) or ("object", obj.as_pointer())
+        if key not in self.meshes:
+            self.meshes[key] = mesh_arrays(obj, self.want_texcoords)
+        return self.meshes[key]
+
+    def geometry(self):
+        """World positions, normals (float32) and triangles of all parts, in the parts' order."""
+        n_verts = np.array([len(p[0].positions) for p in self.parts], np.int64)
+        n_tris = np.array([len(p[0].triangles) for p in self.parts], np.int64)
+        v_start = np.cumsum(n_verts) - n_verts
+        t_start = np.cumsum(n_tris) - n_tris
+        positions = np.empty((n_verts.sum(), 3), np.float32)
+        normals = np.empty((n_verts.sum(), 3), np.float32)
+        triangles = np.empty((n_tris.sum(), 3), np.int32)
+        by_mesh = {}
+        for i, part in enumerate(self.parts):
+            by_mesh.setdefault(id(part[0]), []).append(i)
+        # All instances of one mesh in one batch: one NumPy call each, not one per instance.
+        for parts in by_mesh.values():
+            mesh, parts = self.parts[parts[0]][0], np.array(parts)
+            p, n, t = to_world(mesh, np.stack([self.parts[i][1] for i in parts]))
+            rows = _rows(v_start[parts], len(mesh.positions))
+            positions[rows] = p.reshape(-1, 3)
+            normals[rows] = n.reshape(-1, 3)
+            t += v_start[parts, None, None].astype(np.int32)
+            triangles[_rows(t_start[parts], len(mesh.triangles))] = t.reshape(-1, 3)
+        return positions, normals, triangles
+
+    def scene(self, bl_scene, camera, source):
+        """The Scene of the instances added, with this camera and the scene's world and settings."""
+        positions, normals, triangles = self.geometry()
+        n_tris = [len(p[0].triangles) for p in self.parts]
+        material_ids = (np.concatenate([p[2] for p in self.parts]) if self.parts
+                        else np.zeros(0, np.int32))
+        return Scene(
+            positions=positions, normals=normals, triangles=triangles,
+            material_ids=material_ids.astype(np.int32),
+            object_ids=np.repeat(np.array([p[3] for p in self.parts], np.int32), n_tris),
+            materials=self.materials, lights=self.lights, camera=camera,
+            world=convert_world(bl_scene.world, self.warn, self.images),
+            render=convert_render(bl_scene), objects=self.objects, source=source,
+            images=self.images, texcoords=self.texcoords())
+
+
+def _rows(starts, length):
+    """Indices of the blocks of length rows at starts: a slice when they follow each other."""
+    # Instances from one instancer come in a row: slice assignment is several times faster.
+    if np.all(np.diff(starts) == length):
+        return slice(starts[0], starts[0] + len(starts) * length)
+    return (starts[:, None] + np.arange(length)).reshape(-1)
+
+
+def _det3(m):
+    """Determinant of the upper-left 3x3 block, in plain Python (np.linalg.det: 10 us a call)."""
+    (a, b, c), (d, e, f), (g, h, i) = m[:3, :3].tolist()
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+
+
+# Notes whose cause Cycles renders the same way: a zero-area triangle covers no pixel in either
+# renderer, a zero-scale object none, and glass on an open mesh refracts at the same surfaces.
+DROPPED_TRIANGLES = "zero-area triangle(s)"
+ZERO_SCALE = "singular world matrix (zero scale), skipped"
+OPEN_MESH = "on a mesh that is not closed (its edges are not all shared by two triangles)"
+SAME_IN_CYCLES = (DROPPED_TRIANGLES, ZERO_SCALE, OPEN_MESH)
+
+
+def differs_from_cycles(warning: str) -> bool:
+    """Whether an exporter warning means Snell renders something Cycles renders differently
+    (the validator's "not comparable"); the notes in SAME_IN_CYCLES do not."""
+    return not any(warning.endswith(note) for note in SAME_IN_CYCLES)
+
+
+def export_depsgraph(depsgraph, *, source=""):
+    """Convert an evaluated depsgraph into (Scene, warnings)."""
+    bl_scene = depsgraph.scene
+    camera = convert_camera(bl_scene, depsgraph)
+    ex = Exporter(depsgraph)
+    for inst in rendered_instances(depsgraph, ex):
+        ex.add_instance(inst)
+    scene = ex.scene(bl_scene, camera, source)
+    scene_mod.validate(scene)
+    return scene, ex.warnings
+
+
+def rendered_instances(depsgraph, ex):
+    """The depsgraph's instances a render shows (a viewport depsgraph also holds hidden ones)."""
+    check_hidden = depsgraph.mode != "RENDER"
+    for inst in depsgraph.object_instances:
+        obj = inst.object
+        if check_hidden:
+            # An instanced collection renders even when the source collection is hidden.
+            if inst.is_instance:
+                hidden = obj.original.hide_render or (
+                    inst.parent is not None and ex.hidden_from_render(inst.parent))
+            else:
+                hidden = ex.hidden_from_render(obj)
+            if hidden:
+                continue
+        if not inst.is_instance and obj.is_instancer and not obj.show_instancer_for_render:
+            continue
+        yield inst
+
+
+def _prefer_render_settings():
+    """Make the viewport depsgraph evaluate what a render would: render visibility and levels."""
+    import bpy
+    # Only un-hide: things hidden from render stay evaluated (a focus empty, an instance source)
+    # and are skipped by export_depsgraph.
+    for coll in bpy.data.collections:
+        if not coll.hide_render:
+            coll.hide_viewport = False
+    for obj in bpy.data.objects:
+        if not obj.hide_render:
+            obj.hide_viewport = False
+        for mod in obj.modifiers:
+            mod.show_viewport = mod.show_render
+            if hasattr(mod, "render_levels") and hasattr(mod, "levels"):
+                mod.levels = mod.render_levels
+
+
+def export_blend(path):
+    """Open a .blend file and export its active scene: (Scene, warnings)."""
+    import bpy
+
+    from ..blendfile import open_blend
+    from ..properties import ensure_readable
+    ensure_readable()  # scene.snell: the render settings the add-on saved in the file
+    open_blend(path)
+    # Blender offers only the viewport depsgraph outside a render; the file was just opened
+    # and is never saved, so switching it to render visibility and levels is harmless.
+    _prefer_render_settings()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    try:
+        return export_depsgraph(depsgraph, source=os.path.basename(path))
+    except SceneError as exc:  # name the file too: the message names the object or field
+        raise SceneError(f"{path}: {exc}") from None
+
+
+def export_to_file(blend_path, out_path):
+    """Export a .blend file to a .snell scene file; returns the warnings."""
+    scene, warnings = export_blend(blend_path)
+    scene_mod.save(scene, out_path)
+    return warnings
