@@ -263,7 +263,7 @@ def coplanar_emitters_case():
                 "rays pass between or through coincident faces, or add both", EXACT, 1.0, run, True)
 
 
-# addon/export.py's warning for such a mesh, word for word:
+# addon/export/depsgraph.py's warning for such a mesh, word for word:
 OPEN_MESH_WARNING = ("exporter warning: object '...': glass material '...' on a mesh that is not "
                      "closed (its edges are not all shared by two triangles)")
 

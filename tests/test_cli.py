@@ -402,3 +402,14 @@ def test_ctrl_c_during_a_real_render(scene_file, tmp_path):
     assert proc.returncode == 130, err
     assert err == "snell: interrupted\n" and out == ""
     assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
+
+
+def test_every_help_page_prints(capsys):
+    """`snell --help` and each command's --help print and exit 0 (a bare % in a help text made
+    argparse raise TypeError on the top-level page)."""
+    names = [name for name, *_ in cli.COMMANDS]
+    for argv in [["--help"]] + [[name, "--help"] for name in names]:
+        with pytest.raises(SystemExit) as done:
+            cli.build_parser().parse_args(argv)
+        assert done.value.code == 0, argv
+        assert "usage: snell" in capsys.readouterr().out
