@@ -367,7 +367,8 @@ def test_cli_compare_writes_report(blends, tmp_path):
 def test_cli_study_depth_marks_depth_0_not_comparable(blends, tmp_path, monkeypatch):
     blend = _blend(blends, "cornell_spheres")
     from snell.validation import study
-    monkeypatch.setitem(study.STUDIES, "depth", [{"max_depth": 0}, {"max_depth": 2}])
+    monkeypatch.setitem(study.STUDIES, "depth", [{"max_depth": 0}, {"max_depth": 2},
+                                                 {"max_depth": 3}])
     from snell.validation import commands
     out = tmp_path / "study"
     args = commands_args(blend, out)
@@ -377,6 +378,11 @@ def test_cli_study_depth_marks_depth_0_not_comparable(blends, tmp_path, monkeypa
     assert verdicts[0] == "not comparable" and data["settings"][0]["cycles"] is None
     assert verdicts[1] in ("consistent", "inconsistent")
     assert (out / "contact_sheet.png").exists() and (out / "report.html").exists()
+    page = (out / "report.html").read_text()
+    # The forced settings once per page (max_bounces, which varies, with each setting), and the
+    # summary says which test failed in each row.
+    assert page.count("Settings forced on Cycles") == 1 and "failed tests" in page
+    assert page.count("Cycles settings of this setting") == 2       # depths 2 and 3, not 0
 
 
 def commands_args(blend, out):

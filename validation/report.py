@@ -182,19 +182,32 @@ def _settings_tables(result, forced=True):
     return "\n".join(parts)
 
 
-def _forced_once(rows):
-    """The settings forced on Cycles, once for a study page: the rows that vary between the
-    study's settings are marked."""
-    tables = [r.get("cycles_settings") or [] for r in rows]
-    tables = [t for t in tables if t]
-    if not tables:
-        return ""
+def _varying(rows):
+    """The Cycles settings whose value differs between a study's settings."""
     values = {}
-    for t in tables:
-        for key, value, _ in t:
+    for r in rows:
+        for key, value, _ in r.get("cycles_settings") or []:
             values.setdefault(key, set()).add(str(value))
-    shown = [[key, value if len(values[key]) == 1 else "varies by setting", why]
-             for key, value, why in tables[0]]
+    return {key for key, seen in values.items() if len(seen) > 1}
+
+
+def _own_forced(row, varying):
+    """A study setting's own values of the Cycles settings that vary between settings."""
+    own = [s for s in row.get("cycles_settings") or [] if s[0] in varying]
+    return ("<h3>Cycles settings of this setting</h3>" + table(own, ["setting", "value", "why"])
+            if own else "")
+
+
+def _forced_once(rows):
+    """The settings forced on Cycles, once for a study page; those that vary between the
+    study's settings are shown with each setting's numbers instead."""
+    first = next((r["cycles_settings"] for r in rows if r.get("cycles_settings")), None)
+    if not first:
+        return ""
+    varying = _varying(rows)
+    shown = [[key, value, why] if key not in varying else
+             [key, "varies by setting", "shown with each setting below"]
+             for key, value, why in first]
     return "<h2>Settings forced on Cycles</h2>" + table(shown, ["setting", "value", "why"])
 
 
@@ -319,6 +332,7 @@ def _write_study(directory, name, rows, notes):
     with open(os.path.join(directory, "contact_sheet.png"), "wb") as f:
         f.write(sheet)
     sections, summary, data = [], [], {"study": name, "settings": []}
+    varying = _varying(rows)
     for i, row in enumerate(rows):
         imgs, limits = comparison_images(row)
         pngs = {k: png_bytes(v) for k, v in imgs.items()}
@@ -330,7 +344,8 @@ def _write_study(directory, name, rows, notes):
             f"<h2>{html.escape(row['label'])} <span class='verdict {_verdict_class(v)}' "
             f"style='font-size:0.7em'>{html.escape(v)}</span></h2>\n<div>{_figures(pngs, limits)}</div>\n"
             f"<details><summary>numbers and settings</summary>{_numbers_table(row)}"
-            f"{_settings_tables(row, forced=False)}{_differences(row)}</details>")
+            f"{_settings_tables(row, forced=False)}{_own_forced(row, varying)}"
+            f"{_differences(row)}</details>")
         cyc = row.get("cycles")
         failed = ", ".join(row.get("failed_tests") or []) if cyc else "n/a"
         summary.append([row["label"], v, failed or "none", row.get("z_pass_fraction"),
