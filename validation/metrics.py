@@ -166,23 +166,25 @@ class Estimate:
         return self.mean - self.light, self.rest_var
 
 
-def _directions(d_lo, va_lo, d_hi, va_hi, vb, dfa, dfb):
-    """(z, df) of the difference a - b with the light tracer's allowance: z = t of a - b where
-    that is negative (a too dark), t of (a - light) - b where that is positive (a too bright even
-    without the light only its light tracer carries), 0 between. Without light, d_hi is d_lo."""
-    t_lo, _, df_lo = welch(d_lo, va_lo, vb, dfa, dfb)
-    if d_hi is d_lo:
-        return t_lo, df_lo
-    t_hi, _, df_hi = welch(d_hi, va_hi, vb, dfa, dfb)
+def _allowance(lo, hi):
+    """(z, df) of the light tracer's allowance from the Welch (t, df) of a - b (lo) and of
+    (a - light) - b (hi): z = lo's t where it is negative (a too dark), hi's where it is positive
+    (a too bright even without the light only its light tracer carries), 0 between. hi None:
+    no light, lo as it is."""
+    if hi is None:
+        return lo
+    (t_lo, df_lo), (t_hi, df_hi) = lo, hi
     z = np.where(t_hi > 0, t_hi, np.where(t_lo < 0, t_lo, 0.0))
     return z, np.where(t_hi > 0, df_hi, df_lo)
 
 
 def _pixel_test(a, b, alpha):
-    a_rest, va_rest = a.rest()
     diff = a.mean - b.mean
-    d_hi = diff if a.light is None else a_rest - b.mean
-    z, df = _directions(diff, a.var, d_hi, va_rest, b.var, a.df, b.df)
+    hi = None
+    if a.light is not None:
+        a_rest, va_rest = a.rest()
+        hi = welch(a_rest - b.mean, va_rest, b.var, a.df, b.df)[::2]
+    z, df = _allowance(welch(diff, a.var, b.var, a.df, b.df)[::2], hi)
     p = np.where(z != 0, _two_sided_p(z, df), 1.0)
     noisy = (a.var + b.var) > 0
     alpha_px = sidak(alpha, int(noisy.sum()))
@@ -205,19 +207,15 @@ def _tile_test(a, b, k, alpha):
             db = _blocks(b.var * b.var, k) / n ** 4
             dfa_t = np.where(da > 0, bva * bva / (da / dfa), np.inf)
             dfb_t = np.where(db > 0, bvb * bvb / (db / b.df), np.inf)
-        tt, _, df = welch(bd, bva, bvb, dfa_t, dfb_t)
-        return tt, df, bva + bvb
+        return welch(bd, bva, bvb, dfa_t, dfb_t)[::2]
 
     diff = a.mean - b.mean
-    t_lo, df_lo, v_lo = t(diff, a.var, a.df)
-    if a.light is None:
-        z, df = t_lo, df_lo
-    else:
+    hi = None
+    if a.light is not None:
         a_rest, va_rest = a.rest()
-        t_hi, df_hi, _ = t(a_rest - b.mean, va_rest, a.df)
-        z = np.where(t_hi > 0, t_hi, np.where(t_lo < 0, t_lo, 0.0))
-        df = np.where(t_hi > 0, df_hi, df_lo)
-    noisy = v_lo > 0
+        hi = t(a_rest - b.mean, va_rest, a.df)
+    z, df = _allowance(t(diff, a.var, a.df), hi)
+    noisy = (_blocks(a.var, k) + _blocks(b.var, k)) > 0
     alpha_tile = sidak(alpha, int(noisy.sum()))
     p = np.where(z != 0, _two_sided_p(z, df), 1.0)
     bd = _blocks(diff, k) / n
@@ -250,13 +248,11 @@ def _image_mean_test(a, b, alpha):
 
     ma, sva, dfa = side(a)
     mb, svb, dfb = side(b)
-    t_lo, _, df_lo = welch(ma - mb, sva, svb, dfa, dfb)
-    z, df = t_lo, df_lo
+    hi = None
     if a.light is not None:
         mr, svr, dfr = side(a, rest=True)
-        t_hi, _, df_hi = welch(mr - mb, svr, svb, dfr, dfb)
-        z = np.where(t_hi > 0, t_hi, np.where(t_lo < 0, t_lo, 0.0))
-        df = np.where(t_hi > 0, df_hi, df_lo)
+        hi = welch(mr - mb, svr, svb, dfr, dfb)[::2]
+    z, df = _allowance(welch(ma - mb, sva, svb, dfa, dfb)[::2], hi)
     alpha_ch = sidak(alpha, 3)
     p = np.where(z != 0, _two_sided_p(z, df), 1.0)
     ok = np.where((sva + svb) > 0, p >= alpha_ch,
