@@ -146,6 +146,8 @@ def test_harness_renders_caches_and_evaluates(tmp_path):
     again = fa.evaluate(configs, str(tmp_path), runs=2)
     assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("run*.npz")} == stamps
     assert [r["verdict"] for r in again["tiny"]] == [r["verdict"] for r in results["tiny"]]
+    cached = fa.evaluate(configs, str(tmp_path), runs=3, render=False)   # --cached: no run 3
+    assert [len(r) for r in cached.values()] == [2, 2] and len(list(tmp_path.rglob("run*.npz"))) == 4
     rows, overall = fa.summary(results)
     assert [r["config"] for r in rows] == ["tiny", "tiny-exact"] and overall["verdict"][1] == 4
 

@@ -121,6 +121,8 @@ def setup_false_alarms(p):
     p.add_argument("--cache", metavar="DIR", default=os.path.join("out", "false-alarms"),
                    help="where runs are kept, to evaluate again without rendering "
                         "(default out/false-alarms)")
+    p.add_argument("--cached", action="store_true",
+                   help="render nothing: evaluate the runs already in the cache (up to --runs)")
     p.add_argument("--threads", type=int_at_least(1), default=2, help="threads for each renderer")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
@@ -140,7 +142,8 @@ def cmd_false_alarms(args) -> int:
     progress = Progress(sys.stderr, enabled=not args.quiet)
     results = fa.evaluate(configs, args.cache, args.runs, args.threads,
                           lambda name, done, total: progress.line(
-                              f"false alarms: {name}: run {done}/{total}", final=done == total))
+                              f"false alarms: {name}: run {done}/{total}", final=done == total),
+                          render=not args.cached)
     rows, overall = fa.summary(results)
     report.write_false_alarms(args.report, rows, overall, configs, fa.CURVES)
     for test, (fails, n, rate, lo, hi) in overall.items():

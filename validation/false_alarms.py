@@ -236,11 +236,17 @@ def _save(path, arrays):
 
 
 def run_paths(config: NullConfig, cache: str):
-    """The cached runs of a configuration, in run order."""
+    """The cached runs of a configuration that the current validator made, in run order."""
     import glob
     folder = os.path.join(cache, config.key())
     slug = "" if not config.error else "-" + "".join(map(str, config.error))
-    return sorted(p for p in glob.glob(os.path.join(folder, f"run????{slug}.npz")))
+    paths = sorted(glob.glob(os.path.join(folder, f"run????{slug}.npz")))
+    return [p for p in paths if not _stale(p) and (not config.error or not _stale(_base(p)))]
+
+
+def _base(path):
+    """The null run's file beside a power run's (its reference images)."""
+    return path[:path.rindex("run") + len("run0000")] + ".npz"
 
 
 def load_run(path: str):
@@ -249,7 +255,7 @@ def load_run(path: str):
     with np.load(path) as data:
         a = data["a"].astype(np.float64)
         light = data["light"].astype(np.float64) if "light" in data else None
-    with np.load(path[:len("run0000") + path.rindex("run")] + ".npz") as data:
+    with np.load(_base(path)) as data:
         b = data["b"].astype(np.float64)
     return a, b, light
 
