@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from . import cycles, metrics
-from .compare import load_snell_scene, snell_render
+from .compare import BATCHES, load_snell_scene, snell_render
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SNELL, EXACT = "snell", "cycles"     # what takes the tested image's place
@@ -184,12 +184,14 @@ class NullRuns:
             self._scene = scene
         return self._scene
 
-    def _cycles(self, base_seed: int):
-        """The reference's K seed images for seeds_for(K, base_seed)."""
+    def _cycles(self, base_seed: int, count: int | None = None):
+        """The reference's images: count (default the configuration's K) seeds from
+        seeds_for(count, base_seed), spp / count samples each."""
         c, scene = self.config, self.scene()
+        count = count or c.cycles_seeds
         return np.stack(cycles.render_seeds(
-            self.blend, spp=max(1, c.spp // c.cycles_seeds), max_depth=scene.render["max_depth"],
-            seeds=cycles.seeds_for(c.cycles_seeds, base_seed), threads=self.threads,
+            self.blend, spp=max(1, c.spp // count), max_depth=scene.render["max_depth"],
+            seeds=cycles.seeds_for(count, base_seed), threads=self.threads,
             camera={**dict(c.camera), "resolution_percentage": c.scale}).images).astype(np.float32)
 
     def _snell(self, run: int, error=()):
@@ -208,7 +210,8 @@ class NullRuns:
             seed = self.config.seed(run)
             data = {"b": self._cycles(seed), "tested": TESTED}
             if self.config.mode == EXACT:
-                data["a"] = self._cycles(seed + 500)
+                # In Snell's place as Snell is: as many images as its batches.
+                data["a"] = self._cycles(seed + 500, BATCHES)
             else:
                 data["a"], light = self._snell(run)
                 if light is not None:
