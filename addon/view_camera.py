@@ -6,7 +6,7 @@ projection: Blender's viewport sensor, lens, zoom, camera-view offset and clip r
 in). A perspective frustum is a pinhole camera with an off-centre window, an orthographic box an
 orthographic camera with a shifted window, so the camera here is exact: the ray through every
 pixel centre passes through the points the window matrix projects onto that pixel centre
-(tests/test_viewport.py holds it to that against `calc_matrix_camera`).
+(tests/blender/test_viewport.py holds it to that against `calc_matrix_camera`).
 """
 from __future__ import annotations
 

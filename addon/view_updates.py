@@ -1,7 +1,7 @@
 """What a viewport edit changes: `depsgraph.updates` sorted into the least the viewport redoes.
 
 Blender lists every datablock an edit touched with three flags (geometry, transform, shading).
-Measured in Blender 5.0 (tests/test_viewport.py captures them with a depsgraph_update_post
+Measured in Blender 5.0 (tests/blender/test_viewport.py captures them with a depsgraph_update_post
 handler): moving an object lists the object with `transform`; editing its mesh lists the object
 and the mesh with `geometry`; an edit of a material's node lists the material and, with
 `shading`, each object and mesh using it; a camera's f-stop lists the camera object with

@@ -1,6 +1,6 @@
 """Meshes, cameras and scene assembly for `snell stress`: tracer Scenes built in Python, no bpy.
 
-tests/builders.py builds its test scenes from these shapes too; the rotations and degenerate
+tests/support/builders.py builds its test scenes from these shapes too; the rotations and degenerate
 meshes are the stress cases' own.
 """
 from __future__ import annotations

@@ -10,7 +10,7 @@ if [ ! -x .venv/bin/python ]; then
     python3.11 -m venv .venv
 fi
 
-# Headless Chromium for the report test (tests/test_compare.py); Debian's package, if apt is usable.
+# Headless Chromium for the report test (tests/validation/test_compare.py); Debian's package, if apt is usable.
 if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
     echo "bootstrap: apt-get install chromium"
     DEBIAN_FRONTEND=noninteractive apt-get update -qq || true

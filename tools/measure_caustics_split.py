@@ -6,7 +6,7 @@ numbers of light paths per camera path (tracer/integrator.py LIGHT_PATHS_PER_CAM
         [--ratios 0,0.125,0.25,0.5,1,2] [--reference-spp 2048]
 
 The reference is Snell's own hybrid render at --reference-spp (unbiased: the hybrid and the path
-tracer agree, tests/test_caustics.py), so the numbers do not depend on Cycles. Ratio 0 is the
+tracer agree, tests/render/test_caustics.py), so the numbers do not depend on Cycles. Ratio 0 is the
 path tracer alone. Prints, per ratio, the median render time of --repeat runs, relMSE over the
 image and over the caustic region (pixels where the light tracer carries at least 10% of the
 reference), and both relMSE x time.

@@ -1,6 +1,6 @@
 """Noise of an HDRI-lit scene with and without the environment's importance sampling, at equal
-time (README, Image-based lighting). Renders the test HDRI spheres scene (tests/hdri.py,
-tests/test_environment_compare.py) with Snell: a reference at many samples, then both samplers
+time (README, Image-based lighting). Renders the test HDRI spheres scene (tests/support/hdri.py,
+tests/validation/test_environment_compare.py) with Snell: a reference at many samples, then both samplers
 at a ladder of sample counts, and reports relMSE (the compare rule) against wall time.
 
     python tools/measure_env_sampling.py [--scale 200] [--ref-spp 8192]
@@ -16,7 +16,9 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests"))
+# tests/ (the support package), the test module and scenes/ (what tests/conftest.py puts on the path)
+sys.path[:0] = [os.path.join(os.path.dirname(HERE), *p) for p in
+               (("tests",), ("tests", "validation"), ("scenes",))]
 
 
 def main():
@@ -25,7 +27,7 @@ def main():
     parser.add_argument("--ref-spp", type=int, default=8192)
     parser.add_argument("--spp", default="16,32,64,128")
     args = parser.parse_args()
-    import hdri
+    from support import hdri
     import test_environment_compare as spheres
     from snell.validation.compare import load_snell_scene
     from snell.validation.metrics import relmse

@@ -95,7 +95,7 @@ def main(argv=None):
             return f"{fails} ({', '.join(f'{t} {n}' for t, n in counts.items() if n) or '-'})"
         print(f"| {name} | {len(new)} | {tally(new)} | {tally(before)} |")
 
-    for title, configs in (("The deliberate errors of tests/test_compare.py", fa.TEETH),
+    for title, configs in (("The deliberate errors of tests/validation/test_compare.py", fa.TEETH),
                            ("Power: errors of growing size", fa.CURVES)):
         rows = verdicts(configs, args.cache, args.runs, old)
         if rows:

@@ -83,7 +83,7 @@ def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_thre
     Fixed-sample renders leave light vertices out: they find light (a ceiling lit by a lamp 1 cm
     below it) that a path tracer, Cycles' included, finds only on rare paths, so Cycles' mean
     there is low in most runs at the sample counts compared, and correct renders failed
-    (docs/validation.md). tests/test_light_vertices.py holds the image with light vertices to
+    (docs/validation.md). tests/render/test_light_vertices.py holds the image with light vertices to
     the image without them."""
     from ..tracer.integrator import Renderer
     if noise_threshold > 0.0:
@@ -168,7 +168,7 @@ def snell_settings(scene):
         ("sampler", "independent, in 16 equal batches", "per-pixel and per-statistic variances "
          "from the batches' spread (spp rounded up to a multiple of 16)"),
         ("light vertices", "off", "they find light a path tracer finds only on rare paths; "
-         "tests/test_light_vertices.py holds them to the image without them"),
+         "tests/render/test_light_vertices.py holds them to the image without them"),
         ("fresnel", r["fresnel"], "exact is Cycles' rule"),
         ("aperture_radius_m", round(aperture_radius(cam), 6), "lens / (2 fstop) unless overridden"),
         ("focus_distance_m", cam["dof"]["focus_distance"], ""),

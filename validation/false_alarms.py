@@ -123,7 +123,7 @@ CONFIGS = [
     NullConfig("exact-caustic-floor", "caustic_floor", 256, mode=EXACT),
 ]
 BY_NAME = {c.name: c for c in CONFIGS}
-# The deliberate errors of tests/test_compare.py.
+# The deliberate errors of tests/validation/test_compare.py.
 TEETH = [
     *[BY_NAME["glass"].with_error(*e) for e in
       (("fresnel", "schlick"), ("ior", 0.05), ("max_depth", 1), ("max_depth", -1))],

@@ -23,7 +23,7 @@ a material input reads it (a new material kind or field needs the scene format f
 tracer/scene.py). A new datablock: a module of its own whose convert_<datablock> takes the
 Blender data and a warn callback and returns the scene file's entry, as lights.py does, called
 from Exporter in depsgraph.py. The walk imports the datablock modules, never the reverse
-(tests/test_layering.py).
+(tests/unit/test_layering.py).
 """
 from .camera import convert_camera
 from .depsgraph import (DROPPED_TRIANGLES, OPEN_MESH, SAME_IN_CYCLES, ZERO_SCALE,

@@ -1,0 +1,446 @@
+"""The Snell render engine inside the bpy module: F12 renders, progress, cancel, border, errors,
+`snell batch`, registration hygiene, and Cycles and Snell renders alternating in one process."""
+import contextlib
+import subprocess
+import sys
+import time
+import types
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+oiio = pytest.importorskip("OpenImageIO")
+
+from snell.addon import final, registration, ui, window  # noqa: E402
+from snell.addon.export import export_depsgraph  # noqa: E402
+from snell.tracer import integrator  # noqa: E402
+from snell.tracer.integrator import Renderer  # noqa: E402
+
+SIZE = 32
+
+
+@pytest.fixture(scope="session")
+def blends(blender_scenes):
+    """The test scenes (tests/support/blender_scenes.py at SIZE), built once (tests/conftest.py)."""
+    return blender_scenes
+
+
+@pytest.fixture(scope="module", autouse=True)
+def registered():
+    registration.ensure_registered()
+    yield
+
+
+def read_exr(path):
+    img = oiio.ImageBuf(str(path))
+    assert not img.has_error, img.geterror()
+    return img.get_pixels(oiio.FLOAT)[:, :, :3]
+
+
+def open_scene(path, exr_path=None):
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    scene = bpy.context.scene
+    scene.render.engine = "SNELL"
+    if exr_path is not None:
+        settings = scene.render.image_settings
+        settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
+        scene.render.filepath = str(exr_path)
+    return scene
+
+
+def tracer_image(spp=None, passes=None):
+    """What the tracer renders for the open scene, exported from the viewport depsgraph
+    (with `passes`, a render of `spp` samples stopped after that many passes)."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    scene, _ = export_depsgraph(depsgraph)
+    progress = None if passes is None else (lambda result, done, total: done < passes)
+    return Renderer(scene).render(spp=spp, progress=progress).mean()
+
+
+@pytest.fixture
+def small_passes(monkeypatch):
+    """1 sample per pixel per pass at 32x32, so a render has several passes."""
+    monkeypatch.setattr(integrator, "PASS_PATHS", SIZE * SIZE)
+
+
+class Spy:
+    """Stands in for the engine inside final.render: records or changes some calls, passes the
+    rest to the real engine (RNA methods cannot be overridden in a RenderEngine subclass)."""
+
+    def __init__(self, engine):
+        self.engine = engine
+
+    def __getattr__(self, name):
+        return getattr(self.engine, name)
+
+
+def recording(calls, on_result=None):
+    """A Spy class that appends ("result",), ("progress", value) and ("stats", info) to calls
+    for the engine's updates; on_result(result), if given, sees each result first."""
+    class Recording(Spy):
+        def update_result(self, result):
+            calls.append(("result",))
+            if on_result is not None:
+                on_result(result)
+            self.engine.update_result(result)
+
+        def update_progress(self, value):
+            calls.append(("progress", value))
+            self.engine.update_progress(value)
+
+        def update_stats(self, stats, info):
+            calls.append(("stats", info))
+            self.engine.update_stats(stats, info)
+    return Recording
+
+
+def sample_count_pass(result):
+    """The Sample Count pass of a render result, (SIZE * SIZE,) float32, bottom row first."""
+    rect = np.empty(SIZE * SIZE, np.float32)
+    result.layers[0].passes[final.SAMPLE_COUNT_PASS].rect.foreach_get(rect)
+    return rect
+
+
+@contextlib.contextmanager
+def spying(spy_class):
+    """The SNELL engine renders through spy_class(engine) while the context is active."""
+    real = final.render
+    final_module_render = lambda engine, depsgraph: real(spy_class(engine), depsgraph)  # noqa: E731
+    registration.engine.final.render = final_module_render
+    try:
+        yield
+    finally:
+        registration.engine.final.render = real
+
+
+# ---------------------------------------------------------------------------------------------
+# Registration
+
+
+def _snell_traces():
+    panels = [name for name in dir(bpy.types)
+              if "SNELL" in (getattr(getattr(bpy.types, name), "COMPAT_ENGINES", None) or ())]
+    names = [name for name in dir(bpy.types) if "snell" in name.lower()]
+    return panels, names, hasattr(bpy.types.Scene, "snell")
+
+
+def test_unregister_leaves_blender_clean_and_register_again_works(blends):
+    panels, _, has_prop = _snell_traces()
+    assert "DATA_PT_lens" in panels and "DATA_PT_camera_dof" in panels and "RENDER_PT_format" in panels
+    assert "EEVEE_MATERIAL_PT_surface" in panels and "EEVEE_WORLD_PT_surface" in panels
+    assert has_prop
+    registration.unregister()
+    try:
+        assert _snell_traces() == ([], [], False)
+        assert not registration.is_registered()
+        with pytest.raises(TypeError):
+            bpy.context.scene.render.engine = "SNELL"
+    finally:
+        registration.register()
+    assert registration.is_registered() and hasattr(bpy.types.Scene, "snell")
+    scene = open_scene(blends / "cornell.blend")
+    assert scene.render.engine == "SNELL"
+    assert (scene.snell.spp, scene.snell.seed, scene.snell.max_depth) == (8, 5, 6)
+
+
+def test_settings_tooltips_and_defaults():
+    props = bpy.types.Scene.bl_rna.properties["snell"].fixed_type.properties
+    assert "max_bounces = Max Depth - 1" in props["max_depth"].description
+    assert [i.identifier for i in props["fresnel"].enum_items] == ["EXACT", "SCHLICK"]
+    assert props["fresnel"].default == "EXACT"
+    assert {"spp", "max_depth", "seed", "threads", "fresnel"} <= set(props.keys())
+
+
+class Layout:
+    """Records what a panel draws: (property, label) of every prop() in any row or column."""
+
+    def __init__(self, drawn=None):
+        self.drawn = [] if drawn is None else drawn
+
+    def column(self, **options):
+        return Layout(self.drawn)
+
+    row = column
+
+    def prop(self, data, name, text=None):
+        self.drawn.append((name, text))
+
+
+@pytest.mark.parametrize("adaptive, drawn", [
+    (True, [("use_adaptive_sampling", ""), ("noise_threshold", ""), ("spp", "Max Samples"),
+            ("min_spp", "Min Samples"), ("seed", None)]),
+    (False, [("use_adaptive_sampling", ""), ("noise_threshold", ""), ("spp", "Samples"),
+             ("seed", None)]),
+])
+def test_sampling_panel_is_laid_out_as_cycles(adaptive, drawn):
+    """Noise Threshold's checkbox and value, then Max and Min Samples (Samples when off)."""
+    props = bpy.types.Scene.bl_rna.properties["snell"].fixed_type.properties
+    assert (props["use_adaptive_sampling"].default, props["noise_threshold"].default,
+            props["min_spp"].default) == (True, pytest.approx(0.01), 0)
+    panel = types.SimpleNamespace(layout=Layout())
+    panel.column = lambda **options: ui.SnellPanel.column(panel, **options)
+    context = types.SimpleNamespace(scene=types.SimpleNamespace(
+        snell=types.SimpleNamespace(use_adaptive_sampling=adaptive)))
+    ui.RENDER_PT_snell_sampling.draw(panel, context)
+    assert panel.layout.drawn == drawn
+
+
+# ---------------------------------------------------------------------------------------------
+# F12
+
+
+def test_f12_render_matches_the_tracer_and_updates_progressively(blends, tmp_path, small_passes):
+    scene = open_scene(blends / "cornell.blend", tmp_path / "f12.exr")
+    calls = []
+    with spying(recording(calls)):
+        bpy.ops.render.render(write_still=True)
+    record = dict(final.last_render)
+    assert record["error"] is None and not record["cancelled"]
+    assert record["spp"] == 8 and record["passes"] == 8
+    assert sum(c[0] == "result" for c in calls) == 8
+    progress = [c[1] for c in calls if c[0] == "progress"]
+    assert progress == pytest.approx([k / 8 for k in range(1, 9)])
+    stats = [c[1] for c in calls if c[0] == "stats"]
+    assert any("Sample 3/8" in s and "Remaining" in s and "M rays/s" in s for s in stats), stats
+    assert "Done: 8/8 samples" in stats[-1]
+    written = read_exr(tmp_path / "f12.exr")
+    assert written.shape == (SIZE, SIZE, 3)
+    # The same exporter and tracer with the same seed: the same image, rows the same way up.
+    np.testing.assert_allclose(written, tracer_image(), rtol=1e-6, atol=1e-7)
+    assert written[0].mean() > 1.5 * written[-1].mean() or written[: SIZE // 4].max() > 1.0  # lamp at the top
+
+
+def test_f12_adaptive_progress_status_and_sample_count_pass(blends, tmp_path):
+    """Noise threshold on: the bar follows samples over the budget, the status says how many
+    pixels still sample and, at the end, how many samples were saved; the Sample Count pass
+    holds the tracer's own counts (rows bottom first)."""
+    scene = open_scene(blends / "cornell.blend", tmp_path / "adaptive.exr")
+    # A minimum that is no multiple of the 16-sample windows: the first check comes after the
+    # third window (48), while the bar moves window by window.
+    scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 256, 0.05, 40
+    calls, counts = [], []
+    with spying(recording(calls, lambda r: counts.append(sample_count_pass(r).reshape(SIZE, SIZE)))):
+        bpy.ops.render.render(write_still=True)
+    record = dict(final.last_render)
+    assert record["error"] is None and record["adaptive"].startswith("adaptive 0.05: ")
+    progress = [c[1] for c in calls if c[0] == "progress"]
+    assert progress[0] == pytest.approx(16 / 256) and progress == sorted(progress)
+    stats = [c[1] for c in calls if c[0] == "stats"]
+    assert any("Sample 64/256 | " in s and "% of pixels sampling | " in s for s in stats), stats
+    assert stats[-1].endswith(record["adaptive"]) and "% of samples saved" in stats[-1]
+    exported, _ = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    expected = Renderer(exported).render().samples()
+    assert expected.min() == 48 and expected.max() > 48 and record["saved_share"] > 0.3
+    assert np.array_equal(counts[-1], expected[::-1])
+
+
+def test_f12_keeps_the_last_pass_when_every_pixel_converges(blends, tmp_path):
+    """A threshold so high that every pixel stops at the minimum: the last (and only) pass still
+    reaches the image and the Sample Count pass (the integrator calls back after it too)."""
+    scene = open_scene(blends / "cornell.blend", tmp_path / "converged.exr")
+    scene.snell.spp, scene.snell.noise_threshold, scene.snell.min_spp = 64, 0.5, 4
+    counts = []
+    with spying(recording([], lambda r: counts.append(sample_count_pass(r)))):
+        bpy.ops.render.render(write_still=True)
+    # The minimum rounded up to a window of each half: 32.
+    assert final.last_render["spp"] == 32 and np.all(counts[-1] == 32)
+    np.testing.assert_allclose(read_exr(tmp_path / "converged.exr"), tracer_image(),
+                               rtol=1e-6, atol=1e-7)
+
+
+def test_esc_after_the_first_pass_keeps_that_pass(blends, tmp_path, small_passes):
+    scene = open_scene(blends / "cornell.blend", tmp_path / "cancel.exr")
+    scene.snell.spp = 64
+    passes = []
+
+    class CancelAfterFirstPass(Spy):
+        def update_result(self, result):
+            passes.append(time.perf_counter())
+            self.engine.update_result(result)
+
+        def test_break(self):
+            return len(passes) >= 1
+
+    with spying(CancelAfterFirstPass):
+        start = time.perf_counter()
+        bpy.ops.render.render(write_still=True)
+        elapsed = time.perf_counter() - start
+    record = dict(final.last_render)
+    assert record["cancelled"] and record["spp"] == 1 and len(passes) == 1
+    assert record["error"] is None
+    assert elapsed - (passes[0] - start) < 1.0  # stopped right after the pass
+    written = read_exr(tmp_path / "cancel.exr")
+    # The stratified sampler orders a pixel's samples by the render's total count, so the first
+    # pass of a 64-sample render is compared with the tracer's own 64-sample render stopped there.
+    np.testing.assert_allclose(written, tracer_image(spp=64, passes=1), rtol=1e-6, atol=1e-7)
+
+
+def test_border_crop_and_resolution_percentage(blends, tmp_path):
+    scene = open_scene(blends / "cornell.blend", tmp_path / "border.exr")
+    scene.snell.spp = 2
+    scene.render.resolution_percentage = 50
+    bpy.ops.render.render(write_still=True)
+    assert read_exr(tmp_path / "border.exr").shape == (SIZE // 2, SIZE // 2, 3)
+    scene.render.resolution_percentage = 100
+    scene.render.use_border = True
+    scene.render.border_min_x, scene.render.border_max_x = 0.25, 0.75
+    scene.render.border_min_y, scene.render.border_max_y = 0.5, 1.0
+    scene.render.use_crop_to_border = True
+    bpy.ops.render.render(write_still=True)
+    assert read_exr(tmp_path / "border.exr").shape == (SIZE // 2, SIZE // 2, 3)
+    scene.render.use_crop_to_border = False
+    bpy.ops.render.render(write_still=True)
+    full = read_exr(tmp_path / "border.exr")
+    assert full.shape == (SIZE, SIZE, 3)
+    inside = full[: SIZE // 2, SIZE // 4: 3 * SIZE // 4]  # top half (EXR rows top first), middle
+    assert inside.mean() > 0.05
+    outside = full.copy()
+    outside[: SIZE // 2, SIZE // 4: 3 * SIZE // 4] = 0
+    assert outside.max() == 0.0
+
+
+@pytest.mark.parametrize("ortho", [False, True])
+def test_window_camera_sees_the_same_pixels_as_the_full_frame(ortho):
+    """Exact: an emissive quad whose edges fall on pixel boundaries (pixels are 0 or 1).
+
+    With lens 50, sensor 36 (AUTO fit, 12x8) and the shifts below, the view on the plane z = -1
+    spans x in [-0.18, 0.54] and y in [-0.276, 0.204] in 0.06 pixels: the quad's edges x = 0 and
+    y = 0.024 (0.048 at z = -2) are pixel boundaries. Orthographic of scale 0.72: the same
+    window on every plane."""
+    from snell.tracer.scene import Scene
+    y = 0.024 if ortho else 0.048
+    positions = np.array([[0, y, -2], [2, y, -2], [2, 2, -2], [0, 2, -2]], np.float32)
+    cam = {"name": "Camera", "matrix": np.eye(4).tolist(), "lens": 50.0, "sensor_width": 36.0,
+           "sensor_height": 24.0, "sensor_fit": "AUTO", "shift_x": 0.25, "shift_y": -0.05,
+           "clip_start": 0.1, "clip_end": 100.0, "resolution": [12, 8],
+           "resolution_percentage": 100, "pixel_aspect": [1.0, 1.0],
+           "dof": {"use_dof": False, "focus_distance": 10.0, "fstop": 2.8, "blades": 0,
+                   "rotation": 0.0, "ratio": 1.0}}
+    if ortho:
+        cam.update(type="ORTHO", ortho_scale=0.72)
+    scene = Scene(positions=positions, triangles=np.array([[0, 1, 2], [0, 2, 3]], np.int32),
+                  material_ids=np.zeros(2, np.int32), object_ids=np.zeros(2, np.int32),
+                  objects=[{"name": "Quad", "closed": False}],
+                  materials=[{"name": "L", "kind": "emission", "color": [1, 1, 1], "strength": 1.0}],
+                  lights=[], camera=cam, render={"spp": 16, "max_depth": 1, "seed": 0, "fresnel": "exact"})
+    full = Renderer(scene).render().mean()
+    x0, y0, w, h = window.border_pixels(12, 8, (0.25, 0.75, 0.25, 1.0))
+    assert (x0, y0, w, h) == (3, 2, 6, 6)
+    part = Renderer(scene.with_camera(**window.window_camera(cam, x0, y0, w, h))).render().mean()
+    # Rows are top first: window rows from the bottom y0..y0+h are full rows H-y0-h..H-y0.
+    assert set(np.unique(full)) == {0.0, 1.0}
+    np.testing.assert_array_equal(part, full[8 - y0 - h: 8 - y0, x0: x0 + w])
+    assert 0 < part.mean() < 1
+
+
+# ---------------------------------------------------------------------------------------------
+# Bad input
+
+
+def test_unsupported_node_warns_and_renders_the_fallback(blends, tmp_path):
+    scene = open_scene(blends / "unsupported.blend", tmp_path / "toon.exr")
+    bpy.ops.render.render(write_still=True)
+    warnings = final.last_render["warnings"]
+    assert any("ShaderNodeBsdfToon" in w and "not supported" in w for w in warnings), warnings
+    assert final.last_render["error"] is None
+    assert read_exr(tmp_path / "toon.exr").mean() > 0
+
+
+def test_no_camera_is_a_clear_error(blends, tmp_path):
+    open_scene(blends / "nocamera.blend", tmp_path / "nocam.exr")
+    with pytest.raises(RuntimeError, match="(?i)no camera"):
+        bpy.ops.render.render(write_still=True)
+    assert not (tmp_path / "nocam.exr").exists()
+
+
+def test_export_failure_is_one_message_and_no_image(blends, tmp_path):
+    open_scene(blends / "pano.blend", tmp_path / "pano.exr")
+    with pytest.raises(RuntimeError, match="Snell: cannot render this scene: camera .*PANO"):
+        bpy.ops.render.render(write_still=True)
+    assert "perspective and orthographic" in final.last_render["error"]
+    assert not (tmp_path / "pano.exr").exists()
+
+
+def test_empty_scene_renders_black_with_a_warning(blends, tmp_path):
+    open_scene(blends / "empty.blend", tmp_path / "empty.exr")
+    bpy.ops.render.render(write_still=True)
+    assert any("no geometry" in w for w in final.last_render["warnings"])
+    image = read_exr(tmp_path / "empty.exr")
+    assert image.shape == (SIZE, SIZE, 3) and image.max() == 0.0
+
+
+# ---------------------------------------------------------------------------------------------
+# Headless batch renders
+
+
+def snell_cli(*args):
+    return subprocess.run([sys.executable, "-m", "snell.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=600)
+
+
+def test_batch_renders_one_image_per_frame(blends, tmp_path):
+    proc = snell_cli("batch", blends / "animated.blend", "--frames", "1-3", "-o", tmp_path / "anim_####.exr")
+    assert proc.returncode == 0, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.startswith("snell: frame")]
+    assert len(lines) == 3 and all("8 spp" in line for line in lines), proc.stderr
+    images = [read_exr(tmp_path / f"anim_{f:04d}.exr") for f in (1, 2, 3)]
+    for a, b in ((0, 1), (1, 2), (0, 2)):
+        assert np.abs(images[a] - images[b]).mean() > 1e-3
+    assert proc.stdout == ""  # Blender's chatter stays out of stdout
+
+
+def test_batch_png_goes_through_colour_management(blends, tmp_path):
+    proc = snell_cli("batch", blends / "cornell.blend", "-o", tmp_path / "still_####.png")
+    assert proc.returncode == 0, proc.stderr
+    img = oiio.ImageBuf(str(tmp_path / "still_0001.png"))
+    assert img.spec().format == oiio.UINT8 and img.spec().width == SIZE
+
+
+def test_batch_adaptive_options_set_the_sampling_panel(blends, tmp_path):
+    """--noise-threshold and --min-spp reach the engine (a copy of the file with 64 samples, no
+    minimum set), and the frame line says what adaptive sampling saved; a threshold of 0 unchecks
+    it."""
+    open_scene(blends / "cornell.blend", tmp_path / "unused.exr").snell.spp = 64
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "cornell64.blend"), copy=True)
+    proc = snell_cli("batch", tmp_path / "cornell64.blend", "-o", tmp_path / "a_####.exr",
+                     "--noise-threshold", "0.05", "--min-spp", "4")
+    assert proc.returncode == 0, proc.stderr
+    line = next(line for line in proc.stderr.splitlines() if line.startswith("snell: frame"))
+    assert "adaptive 0.05: " in line and ", 64 max, " in line and "% of samples saved in " in line
+    from snell.addon import batch
+    props = types.SimpleNamespace(use_adaptive_sampling=True, noise_threshold=0.01, min_spp=0)
+    batch._set_sampling(props, 0.0, None)
+    assert (props.use_adaptive_sampling, props.noise_threshold, props.min_spp) == (False, 0.01, 0)
+    batch._set_sampling(props, 0.02, 32)
+    assert (props.use_adaptive_sampling, props.noise_threshold, props.min_spp) == (True, 0.02, 32)
+
+
+def test_batch_failing_frames_exit_non_zero(blends, tmp_path):
+    proc = snell_cli("batch", blends / "nocamera.blend", "--frames", "1,2", "-o", tmp_path / "x_####.exr")
+    assert proc.returncode == 1
+    assert proc.stderr.count("FAILED") == 2 and "camera" in proc.stderr
+    proc = snell_cli("batch", blends / "cornell.blend", "--frames", "3-1", "-o", tmp_path / "x.exr")
+    # a bad option: status 2, as for every command
+    assert proc.returncode == 2 and "snell: error: argument --frames" in proc.stderr
+    proc = snell_cli("batch", tmp_path / "missing.blend")
+    assert proc.returncode == 1 and "no such file" in proc.stderr
+
+
+# ---------------------------------------------------------------------------------------------
+# bpy (with its own libembree4) and embreex in one process
+
+
+def test_cycles_and_snell_alternate_in_one_process(blends, tmp_path):
+    images = {}
+    for i, engine in enumerate(["CYCLES", "SNELL", "CYCLES", "SNELL"]):
+        scene = open_scene(blends / "cornell.blend", tmp_path / f"{i}.exr")
+        scene.render.engine = engine
+        scene.cycles.samples, scene.cycles.seed = 8, 5
+        scene.render.threads_mode, scene.render.threads = "FIXED", 2
+        bpy.ops.render.render(write_still=True)
+        images.setdefault(engine, []).append(read_exr(tmp_path / f"{i}.exr"))
+    for engine, (first, second) in images.items():
+        np.testing.assert_array_equal(first, second, err_msg=engine)
+    cycles, snell_img = images["CYCLES"][0].mean(), images["SNELL"][0].mean()
+    assert 0.75 < snell_img / cycles < 1.33, (snell_img, cycles)
