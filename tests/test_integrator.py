@@ -287,8 +287,8 @@ def test_nan_samples_are_counted_and_kept_out_of_the_image(monkeypatch):
     monkeypatch.setattr(wavefront, "film", poisoned)
     result = render(scene)
     # One pass of 128 paths (64 pixels x 2 samples) in chunks; each chunk poisons its own rows.
-    from snell.tracer.integrator import _jobs
-    chunks = [n for _, n in _jobs(0, 128, 2)]
+    from snell.tracer.passes import jobs
+    chunks = [n for _, n in jobs(0, 128, 2)]
     assert len(chunks) == 4
     expected_bad = sum(len(set(range(0, n, 7)) | set(range(0, n, 11))) for n in chunks)
     assert result.nan_count == expected_bad
@@ -447,8 +447,8 @@ def test_a_pass_splits_into_even_jobs_of_whole_pixels(begin, end, unit):
     """Jobs cover the pass in order, hold whole pixels' samples and at most CHUNK paths, and come
     in a multiple of JOB_MULTIPLE (fewer only when there are fewer pixels), even to one pixel:
     small adaptive passes keep both threads busy."""
-    from snell.tracer.integrator import JOB_MULTIPLE, _jobs
-    jobs = _jobs(begin, end, unit)
+    from snell.tracer.passes import JOB_MULTIPLE, jobs as split
+    jobs = split(begin, end, unit)
     starts = [s for s, _ in jobs]
     sizes = [n for _, n in jobs]
     assert starts[0] == begin and sum(sizes) == end - begin
