@@ -71,13 +71,15 @@ def test_a_fixed_render_is_the_merge_of_its_windows(monkeypatch, caustics):
 
 def test_windows_of_disjoint_pixels_add_up_to_the_window_of_all():
     """The camera sums of a window over a set of pixels are those pixels' sums in the window
-    over every pixel, and nothing elsewhere."""
-    renderer = Renderer(glass_room(), caustics=False)
+    over every pixel, and nothing elsewhere; the light tracer runs in the window of all pixels
+    only (tiles of a window would trace the same light paths)."""
+    renderer = Renderer(glass_room())
     window = renderer.windows(SPP)[0]
     everything = renderer.render_window(window, SPP)
     pixels = np.arange(SIZE * SIZE)
     odd = renderer.render_window(window, SPP, pixels[1::2])
     even = renderer.render_window(window, SPP, pixels[::2])
+    assert everything.light_paths > 0 and odd.light_sum is None and odd.light_paths == 0
     assert np.all(odd.sum[::2] == 0.0) and np.all(even.sum[1::2] == 0.0)
     assert np.array_equal(odd.sum + even.sum, everything.sum)
     assert np.array_equal(odd.sum_sq + even.sum_sq, everything.sum_sq)

@@ -399,11 +399,13 @@ class Renderer:
         windows (windows(spp)) added in order (RenderResult.add), wherever each was traced.
 
         spp fixes the sampler's sequences; window.index keys the light tracer's paths, whose
-        count follows the window's camera paths and whose splats land anywhere in the image."""
-        pixels = passes.ALL_PIXELS if pixels is None else np.ascontiguousarray(pixels, np.int64)
+        count follows the window's camera paths and whose splats land anywhere in the image.
+        A window of some pixels traces no light paths: tiles of one window would all trace the
+        same ones (the same keys); its light belongs to a window of every pixel."""
         npix = self.camera.width * self.camera.height
+        light = np.zeros((npix, 3)) if self.caustics is not None and pixels is None else None
+        pixels = passes.ALL_PIXELS if pixels is None else np.ascontiguousarray(pixels, np.int64)
         film = (np.zeros((npix, 3)), np.zeros((npix, 3)))
-        light = np.zeros((npix, 3)) if self.caustics is not None else None
         bits = max(1, (int(spp) - 1).bit_length())
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             return self._trace_window(pool, window, bits, pixels, film, False, light, stop)
