@@ -7,7 +7,7 @@ import subprocess
 import sys
 
 from ..tracer import wavefront
-from ..tracer.integrator import CHUNK, PASS_PATHS
+from ..tracer.passes import CHUNK, PASS_PATHS
 from .cases import (AT_MOST, ENDED_EVENTS, EXACT, UNIT_ROUNDING, Case, Outcome,
                     furnace_outcome, material, render)
 from .geometry import WHITE, camera, quad, scene

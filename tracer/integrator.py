@@ -1,6 +1,7 @@
 """The wavefront path tracer: whole arrays of paths advance one bounce at a time.
 
-A render is a sequence of passes; each pass is cut into fixed-size chunks of paths, and chunks run
+A render is a sequence of passes, which a scheduler per mode hands out (tracer/passes.py: fixed
+samples, batches, adaptive sampling); each pass is cut into fixed-size chunks of paths, and chunks run
 on a thread pool (the compiled stages and Embree release the GIL). A chunk runs the stages of
 tracer/wavefront.py bounce by bounce: generate, then per bounce one Embree call for every live
 ray, emitters, materials, one Embree call for every shadow ray, shadow_rays; film adds the
@@ -11,181 +12,29 @@ the thread count or the chunking.
 from __future__ import annotations
 
 import copy
-import math
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import adaptive, bsdf, jit, light_paths, lobes, wavefront
+from . import adaptive, bsdf, jit, light_paths, lobes, passes, wavefront
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
 from .lights import LightSampler
 from .materials import material_tables
 from .microfacet_tables import shipped_tables
+from .passes import CHUNK
+from .result import RenderResult, Window, WindowSums
 from .scene import DEFAULT_RENDER, FRESNEL_MODELS, Scene
 
-CHUNK = 1 << 13           # paths per chunk: measured best (8k-16k) for Python overhead vs cache
-PASS_PATHS = 1 << 17      # aim for about this many paths per progressive pass
-JOB_MULTIPLE = 4          # a pass's jobs come in multiples of this: 1, 2 or 4 threads end together
 SAMPLERS = ("stratified", "independent")
 # Light paths traced per camera path when the light tracer runs (light_paths.py): the value of
 # least relMSE x time on cornell_spheres at 32 spp (tools/measure_caustics_split.py; README,
 # Caustics). From 1/64 to 1/8 the product is flat within the timing noise; more light paths only
 # cost time, since the camera paths' own noise then dominates even in the caustics.
 LIGHT_PATHS_PER_CAMERA_PATH = 0.125
-_NO_ROWS = np.zeros((0, 3))     # film: no class-A image
-
-
-@dataclass
-class RenderResult:
-    """Per-pixel sums (row 0 = top) of the camera samples and of their squares, and of the light
-    tracer's splats; with batches, sums of each pass's image and light image and their squares;
-    plus counters."""
-    width: int
-    height: int
-    sum: np.ndarray
-    sum_sq: np.ndarray
-    light_sum: np.ndarray | None = None
-    batch_sum: np.ndarray | None = None
-    batch_sq: np.ndarray | None = None
-    light_batch_sum: np.ndarray | None = None
-    light_batch_sq: np.ndarray | None = None
-    # With batches, each pass's whole image (camera samples plus the light tracer's share) and,
-    # in the hybrid, the light tracer's share alone, float32 (H, W, 3) in pass order: the
-    # validator estimates the variance of any linear statistic (a tile mean, the image mean, a
-    # filtered sum) from their spread, and knows which light only the light tracer carries.
-    batch_images: list = field(default_factory=list)
-    light_batch_images: list = field(default_factory=list)
-    spp: int = 0
-    light_paths: int = 0
-    light_in_image: bool = False     # the hybrid: the light tracer's splats are part of the image
-    batches: int = 0
-    nan_count: int = 0
-    time_s: float = 0.0
-    build_s: float = 0.0
-    embree_time_s: float = 0.0
-    rays: int = 0
-    threads: int = 1
-    cancelled: bool = False
-    stats: dict = field(default_factory=dict)
-    stages: dict = field(default_factory=dict)   # Renderer.stages(): what the scene runs, skips
-    # Adaptive sampling (tracer/adaptive.py): each pixel's samples (None: spp everywhere) and
-    # its two halves' sums, the settings, the share of pixels still sampling, and the light
-    # tracer's half A and per-pass sums for its variance.
-    spp_budget: int = 0
-    noise_threshold: float = 0.0
-    sample_count: np.ndarray | None = None
-    halves: adaptive.Halves | None = None
-    active_share: float = 1.0
-    light_paths_a: int = 0
-    light_pass_sq: np.ndarray | None = None
-    light_passes: int = 0
-
-    def mean(self) -> np.ndarray:
-        """The image: per-pixel mean radiance (each pixel's sum over its own sample count),
-        float32 (H, W, 3), linear."""
-        if self.spp == 0:
-            return np.zeros_like(self.sum, dtype=np.float32)
-        # Divided in float64 and rounded once into the float32 image, a band at a time, without
-        # a float64 copy of the image on the way (1.5 GB at 8192x8192).
-        image = np.empty(self.sum.shape, np.float32)
-        light = self.light_in_image and self.light_paths
-        rows = max(1, (1 << 14) // self.width)
-        for r in range(0, image.shape[0], rows):
-            band = slice(r, r + rows)
-            if self.halves is None:
-                part = self.sum[band] / self.spp
-            else:
-                end = min(r + rows, self.height)
-                part = self.halves.mean(slice(r * self.width, end * self.width)).reshape(
-                    end - r, self.width, 3)
-            if light:
-                part += self.light_sum[band] / self.light_paths
-            image[band] = part
-        return image
-
-    def samples(self) -> np.ndarray:
-        """Each pixel's camera samples, int32 (H, W)."""
-        if self.sample_count is not None:
-            return self.sample_count
-        return np.full((self.height, self.width), self.spp, np.int32)
-
-    @property
-    def saved_share(self) -> float:
-        """The share of the sample budget (spp_budget in every pixel) adaptive sampling saved."""
-        budget = self.spp_budget * self.width * self.height
-        if self.sample_count is None or budget == 0:
-            return 0.0
-        return 1.0 - float(self.sample_count.sum(dtype=np.int64)) / budget
-
-    def light_image(self) -> np.ndarray:
-        """The light tracer's splats per light path, float64 (H, W, 3): its part of the hybrid's
-        image, or pure light tracing's whole image."""
-        if self.light_sum is None:
-            return np.zeros_like(self.sum)
-        return self.light_sum / max(self.light_paths, 1)
-
-    def variance_of_mean(self) -> np.ndarray:
-        """Per-pixel variance of the mean image, float64 (H, W, 3): see variance_and_dof."""
-        return self.variance_and_dof()[0]
-
-    def variance_and_dof(self):
-        """Per-pixel variance of the mean image and its degrees of freedom, (H, W, 3) and a number.
-
-        With K >= 2 batches (Renderer.render(batches=K)), from the spread of the K passes'
-        images (K - 1 degrees of freedom): the light tracer's splats have no per-sample variance,
-        and where rare paths carry much of the light the per-sample variance underestimates the
-        error far more than batch means do. Without batches, from the camera samples' sums of
-        squares (n - 1), which then leave the light tracer's part out.
-        """
-        if self.batches >= 2 and self.batch_sum is not None:
-            return _variance_of_mean(self.batch_sum, self.batch_sq, self.batches), \
-                self.batches - 1
-        if self.halves is not None:
-            return self._adaptive_variance_and_dof()
-        n = self.spp
-        if n < 2:
-            return np.full_like(self.sum, np.inf), 1
-        return _variance_of_mean(self.sum, self.sum_sq, n), n - 1
-
-    def _adaptive_variance_and_dof(self):
-        """With per-pixel sample counts: the variance of the mean of the halves' means from each
-        half's samples (count - 1 degrees of freedom) plus, in the hybrid, the light tracer's
-        from its passes; the degrees of freedom are the smallest of any pixel's half
-        (conservative for the tests)."""
-        variance, dof = self.halves.variance_of_mean()
-        variance = variance.reshape(self.sum.shape)
-        if self.light_in_image and self.light_passes >= 2:
-            variance = variance + self.light_variance_of_mean()
-            dof = min(dof, self.light_passes - 1)
-        return variance, max(dof, 1)
-
-    def light_variance_of_mean(self) -> np.ndarray:
-        """Per-pixel variance of light_image() from its batches (K - 1 degrees of freedom)."""
-        if self.light_pass_sq is not None and self.light_passes >= 2:
-            # Passes of unequal light path counts L_k and sums S_k: the variance of one light
-            # path's splats is sum_k (S_k - L_k mean)^2 / L_k / (K - 1), that of the mean
-            # that over L.
-            total, k = self.light_paths, self.light_passes
-            spread = self.light_pass_sq - self.light_sum * self.light_sum / total
-            return np.maximum(spread, 0.0) / (k - 1) / total
-        if self.batches < 2 or self.light_batch_sum is None:
-            return np.full_like(self.sum, np.inf)
-        return _variance_of_mean(self.light_batch_sum, self.light_batch_sq, self.batches)
-
-    @property
-    def rays_per_second(self) -> float:
-        """All rays traced (camera, bounce and shadow) per second of render wall time."""
-        return self.rays / self.time_s if self.time_s > 0 else 0.0
-
-    @property
-    def embree_share(self) -> float:
-        """Fraction of the threads' wall time spent inside Embree queries."""
-        return self.embree_time_s / (self.time_s * self.threads) if self.time_s > 0 else 0.0
 
 
 class _Buffers(threading.local):
@@ -244,7 +93,7 @@ class Renderer:
         (light_vertices.py; default: the scene's render setting): the same image, noisier where
         surfaces next to lamps light the scene. They run only where they can: light sampling on,
         a lamp that starts them, a diffuse surface and a max depth of 2 or more. Where they run,
-        an adaptive render measures whether they pay (render, _pilot_choice) unless
+        an adaptive render measures whether they pay (pilot.py) unless
         light_vertex_pilot=False, which keeps them throughout as a fixed-sample render does.
         """
         if sampler not in SAMPLERS:
@@ -349,13 +198,15 @@ class Renderer:
 
     def trace_chunk(self, start: int, n: int, in_pass: int, first_sample: int, pixels: np.ndarray,
                     bits: int, total: np.ndarray, total_sq: np.ndarray, class_a: np.ndarray,
-                    vertices: bool | None = None, pilot: tuple | None = None):
+                    vertices: bool | None = None, pilot: tuple | None = None,
+                    merge: bool = False):
         """Trace paths start .. start + n of a pass (in_pass samples per pixel of `pixels`, or of
         every pixel when it is empty; the first sample being first_sample) and add them to the
         (pixels, 3) sums, class-A samples also to `class_a` if it has rows (adaptive.py), with
         light vertices if `vertices` (default: where they run). pilot: (sums, sums of squares)
-        that get the same samples without light vertices (wavefront.emitters). Returns (NaN/Inf
-        samples, event counters)."""
+        that get the same samples without light vertices (wavefront.emitters). merge: add the
+        chunk's pixels' sums of the pass, from zero, to total and total_sq (a window merged into
+        a render, RenderResult.add). Returns (NaN/Inf samples, event counters)."""
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
         (paths, out, shadows, radiance, without, active, stats, scratch, params,
@@ -397,13 +248,31 @@ class Renderer:
             paths, out = out, paths
             if m == 0:
                 break
+        if merge:
+            return self._merge_chunk(radiance, n, start, in_pass, first_sample, pixels, total,
+                                     total_sq), stats.copy()
         with self._film_lock:
             bad = wavefront.film(radiance, n, start, in_pass, first_sample, pixels, total,
                                  total_sq, class_a)
             if pilot is not None:
                 wavefront.film(without, n, start, in_pass, first_sample, pixels, *pilot,
-                               _NO_ROWS)
+                               passes.NO_ROWS)
         return bad, stats.copy()
+
+    def _merge_chunk(self, radiance, n, start, in_pass, first_sample, pixels, total,
+                     total_sq) -> int:
+        """Add a chunk's pixels' sums of the pass, each from zero, to total and total_sq; returns
+        the NaN/Inf samples. The chunk holds all the pass's samples of its pixels, so this adds
+        what the pass's own sums would, without a whole image of them (memory at 8k x 8k)."""
+        row0, rows = start // in_pass, n // in_pass
+        local, local_sq = np.zeros((rows, 3)), np.zeros((rows, 3))
+        bad = wavefront.film(radiance, n, start - row0 * in_pass, in_pass, first_sample,
+                             passes.ALL_PIXELS, local, local_sq, passes.NO_ROWS)
+        target = slice(row0, row0 + rows) if pixels.shape[0] == 0 else pixels[row0:row0 + rows]
+        with self._film_lock:
+            total[target] += local
+            total_sq[target] += local_sq
+        return bad
 
     def trace_light_chunk(self, pass_index: int, start: int, n: int):
         """Trace light paths start .. start + n of a pass; returns their splats that reached the
@@ -467,9 +336,44 @@ class Renderer:
         batches adaptive sampling is off.
 
         stop: once set, the chunks not yet started are skipped and the render ends cancelled
-        without counting its unfinished pass, whose samples are already in the sums: the result
-        is then no image (the viewport drops it for the next one's). Waits one chunk at most.
+        without counting its unfinished pass: the result is then no image (the viewport drops
+        it for the next one's). Waits one chunk at most.
         """
+        spp, threshold, least = self._settings(spp, batches, noise_threshold, min_spp)
+        adapt = threshold > 0.0 and adaptive.first_check(least) < spp
+        w, h = self.camera.width, self.camera.height
+        result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
+                              build_s=self.build_s, light_in_image=self.split,
+                              stages=self.stages(), spp_budget=spp,
+                              noise_threshold=threshold if adapt else 0.0)
+        if batches is not None:
+            scheduler = passes.BatchPasses(self, result, batches)
+        elif adapt:
+            scheduler = passes.AdaptivePasses(self, result, threshold, least)
+        else:
+            scheduler = passes.FixedPasses(self, result)
+        embree_before, rays_before = self.geometry.embree_time, self.geometry.ray_count
+        start = time.perf_counter()
+        with ThreadPoolExecutor(max_workers=self.threads) as pool:
+            while (step := scheduler.next()) is not None:
+                if not scheduler.trace(pool, step, stop):
+                    result.cancelled = True
+                    break
+                result.time_s = time.perf_counter() - start
+                result.embree_time_s = self.geometry.embree_time - embree_before
+                result.rays = self.geometry.ray_count - rays_before
+                if progress is not None and progress(result, scheduler.k,
+                                                     scheduler.estimate()) is False:
+                    result.cancelled = scheduler.unfinished()
+                    break
+                if scheduler.converged:
+                    break                 # every pixel has converged
+        result.time_s = time.perf_counter() - start
+        return result
+
+    def _settings(self, spp, batches, noise_threshold, min_spp) -> tuple[int, float, int]:
+        """(samples per pixel, noise threshold (0: off), least samples) of a render: the
+        arguments, else the scene's."""
         render = self.scene.render
         spp = int(spp if spp is not None else render["spp"])
         threshold = 0.0 if batches is not None else float(
@@ -479,158 +383,82 @@ class Renderer:
                     else render.get("min_spp", DEFAULT_RENDER["min_spp"]))
         if threshold > 0.0 and least <= 0:
             least = adaptive.auto_min_spp(threshold)
-        adapt = threshold > 0.0 and adaptive.first_check(least) < spp
-        w, h = self.camera.width, self.camera.height
-        npix = w * h
-        result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
-                              build_s=self.build_s, light_in_image=self.split,
-                              stages=self.stages(), spp_budget=spp,
-                              noise_threshold=threshold if adapt else 0.0)
-        bits = max(1, (spp - 1).bit_length())   # sample indices run over [0, 2^bits)
-        traces_light = self.caustics is not None
-        keep_batches = batches is not None
-        total, total_sq = result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3)
-        all_pixels = np.zeros(0, np.int64)      # film and generate: every pixel, in order
-        sampling = all_pixels
-        halves = None
-        if adapt:
-            result.sample_count = np.zeros((h, w), np.int32)
-            halves = result.halves = adaptive.Halves(w, h, threshold, least)
-        if traces_light:
-            result.light_sum = np.zeros((h, w, 3))
-            pass_light = np.zeros((npix, 3))
-            if adapt:
-                light_half, pass_light_a = np.zeros((npix, 3)), np.zeros((npix, 3))
-                result.light_pass_sq = np.zeros((h, w, 3))
-        if keep_batches:
-            result.batch_sum, result.batch_sq = np.zeros((h, w, 3)), np.zeros((h, w, 3))
-            pass_sum = np.zeros((npix, 3))
-            if traces_light:
-                result.light_batch_sum = np.zeros((h, w, 3))
-                result.light_batch_sq = np.zeros((h, w, 3))
-            passes = max(1, min(batches, spp))
-        embree_before, rays_before = self.geometry.embree_time, self.geometry.ray_count
-        counters = np.zeros(len(wavefront.STATS), np.int64)
-        # Adaptive renders measure whether light vertices pay (_pilot_choice): until the first
-        # error estimate every path also carries its light as it would without them.
-        pilot = None
-        if adapt and self.light_vertices and self.light_vertex_pilot:
-            pilot = (np.zeros((npix, 3)), np.zeros((npix, 3)))
-        vertices = self.light_vertices
-        pilot_rays = 0
-        start = time.perf_counter()
-        light_share = 1.0
-        union = None                            # adaptive: the pixels either half samples
-        k = 0
-        with ThreadPoolExecutor(max_workers=self.threads) as pool:
-            while result.spp < spp:
-                done = result.spp
-                if adapt:
-                    # A pass stays inside one window, whose half's pixels take its samples.
-                    window_end = min(spp, (done // adaptive.STEP + 1) * adaptive.STEP)
-                    sampling = halves.pixels(done)
-                    if sampling.size == 0:
-                        result.spp = window_end     # this half has stopped everywhere
-                        continue
-                n_rows = npix if sampling is all_pixels else sampling.shape[0]
-                if keep_batches:
-                    in_pass = spp // passes + (1 if k < spp % passes else 0)
-                else:
-                    # Enough paths per pass to fill the threads' chunks; no more samples than
-                    # reach the budget or adaptive sampling's window's end.
-                    in_pass = max(1, min(PASS_PATHS // n_rows, CHUNK, spp - done))
-                    if adapt:
-                        in_pass = min(in_pass, window_end - done)
-                count = n_rows * in_pass
-                film, film_sq, class_a = total, total_sq, _NO_ROWS
-                if keep_batches:
-                    film = pass_sum
-                    pass_sum[:] = 0.0
-                elif adapt:
-                    film, film_sq, class_a = halves.film(done)
-                # Chunks hold whole pixels' samples, so that each pixel's sum is added in the same
-                # order with any number of threads (float addition is not associative).
-                jobs = _jobs(0, count, in_pass)
-                rays_then = self.geometry.ray_count
-                for bad, stats in pool.map(
-                        lambda job: (0, 0) if stop is not None and stop.is_set() else
-                        self.trace_chunk(job[0], job[1], in_pass, done, sampling, bits, film,
-                                         film_sq, class_a, vertices, pilot), jobs):
-                    result.nan_count += bad
-                    counters += stats
-                if pilot is not None:
-                    pilot_rays += self.geometry.ray_count - rays_then
-                if stop is not None and stop.is_set():
-                    result.cancelled = True
-                    break
-                n_light = 0
-                if traces_light:
-                    n_light = max(2, int(round(self.light_paths_per_camera_path * npix * in_pass
-                                               * light_share)))
-                    n_a = n_light // 2 if adapt else n_light
-                    result.nan_count += self._trace_light_pass(
-                        pool, k, n_light, n_a, pass_light, pass_light_a if adapt else None,
-                        counters)
-                    result.light_sum.reshape(-1, 3)[:] += pass_light
-                    result.light_paths += n_light
-                    if adapt:
-                        light_half += pass_light_a
-                        result.light_paths_a += n_a
-                        result.light_pass_sq.reshape(-1, 3)[:] += pass_light * pass_light / n_light
-                        result.light_passes += 1
-                if keep_batches:
-                    total += pass_sum
-                    image = pass_sum / in_pass
-                    if traces_light:
-                        light_image = pass_light / n_light
-                        _add_batch(result.light_batch_sum, result.light_batch_sq, light_image)
-                        if self.split:
-                            image += light_image
-                            result.light_batch_images.append(
-                                light_image.reshape(h, w, 3).astype(np.float32))
-                    _add_batch(result.batch_sum, result.batch_sq, image)
-                    result.batch_images.append(image.reshape(h, w, 3).astype(np.float32))
-                    result.batches += 1
-                result.spp += in_pass
-                if adapt:
-                    halves.add(done, in_pass)
-                    np.add(halves.count[0], halves.count[1], out=result.sample_count.reshape(-1))
-                    np.add(halves.sum[0], halves.sum[1], out=total)
-                    np.add(halves.sum_sq[0], halves.sum_sq[1], out=total_sq)
-                    if pilot is not None and result.spp == halves.first:
-                        light = (result.light_sum.reshape(-1, 3) / result.light_paths
-                                 if self.split else 0.0)
-                        vertices, why = _pilot_choice(total, total_sq, pilot, result.spp, light,
-                                                      halves, spp, pilot_rays, counters)
-                        result.stages["light vertices"] = (vertices, why)
-                        pilot = None
-                    if result.spp < spp:
-                        halves.check(result.spp, (result.light_sum.reshape(-1, 3), light_half,
-                                                  result.light_paths, result.light_paths_a)
-                                     if self.split else ())
-                        if halves.union() is not union:      # a check changed the halves
-                            union = halves.union()
-                            result.active_share = union.shape[0] / npix
-                            if traces_light:
-                                light_share = _share_on(pass_light, union)
-                        sampling = union
-                result.time_s = time.perf_counter() - start
-                result.embree_time_s = self.geometry.embree_time - embree_before
-                result.rays = self.geometry.ray_count - rays_before
-                result.stats = dict(zip(wavefront.STATS, counters.tolist()))
-                k += 1
-                converged = sampling.shape[0] == 0 and sampling is not all_pixels
-                estimate = (passes if keep_batches else k if converged
-                            else k + math.ceil((spp - result.spp) / max(in_pass, 1)))
-                if progress is not None and progress(result, k, estimate) is False:
-                    result.cancelled = result.spp < spp and not converged
-                    break
-                if converged:
-                    break                 # every pixel has converged
-        result.time_s = time.perf_counter() - start
-        return result
+        return spp, threshold, least
 
-    def _trace_light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters) -> int:
+    # -- windows ---------------------------------------------------------------------------
+
+    def windows(self, spp: int) -> list[Window]:
+        """The windows of a fixed render of spp samples per pixel, in the order it adds them."""
+        return passes.fixed_windows(self.camera.width * self.camera.height, spp)
+
+    def render_window(self, window: Window, spp: int, pixels: np.ndarray | None = None,
+                      stop: threading.Event | None = None) -> WindowSums | None:
+        """The sums of the samples window.first .. window.end of `pixels` (image indices
+        y * width + x, sorted; default all) in a render of spp samples per pixel; None if `stop`
+        was set. Keeps nothing between calls: a fixed render of spp samples is the sum of its
+        windows (windows(spp)) added in order (RenderResult.add), wherever each was traced.
+
+        spp fixes the sampler's sequences; window.index keys the light tracer's paths, whose
+        count follows the window's camera paths and whose splats land anywhere in the image.
+        A window of some pixels traces no light paths: tiles of one window would all trace the
+        same ones (the same keys); its light belongs to a window of every pixel."""
+        npix = self.camera.width * self.camera.height
+        light = np.zeros((npix, 3)) if self.caustics is not None and pixels is None else None
+        pixels = passes.ALL_PIXELS if pixels is None else np.ascontiguousarray(pixels, np.int64)
+        film = (np.zeros((npix, 3)), np.zeros((npix, 3)))
+        bits = max(1, (int(spp) - 1).bit_length())
+        with ThreadPoolExecutor(max_workers=self.threads) as pool:
+            return self._trace_window(pool, window, bits, pixels, film, False, light, stop)
+
+    def _trace_window(self, pool, window: Window, bits: int, pixels: np.ndarray, film,
+                      merge: bool, light: np.ndarray | None, stop) -> WindowSums | None:
+        """Trace a window: its camera samples in progressive passes into film (sums, sums of
+        squares; with `merge` each pass's sums from zero, added as RenderResult.add adds a
+        window's, which takes a window of one pass), then its light paths into `light` (cleared
+        first). Returns the window's sums (its camera sums None when merged), None if `stop`
+        was set."""
+        sums = WindowSums(window, None if merge else film[0], None if merge else film[1], light,
+                          counters=np.zeros(len(wavefront.STATS), np.int64))
+        rows = pixels.shape[0] or self.camera.width * self.camera.height
+        step = passes.samples_per_pass(rows)
+        for first in range(window.first, window.end, step):
+            sums.nan_count += self._camera_pass(
+                pool, passes.Pass(first, min(step, window.end - first)), pixels, bits,
+                (*film, passes.NO_ROWS), sums.counters, stop, merge=merge)
+            if stop is not None and stop.is_set():
+                return None
+        if light is not None:
+            sums.light_paths = self._light_count(rows, window.end - window.first)
+            sums.nan_count += self._light_pass(pool, window.index, sums.light_paths,
+                                               sums.light_paths, light, None, sums.counters)
+        return sums
+
+    # -- one pass --------------------------------------------------------------------------
+
+    def _camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
+                     pilot=None, merge=False) -> int:
+        """Trace a pass's camera samples (step: passes.Pass) of `pixels` into film (sums, sums
+        of squares, class-A sums; trace_chunk's merge) and count their events; returns the NaN
+        or Inf samples."""
+        rows = pixels.shape[0] or self.camera.width * self.camera.height
+        # Chunks hold whole pixels' samples, so that each pixel's sum is added in the same
+        # order with any number of threads (float addition is not associative).
+        bad = 0
+        for chunk_bad, stats in pool.map(
+                lambda job: (0, 0) if stop is not None and stop.is_set() else
+                self.trace_chunk(job[0], job[1], step.samples, step.first, pixels, bits, *film,
+                                 vertices, pilot, merge),
+                passes.jobs(0, rows * step.samples, step.samples)):
+            bad += chunk_bad
+            counters += stats
+        return bad
+
+    def _light_count(self, rows: int, samples: int, share: float = 1.0) -> int:
+        """The light paths of a pass of `samples` camera samples in `rows` pixels, `share` the
+        light tracer's energy on the pixels still sampling (adaptive sampling)."""
+        return max(2, int(round(self.light_paths_per_camera_path * rows * samples * share)))
+
+    def _light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters) -> int:
         """Trace a pass's n_light light paths into film (rows of (pixels, 3)); film_a (if not
         None) gets those of the first n_a, adaptive sampling's half A of the light tracer.
         Returns how many splats were NaN or Inf (left out)."""
@@ -638,7 +466,7 @@ class Renderer:
         if film_a is not None:
             film_a[:] = 0.0
         # Jobs never straddle n_a, so each job's splats belong to one half.
-        jobs = _jobs(0, n_a, 1) + _jobs(n_a, n_light, 1)
+        jobs = passes.jobs(0, n_a, 1) + passes.jobs(n_a, n_light, 1)
         bad = 0
         for (first, _), (pixels, contributions) in zip(jobs, pool.map(
                 lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs)):
@@ -649,67 +477,11 @@ class Renderer:
         return bad
 
 
-def _jobs(begin: int, end: int, unit: int) -> list:
-    """(start, count) jobs covering begin .. end in whole units (a pixel's samples in a pass),
-    at most CHUNK paths each, of equal size give or take a unit, and as many as the next multiple
-    of JOB_MULTIPLE (the units allowing): adaptive sampling's small passes then keep every thread
-    busy. The split depends on the counts alone, so the image does not depend on the threads."""
-    units = (end - begin) // unit
-    if units <= 0:
-        return []
-    count = -(-units // max(1, CHUNK // unit))
-    count = min(units, -(-count // JOB_MULTIPLE) * JOB_MULTIPLE)
-    bounds = [begin + i * units // count * unit for i in range(count + 1)]
-    return [(a, b - a) for a, b in zip(bounds, bounds[1:])]
-
-
-def _pilot_choice(total, total_sq, without, n, light, halves, most, rays, counters):
-    """(whether the rest of an adaptive render uses light vertices, why), from its first n
-    samples in every pixel: their sums and sums of squares with light vertices (total,
-    total_sq) and without (`without`), `light` the light tracer's image (or 0), `halves` the
-    render's adaptive.Halves, `most` its cap, `rays` the camera rays the samples took and
-    `counters` their wavefront.STATS.
-
-    Each estimator's cost is the samples adaptive sampling is predicted to give all pixels
-    (adaptive.predicted_samples) times its rays per sample; without light vertices a path saves
-    their rays (the ray from the lamp and the connections). Rays, not seconds, so that the
-    choice, and the image, depend on the seed alone. A pixel's own samples sway the choice by
-    one pixel's share of an image-wide sum; either way every sample is unbiased."""
-    saved = counters[wavefront.VERTEX_RAYS] + counters[wavefront.CONNECTIONS]
-    mean = total / n + light
-    cost = [float(adaptive.predicted_samples(s, sq, n, mean, halves.threshold, halves.first,
-                                             most, halves.width, halves.height).sum()) * r
-            for (s, sq), r in (((total, total_sq), rays), (without, rays - saved))]
-    ratio = cost[0] / cost[1] if cost[1] > 0.0 else 1.0
-    if ratio <= 1.0:
-        return True, (f"mesh lights or area lamps light diffuse surfaces; measured: {ratio:.2f}x "
-                      "the rays to the noise threshold with them")
-    return False, f"measured: {ratio:.2f}x the rays to the noise threshold with them"
-
-
-def _share_on(light, pixels) -> float:
-    """The share of a light image's energy (rows of (pixels, 3)) on the given pixels."""
-    whole = float(light.sum())
-    return float(light[pixels].sum()) / whole if whole > 0.0 else 1.0
-
-
-def _add_batch(total, total_sq, image):
-    """Add one batch image, (pixels, 3) rows, to (H, W, 3) sums of batches and of their squares."""
-    total.reshape(-1, 3)[:] += image
-    total_sq.reshape(-1, 3)[:] += image * image
-
-
 def describe_stages(stages: dict) -> tuple[str, str]:
     """('stage (why), ...' of the stages run, the same of those skipped) for a summary line."""
     run = ", ".join(f"{name} ({why})" for name, (runs, why) in stages.items() if runs)
     skipped = ", ".join(f"{name} ({why})" for name, (runs, why) in stages.items() if not runs)
     return run or "none", skipped or "none"
-
-
-def _variance_of_mean(total, total_sq, k):
-    """The variance of the mean of k independent values (samples, or batch images) per pixel,
-    from their sum and sum of squares."""
-    return np.maximum((total_sq - total * total / k) / (k - 1), 0.0) / k
 
 
 def render(scene: Scene, *, threads: int = 2, progress=None, spp: int | None = None) -> RenderResult:

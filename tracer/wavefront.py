@@ -177,7 +177,7 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
 
     `without` (when it has rows) gets the light the same paths would carry without light
     vertices: the path tracer's samples are the same, only the MIS weights of light that a light
-    vertex could have found change. A pilot compares the two (integrator.py, _pilot_choice).
+    vertex could have found change. A pilot compares the two (pilot.py).
 
     Lamps have no surface, as in Cycles: a ray adds the light of every lamp it crosses before its
     hit (or escape) and goes on as if the lamp were not there. A lamp is seen by the rays its

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from support.builders import box, camera, icosphere, make_scene, quad
+from support.stats import estimators_agree as _estimators_agree, z_bound
 from snell.tracer.camera import Camera
 from snell.tracer.integrator import CHUNK, Renderer, render
 
@@ -17,13 +18,6 @@ LOSSLESS = {
     "glass-1.0": {"name": "Glass1", "kind": "glass", "color": WHITE, "ior": 1.0},
     "refraction-1.5": {"name": "Water", "kind": "refraction", "color": WHITE, "ior": 1.5},
 }
-
-
-def z_bound(n_tests):
-    """Two-sided normal quantile for a Sidak-corrected 1% family-wise error over n_tests."""
-    from scipy import stats
-    alpha = 1 - (1 - 0.01) ** (1 / n_tests)
-    return stats.norm.isf(alpha / 2)
 
 
 @pytest.mark.parametrize("scale", [1.0, 1000.0])
@@ -287,8 +281,8 @@ def test_nan_samples_are_counted_and_kept_out_of_the_image(monkeypatch):
     monkeypatch.setattr(wavefront, "film", poisoned)
     result = render(scene)
     # One pass of 128 paths (64 pixels x 2 samples) in chunks; each chunk poisons its own rows.
-    from snell.tracer.integrator import _jobs
-    chunks = [n for _, n in _jobs(0, 128, 2)]
+    from snell.tracer.passes import jobs
+    chunks = [n for _, n in jobs(0, 128, 2)]
     assert len(chunks) == 4
     expected_bad = sum(len(set(range(0, n, 7)) | set(range(0, n, 11))) for n in chunks)
     assert result.nan_count == expected_bad
@@ -305,27 +299,6 @@ def test_non_finite_light_splats_are_counted_and_left_out():
                               [1.0, np.inf, 1.0]])
     assert wavefront.splat(pixels, contributions, film) == 2
     assert np.array_equal(film, [[1.0, 1.0, 1.0], [2.0, 2.0, 2.0], [0.0, 0.0, 0.0]])
-
-
-def _estimators_agree(scene, spp_mis, spp_bsdf, region=None, light_vertices=None):
-    """Per-pixel and whole-image z-tests between NEE+MIS and BSDF-only renders of one scene."""
-    a = Renderer(scene, light_vertices=light_vertices).render(spp=spp_mis)
-    b = Renderer(scene, next_event=False).render(spp=spp_bsdf)
-    ma, mb = a.mean().astype(np.float64), b.mean().astype(np.float64)
-    va, vb = a.variance_of_mean(), b.variance_of_mean()
-    if region is not None:
-        ma, mb, va, vb = ma[region], mb[region], va[region], vb[region]
-    var = va + vb
-    # A pixel where either estimator saw no variation has no usable variance estimate (a rare
-    # event never sampled): compare only pixels where both did; the image means cover the rest.
-    noisy = (va > 0) & (vb > 0)
-    assert noisy.mean() > 0.5
-    z = np.abs(ma - mb)[noisy] / np.sqrt(var[noisy])
-    assert np.mean(z < z_bound(z.size)) >= 0.9975, np.sort(z)[-5:]
-    for c in range(3):
-        diff = ma[..., c].mean() - mb[..., c].mean()
-        se = math.sqrt(va[..., c].sum() + vb[..., c].sum()) / ma[..., c].size
-        assert abs(diff) < z_bound(3) * se, (c, diff, se, ma[..., c].mean())
 
 
 def test_light_sampling_and_bsdf_sampling_agree_near_a_two_sided_lamp():
@@ -447,8 +420,8 @@ def test_a_pass_splits_into_even_jobs_of_whole_pixels(begin, end, unit):
     """Jobs cover the pass in order, hold whole pixels' samples and at most CHUNK paths, and come
     in a multiple of JOB_MULTIPLE (fewer only when there are fewer pixels), even to one pixel:
     small adaptive passes keep both threads busy."""
-    from snell.tracer.integrator import JOB_MULTIPLE, _jobs
-    jobs = _jobs(begin, end, unit)
+    from snell.tracer.passes import JOB_MULTIPLE, jobs as split
+    jobs = split(begin, end, unit)
     starts = [s for s, _ in jobs]
     sizes = [n for _, n in jobs]
     assert starts[0] == begin and sum(sizes) == end - begin

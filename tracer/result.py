@@ -1,0 +1,202 @@
+"""What a render returns: per-pixel sums of samples, their squares and the light tracer's splats,
+and the statistics a caller derives from them (the image, variances of its mean, counters)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from . import adaptive, wavefront
+
+
+class Window(NamedTuple):
+    """Samples first .. end of a render; `index`, each window's own, keys its light paths."""
+    index: int
+    first: int
+    end: int
+
+
+@dataclass
+class WindowSums:
+    """What one window of a render adds to its image: the camera samples' sums and sums of
+    squares and the light tracer's splats, rows of (pixels, 3) of the whole image (pixel =
+    y * width + x), with the light paths traced, the NaN or Inf samples left out and the
+    event counters (wavefront.STATS). Camera sums None: already added to the render's."""
+    window: Window
+    sum: np.ndarray | None
+    sum_sq: np.ndarray | None
+    light_sum: np.ndarray | None
+    light_paths: int = 0
+    nan_count: int = 0
+    counters: np.ndarray | None = None
+
+
+@dataclass
+class RenderResult:
+    """Per-pixel sums (row 0 = top) of the camera samples and of their squares, and of the light
+    tracer's splats; with batches, sums of each pass's image and light image and their squares;
+    plus counters."""
+    width: int
+    height: int
+    sum: np.ndarray
+    sum_sq: np.ndarray
+    light_sum: np.ndarray | None = None
+    batch_sum: np.ndarray | None = None
+    batch_sq: np.ndarray | None = None
+    light_batch_sum: np.ndarray | None = None
+    light_batch_sq: np.ndarray | None = None
+    # With batches, each pass's whole image (camera samples plus the light tracer's share) and,
+    # in the hybrid, the light tracer's share alone, float32 (H, W, 3) in pass order: the
+    # validator estimates the variance of any linear statistic (a tile mean, the image mean, a
+    # filtered sum) from their spread, and knows which light only the light tracer carries.
+    batch_images: list = field(default_factory=list)
+    light_batch_images: list = field(default_factory=list)
+    spp: int = 0
+    light_paths: int = 0
+    light_in_image: bool = False     # the hybrid: the light tracer's splats are part of the image
+    batches: int = 0
+    nan_count: int = 0
+    time_s: float = 0.0
+    build_s: float = 0.0
+    embree_time_s: float = 0.0
+    rays: int = 0
+    threads: int = 1
+    cancelled: bool = False
+    stats: dict = field(default_factory=dict)
+    stages: dict = field(default_factory=dict)   # Renderer.stages(): what the scene runs, skips
+    # Adaptive sampling (tracer/adaptive.py): each pixel's samples (None: spp everywhere) and
+    # its two halves' sums, the settings, the share of pixels still sampling, and the light
+    # tracer's half A and per-pass sums for its variance.
+    spp_budget: int = 0
+    noise_threshold: float = 0.0
+    sample_count: np.ndarray | None = None
+    halves: adaptive.Halves | None = None
+    active_share: float = 1.0
+    light_paths_a: int = 0
+    light_pass_sq: np.ndarray | None = None
+    light_passes: int = 0
+
+    def add(self, sums: WindowSums):
+        """Add a window of every pixel's samples (Renderer.render_window) to the sums: windows
+        added in the order of their samples make the fixed-sample render's sums bit for bit."""
+        if sums.sum is not None:
+            self.sum.reshape(-1, 3)[:] += sums.sum
+            self.sum_sq.reshape(-1, 3)[:] += sums.sum_sq
+        if sums.light_sum is not None:
+            if self.light_sum is None:
+                self.light_sum = np.zeros_like(self.sum)
+            self.light_sum.reshape(-1, 3)[:] += sums.light_sum
+        self.light_paths += sums.light_paths
+        self.spp += sums.window.end - sums.window.first
+        self.nan_count += sums.nan_count
+        self.stats = {name: self.stats.get(name, 0) + count
+                      for name, count in zip(wavefront.STATS, sums.counters.tolist())}
+
+    def mean(self) -> np.ndarray:
+        """The image: per-pixel mean radiance (each pixel's sum over its own sample count),
+        float32 (H, W, 3), linear."""
+        if self.spp == 0:
+            return np.zeros_like(self.sum, dtype=np.float32)
+        # Divided in float64 and rounded once into the float32 image, a band at a time, without
+        # a float64 copy of the image on the way (1.5 GB at 8192x8192).
+        image = np.empty(self.sum.shape, np.float32)
+        light = self.light_in_image and self.light_paths
+        rows = max(1, (1 << 14) // self.width)
+        for r in range(0, image.shape[0], rows):
+            band = slice(r, r + rows)
+            if self.halves is None:
+                part = self.sum[band] / self.spp
+            else:
+                end = min(r + rows, self.height)
+                part = self.halves.mean(slice(r * self.width, end * self.width)).reshape(
+                    end - r, self.width, 3)
+            if light:
+                part += self.light_sum[band] / self.light_paths
+            image[band] = part
+        return image
+
+    def samples(self) -> np.ndarray:
+        """Each pixel's camera samples, int32 (H, W)."""
+        if self.sample_count is not None:
+            return self.sample_count
+        return np.full((self.height, self.width), self.spp, np.int32)
+
+    @property
+    def saved_share(self) -> float:
+        """The share of the sample budget (spp_budget in every pixel) adaptive sampling saved."""
+        budget = self.spp_budget * self.width * self.height
+        if self.sample_count is None or budget == 0:
+            return 0.0
+        return 1.0 - float(self.sample_count.sum(dtype=np.int64)) / budget
+
+    def light_image(self) -> np.ndarray:
+        """The light tracer's splats per light path, float64 (H, W, 3): its part of the hybrid's
+        image, or pure light tracing's whole image."""
+        if self.light_sum is None:
+            return np.zeros_like(self.sum)
+        return self.light_sum / max(self.light_paths, 1)
+
+    def variance_of_mean(self) -> np.ndarray:
+        """Per-pixel variance of the mean image, float64 (H, W, 3): see variance_and_dof."""
+        return self.variance_and_dof()[0]
+
+    def variance_and_dof(self):
+        """Per-pixel variance of the mean image and its degrees of freedom, (H, W, 3) and a number.
+
+        With K >= 2 batches (Renderer.render(batches=K)), from the spread of the K passes'
+        images (K - 1 degrees of freedom): the light tracer's splats have no per-sample variance,
+        and where rare paths carry much of the light the per-sample variance underestimates the
+        error far more than batch means do. Without batches, from the camera samples' sums of
+        squares (n - 1), which then leave the light tracer's part out.
+        """
+        if self.batches >= 2 and self.batch_sum is not None:
+            return _variance_of_mean(self.batch_sum, self.batch_sq, self.batches), \
+                self.batches - 1
+        if self.halves is not None:
+            return self._adaptive_variance_and_dof()
+        n = self.spp
+        if n < 2:
+            return np.full_like(self.sum, np.inf), 1
+        return _variance_of_mean(self.sum, self.sum_sq, n), n - 1
+
+    def _adaptive_variance_and_dof(self):
+        """With per-pixel sample counts: the variance of the mean of the halves' means from each
+        half's samples (count - 1 degrees of freedom) plus, in the hybrid, the light tracer's
+        from its passes; the degrees of freedom are the smallest of any pixel's half
+        (conservative for the tests)."""
+        variance, dof = self.halves.variance_of_mean()
+        variance = variance.reshape(self.sum.shape)
+        if self.light_in_image and self.light_passes >= 2:
+            variance = variance + self.light_variance_of_mean()
+            dof = min(dof, self.light_passes - 1)
+        return variance, max(dof, 1)
+
+    def light_variance_of_mean(self) -> np.ndarray:
+        """Per-pixel variance of light_image() from its batches (K - 1 degrees of freedom)."""
+        if self.light_pass_sq is not None and self.light_passes >= 2:
+            # Passes of unequal light path counts L_k and sums S_k: the variance of one light
+            # path's splats is sum_k (S_k - L_k mean)^2 / L_k / (K - 1), that of the mean
+            # that over L.
+            total, k = self.light_paths, self.light_passes
+            spread = self.light_pass_sq - self.light_sum * self.light_sum / total
+            return np.maximum(spread, 0.0) / (k - 1) / total
+        if self.batches < 2 or self.light_batch_sum is None:
+            return np.full_like(self.sum, np.inf)
+        return _variance_of_mean(self.light_batch_sum, self.light_batch_sq, self.batches)
+
+    @property
+    def rays_per_second(self) -> float:
+        """All rays traced (camera, bounce and shadow) per second of render wall time."""
+        return self.rays / self.time_s if self.time_s > 0 else 0.0
+
+    @property
+    def embree_share(self) -> float:
+        """Fraction of the threads' wall time spent inside Embree queries."""
+        return self.embree_time_s / (self.time_s * self.threads) if self.time_s > 0 else 0.0
+
+
+def _variance_of_mean(total, total_sq, k):
+    """The variance of the mean of k independent values (samples, or batch images) per pixel,
+    from their sum and sum of squares."""
+    return np.maximum((total_sq - total * total / k) / (k - 1), 0.0) / k
