@@ -113,11 +113,12 @@ def cycles_render(blend_path, *, spp, max_depth, seed, n_seeds=DEFAULT_CYCLES_SE
 
 
 def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label="",
-                    objects=None, notes=()):
+                    scene=None, notes=(), threads=2):
     """Statistics of a Snell RenderResult against a CyclesResult; returns the report dict.
 
-    objects: optional (object index image (H, W, S), object names) to name the objects under
-    the tiles that fail; notes: exporter warnings that do not change what Cycles renders."""
+    scene: the Snell scene rendered, to name the objects under the tiles that fail (its object
+    index is rendered only when some fail); notes: exporter warnings that do not change what
+    Cycles renders."""
     a = snell_estimate(snell_result)
     b = metrics.Estimate.from_images(np.stack(cyc.images))
     stats = metrics.compare_estimates(a, b)
@@ -126,8 +127,11 @@ def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label=
         stats["verdict"] = metrics.NOT_COMPARABLE
     stats["not_comparable"] = list(not_comparable)
     stats["exporter_notes"] = list(notes)
-    if objects is not None:
-        index, names = objects
+    if scene is not None and stats["failing_tiles"]:
+        from ..tracer.integrator import Renderer
+        index = Renderer(scene, threads=threads, caustics=False,
+                         light_vertices=False).object_index()
+        names = [o["name"] for o in scene.objects]
         for tile in stats["failing_tiles"]:
             tile["objects"] = objects_in(index, names, tile)
     stats["snell"] = {"time_s": snell_result.time_s, "spp": snell_result.spp,
@@ -215,13 +219,9 @@ def compare_blend(blend_path, *, spp=None, max_depth=None, seed=None, scale=None
                             threads=threads)
     except cycles.NoCyclesEquivalent as exc:
         return snell_only(snell_result, scene, str(exc))
-    objects = None
-    if noise_threshold <= 0.0:
-        from ..tracer.integrator import Renderer
-        index = Renderer(scene, threads=threads, caustics=False, light_vertices=False).object_index()
-        objects = (index, [o["name"] for o in scene.objects])
     out = compare_renders(snell_result, cyc, not_comparable=not_comparable,
-                          settings=snell_settings(scene), objects=objects, notes=notes)
+                          settings=snell_settings(scene), scene=scene, notes=notes,
+                          threads=threads)
     out["scene"] = str(blend_path)
     out["exporter_warnings"] = list(warnings)
     return out

@@ -263,13 +263,6 @@ def load_run(path: str):
     return a, b, light
 
 
-def verdict_of(a_images, b_images, compare=None):
-    """The validator's statistics of one null run (the tested images' batches against the
-    reference's seeds), as validate.compare_renders computes them."""
-    compare = compare or metrics.compare_batches
-    return compare(a_images, b_images)
-
-
 def clopper_pearson(k: int, n: int, level: float = 0.95):
     """The exact binomial interval (low, high) for k successes in n trials."""
     from scipy import stats

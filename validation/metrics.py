@@ -224,10 +224,6 @@ def _tile_test(a, b, k, alpha):
     return z, ok
 
 
-def _channel_means(images):
-    return images.mean(axis=(1, 2))
-
-
 def _image_mean_test(a, b, alpha):
     """Per channel: (z, ok, se of a's mean, se of b's mean, how the variances were estimated)."""
     npx = a.mean.shape[0] * a.mean.shape[1]
@@ -236,7 +232,7 @@ def _image_mean_test(a, b, alpha):
         """(mean, variance of the mean, dof) of a side's image mean per channel."""
         if e.images is not None:
             images = e.images - e.light_images if rest and e.light_images is not None else e.images
-            m = _channel_means(images)
+            m = images.mean(axis=(1, 2))       # each image's mean per channel
             return m.mean(axis=0), m.var(axis=0, ddof=1) / len(m), np.full(3, len(m) - 1.0)
         mean, var = e.rest() if rest else (e.mean, e.var)
         # Welch-Satterthwaite dof of the mean, df (sum v)^2 / sum v^2, with the 1 / npx^4 of

@@ -52,12 +52,10 @@ class Reference:
     def compare(self, modify=lambda s: s, noise_threshold=0.0, spp=None):
         """The validator's report dict for Snell (modify: a deliberate change) against Cycles."""
         from snell.validation import compare
-        from snell.tracer.integrator import Renderer
         scene = modify(self.scene)
         result = compare.snell_render(scene, spp or self.spp, noise_threshold=noise_threshold)
-        index = Renderer(scene, caustics=False, light_vertices=False).object_index()
         return compare.compare_renders(result, self.cycles, settings=compare.snell_settings(scene),
-                                       objects=(index, [o["name"] for o in scene.objects]))
+                                       scene=scene)
 
 
 def verdict(result):
