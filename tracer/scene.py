@@ -120,7 +120,7 @@ class Scene:
                 "images": images, "texcoords": texcoords}
 
     def with_render(self, **overrides) -> "Scene":
-        """A copy sharing the arrays, with saved render settings overridden (None values ignored)."""
+        """A copy sharing the arrays, with saved render settings overridden (None: ignored)."""
         saved = {s.name for s in of_scope(SCENE)}
         for key in overrides:
             if key not in saved:

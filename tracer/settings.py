@@ -81,7 +81,8 @@ SETTINGS = (
     Setting("spp", int, 64, "Samples per pixel; with a noise threshold, the most any pixel takes",
             least=1, greatest=MAX_INT, label="Samples", metavar="N", ui={"soft_max": 4096}),
     Setting("max_depth", int, 8, "Emission plus up to this many bounces (the seed project's "
-            "max_ray_depth; Cycles' max_bounces is one less); 0 shows only emitters seen directly",
+            "max_ray_depth; Cycles: max_bounces = Max Depth - 1); 0 shows only emitters seen "
+            "directly",
             least=0, greatest=MAX_INT, metavar="M", ui={"soft_max": 64}),
     Setting("seed", int, 0, "Random seed: the same seed and sample count give the same image, "
             "whatever the thread count", least=0, greatest=MAX_INT, metavar="S"),
@@ -101,7 +102,8 @@ SETTINGS = (
     # optional in the file: files written before adaptive sampling have neither.
     Setting("noise_threshold", float, 0.01, "Adaptive sampling: a pixel stops sampling once its "
             "noise is below this (Cycles' default 0.01); 0 turns adaptive sampling off",
-            least=0.0, metavar="T", ui={"soft_min": 0.001, "soft_max": 1.0, "step": 0.1, "precision": 4}),
+            least=0.0, metavar="T",
+            ui={"soft_min": 0.001, "soft_max": 1.0, "step": 0.1, "precision": 4}),
     Setting("min_spp", int, 0, "Samples every pixel takes before it may stop (rounded up to a "
             "multiple of 16, at least 32); 0 chooses from the noise threshold as Cycles does "
             "(64 at 0.01)", least=0, greatest=MAX_INT, label="Min Samples",
@@ -191,7 +193,8 @@ DEFAULT_RENDER = RenderSettings().to_render()
 
 
 def markdown_table() -> str:
-    """The settings as the Markdown table in docs/scene-format.md."""
+    """The settings as the Markdown table in docs/scene-format.md (tests/unit/test_settings.py
+    holds the page to it)."""
     where = {SCENE: "scene file, Blender, command line", RUN: "Blender, command line",
              VIEWPORT: "Blender (viewport)", ESTIMATOR: "tests and validator"}
     rows = ["| setting | type | default | range | where | what it does |",
@@ -215,6 +218,6 @@ def _range(s: Setting) -> str:
     if s.choices:
         return ", ".join(f"`{v}`" for v in s.values)
     if s.type is bool:
-        return ""
+        return "`true`, `false`"
     low = f"> {s.least}" if s.least_excluded else f">= {s.least}"
     return low if s.greatest is None else f"{s.least} to {s.greatest}"
