@@ -173,12 +173,12 @@ def test_info_reports_depth_of_field(tmp_path):
 
 
 class StubResult:
-    def __init__(self, scene, cancelled=False):
+    def __init__(self, scene, settings, cancelled=False):
         w, h = scene.camera["resolution"]
         self.image = np.zeros((h, w, 3), np.float32)
         self.image[0] = 1.0
         self.image[-1, -1] = np.nan
-        self.spp, self.nan_count, self.rays = scene.render["spp"], 3, 1000
+        self.spp, self.nan_count, self.rays = settings.spp, 3, 1000
         self.time_s, self.embree_time_s, self.cancelled = 0.5, 0.25, cancelled
         self.threads = 2
         self.embree_share = self.embree_time_s / (self.time_s * self.threads)
@@ -201,7 +201,7 @@ def stub_integrator(monkeypatch):
         calls.append({"scene": scene, "settings": settings})
         if module.behaviour == "interrupt":
             raise KeyboardInterrupt
-        result = StubResult(scene, cancelled=module.behaviour == "cancel")
+        result = StubResult(scene, settings, cancelled=module.behaviour == "cancel")
         if progress:
             progress(result, 1, 1)
         return result
