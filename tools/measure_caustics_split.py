@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Choose the caustics light tracer's share of the work: relMSE x time on a scene for several
-numbers of light paths per camera path (tracer/integrator.py LIGHT_PATHS_PER_CAMERA_PATH).
+numbers of light paths per camera path (tracer/settings.py LIGHT_PATHS_PER_CAMERA_PATH).
 
     .venv/bin/python tools/measure_caustics_split.py [SCENE.blend] [--spp 32] [--repeat 3]
         [--ratios 0,0.125,0.25,0.5,1,2] [--reference-spp 2048]

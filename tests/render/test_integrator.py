@@ -378,7 +378,7 @@ scene = make_scene([(pos, tri, 0, nrm), (*quad((0, 0, -1), 3, 3), 1), (*quad((0,
                    mats, camera(resolution=(8, 8), dof={"use_dof": True, "aperture_radius": 0.1}),
                    world=[0.2, 0.2, 0.2], lights=[area, sun], spp=4, max_depth=6)
 for sampler in integrator.SAMPLERS:
-    integrator.Renderer(scene, sampler=sampler).render()
+    integrator.Renderer(scene, scene.settings(sampler=sampler)).render()
 print(before, count())
 """
 
