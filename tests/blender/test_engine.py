@@ -56,7 +56,8 @@ def tracer_image(spp=None, passes=None):
     depsgraph = bpy.context.evaluated_depsgraph_get()
     scene, _ = export_depsgraph(depsgraph)
     progress = None if passes is None else (lambda result, done, total: done < passes)
-    return Renderer(scene, scene.settings(spp=spp)).render(progress=progress).mean()
+    settings = scene.settings() if spp is None else scene.settings(spp=spp)
+    return Renderer(scene, settings).render(progress=progress).mean()
 
 
 @pytest.fixture
