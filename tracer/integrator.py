@@ -18,11 +18,12 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import adaptive, bsdf, jit, light_paths, lobes, passes, wavefront
+from . import adaptive, jit, light_paths, lobes, passes, wavefront
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
 from .lights import LightSampler
+from .material_kinds import DIFFUSE, GLASS, LAYERED, REFRACTION
 from .materials import material_tables
 from .microfacet_tables import shipped_tables
 from .passes import CHUNK
@@ -152,8 +153,8 @@ class Renderer:
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
         used = self.materials.kind[self.materials.of_triangle]
-        dielectric = bool(np.isin(used, (bsdf.GLASS, bsdf.REFRACTION)).any())
-        layered = bool((used == bsdf.LAYERED).any())
+        dielectric = bool(np.isin(used, (GLASS, REFRACTION)).any())
+        layered = bool((used == LAYERED).any())
         lights = self.lights.tables
         next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
         world, env = bool(lights.has_world), bool(lights.has_env)
@@ -190,7 +191,7 @@ class Renderer:
         if not light_vertices_module.starts_light_vertices(self.lights.tables):
             return False, "no mesh light or area lamp with a spread, MIS, shadows and diffuse rays"
         used = self.materials.kind[self.materials.of_triangle]
-        if not np.any(used == bsdf.DIFFUSE):
+        if not np.any(used == DIFFUSE):
             return False, "no diffuse surface"
         return True, "mesh lights or area lamps light diffuse surfaces"
 

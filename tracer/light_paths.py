@@ -31,13 +31,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import bsdf
-from .bsdf import DIFFUSE, EMISSION, LAYERED, REFRACTION
+from . import specular
 from .camera import camera_connection
 from .geometry import hit_offset, hit_point, offset_origin
 from .jit import jit, jit_inline
 from .lamps import (USES_MIS, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION, area_lamp_point,
                     intersect_point_lamp, spot_attenuation, spread_attenuation)
+from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, REFRACTION
 from .lights import AREA, EMISSIVE_TRIANGLE, POINT, SUN
 from .sampler import mix, random_pair
 from .textures import surface_colors
@@ -86,7 +86,7 @@ def new_light_paths(n: int) -> LightPaths:
 def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caustics | None:
     """The light tracer's tables for a scene, or None when it has nothing to do (no mirror or
     glass, or no emitter that camera paths could reach through them)."""
-    specular = np.isin(material_kind, (bsdf.MIRROR, bsdf.GLASS, bsdf.REFRACTION))
+    specular = np.isin(material_kind, (MIRROR, GLASS, REFRACTION))
     tri_specular = specular[scene.material_ids] if len(scene.material_ids) else np.zeros(0, bool)
     if pure:                       # aim at the whole scene (used by suns only)
         tri_specular = np.ones(len(scene.material_ids), bool)
@@ -379,15 +379,15 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
             continue              # a further diffuse vertex would exceed the depth
         n = ns_f
         if has_normals and kind != REFRACTION:
-            n = bsdf.valid_reflection_normal(ng_f, neg(d), ns_f)
+            n = specular.valid_reflection_normal(ng_f, neg(d), ns_f)
         u_choice, _ = random_pair(key, 1 + bounces, 5)
-        new_d, weight, event, valid = bsdf.sample_specular(
+        new_d, weight, event, valid = specular.sample_specular(
             kind, d, ng_f, n, entering, color, trans_color, mats.ior[mat], fresnel_model,
             u_choice)
-        if not valid or event == bsdf.TIR_ABSORBED:
+        if not valid or event == specular.TIR_ABSORBED:
             continue
         if bounces == 0:
-            ray_kind = VISIBLE_TRANSMISSION if event == bsdf.TRANSMITTED else VISIBLE_GLOSSY
+            ray_kind = VISIBLE_TRANSMISSION if event == specular.TRANSMITTED else VISIBLE_GLOSSY
             if not lamp_sees(caustics, lights, paths.lamp[i], d, p, ray_kind):
                 continue
         beta = (beta[0] * weight[0], beta[1] * weight[1], beta[2] * weight[2])

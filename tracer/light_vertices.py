@@ -30,11 +30,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .bsdf import DIFFUSE
 from .geometry import hit_offset, hit_point, offset_origin
 from .jit import jit, jit_inline
 from .lamps import CASTS_SHADOW, USES_MIS, VISIBLE_DIFFUSE, area_lamp_hit, area_lamp_point, \
     spread_attenuation
+from .material_kinds import DIFFUSE
 from .lights import AREA, EMISSIVE_TRIANGLE, pick_light
 from .sampler import sample_pair
 from .sampling import sample_cosine_hemisphere

@@ -20,9 +20,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import bsdf
+from . import specular
 from .adaptive import is_class_a
-from .bsdf import DIFFUSE, EMISSION, LAYERED, MIRROR, REFRACTION
 from .camera import camera_ray
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
@@ -32,6 +31,7 @@ from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VIS
 from .light_vertices import (camera_step_density, connection, direction_to,
                              light_vertex_density, triangle_density)
 from .lights import AREA, pdf_world, pick_light, sample_light, world_radiance
+from .material_kinds import DIFFUSE, EMISSION, LAYERED, MIRROR, REFRACTION
 from .lobes import (DIFFUSE_EVENT, P_METALLIC, P_ROUGHNESS, REFLECT_EVENT, SHADER_PRINCIPLED,
                     TRANSMIT_EVENT, bsdf_eval, bsdf_sample, setup_shader)
 from .sampler import pixel_key, sample_pair
@@ -329,7 +329,7 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         elif kind == LAYERED:
             stats[LAYERED_HITS] += 1
             view = neg(d)
-            n = bsdf.valid_reflection_normal(ng_f, view, ns_f) if has_normals else ns_f
+            n = specular.valid_reflection_normal(ng_f, view, ns_f) if has_normals else ns_f
             roughness, shader_params = mats.roughness[mat], mats.principled[mat]
             if mats.textured[mat]:
                 roughness, shader_params = textured_params(mats, mat, tri, np.float64(u[i]),
@@ -367,14 +367,14 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         else:
             n = ns_f
             if has_normals and kind != REFRACTION:
-                n = bsdf.valid_reflection_normal(ng_f, neg(d), ns_f)
-            new_d, weight, event, valid = bsdf.sample_specular(
+                n = specular.valid_reflection_normal(ng_f, neg(d), ns_f)
+            new_d, weight, event, valid = specular.sample_specular(
                 kind, d, ng_f, n, entering, color, trans_color, mats.ior[mat], fresnel_model, u0)
             count_specular(stats, event, valid)
             if kind != MIRROR:
                 stats[DIELECTRIC_SAMPLES] += 1
             beta = vmul(beta, weight) if valid else (0.0, 0.0, 0.0)
-            ray_kind = VISIBLE_TRANSMISSION if event == bsdf.TRANSMITTED else VISIBLE_GLOSSY
+            ray_kind = VISIBLE_TRANSMISSION if event == specular.TRANSMITTED else VISIBLE_GLOSSY
             pdf_prev = 0.0
             caustic = CAUSTIC if paths.caustic[i] != NO_CAUSTIC else NO_CAUSTIC
         peak = max3(beta)
@@ -486,12 +486,12 @@ def queue_shadow(shadows, j, path, origin, wi, target, infinite):
 @jit
 def count_specular(stats, event, valid):
     """Count what a specular vertex did."""
-    if event == bsdf.TIR:
+    if event == specular.TIR:
         stats[TIR_COUNT] += 1
-    elif event == bsdf.TIR_ABSORBED:
+    elif event == specular.TIR_ABSORBED:
         stats[TIR_ABSORBED_COUNT] += 1
         return
-    elif event == bsdf.TRANSMITTED:
+    elif event == specular.TRANSMITTED:
         stats[TRANSMISSIONS] += 1
     else:
         stats[REFLECTIONS] += 1
