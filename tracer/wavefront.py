@@ -53,7 +53,7 @@ STATS = ("tir", "tir_absorbed", "rejected", "transmissions", "reflections", "dif
 # Light sampling at a layered vertex serves all its lobes.
 VISIBLE_ANY_BSDF = VISIBLE_DIFFUSE | VISIBLE_GLOSSY | VISIBLE_TRANSMISSION
 FAR32 = np.float32(FAR)
-# A camera path's place in the split of path space with the light tracer (light_paths.py).
+# A camera path's place in the split of path space with the light tracer (light_tracer.py).
 NO_CAUSTIC, FIRST_DIFFUSE, CAUSTIC = range(3)
 
 
