@@ -22,7 +22,7 @@ from . import adaptive, jit, light_tracer, lobes, passes, wavefront
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
-from .lights import LightSampler
+from .lights.tables import LightSampler
 from .material_kinds import DIFFUSE, GLASS, LAYERED, REFRACTION
 from .materials import material_tables
 from .microfacet_tables import shipped_tables

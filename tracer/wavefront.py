@@ -25,19 +25,22 @@ from .adaptive import is_class_a
 from .camera import camera_ray
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
-from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
-                    VISIBLE_TRANSMISSION, area_lamp_hit, intersect_area_lamp,
-                    intersect_point_lamp, point_lamp_hit, seen_by, sun_hit)
+from .lights.area import area_lamp_hit, intersect_area_lamp
+from .lights.codes import (AREA, CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE,
+                           VISIBLE_GLOSSY, VISIBLE_TRANSMISSION, seen_by)
+from .lights.dispatch import pick_light, sample_light
+from .lights.point import intersect_point_lamp, point_lamp_hit
+from .lights.sun import sun_hit
+from .lights.triangles import pdf_triangle
+from .lights.world import pdf_world, world_radiance
 from .light_vertices import (camera_step_density, connection, direction_to,
                              light_vertex_density, triangle_density)
-from .lights import AREA, pdf_world, pick_light, sample_light, world_radiance
 from .material_kinds import DIFFUSE, EMISSION, LAYERED, MIRROR, REFRACTION
 from .lobes import (DIFFUSE_EVENT, P_METALLIC, P_ROUGHNESS, REFLECT_EVENT, SHADER_PRINCIPLED,
                     TRANSMIT_EVENT, bsdf_eval, bsdf_sample, setup_shader)
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic, power_heuristic3, sample_cosine_hemisphere
 from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_number, surface_colors
-from .triangle_lights import pdf_triangle
 from .vec import dot, finite_row, max3, mul, neg, row, store, sub, vmul
 
 STRATIFIED_BOUNCES = 2    # bounces whose light and BSDF samples are stratified (then random)
@@ -68,7 +71,7 @@ class Paths(NamedTuple):
     d32: np.ndarray          # (n, 3)
     tmax: np.ndarray         # (n,) float32: in, the ray's length; out (Embree), the hit distance
     beta: np.ndarray         # (n, 3) throughput
-    ray_kind: np.ndarray     # (n,) int64: the lamps.VISIBLE_* flag of the event that made the ray
+    ray_kind: np.ndarray     # (n,) int64: the lights.codes VISIBLE_* flag of the event that made the ray
     pdf_prev: np.ndarray     # (n,) solid-angle density of the BSDF sample that made the ray, 0
     #                          after the camera and specular bounces (no light sample competes)
     caustic: np.ndarray      # (n,) int64: NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was
@@ -181,7 +184,7 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
 
     Lamps have no surface, as in Cycles: a ray adds the light of every lamp it crosses before its
     hit (or escape) and goes on as if the lamp were not there. A lamp is seen by the rays its
-    visibility flags allow (lamps.seen_by). With `caustics` (the light tracer runs), paths in the
+    visibility flags allow (lights.codes.seen_by). With `caustics` (the light tracer runs), paths in the
     CAUSTIC state get no light from lamps, emissive triangles or suns: those paths are the light
     tracer's to count.
     """
@@ -421,7 +424,7 @@ def textured_params(mats, mat, tri, b1, b2, params):
 
 @jit
 def lit_events(flags):
-    """The lobe events (lobes.py bit mask) a light of these lamps.* flags lights."""
+    """The lobe events (lobes.py bit mask) a light of these lights.codes flags lights."""
     events = 0
     if flags & VISIBLE_DIFFUSE:
         events |= 1 << DIFFUSE_EVENT
@@ -437,7 +440,7 @@ def deliver_light(shadows, n_shadow, radiance, without, path, light, light_witho
                   origin, wi, target, infinite):
     """A light sample's contribution (light_without: its share without light vertices, for
     `without` as in emitters): behind a shadow ray from origin (queued as ray n_shadow), or
-    added at once for a lamp that casts no shadow (lamps.* flags). Returns the new shadow-ray
+    added at once for a lamp that casts no shadow (lights.codes flags). Returns the new shadow-ray
     count."""
     if flags & CASTS_SHADOW:
         store(shadows.contrib, n_shadow, light)
