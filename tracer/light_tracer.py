@@ -47,6 +47,10 @@ from .textures import surface_colors
 from .vec import dot, mul, neg, row, store, sub
 
 LIGHT_DOMAIN = np.uint64(0x11C7_A0C5)   # keys light paths' random numbers apart from camera paths'
+# A camera path's place in the split of path space with the light tracer (wavefront.Paths.caustic):
+# NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was diffuse) then CAUSTIC (and every
+# vertex since specular): the light tracer's paths, whose emitters the path tracer then skips.
+NO_CAUSTIC, FIRST_DIFFUSE, CAUSTIC = range(3)
 
 
 class Caustics(NamedTuple):
