@@ -81,9 +81,9 @@ def starts_light_vertices(lights) -> bool:
 
 @jit_inline
 def light_vertex_density(lights, kind, i, pmf):
-    """q of light i of this kind (lights.codes kinds) picked with probability pmf: the density of the
-    light vertex's point on it (per area) times that of its direction (per cosine); 0 for the
-    lights that start no light vertices."""
+    """q of light i of this kind (a lights.codes kind) picked with probability pmf: the density
+    of the light vertex's point on it (per area) times that of its direction (per cosine); 0 for
+    the lights that start no light vertices."""
     if kind == EMISSIVE_TRIANGLE:
         return pmf / lights.tri_area[i] * (0.5 / math.pi)      # cosine-weighted, either face
     if kind == AREA and lights.area_flags[i] & STARTS == STARTS \

@@ -15,7 +15,6 @@ position, 1 lens position, and per bounce k the pairs 2 + 3k (light choice, roul
 """
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -60,7 +59,8 @@ class Paths(NamedTuple):
     d32: np.ndarray          # (n, 3)
     tmax: np.ndarray         # (n,) float32: in, the ray's length; out (Embree), the hit distance
     beta: np.ndarray         # (n, 3) throughput
-    ray_kind: np.ndarray     # (n,) int64: the lights.codes VISIBLE_* flag of the event that made the ray
+    ray_kind: np.ndarray     # (n,) int64: the VISIBLE_* flag (lights.codes) of the event that
+    #                          made the ray
     pdf_prev: np.ndarray     # (n,) solid-angle density of the BSDF sample that made the ray, 0
     #                          after the camera and specular bounces (no light sample competes)
     caustic: np.ndarray      # (n,) int64: NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was
@@ -166,7 +166,7 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
 
     Lamps have no surface, as in Cycles: a ray adds the light of every lamp it crosses before its
     hit (or escape) and goes on as if the lamp were not there. A lamp is seen by the rays its
-    visibility flags allow (lights.codes.seen_by). With `caustics` (the light tracer runs), paths in the
+    visibility flags allow (codes.seen_by). With `caustics` (the light tracer runs), paths in the
     CAUSTIC state get no light from lamps, emissive triangles or suns: those paths are the light
     tracer's to count.
     """

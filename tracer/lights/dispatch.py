@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry import hit_offset, offset_origin
 from ..jit import jit_inline
 from ..sampling import sample_cosine_hemisphere
 from ..vec import mul, neg, normalize, row, sub
@@ -71,9 +70,8 @@ def sample_light(lights, mesh, p, n, vertex_kind, u_pick, u0, u1):
         # Lift the light point off its triangle towards the shading point, as hit points are
         # lifted: a shadow ray that ends on the triangle's plane can hit the light itself
         # (grazing rays to a lamp just under a ceiling did, darkening the ceiling).
-        prim = lights.tri_prim[i]
-        point = offset_origin(point, row(lights.tri_normal, i), hit_offset(mesh, prim, point),
-                              mul(wi, -1.0))
+        point = lift_off_triangle(lights, mesh, i, point, row(lights.tri_normal, i),
+                                  mul(wi, -1.0))
     if density == 0.0:             # a delta light: value is the irradiance
         return wi, point, infinite, mul(value, 1.0 / pmf), 0.0, flags
     pdf = pmf * density

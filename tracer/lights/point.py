@@ -20,6 +20,13 @@ from .codes import ZERO
 
 
 @jit_inline
+def point_lamp_radiance(lights, lamp):
+    """The radiance I / (pi r^2) of point or spot lamp `lamp`'s sphere or disk (radius r > 0)."""
+    r = lights.point_radius[lamp]
+    return mul(row(lights.point_intensity, lamp), 1.0 / (math.pi * r * r))
+
+
+@jit_inline
 def spot_attenuation(lights, lamp, w):
     """The spot cone's factor for light leaving lamp `lamp` in the unit direction w (1 for point
     lamps)."""
@@ -49,7 +56,7 @@ def sample_point_lamp(lights, lamp, p, n, u0, u1):
     if r == 0.0:
         att = spot_attenuation(lights, lamp, light_n)
         return c, mul(intensity, att / d2), 0.0
-    radiance = mul(intensity, 1.0 / (math.pi * r * r))
+    radiance = point_lamp_radiance(lights, lamp)
     if not lights.point_sphere[lamp]:
         # The disk of radius r facing p, sampled uniformly in area.
         x, y = sample_uniform_disk(u0, u1)
@@ -120,7 +127,7 @@ def point_lamp_hit(lights, lamp, o, d, t, pdf_bsdf):
     normal, the same lobe a diffuse vertex samples: its density is the BSDF's, pdf_bsdf."""
     c = row(lights.point_pos, lamp)
     r = lights.point_radius[lamp]
-    radiance = mul(row(lights.point_intensity, lamp), 1.0 / (math.pi * r * r))
+    radiance = point_lamp_radiance(lights, lamp)
     from_c = sub(o, c)
     d2 = dot(from_c, from_c)
     if lights.point_sphere[lamp]:

@@ -71,4 +71,5 @@ def emit_sun(lights, sun, aim_center, aim_radius, scene_center, scene_radius, u_
         if miss2 <= aim_radius[k] ** 2:
             area_density += 1.0 / (math.pi * total)
     far = dot(sub(q, scene_center), w) + scene_radius
-    return madd(q, -far, w), w, mul(row(lights.sun_radiance, sun), 1.0 / (cone_density * area_density))
+    radiance = row(lights.sun_radiance, sun)
+    return madd(q, -far, w), w, mul(radiance, 1.0 / (cone_density * area_density))
