@@ -18,11 +18,12 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import adaptive, bsdf, jit, light_paths, lobes, passes, wavefront
+from . import adaptive, jit, light_tracer, lobes, passes, wavefront
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
-from .lights import LightSampler
+from .lights.tables import LightSampler
+from .material_kinds import DIFFUSE, GLASS, LAYERED, REFRACTION
 from .materials import material_tables
 from .microfacet_tables import shipped_tables
 from .passes import CHUNK
@@ -30,7 +31,7 @@ from .result import RenderResult, Window, WindowSums
 from .scene import DEFAULT_RENDER, FRESNEL_MODELS, Scene
 
 SAMPLERS = ("stratified", "independent")
-# Light paths traced per camera path when the light tracer runs (light_paths.py): the value of
+# Light paths traced per camera path when the light tracer runs (light_tracer.py): the value of
 # least relMSE x time on cornell_spheres at 32 spp (tools/measure_caustics_split.py; README,
 # Caustics). From 1/64 to 1/8 the product is flat within the timing noise; more light paths only
 # cost time, since the camera paths' own noise then dominates even in the caustics.
@@ -56,8 +57,8 @@ class _Buffers(threading.local):
     def light(self):
         """(light paths, next light paths, camera connections) for CHUNK light paths."""
         if not hasattr(self, "light_buffers"):
-            self.light_buffers = (light_paths.new_light_paths(CHUNK),
-                                  light_paths.new_light_paths(CHUNK), wavefront.new_shadows(CHUNK))
+            self.light_buffers = (light_tracer.new_light_paths(CHUNK),
+                                  light_tracer.new_light_paths(CHUNK), wavefront.new_shadows(CHUNK))
         return self.light_buffers
 
 
@@ -72,7 +73,7 @@ class Renderer:
         """next_event=False turns light sampling off (BSDF sampling only): a second, independent
         estimator of the same image, which tests use to check the first one. caustics=False
         renders with the path tracer alone (default: the scene's render setting); the light
-        tracer runs only where it has something to do (light_paths.caustics_tables).
+        tracer runs only where it has something to do (light_tracer.caustics_tables).
         caustics="pure" runs pure light tracing beside a full path tracer, for tests: the
         result's light image (light_sum / light_paths) is then a second estimate of the image
         but for emitters seen directly or through specular vertices only.
@@ -118,7 +119,7 @@ class Renderer:
         self.fresnel = FRESNEL_MODELS.index(render["fresnel"])
         want_caustics = render.get("caustics", True) if caustics is None else caustics
         # Built whatever the camera, so that with_camera can switch the light tracer either way.
-        self._caustic_tables = (light_paths.caustics_tables(scene, self.lights, self.geometry,
+        self._caustic_tables = (light_tracer.caustics_tables(scene, self.lights, self.geometry,
                                                             kind, pure=want_caustics == "pure")
                                 if want_caustics else None)
         self._use_camera_for_caustics()
@@ -152,8 +153,8 @@ class Renderer:
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
         used = self.materials.kind[self.materials.of_triangle]
-        dielectric = bool(np.isin(used, (bsdf.GLASS, bsdf.REFRACTION)).any())
-        layered = bool((used == bsdf.LAYERED).any())
+        dielectric = bool(np.isin(used, (GLASS, REFRACTION)).any())
+        layered = bool((used == LAYERED).any())
         lights = self.lights.tables
         next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
         world, env = bool(lights.has_world), bool(lights.has_env)
@@ -190,7 +191,7 @@ class Renderer:
         if not light_vertices_module.starts_light_vertices(self.lights.tables):
             return False, "no mesh light or area lamp with a spread, MIS, shadows and diffuse rays"
         used = self.materials.kind[self.materials.of_triangle]
-        if not np.any(used == bsdf.DIFFUSE):
+        if not np.any(used == DIFFUSE):
             return False, "no diffuse surface"
         return True, "mesh lights or area lamps light diffuse surfaces"
 
@@ -281,14 +282,14 @@ class Renderer:
         geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
         mesh, cam = geom.mesh, self.camera.params()
         paths, out, connections = self._buffers.light()
-        m = light_paths.emit_light_paths(caustics, lights, mesh, self.seed, pass_index, start, n,
+        m = light_tracer.emit_light_paths(caustics, lights, mesh, self.seed, pass_index, start, n,
                                          paths)
         pixels, contributions = [], []
         for _ in range(self.max_depth):
             if m == 0:
                 break
             prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            m, n_conn = light_paths.light_bounce(caustics, lights, mesh, mats, cam, self.fresnel,
+            m, n_conn = light_tracer.light_bounce(caustics, lights, mesh, mats, cam, self.fresnel,
                                                  self.max_depth, m, paths, prim, u, v, out,
                                                  connections)
             if n_conn:
