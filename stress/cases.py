@@ -17,7 +17,7 @@ measured value and what bounds its error. Four kinds of check (stress/runner.py 
 - not supported: the feature does not exist; the table says so instead of faking a result.
 
 The analytic values are computed here independently of the tracer's own code (a textbook
-Fresnel, not tracer/bsdf.py): a shared formula would make a wrong formula pass.
+Fresnel, not tracer/specular.py): a shared formula would make a wrong formula pass.
 """
 from __future__ import annotations
 

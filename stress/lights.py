@@ -130,7 +130,7 @@ def _lamp_in_glass_case(quick):
                 "light leaving the ball towards the camera / the same lamp without the ball",
                 "glass creates or destroys light", STATISTICAL, 1.0, run, quick,
                 expected_failure="Snell, like Cycles, refracts radiance unscaled (no 1/IOR^2, "
-                                 "tracer/bsdf.py): light leaving glass keeps its radiance over a "
+                                 "tracer/specular.py): light leaving glass keeps its radiance over a "
                                  "solid angle IOR^2 larger, so about IOR^2 (1-F) comes out; "
                                  "Cycles 5.0 gave 2.23 on the same scene")
 

@@ -18,17 +18,19 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import adaptive, bsdf, jit, light_paths, lobes, passes, wavefront
+from . import adaptive, jit, light_tracer, lobes, passes, wavefront
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
-from .lights import LightSampler
+from .lights.tables import LightSampler
+from .material_kinds import DIFFUSE, GLASS, LAYERED, REFRACTION
 from .materials import material_tables
 from .microfacet_tables import shipped_tables
 from .passes import CHUNK
 from .result import RenderResult, Window, WindowSums
 from .scene import Scene
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
+
 
 class _Buffers(threading.local):
     """This thread's chunk buffers, made once and reused by every chunk it runs."""
@@ -49,8 +51,8 @@ class _Buffers(threading.local):
     def light(self):
         """(light paths, next light paths, camera connections) for CHUNK light paths."""
         if not hasattr(self, "light_buffers"):
-            self.light_buffers = (light_paths.new_light_paths(CHUNK),
-                                  light_paths.new_light_paths(CHUNK), wavefront.new_shadows(CHUNK))
+            self.light_buffers = (light_tracer.new_light_paths(CHUNK),
+                                  light_tracer.new_light_paths(CHUNK), wavefront.new_shadows(CHUNK))
         return self.light_buffers
 
 
@@ -62,7 +64,7 @@ class Renderer:
         """settings: every setting of the render (tracer/settings.py; default: the scene's).
 
         caustics=False renders with the path tracer alone; the light tracer runs only where it
-        has something to do (light_paths.caustics_tables). pure_light_tracing runs it beside a
+        has something to do (light_tracer.caustics_tables). pure_light_tracing runs it beside a
         full path tracer, for tests: the result's light image (light_sum / light_paths) is then
         a second estimate of the image but for emitters seen directly or through specular
         vertices only. next_event=False turns light sampling off (BSDF sampling only): a second,
@@ -108,8 +110,8 @@ class Renderer:
         self.fresnel = FRESNEL_MODELS.index(settings.fresnel)
         pure = settings.pure_light_tracing
         # Built whatever the camera, so that with_camera can switch the light tracer either way.
-        self._caustic_tables = (light_paths.caustics_tables(scene, self.lights, self.geometry,
-                                                            kind, pure=pure)
+        self._caustic_tables = (light_tracer.caustics_tables(scene, self.lights, self.geometry,
+                                                             kind, pure=pure)
                                 if settings.caustics or pure else None)
         self._use_camera_for_caustics()
         self.light_paths_per_camera_path = settings.light_paths_per_camera_path
@@ -158,8 +160,8 @@ class Renderer:
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
         used = self.materials.kind[self.materials.of_triangle]
-        dielectric = bool(np.isin(used, (bsdf.GLASS, bsdf.REFRACTION)).any())
-        layered = bool((used == bsdf.LAYERED).any())
+        dielectric = bool(np.isin(used, (GLASS, REFRACTION)).any())
+        layered = bool((used == LAYERED).any())
         lights = self.lights.tables
         next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
         world, env = bool(lights.has_world), bool(lights.has_env)
@@ -196,7 +198,7 @@ class Renderer:
         if not light_vertices_module.starts_light_vertices(self.lights.tables):
             return False, "no mesh light or area lamp with a spread, MIS, shadows and diffuse rays"
         used = self.materials.kind[self.materials.of_triangle]
-        if not np.any(used == bsdf.DIFFUSE):
+        if not np.any(used == DIFFUSE):
             return False, "no diffuse surface"
         return True, "mesh lights or area lamps light diffuse surfaces"
 
@@ -287,14 +289,14 @@ class Renderer:
         geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
         mesh, cam = geom.mesh, self.camera.params()
         paths, out, connections = self._buffers.light()
-        m = light_paths.emit_light_paths(caustics, lights, mesh, self.seed, pass_index, start, n,
+        m = light_tracer.emit_light_paths(caustics, lights, mesh, self.seed, pass_index, start, n,
                                          paths)
         pixels, contributions = [], []
         for _ in range(self.max_depth):
             if m == 0:
                 break
             prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            m, n_conn = light_paths.light_bounce(caustics, lights, mesh, mats, cam, self.fresnel,
+            m, n_conn = light_tracer.light_bounce(caustics, lights, mesh, mats, cam, self.fresnel,
                                                  self.max_depth, m, paths, prim, u, v, out,
                                                  connections)
             if n_conn:

@@ -39,13 +39,16 @@ def jit_inline(fn):
 
 
 def sources_hash() -> str:
-    """A short hash of every tracer source file and the Numba version."""
+    """A short hash of every tracer source file (subpackages included) and the Numba version."""
     digest = hashlib.sha256(numba.__version__.encode())
-    for name in sorted(os.listdir(TRACER_DIR)):
-        if name.endswith(".py"):
-            digest.update(name.encode())
-            with open(os.path.join(TRACER_DIR, name), "rb") as f:
-                digest.update(f.read())
+    for folder, dirs, files in os.walk(TRACER_DIR):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+        for name in sorted(files):
+            if name.endswith(".py"):
+                path = os.path.join(folder, name)
+                digest.update(os.path.relpath(path, TRACER_DIR).encode())
+                with open(path, "rb") as f:
+                    digest.update(f.read())
     return digest.hexdigest()[:16]
 
 

@@ -30,16 +30,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .bsdf import DIFFUSE
-from .geometry import hit_offset, hit_point, offset_origin
+from .geometry import hit_point, offset_origin
 from .jit import jit, jit_inline
-from .lamps import CASTS_SHADOW, USES_MIS, VISIBLE_DIFFUSE, area_lamp_hit, area_lamp_point, \
-    spread_attenuation
-from .lights import AREA, EMISSIVE_TRIANGLE, pick_light
+from .lights.codes import AREA, CASTS_SHADOW, EMISSIVE_TRIANGLE, USES_MIS, VISIBLE_DIFFUSE
+from .lights.dispatch import emitter_density, light_vertex_ray, pick_light
+from .material_kinds import DIFFUSE
 from .sampler import sample_pair
-from .sampling import sample_cosine_hemisphere
 from .textures import surface_colors
-from .triangle_lights import pdf_triangle, uniform_triangle_point
 from .vec import dot, mul, neg, row, store, sub
 
 # Sampler dimensions of a camera path's light vertex (any numbers apart from the bounces' own).
@@ -77,16 +74,16 @@ def new_light_vertices(n: int) -> LightVertices:
 
 
 def starts_light_vertices(lights) -> bool:
-    """Whether any light of these tables (lights.Lights) starts light vertices."""
+    """Whether any light of these tables (lights.tables.Lights) starts light vertices."""
     area = (lights.area_flags & STARTS) == STARTS
     return bool(lights.tri_prim.shape[0] > 0 or np.any(area & (lights.area_spread_tan > 0.0)))
 
 
 @jit_inline
 def light_vertex_density(lights, kind, i, pmf):
-    """q of light i of this kind (lights.* kinds) picked with probability pmf: the density of the
-    light vertex's point on it (per area) times that of its direction (per cosine); 0 for the
-    lights that start no light vertices."""
+    """q of light i of this kind (a lights.codes kind) picked with probability pmf: the density
+    of the light vertex's point on it (per area) times that of its direction (per cosine); 0 for
+    the lights that start no light vertices."""
     if kind == EMISSIVE_TRIANGLE:
         return pmf / lights.tri_area[i] * (0.5 / math.pi)      # cosine-weighted, either face
     if kind == AREA and lights.area_flags[i] & STARTS == STARTS \
@@ -130,23 +127,9 @@ def emit(lights, mesh, bits, stratified, n, keys, samples, lv):
         q = light_vertex_density(lights, kind, k, pmf)
         if q == 0.0:
             continue
-        if kind == EMISSIVE_TRIANGLE:
-            y = uniform_triangle_point(lights.tri_corners[k], u0, u1)
-            normal = row(lights.tri_normal, k)
-            if u_side >= 0.5:
-                normal = neg(normal)
-            w, _ = sample_cosine_hemisphere(normal, v0, v1)
-            # Off the triangle, as hit points are: Embree reports hits at t = 0.
-            y = offset_origin(y, normal, hit_offset(mesh, lights.tri_prim[k], y), w)
-            radiance = row(lights.tri_radiance, k)
-            lv.lamp[i] = lights.tri_prim[k]
-        else:
-            y = area_lamp_point(lights, k, u0, u1)
-            normal = row(lights.area_emit, k)
-            w, _ = sample_cosine_hemisphere(normal, v0, v1)
-            radiance = mul(row(lights.area_radiance, k),
-                           spread_attenuation(lights, k, dot(w, normal)))
-            lv.lamp[i] = -1 - k
+        y, normal, w, radiance, emitter = light_vertex_ray(lights, mesh, kind, k, u_side, u0, u1,
+                                                           v0, v1)
+        lv.lamp[i] = emitter
         # Radiance x cos / (point density x direction density) = radiance / q.
         beta = mul(radiance, 1.0 / q) if dot(w, normal) > 0.0 else zero
         if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
@@ -181,7 +164,7 @@ def hits(lights, mesh, mats, m, lv, prim, u, v):
             continue                               # next-event estimation gets nothing here
         to = sub(origin, p)
         dist = math.sqrt(dot(to, to))
-        p1 = next_event_density(lights, lv.lamp[i], p, w0, dist)
+        p1 = emitter_density(lights, lv.lamp[i], p, w0, dist)
         albedo, _ = surface_colors(mats, mats.of_triangle[tri], tri, np.float64(u[j]),
                                    np.float64(v[j]))
         scale = cos_s / (cos_g * math.pi)         # f = albedo / pi, and Veach's 5.3 factor
@@ -193,16 +176,6 @@ def hits(lights, mesh, mats, m, lv, prim, u, v):
         store(lv.point, i, offset_origin(p, ng_f, eps, w0))
         store(lv.normal, i, ng_f)
         lv.found[i] = True
-
-
-@jit_inline
-def next_event_density(lights, lamp, p, w, dist):
-    """The solid-angle density with which next-event estimation at p picks the point at
-    distance dist along w on `lamp` (a mesh triangle, or -1 - an area lamp)."""
-    if lamp >= 0:
-        return pdf_triangle(lights, lamp, p, w, dist)
-    k = -1 - lamp
-    return lights.area_pmf[k] * area_lamp_hit(lights, k, w, dist)[1]
 
 
 @jit_inline

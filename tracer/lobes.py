@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 from . import microfacet
-from .bsdf import refract
+from .specular import refract
 from .fresnel import (dielectric_fss, f0_from_ior, f82_fss, f82_tint_b, fresnel_dielectric,
                       fresnel_f82, fresnel_remapped, ior_from_f0, mix_to_one, mix_to_one3,
                       remap_factor)

@@ -1,7 +1,7 @@
 """The per-material tables the kernels read, built from the scene file's material list.
 
-Smooth materials keep their exact code paths (bsdf.DIFFUSE, MIRROR, GLASS, REFRACTION); a Glossy
-BSDF of roughness 0 is a mirror. Everything with a rough lobe, and every Principled BSDF, is
+Smooth materials keep their exact code paths (material_kinds: DIFFUSE, MIRROR, GLASS,
+REFRACTION); a Glossy BSDF of roughness 0 is a mirror. Everything with a rough lobe, and every Principled BSDF, is
 LAYERED: its lobes are built per hit by lobes.setup_shader from the `shader` code and the
 parameters here.
 """
@@ -11,13 +11,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import bsdf, lobes, microfacet
+from . import lobes, microfacet
+from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, REFRACTION
 from .scene import DISTRIBUTIONS, EXTENSIONS, TEXTURE_SLOTS, emits, material_field
 
 
 class Materials(NamedTuple):
     """Per-material tables."""
-    kind: np.ndarray          # (M,) int64 kind codes (bsdf.DIFFUSE, ..., bsdf.LAYERED)
+    kind: np.ndarray          # (M,) int64 kind codes (material_kinds.DIFFUSE, ..., LAYERED)
     color: np.ndarray         # (M, 3) colour (Principled: base colour)
     trans_color: np.ndarray   # (M, 3) refraction weight of glass
     ior: np.ndarray           # (M,)
@@ -47,20 +48,20 @@ class Materials(NamedTuple):
 
 SHADERS = {"glossy": lobes.SHADER_GLOSSY, "glass": lobes.SHADER_GLASS,
            "refraction": lobes.SHADER_REFRACTION, "principled": lobes.SHADER_PRINCIPLED}
-SMOOTH_KINDS = {"diffuse": bsdf.DIFFUSE, "mirror": bsdf.MIRROR, "glossy": bsdf.MIRROR,
-                "glass": bsdf.GLASS, "refraction": bsdf.REFRACTION, "emission": bsdf.EMISSION}
+SMOOTH_KINDS = {"diffuse": DIFFUSE, "mirror": MIRROR, "glossy": MIRROR,
+                "glass": GLASS, "refraction": REFRACTION, "emission": EMISSION}
 
 
 def kind_code(mat: dict) -> int:
     """The integrator's kind of a scene material: its smooth code path, or LAYERED."""
     kind = mat["kind"]
     if kind == "principled":
-        return bsdf.LAYERED
+        return LAYERED
     if kind in ("glossy", "glass", "refraction"):
         alpha = float(material_field(mat, "roughness")) ** 2
         # A roughness texture makes roughness a per-hit value: the layered code serves both.
         if not microfacet.is_almost_specular(alpha) or "roughness" in (mat.get("textures") or {}):
-            return bsdf.LAYERED
+            return LAYERED
     return SMOOTH_KINDS[kind]
 
 

@@ -23,7 +23,7 @@ SCENE, RUN, VIEWPORT, ESTIMATOR = "scene", "run", "viewport", "estimator"
 # Integers that size arrays or loops stop here: one past would end the render with an overflow
 # or an allocation failure instead of a named field.
 MAX_INT = 2 ** 31 - 1
-# Light paths traced per camera path when the light tracer runs (light_paths.py): the value of
+# Light paths traced per camera path when the light tracer runs (light_tracer.py): the value of
 # least relMSE x time on cornell_spheres at 32 spp (tools/measure_caustics_split.py; README,
 # Caustics). From 1/64 to 1/8 the product is flat within the timing noise; more light paths only
 # cost time, since the camera paths' own noise then dominates even in the caustics.

@@ -15,46 +15,37 @@ position, 1 lens position, and per bounce k the pairs 2 + 3k (light choice, roul
 """
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
 
-from . import bsdf
 from .adaptive import is_class_a
-from .bsdf import DIFFUSE, EMISSION, LAYERED, MIRROR, REFRACTION
 from .camera import camera_ray
+# STATS, CAUSTIC_SPLATS, CONNECTIONS and VERTEX_RAYS are also read through this module.
+from .counters import (CAUSTIC_SPLATS, CONNECTIONS, DEPTH_LIMITED, LENS_SAMPLES,  # noqa: F401
+                       RR_KILLED, STATS, VERTEX_RAYS)
+from .direct_light import add_light
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
-from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
-                    VISIBLE_TRANSMISSION, area_lamp_hit, intersect_area_lamp,
-                    intersect_point_lamp, point_lamp_hit, seen_by, sun_hit)
-from .light_vertices import (camera_step_density, connection, direction_to,
-                             light_vertex_density, triangle_density)
-from .lights import AREA, pdf_world, pick_light, sample_light, world_radiance
-from .lobes import (DIFFUSE_EVENT, P_METALLIC, P_ROUGHNESS, REFLECT_EVENT, SHADER_PRINCIPLED,
-                    TRANSMIT_EVENT, bsdf_eval, bsdf_sample, setup_shader)
+from .light_tracer import CAUSTIC, NO_CAUSTIC
+from .light_vertices import light_vertex_density, triangle_density
+from .lights.area import area_lamp_hit, intersect_area_lamp
+from .lights.codes import AREA, USES_MIS, VISIBLE_CAMERA, seen_by
+from .lights.point import intersect_point_lamp, point_lamp_hit
+from .lights.sun import sun_hit
+from .lights.triangles import pdf_triangle
+from .lights.world import pdf_world, world_radiance
+from .material_kinds import DIFFUSE, EMISSION, LAYERED
 from .sampler import pixel_key, sample_pair
-from .sampling import power_heuristic, power_heuristic3, sample_cosine_hemisphere
-from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_number, surface_colors
-from .triangle_lights import pdf_triangle
-from .vec import dot, finite_row, max3, mul, neg, row, store, sub, vmul
+from .sampling import power_heuristic3
+from .scatter import scatter_diffuse, scatter_layered, scatter_specular
+from .textures import surface_colors
+from .vec import dot, finite_row, max3, mul, row, store
 
 STRATIFIED_BOUNCES = 2    # bounces whose light and BSDF samples are stratified (then random)
 RR_START = 3              # Russian roulette from this bounce on ...
 RR_THRESHOLD = 0.1        # ... for paths whose throughput has fallen below this
-# Event counters (RenderResult.stats), by index.
-STATS = ("tir", "tir_absorbed", "rejected", "transmissions", "reflections", "diffuse",
-         "rr_killed", "depth_limited", "caustic_splats", "lens_samples", "dielectric_samples",
-         "layered_hits", "light_vertex_connections", "light_vertex_rays")
-(TIR_COUNT, TIR_ABSORBED_COUNT, REJECTED, TRANSMISSIONS, REFLECTIONS, DIFFUSE_HITS, RR_KILLED,
- DEPTH_LIMITED, CAUSTIC_SPLATS, LENS_SAMPLES, DIELECTRIC_SAMPLES, LAYERED_HITS,
- CONNECTIONS, VERTEX_RAYS) = range(len(STATS))
-# Light sampling at a layered vertex serves all its lobes.
-VISIBLE_ANY_BSDF = VISIBLE_DIFFUSE | VISIBLE_GLOSSY | VISIBLE_TRANSMISSION
 FAR32 = np.float32(FAR)
-# A camera path's place in the split of path space with the light tracer (light_paths.py).
-NO_CAUSTIC, FIRST_DIFFUSE, CAUSTIC = range(3)
 
 
 class Paths(NamedTuple):
@@ -68,7 +59,8 @@ class Paths(NamedTuple):
     d32: np.ndarray          # (n, 3)
     tmax: np.ndarray         # (n,) float32: in, the ray's length; out (Embree), the hit distance
     beta: np.ndarray         # (n, 3) throughput
-    ray_kind: np.ndarray     # (n,) int64: the lamps.VISIBLE_* flag of the event that made the ray
+    ray_kind: np.ndarray     # (n,) int64: the VISIBLE_* flag (lights.codes) of the event that
+    #                          made the ray
     pdf_prev: np.ndarray     # (n,) solid-angle density of the BSDF sample that made the ray, 0
     #                          after the camera and specular bounces (no light sample competes)
     caustic: np.ndarray      # (n,) int64: NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was
@@ -126,13 +118,6 @@ def mis_weight(next_event, pdf_bsdf, pdf_light, pdf_vertex):
 
 
 @jit
-def add_light(radiance, path, beta, light, w):
-    """radiance[path] += beta * light * w."""
-    for k in range(3):
-        radiance[path, k] += beta[k] * light[k] * w
-
-
-@jit
 def add_light_both(radiance, without, path, beta, light, w, w_without):
     """add_light with weight w and, when `without` has rows (a pilot), to the radiance without
     light vertices with w_without, their weight where no light vertex competes."""
@@ -181,7 +166,7 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
 
     Lamps have no surface, as in Cycles: a ray adds the light of every lamp it crosses before its
     hit (or escape) and goes on as if the lamp were not there. A lamp is seen by the rays its
-    visibility flags allow (lamps.seen_by). With `caustics` (the light tracer runs), paths in the
+    visibility flags allow (codes.seen_by). With `caustics` (the light tracer runs), paths in the
     CAUSTIC state get no light from lamps, emissive triangles or suns: those paths are the light
     tracer's to count.
     """
@@ -245,12 +230,13 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
 def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, stratified, depth,
               n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes, params,
               stats, lv, last_connection):
-    """Sample every kept hit: a light sample at diffuse and layered vertices (queued as a shadow
-    ray), and up to bounce last_connection (-1: never) the connection to the path's light vertex
-    in `lv` (light_vertices.py; another shadow ray); then the BSDF; after Russian roulette the
-    surviving paths' next rays go into `out`. `lobes` is scratch for a layered hit's lobes
-    (lobes.py), `tables` its albedo tables, `params` for a textured Principled BSDF's parameters;
-    `without` as for emitters.
+    """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
+    layered vertices sample a light (a shadow ray, or direct light for lamps that cast no
+    shadow) and, up to bounce last_connection (-1: never), connect to the path's light vertex
+    in `lv` (light_vertices.py; another shadow ray); every kind samples its BSDF. After Russian
+    roulette the surviving paths' next rays go into `out`. `lobes` is scratch for a layered
+    hit's lobes (lobes.py), `tables` its albedo tables, `params` for a textured Principled
+    BSDF's parameters; `without` as for emitters.
 
     Returns (paths in out, shadow rays queued).
     """
@@ -262,7 +248,8 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
     for j in range(n_active):
         i = active[j]
         tri = prim[i]
-        p, ng, ns, eps = hit_point(mesh, tri, np.float64(u[i]), np.float64(v[i]))
+        b1, b2 = np.float64(u[i]), np.float64(v[i])
+        p, ng, ns, eps = hit_point(mesh, tri, b1, b2)
         d = row(paths.d, i)
         # Face the normals towards the incoming ray (two-sided surfaces, inside of glass).
         entering = dot(d, ng) < 0.0
@@ -270,113 +257,30 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         ng_f, ns_f = mul(ng, side), mul(ns, side)
         mat = mats.of_triangle[tri]
         kind = mats.kind[mat]
-        color, trans_color = surface_colors(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
+        color, trans_color = surface_colors(mats, mat, tri, b1, b2)
         key, sample = paths.key[i], paths.sample[i]
         u_pick, u_roulette = sample_pair(key, sample, 2 + 3 * depth, bits, strat)
         u0, u1 = sample_pair(key, sample, 4 + 3 * depth, bits, strat)
         beta = row(paths.beta, i)
         path = paths.path[i]
         connects = depth <= last_connection and lv.found[path]
-        connect = 0.0
+        # Passed as tuples: a call of more than 30 arguments compiles to a *args call, which
+        # Numba cannot inline.
+        rng, u_bounce, hit = (key, sample, bits, strat), (u_pick, u0, u1), (p, ng, ng_f, ns_f, eps)
         if kind == DIFFUSE:
-            stats[DIFFUSE_HITS] += 1
-            albedo = color
-            # A light vertex could stand in for this vertex if the camera path sampled it from a
-            # vertex that connects (light_vertices.py): that strategy's MIS density needs the
-            # density of the step here.
-            step = 0.0
-            if depth - 1 <= last_connection and paths.pdf_prev[i] > 0.0:
-                step = camera_step_density(paths.pdf_prev[i], row(paths.o, i), p, ng, d)
-            if can_sample_lights:
-                l0, l1 = sample_pair(key, sample, 3 + 3 * depth, bits, strat)
-                wi, target, infinite, weight, pdf_light, flags = sample_light(
-                    lights, mesh, p, ns_f, VISIBLE_DIFFUSE, u_pick, l0, l1)
-                cos = dot(wi, ns_f)
-                # As in Cycles, the shading normal alone decides: a light below the geometric
-                # surface but above the shading normal's horizon lights the point if the shadow
-                # ray, which starts on the surface's far side, gets through (on a closed smooth
-                # mesh it does only for lamps that cast no shadow). BSDF samples below the
-                # geometric surface carry nothing (below), also as in Cycles.
-                if cos > 0.0 and max3(weight) > 0.0:
-                    p_vertex = 0.0
-                    cos_g = dot(wi, ng_f)
-                    if step > 0.0 and cos_g > 0.0:
-                        kind_l, k_l, pmf_l = pick_light(lights, u_pick)
-                        p_vertex = light_vertex_density(lights, kind_l, k_l, pmf_l) * cos_g / step
-                    w, w_without = 1.0, 1.0
-                    if pdf_light > 0.0:
-                        w = power_heuristic3(pdf_light, cos / math.pi, p_vertex)
-                        w_without = power_heuristic3(pdf_light, cos / math.pi, 0.0)
-                    light = mul(vmul(vmul(beta, albedo), weight), cos / math.pi)
-                    n_shadow = deliver_light(shadows, n_shadow, radiance, without, path,
-                                             mul(light, w), mul(light, w_without), flags,
-                                             offset_origin(p, ng_f, eps, wi), wi, target,
-                                             infinite)
-            if connects:
-                wl, d2 = direction_to(lv, path, p)
-                cos = dot(wl, ns_f)
-                if cos > 0.0 and dot(wl, ng_f) > 0.0:
-                    n_shadow = connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f,
-                                                    eps, wl, d2, mul(albedo, cos / math.pi),
-                                                    cos / math.pi, stats)
-            wi, pdf = sample_cosine_hemisphere(ns_f, u0, u1)
-            # Shading normals can point a sample into the surface: it carries nothing.
-            beta = (0.0, 0.0, 0.0) if dot(wi, ng_f) <= 0.0 else vmul(beta, albedo)
-            if step > 0.0:
-                connect = dot(wi, ng_f) / step
-            new_d, ray_kind, pdf_prev = wi, VISIBLE_DIFFUSE, pdf
-            caustic = FIRST_DIFFUSE if depth == 0 else NO_CAUSTIC
+            new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow = scatter_diffuse(
+                lights, mesh, can_sample_lights, rng, depth, u_bounce, beta, path, row(paths.o, i),
+                d, paths.pdf_prev[i], hit, color, last_connection, connects, lv, lobes, shadows,
+                n_shadow, radiance, without, stats)
         elif kind == LAYERED:
-            stats[LAYERED_HITS] += 1
-            view = neg(d)
-            n = bsdf.valid_reflection_normal(ng_f, view, ns_f) if has_normals else ns_f
-            roughness, shader_params = mats.roughness[mat], mats.principled[mat]
-            if mats.textured[mat]:
-                roughness, shader_params = textured_params(mats, mat, tri, np.float64(u[i]),
-                                                           np.float64(v[i]), params)
-            count = setup_shader(lobes, tables, mats.shader[mat], color, trans_color,
-                                 mats.ior[mat], roughness, mats.distribution[mat], shader_params,
-                                 n, ns_f, view, entering)
-            if can_sample_lights:
-                l0, l1 = sample_pair(key, sample, 3 + 3 * depth, bits, strat)
-                wl, target, infinite, weight, pdf_light, flags = sample_light(
-                    lights, mesh, p, ns_f, VISIBLE_ANY_BSDF, u_pick, l0, l1)
-                if max3(weight) > 0.0:
-                    f, pdf_bsdf = bsdf_eval(lobes, count, view, wl, lit_events(flags))
-                    if max3(f) > 0.0:
-                        w = power_heuristic(pdf_light, pdf_bsdf) if pdf_light > 0.0 else 1.0
-                        light = mul(vmul(vmul(beta, f), weight), w)
-                        n_shadow = deliver_light(shadows, n_shadow, radiance, without, path,
-                                                 light, light, flags,
-                                                 offset_origin(p, ng_f, eps, wl), wl, target,
-                                                 infinite)
-            if connects:
-                wl, d2 = direction_to(lv, path, p)
-                f, pdf_bsdf = bsdf_eval(lobes, count, view, wl, lit_events(VISIBLE_ANY_BSDF))
-                if max3(f) > 0.0:
-                    n_shadow = connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f,
-                                                    eps, wl, d2, f, pdf_bsdf, stats)
-            new_d, factor, pdf_prev, event, valid = bsdf_sample(lobes, count, ng_f, view, u_pick,
-                                                                u0, u1)
-            beta = vmul(beta, factor) if valid else (0.0, 0.0, 0.0)
-            ray_kind = VISIBLE_DIFFUSE if event == DIFFUSE_EVENT else \
-                VISIBLE_TRANSMISSION if event == TRANSMIT_EVENT else VISIBLE_GLOSSY
-            # The light tracer ends its paths on layered surfaces, so the path tracer counts
-            # every path through them.
-            caustic = NO_CAUSTIC
+            new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow = scatter_layered(
+                lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u_bounce,
+                beta, path, d, hit, entering, (mat, tri, b1, b2), color, trans_color, connects,
+                lv, lobes, params, shadows, n_shadow, radiance, without, stats)
         else:
-            n = ns_f
-            if has_normals and kind != REFRACTION:
-                n = bsdf.valid_reflection_normal(ng_f, neg(d), ns_f)
-            new_d, weight, event, valid = bsdf.sample_specular(
-                kind, d, ng_f, n, entering, color, trans_color, mats.ior[mat], fresnel_model, u0)
-            count_specular(stats, event, valid)
-            if kind != MIRROR:
-                stats[DIELECTRIC_SAMPLES] += 1
-            beta = vmul(beta, weight) if valid else (0.0, 0.0, 0.0)
-            ray_kind = VISIBLE_TRANSMISSION if event == bsdf.TRANSMITTED else VISIBLE_GLOSSY
-            pdf_prev = 0.0
-            caustic = CAUSTIC if paths.caustic[i] != NO_CAUSTIC else NO_CAUSTIC
+            new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
+                kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,
+                entering, color, trans_color, mats.ior[mat], stats)
         peak = max3(beta)
         if not peak > 0.0:
             continue
@@ -400,103 +304,6 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         out.connect[n_out] = connect
         n_out += 1
     return n_out, n_shadow
-
-
-@jit
-def textured_params(mats, mat, tri, b1, b2, params):
-    """(roughness, Principled parameters) of a textured layered material at a hit: its
-    roughness texture's value, and for a Principled BSDF its parameters copied into the scratch
-    row `params` with the roughness and metallic textures' values."""
-    roughness = material_number(mats, mat, ROUGHNESS_SLOT, tri, b1, b2, mats.roughness[mat])
-    if mats.shader[mat] != SHADER_PRINCIPLED:
-        return roughness, mats.principled[mat]
-    for k in range(params.shape[0]):
-        params[k] = mats.principled[mat, k]
-    params[P_ROUGHNESS] = material_number(mats, mat, ROUGHNESS_SLOT, tri, b1, b2,
-                                          mats.principled[mat, P_ROUGHNESS])
-    params[P_METALLIC] = material_number(mats, mat, METALLIC_SLOT, tri, b1, b2,
-                                         mats.principled[mat, P_METALLIC])
-    return roughness, params
-
-
-@jit
-def lit_events(flags):
-    """The lobe events (lobes.py bit mask) a light of these lamps.* flags lights."""
-    events = 0
-    if flags & VISIBLE_DIFFUSE:
-        events |= 1 << DIFFUSE_EVENT
-    if flags & VISIBLE_GLOSSY:
-        events |= 1 << REFLECT_EVENT
-    if flags & VISIBLE_TRANSMISSION:
-        events |= 1 << TRANSMIT_EVENT
-    return events
-
-
-@jit
-def deliver_light(shadows, n_shadow, radiance, without, path, light, light_without, flags,
-                  origin, wi, target, infinite):
-    """A light sample's contribution (light_without: its share without light vertices, for
-    `without` as in emitters): behind a shadow ray from origin (queued as ray n_shadow), or
-    added at once for a lamp that casts no shadow (lamps.* flags). Returns the new shadow-ray
-    count."""
-    if flags & CASTS_SHADOW:
-        store(shadows.contrib, n_shadow, light)
-        store(shadows.without, n_shadow, light_without)
-        queue_shadow(shadows, n_shadow, path, origin, wi, target, infinite)
-        return n_shadow + 1
-    add_light(radiance, path, light, (1.0, 1.0, 1.0), 1.0)
-    if without.shape[0] > 0:
-        add_light(without, path, light_without, (1.0, 1.0, 1.0), 1.0)
-    return n_shadow
-
-
-@jit
-def connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, eps, w, d2, f_cos, pdf,
-                         stats):
-    """Queue the connection of a camera vertex p (throughput beta, BSDF x cosine f_cos and
-    density pdf towards its light vertex along w, at squared distance d2) as shadow ray
-    n_shadow; returns the new shadow-ray count."""
-    light = connection(lv, path, w, d2, f_cos, pdf)
-    if not max3(light) > 0.0:
-        return n_shadow
-    store(shadows.contrib, n_shadow, vmul(beta, light))
-    store(shadows.without, n_shadow, (0.0, 0.0, 0.0))
-    queue_shadow(shadows, n_shadow, path, offset_origin(p, ng_f, eps, w), w,
-                 row(lv.point, path), False)
-    stats[CONNECTIONS] += 1
-    return n_shadow + 1
-
-
-@jit
-def queue_shadow(shadows, j, path, origin, wi, target, infinite):
-    """Shadow ray j from origin towards the light point target (or along wi to infinity)."""
-    direction, length = wi, FAR
-    if not infinite:
-        segment = sub(target, origin)
-        length = math.sqrt(dot(segment, segment))
-        if length > 0.0:
-            direction = mul(segment, 1.0 / length)
-    shadows.path[j] = path
-    for k in range(3):
-        shadows.o32[j, k] = origin[k]
-        shadows.d32[j, k] = direction[k]
-    shadows.tmax[j] = length
-
-
-@jit
-def count_specular(stats, event, valid):
-    """Count what a specular vertex did."""
-    if event == bsdf.TIR:
-        stats[TIR_COUNT] += 1
-    elif event == bsdf.TIR_ABSORBED:
-        stats[TIR_ABSORBED_COUNT] += 1
-        return
-    elif event == bsdf.TRANSMITTED:
-        stats[TRANSMISSIONS] += 1
-    else:
-        stats[REFLECTIONS] += 1
-    if not valid:
-        stats[REJECTED] += 1
 
 
 @jit

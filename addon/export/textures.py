@@ -22,7 +22,7 @@ def uses_image_textures():
 def mapping_of(node, issues):
     """(A, b) of a Mapping node, whose output is A v + b up to a positive factor (ValueError for
     a type it does not know); its linked inputs are noted in issues."""
-    from ...tracer.environment import mapping_transform
+    from ...tracer.lights.world import mapping_transform
     inputs = Inputs(node, issues)
     kind = node.vector_type
     location = inputs.vector("Location") if kind in ("POINT", "TEXTURE") else [0.0, 0.0, 0.0]

@@ -1,4 +1,4 @@
-"""The caustics light tracer (tracer/light_paths.py) against the path tracer.
+"""The caustics light tracer (tracer/light_tracer.py) against the path tracer.
 
 Pure light tracing (every light path connected to the camera at every diffuse vertex) estimates
 the same image as the path tracer wherever the camera does not see an emitter directly, so the

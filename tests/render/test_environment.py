@@ -1,15 +1,15 @@
-"""The equirectangular environment map (environment.py): Cycles' axis convention, the density of
-its importance sampling against the samples (chi-square), its normalisation and the rotation."""
+"""The equirectangular environment map (tracer/lights/world.py): Cycles' axis convention, the
+density of its importance sampling against the samples (chi-square), its normalisation and the rotation."""
 import math
 
 import numba
 import numpy as np
 import pytest
 
-from snell.tracer import environment
-from snell.tracer.environment import (build_environment, direction_to_equirectangular,
-                                      env_lookup, equirectangular_to_direction, pdf_env,
-                                      sample_env)
+from snell.tracer.lights import world as environment
+from snell.tracer.lights.world import (build_environment, direction_to_equirectangular,
+                                       env_lookup, equirectangular_to_direction, pdf_env,
+                                       sample_env)
 from support.stats import SphereGrid, integrate_bins
 from support.stats import chi2_pvalue as _chi2_pvalue
 

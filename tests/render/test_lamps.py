@@ -8,9 +8,11 @@ import pytest
 
 from support.builders import camera, make_scene, quad
 from snell.tracer.integrator import Renderer, render
-from snell.tracer.lamps import (VISIBLE_DIFFUSE, area_lamp_hit, intersect_area_lamp,
-                                intersect_point_lamp, point_lamp_hit, sun_hit)
-from snell.tracer.lights import AREA, POINT, SUN, pick_light, sample_light, spread_constants
+from snell.tracer.lights.area import area_lamp_hit, intersect_area_lamp, spread_constants
+from snell.tracer.lights.codes import AREA, POINT, SUN, VISIBLE_DIFFUSE
+from snell.tracer.lights.dispatch import pick_light, sample_light
+from snell.tracer.lights.point import intersect_point_lamp, point_lamp_hit
+from snell.tracer.lights.sun import sun_hit
 from support.stats import estimators_agree as _estimators_agree
 
 WHITE = [1.0, 1.0, 1.0]

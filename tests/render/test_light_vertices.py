@@ -12,7 +12,7 @@ import pytest
 
 from snell.tracer import light_vertices
 from snell.tracer.integrator import Renderer
-from snell.tracer.lights import AREA, EMISSIVE_TRIANGLE
+from snell.tracer.lights.codes import AREA, EMISSIVE_TRIANGLE
 
 from support.builders import box, camera, make_scene, quad
 from support.stats import z_bound

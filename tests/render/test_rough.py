@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from support.builders import camera, icosphere, make_scene, quad
-from snell.tracer import bsdf
+from snell.tracer import material_kinds
 from snell.tracer.integrator import Renderer, render
 from snell.tracer.materials import kind_code
 from snell.tracer.microfacet_tables import ggx_albedo, shipped_tables
@@ -86,10 +86,10 @@ def test_layered_hits_are_counted_and_smooth_scenes_never_build_lobes():
     _, smooth = _furnace({"name": "S", "kind": "glossy", "color": WHITE, "roughness": 0.0},
                          spp=2)
     assert smooth.stats["layered_hits"] == 0 and smooth.stats["reflections"] > 0
-    assert kind_code({"kind": "glass", "ior": 1.5, "roughness": 0.0}) == bsdf.GLASS
-    assert kind_code({"kind": "glass", "ior": 1.5, "roughness": 0.002}) == bsdf.GLASS
-    assert kind_code({"kind": "glass", "ior": 1.5, "roughness": 0.01}) == bsdf.LAYERED
-    assert kind_code({"kind": "principled", "color": WHITE}) == bsdf.LAYERED
+    assert kind_code({"kind": "glass", "ior": 1.5, "roughness": 0.0}) == material_kinds.GLASS
+    assert kind_code({"kind": "glass", "ior": 1.5, "roughness": 0.002}) == material_kinds.GLASS
+    assert kind_code({"kind": "glass", "ior": 1.5, "roughness": 0.01}) == material_kinds.LAYERED
+    assert kind_code({"kind": "principled", "color": WHITE}) == material_kinds.LAYERED
 
 
 def _lit_rough_scene(material, max_depth=3):

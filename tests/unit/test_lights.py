@@ -8,7 +8,7 @@ from scipy import stats
 
 from support.builders import camera, make_scene
 from snell.tracer.integrator import Renderer
-from snell.tracer.triangle_lights import SOLID_ANGLE_RANGE, sample_spherical_triangle, solid_angle
+from snell.tracer.lights.triangles import SOLID_ANGLE_RANGE, sample_spherical_triangle, solid_angle
 
 TRIANGLE = np.array([[-0.4, -0.3, 0.5], [0.7, -0.2, 0.6], [0.1, 0.8, 0.45]])
 RADIANCE = 3.0

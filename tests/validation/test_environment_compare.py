@@ -46,7 +46,7 @@ def spheres(tmp_path_factory):
 
 def turned(degrees):
     """A deliberate error: the environment turned about Z by `degrees` more in Snell alone."""
-    from snell.tracer.environment import rotation_matrix
+    from snell.tracer.lights.world import rotation_matrix
 
     def modify(scene):
         scene = copy.copy(scene)

@@ -11,11 +11,9 @@ import math
 
 from .fresnel import fresnel
 from .jit import jit
+from .material_kinds import GLASS, MIRROR, REFRACTION
 from .vec import add, dot, madd, mul, sub
 
-# Material kind codes in the integrator (materials.kind_code: LAYERED is every rough or
-# Principled material, whose lobes are built per hit by lobes.py).
-DIFFUSE, MIRROR, GLASS, REFRACTION, EMISSION, LAYERED = range(6)
 # What a specular vertex did (for the integrator's counters).
 REFLECTED, TRANSMITTED, TIR, TIR_ABSORBED = range(4)
 

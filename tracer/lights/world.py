@@ -1,4 +1,5 @@
-"""An equirectangular environment map and its importance sampling, as Cycles does it.
+"""The world as a light: a uniform colour, or an equirectangular environment map (the HDRI
+world) and its importance sampling, as Cycles does it.
 
 Directions map to image coordinates as Cycles' Environment Texture with Blender's default range
 (src/kernel/camera/projection.h, direction_to_equirectangular with range (-2 pi, pi, -pi, pi)):
@@ -32,10 +33,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .jit import jit
-from .sampling import sample_uniform_sphere
-from .textures import REC709, REPEAT, sample_image
-from .vec import mat_vec
+from ..jit import jit, jit_inline
+from ..sampling import sample_uniform_sphere
+from ..textures import REC709, REPEAT, sample_image
+from ..vec import mat_vec
 
 
 class EnvironmentMap(NamedTuple):
@@ -295,3 +296,31 @@ def pdf_env(env, direction):
     col = min(max(int(u * w), 0), w - 1)
     row = min(max(int((1.0 - v) * h), 0), h - 1)
     return _solid_angle_pdf(env, row, col, sin_theta) * env.det / (n * n * n)
+
+
+# -- the world as one of the scene's lights (tables.Lights) -------------------------------------
+
+@jit_inline
+def sample_world(lights, u0, u1):
+    """A direction towards the world (by its map's distribution, or uniform for a colour), its
+    radiance and density in solid angle."""
+    if lights.has_env:
+        return sample_env(lights.env, u0, u1)
+    value = (lights.world[0], lights.world[1], lights.world[2])
+    return sample_uniform_sphere(u0, u1), value, 1.0 / (4.0 * math.pi)
+
+
+@jit_inline
+def world_radiance(lights, d):
+    """The world's radiance along unit direction d (a ray that escapes)."""
+    if lights.has_env:
+        return env_lookup(lights.env, d)
+    return (lights.world[0], lights.world[1], lights.world[2])
+
+
+@jit_inline
+def pdf_world(lights, d):
+    """Solid-angle density of light sampling picking the world in unit direction d."""
+    if lights.has_env:
+        return lights.world_pmf * pdf_env(lights.env, d)
+    return lights.world_pmf / (4.0 * math.pi)

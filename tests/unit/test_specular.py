@@ -5,7 +5,8 @@ import numba
 import numpy as np
 import pytest
 
-from snell.tracer import bsdf, fresnel, sampling
+from snell.tracer import fresnel, sampling, specular
+from snell.tracer.material_kinds import GLASS, MIRROR, REFRACTION
 from support.stats import chi2_pvalue as _chi2_pvalue
 from support.stats import sidak
 
@@ -50,18 +51,18 @@ def test_reflect_and_refract_round_trips():
     n = (0.0, 0.0, 1.0)
     for d in _random_dirs(300, rng):
         d = (d[0], d[1], -abs(d[2]))                     # arriving from above
-        r = bsdf.reflect(d, n)
-        assert np.allclose(bsdf.reflect(r, n), d, atol=1e-14)
+        r = specular.reflect(d, n)
+        assert np.allclose(specular.reflect(r, n), d, atol=1e-14)
         assert np.linalg.norm(r) == pytest.approx(1.0)
         cos_i = -d[2]
         f, cos_t = fresnel.fresnel_dielectric(cos_i, 1.5)
-        t = bsdf.refract(d, n, 1.5, cos_i, cos_t)
+        t = specular.refract(d, n, 1.5, cos_i, cos_t)
         assert np.linalg.norm(t) == pytest.approx(1.0, abs=1e-12)
         # Snell's law, then back out through the same interface gives the original direction.
         sin_i, sin_t = np.linalg.norm(np.cross(d, n)), np.linalg.norm(np.cross(t, n))
         assert sin_i == pytest.approx(1.5 * sin_t, abs=1e-12)
         back_f, back_cos_t = fresnel.fresnel_dielectric(-t[2], 1 / 1.5)
-        back = bsdf.refract(tuple(-np.array(t)), (0.0, 0.0, -1.0), 1 / 1.5, -t[2], back_cos_t)
+        back = specular.refract(tuple(-np.array(t)), (0.0, 0.0, -1.0), 1 / 1.5, -t[2], back_cos_t)
         assert np.allclose(back, -np.array(d), atol=1e-12)
         assert back_f == pytest.approx(f, abs=1e-12)   # Fresnel is reciprocal
 
@@ -74,21 +75,21 @@ def test_specular_sampling_events_and_cycles_rejections():
     d = (math.sin(math.radians(60)), 0.0, -c)
     f, _ = fresnel.fresnel_dielectric(c, 1.5)
     white, tint = (1.0, 1.0, 1.0), (0.5, 0.6, 0.7)
-    out, w, event, valid = bsdf.sample_specular(bsdf.GLASS, d, up, up, True, white, tint, 1.5,
+    out, w, event, valid = specular.sample_specular(GLASS, d, up, up, True, white, tint, 1.5,
                                                 fresnel.EXACT, 0.999 * f)
-    assert event == bsdf.REFLECTED and valid and w == white and out[2] > 0
-    out, w, event, valid = bsdf.sample_specular(bsdf.GLASS, d, up, up, True, white, tint, 1.5,
+    assert event == specular.REFLECTED and valid and w == white and out[2] > 0
+    out, w, event, valid = specular.sample_specular(GLASS, d, up, up, True, white, tint, 1.5,
                                                 fresnel.EXACT, 1.001 * f)
-    assert event == bsdf.TRANSMITTED and valid and w == tint and out[2] < 0
+    assert event == specular.TRANSMITTED and valid and w == tint and out[2] < 0
     inside = (math.sin(math.radians(60)), 0.0, -c)    # leaving the glass beyond the critical angle
-    _, w, event, _ = bsdf.sample_specular(bsdf.REFRACTION, inside, up, up, False, white, white,
+    _, w, event, _ = specular.sample_specular(REFRACTION, inside, up, up, False, white, white,
                                           1.5, fresnel.EXACT, 0.5)
-    assert event == bsdf.TIR_ABSORBED and w == (0.0, 0.0, 0.0)
-    _, _, event, valid = bsdf.sample_specular(bsdf.GLASS, inside, up, up, False, white, white,
+    assert event == specular.TIR_ABSORBED and w == (0.0, 0.0, 0.0)
+    _, _, event, valid = specular.sample_specular(GLASS, inside, up, up, False, white, white,
                                               1.5, fresnel.EXACT, 0.5)
-    assert event == bsdf.TIR and valid
+    assert event == specular.TIR and valid
     away = (0.0, 0.0, -1.0)                           # shading normal facing away from the viewer
-    _, _, _, valid = bsdf.sample_specular(bsdf.MIRROR, d, up, away, True, white, white, 1.0,
+    _, _, _, valid = specular.sample_specular(MIRROR, d, up, away, True, white, white, 1.0,
                                           fresnel.EXACT, 0.5)
     assert not valid
 
@@ -165,10 +166,10 @@ def _bent_normals(ng, wi, normal):
     for i in range(n):
         w = (wi[0, i], wi[1, i], wi[2, i])
         nrm = (normal[0, i], normal[1, i], normal[2, i])
-        before[i] = bsdf.reflect((-w[0], -w[1], -w[2]), nrm)[2]
-        b = bsdf.valid_reflection_normal(ng, w, nrm)
+        before[i] = specular.reflect((-w[0], -w[1], -w[2]), nrm)[2]
+        b = specular.valid_reflection_normal(ng, w, nrm)
         bent[0, i], bent[1, i], bent[2, i] = b
-        after[i] = bsdf.reflect((-w[0], -w[1], -w[2]), b)[2]
+        after[i] = specular.reflect((-w[0], -w[1], -w[2]), b)[2]
     return before, bent, after
 
 

@@ -4,15 +4,16 @@ Emissive triangles are sampled as Cycles samples them: uniformly in the solid an
 (Arvo 1995) when the shading point is near them (SOLID_ANGLE_RANGE), uniformly in area
 otherwise. Area sampling of a lamp 1 cm under a ceiling gives the ceiling's points next to it
 weights that grow as 1 / distance^2: fireflies that solid-angle sampling does not have.
-The functions read the light triangles' rows of the scene's light tables (lights.Lights).
+The functions read the light triangles' rows of the scene's light tables (tables.Lights).
 """
 from __future__ import annotations
 
 import math
 
-from .jit import jit, jit_inline
-from .sampling import area_to_solid_angle
-from .vec import cross, dot, madd, mul, normalize, row, sub
+from ..geometry import hit_offset, offset_origin
+from ..jit import jit, jit_inline
+from ..sampling import area_to_solid_angle
+from ..vec import cross, dot, madd, mul, normalize, row, sub
 
 # Emissive triangles are sampled in solid angle from points closer to their plane than this
 # times their longest edge, in area from farther away. Cycles makes the same kind of distance
@@ -126,3 +127,29 @@ def pdf_triangle(lights, prim, o, d, t):
     else:
         density = area_to_solid_angle(madd(o, t, d), o, normal, lights.tri_area[light], True)
     return lights.tri_pmf[prim] * density
+
+
+# -- emission (the light tracer and light vertices) ---------------------------------------------
+
+@jit_inline
+def triangle_point(lights, light, u0, u1):
+    """A point uniform in area on light triangle `light`."""
+    return uniform_triangle_point(lights.tri_corners[light], u0, u1)
+
+
+@jit_inline
+def lift_off_triangle(lights, mesh, light, y, normal, w):
+    """Point y of light triangle `light` lifted off it (as hit points are: Embree reports hits
+    at t = 0) to the side of normal that the direction w leaves by."""
+    return offset_origin(y, normal, hit_offset(mesh, lights.tri_prim[light], y), w)
+
+
+@jit_inline
+def emit_triangle(lights, mesh, light, y, w, density):
+    """A light path leaving point y of light triangle `light` (either face) along w, drawn with
+    solid-angle density `density` (its point uniform in area): (origin, radiance x |cos| x area
+    / density)."""
+    normal = row(lights.tri_normal, light)
+    cos_y = abs(dot(w, normal))
+    y = lift_off_triangle(lights, mesh, light, y, normal, w)
+    return y, mul(row(lights.tri_radiance, light), cos_y * lights.tri_area[light] / density)

@@ -31,22 +31,26 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import bsdf
-from .bsdf import DIFFUSE, EMISSION, LAYERED, REFRACTION
+from . import specular
 from .camera import camera_connection
-from .geometry import hit_offset, hit_point, offset_origin
+from .geometry import hit_point, offset_origin
 from .jit import jit, jit_inline
-from .lamps import (USES_MIS, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION, area_lamp_point,
-                    intersect_point_lamp, spot_attenuation, spread_attenuation)
-from .lights import AREA, EMISSIVE_TRIANGLE, POINT, SUN
+from .lights.codes import (AREA, EMISSIVE_TRIANGLE, POINT, SUN, USES_MIS, VISIBLE_DIFFUSE,
+                           VISIBLE_GLOSSY, VISIBLE_TRANSMISSION)
+from .lights.dispatch import emission_anchor, emit_along
+from .lights.point import intersect_point_lamp
+from .lights.sun import emit_sun
+from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, REFRACTION
 from .sampler import mix, random_pair
+from .sampling import sample_cosine_hemisphere, sample_uniform_cone, sample_uniform_sphere
 from .textures import surface_colors
-from .triangle_lights import uniform_triangle_point
-from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
-                       sample_uniform_disk, sample_uniform_sphere)
-from .vec import add, dot, madd, mul, neg, row, store, sub
+from .vec import dot, mul, neg, row, store, sub
 
 LIGHT_DOMAIN = np.uint64(0x11C7_A0C5)   # keys light paths' random numbers apart from camera paths'
+# A camera path's place in the split of path space with the light tracer (wavefront.Paths.caustic):
+# NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was diffuse) then CAUSTIC (and every
+# vertex since specular): the light tracer's paths, whose emitters the path tracer then skips.
+NO_CAUSTIC, FIRST_DIFFUSE, CAUSTIC = range(3)
 
 
 class Caustics(NamedTuple):
@@ -86,7 +90,7 @@ def new_light_paths(n: int) -> LightPaths:
 def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caustics | None:
     """The light tracer's tables for a scene, or None when it has nothing to do (no mirror or
     glass, or no emitter that camera paths could reach through them)."""
-    specular = np.isin(material_kind, (bsdf.MIRROR, bsdf.GLASS, bsdf.REFRACTION))
+    specular = np.isin(material_kind, (MIRROR, GLASS, REFRACTION))
     tri_specular = specular[scene.material_ids] if len(scene.material_ids) else np.zeros(0, bool)
     if pure:                       # aim at the whole scene (used by suns only)
         tri_specular = np.ones(len(scene.material_ids), bool)
@@ -193,69 +197,18 @@ def aimed_density(caustics, y, margin, w, total):
 @jit_inline
 def emit(caustics, lights, mesh, u_pick, u_point, u_dir, emitter):
     """A light path leaving emitter `emitter` of the caustics tables: (origin, direction,
-    weight = emitted radiance x measure / density, excluding the emitter's pick)."""
+    weight = emitted radiance x measure / density, excluding the emitter's pick). The direction
+    is aimed at the specular objects from the light's anchor (lights.dispatch.emission_anchor);
+    a point lamp's line is then drawn across it, where the path tracer's own test of the lamp
+    is made at the line's first specular vertex (light_bounce)."""
     kind, i = caustics.emitter_kind[emitter], caustics.emitter_index[emitter]
-    zero = (0.0, 0.0, 0.0)
-    if kind == EMISSIVE_TRIANGLE:
-        y = uniform_triangle_point(lights.tri_corners[i], u_point[0], u_point[1])
-        w, density = emission_direction(caustics, y, 0.0, u_pick, u_dir[0], u_dir[1])
-        normal = row(lights.tri_normal, i)
-        cos_y = abs(dot(w, normal))
-        # Off the triangle, as hit points are: Embree reports hits at t = 0.
-        y = offset_origin(y, normal, hit_offset(mesh, lights.tri_prim[i], y), w)
-        return y, w, mul(row(lights.tri_radiance, i), cos_y * lights.tri_area[i] / density)
-    if kind == AREA:
-        y = area_lamp_point(lights, i, u_point[0], u_point[1])
-        w, density = emission_direction(caustics, y, 0.0, u_pick, u_dir[0], u_dir[1])
-        cos_y = dot(w, row(lights.area_emit, i))
-        if not cos_y > 0.0:
-            return y, w, zero
-        att = spread_attenuation(lights, i, cos_y)
-        return y, w, mul(row(lights.area_radiance, i), att * cos_y * lights.area_area[i] / density)
-    if kind == POINT:
-        # Lines of direction w that pass within the radius of the centre (a disk across w),
-        # aimed from the centre with the cones widened by the radius so that no line that
-        # reaches a specular object is missed; the path tracer's own test of the lamp is made
-        # where the line meets its first specular vertex (light_bounce).
-        c = row(lights.point_pos, i)
-        r = lights.point_radius[i]
-        w, density = emission_direction(caustics, c, r, u_pick, u_dir[0], u_dir[1])
-        x, y2 = sample_uniform_disk(u_point[0], u_point[1])
-        t_axis, s_axis = orthonormal_basis(w)
-        q = add(c, add(mul(t_axis, x * r), mul(s_axis, y2 * r)))
-        att = spot_attenuation(lights, i, w)
-        # Start where the light leaves: the disk's centre plane, or the sphere's far side.
-        rho2 = (x * x + y2 * y2) * r * r
-        origin = q if not lights.point_sphere[i] else madd(q, math.sqrt(max(r * r - rho2, 0.0)), w)
-        radiance = mul(row(lights.point_intensity, i), att / (math.pi * r * r))
-        return origin, w, mul(radiance, math.pi * r * r / density)
-    # A sun disc: a direction in its cone, then a line through a disk across one aim sphere.
-    travel = row(lights.sun_dir, i)
-    w, cone_density = sample_uniform_cone(travel, lights.sun_one_minus_cos[i], u_dir[0], u_dir[1])
-    total = 0.0
-    for k in range(caustics.aim_radius.shape[0]):
-        total += caustics.aim_radius[k] ** 2
-    target = u_pick * total
-    chosen = caustics.aim_radius.shape[0] - 1
-    for k in range(caustics.aim_radius.shape[0]):
-        if target < caustics.aim_radius[k] ** 2:
-            chosen = k
-            break
-        target -= caustics.aim_radius[k] ** 2
-    x, y2 = sample_uniform_disk(u_point[0], u_point[1])
-    t_axis, s_axis = orthonormal_basis(w)
-    r = caustics.aim_radius[chosen]
-    q = add(row(caustics.aim_center, chosen), add(mul(t_axis, x * r), mul(s_axis, y2 * r)))
-    # The line's density in area across w: every aim disk it crosses.
-    area_density = 0.0
-    for k in range(caustics.aim_radius.shape[0]):
-        off = sub(q, row(caustics.aim_center, k))
-        along = dot(off, w)
-        miss2 = dot(off, off) - along * along
-        if miss2 <= caustics.aim_radius[k] ** 2:
-            area_density += 1.0 / (math.pi * total)
-    far = dot(sub(q, caustics.scene_center), w) + caustics.scene_radius
-    return madd(q, -far, w), w, mul(row(lights.sun_radiance, i), 1.0 / (cone_density * area_density))
+    if kind == SUN:
+        return emit_sun(lights, i, caustics.aim_center, caustics.aim_radius,
+                        caustics.scene_center, caustics.scene_radius, u_pick, u_point, u_dir)
+    y, margin = emission_anchor(lights, kind, i, u_point[0], u_point[1])
+    w, density = emission_direction(caustics, y, margin, u_pick, u_dir[0], u_dir[1])
+    origin, weight = emit_along(lights, mesh, kind, i, y, w, density, u_point[0], u_point[1])
+    return origin, w, weight
 
 
 # -- the stages ---------------------------------------------------------------------------------
@@ -379,15 +332,15 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
             continue              # a further diffuse vertex would exceed the depth
         n = ns_f
         if has_normals and kind != REFRACTION:
-            n = bsdf.valid_reflection_normal(ng_f, neg(d), ns_f)
+            n = specular.valid_reflection_normal(ng_f, neg(d), ns_f)
         u_choice, _ = random_pair(key, 1 + bounces, 5)
-        new_d, weight, event, valid = bsdf.sample_specular(
+        new_d, weight, event, valid = specular.sample_specular(
             kind, d, ng_f, n, entering, color, trans_color, mats.ior[mat], fresnel_model,
             u_choice)
-        if not valid or event == bsdf.TIR_ABSORBED:
+        if not valid or event == specular.TIR_ABSORBED:
             continue
         if bounces == 0:
-            ray_kind = VISIBLE_TRANSMISSION if event == bsdf.TRANSMITTED else VISIBLE_GLOSSY
+            ray_kind = VISIBLE_TRANSMISSION if event == specular.TRANSMITTED else VISIBLE_GLOSSY
             if not lamp_sees(caustics, lights, paths.lamp[i], d, p, ray_kind):
                 continue
         beta = (beta[0] * weight[0], beta[1] * weight[1], beta[2] * weight[2])

@@ -1,11 +1,10 @@
-"""A scene's lights as one distribution: emissive triangles, Blender's lamps, the world.
+"""A scene's lights as one distribution: the tables compiled code reads (`Lights`) and how they
+are built.
 
-`LightSampler` builds the tables (`Lights`) that compiled code reads. One discrete distribution
-picks a light in proportion to an estimate of its power; the light's own sampler (triangle_lights
-for emissive triangles, lamps for area, point, spot and sun lamps) then picks a point or a
-direction. `sample_light` serves next-event estimation; the light's `*_hit` function and the pick
-probability give the density of the same light found by a BSDF-sampled ray, for multiple
-importance sampling.
+`LightSampler` builds the tables. One discrete distribution picks a light in proportion to an
+estimate of its power; the light's own sampler (one module per kind: triangles.py for emissive
+triangles, area.py, point.py and sun.py for Blender's lamps, world.py for the world) then picks a
+point or a direction; dispatch.py switches on the kind.
 """
 from __future__ import annotations
 
@@ -14,20 +13,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .environment import EnvironmentMap, build_environment, empty_environment, env_lookup, \
-    pdf_env, sample_env
-from .geometry import hit_offset, offset_origin
-from .jit import jit, jit_inline
-from .lamps import (CASTS_SHADOW, USES_MIS, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
-                    VISIBLE_TRANSMISSION, sample_area_lamp, sample_point_lamp, sample_sun)
-from .sampling import sample_uniform_sphere
-from .textures import REC709
-from .triangle_lights import pdf_triangle, triangle_light_point
-from .vec import mul, normalize, row, sub
+from ..jit import jit
+from ..textures import REC709
+from ..vec import row
+from .area import spread_constants
+from .codes import (AREA, CASTS_SHADOW, EMISSIVE_TRIANGLE, POINT, SUN, USES_MIS, VISIBLE_CAMERA,
+                    VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION, WORLD)
+from .dispatch import sample_light
+from .triangles import pdf_triangle
+from .world import EnvironmentMap, build_environment, empty_environment
 
-EMISSIVE_TRIANGLE, AREA, POINT, SUN, WORLD = range(5)
 AREA_SHAPE_CODES = {"rectangle": 0, "square": 0, "disk": 1, "ellipse": 1}
-ZERO = (0.0, 0.0, 0.0)
 
 
 class Lights(NamedTuple):
@@ -54,7 +50,7 @@ class Lights(NamedTuple):
     area_area: np.ndarray        # (L,)
     area_spread_tan: np.ndarray  # (L,) tan(spread / 2), inf for 180 degrees
     area_spread_norm: np.ndarray  # (L,) the spread's normalisation K
-    area_flags: np.ndarray       # (L,) lamps.VISIBLE_* | CASTS_SHADOW | USES_MIS
+    area_flags: np.ndarray       # (L,) codes.VISIBLE_* | CASTS_SHADOW | USES_MIS
     area_pmf: np.ndarray         # (L,)
     point_pos: np.ndarray        # (P, 3) point and spot lamps
     point_intensity: np.ndarray  # (P, 3) W/sr; radiance intensity / (pi r^2) for radius r
@@ -86,7 +82,7 @@ def luminance(rgb) -> np.ndarray:
 
 
 def light_flags(light: dict) -> int:
-    """A scene light entry's visibility, shadow and MIS options as lamps.* flags."""
+    """A scene light entry's visibility, shadow and MIS options as codes.* flags."""
     flags = 0
     for key, flag in (("visible_camera", VISIBLE_CAMERA), ("visible_diffuse", VISIBLE_DIFFUSE),
                       ("visible_glossy", VISIBLE_GLOSSY),
@@ -95,19 +91,6 @@ def light_flags(light: dict) -> int:
         if light.get(key, True):
             flags |= flag
     return flags
-
-
-def spread_constants(spread: float) -> tuple[float, float]:
-    """(tan(spread / 2), K) of an area lamp's spread in radians (Cycles' scene/light.cpp)."""
-    half = 0.5 * max(spread, 0.0)
-    if spread >= math.pi * (1.0 - 1e-6):     # 180 degrees (Blender stores pi in float32)
-        return math.inf, 1.0
-    tan_half = math.tan(half)
-    if half <= 0.0:
-        return 0.0, math.inf
-    # K = 1 / (tan a - a), from integrating cos x (1 - tan x / tan a) sin x over [0, a]; its
-    # third-order Taylor form where tan a - a cancels.
-    return tan_half, (1.0 / (tan_half - half) if half > 0.05 else 3.0 / half ** 3)
 
 
 def world_environment(scene, env_sampling=True):
@@ -276,91 +259,6 @@ class LightSampler:
         _pdf_triangle_rows(self.tables, np.asarray(prim, np.int64), np.ascontiguousarray(o.T),
                            np.ascontiguousarray(d.T), np.asarray(t, np.float64), out)
         return out
-
-
-@jit_inline
-def pick_light(lights, u):
-    """The light of the distribution that u in [0, 1) picks: (kind, row, probability)."""
-    cdf = lights.cdf
-    k = min(np.searchsorted(cdf, u * cdf[-1], side="right"), cdf.shape[0] - 1)
-    return lights.kind[k], lights.index[k], lights.pmf[k]
-
-
-@jit_inline
-def sample_light(lights, mesh, p, n, vertex_kind, u_pick, u0, u1):
-    """Sample one light for next-event estimation at p (shading normal n) of a vertex whose
-    scattering is of vertex_kind (a lamps.VISIBLE_* flag): u_pick picks the light, (u0, u1) the
-    point on it.
-
-    Returns (unit direction to the light, the point to aim the shadow ray at, whether the light
-    is at infinity, radiance / pdf, pdf in solid angle for MIS (0 for delta lights and lamps
-    without MIS), the light's lamps.* flags: its visibility to each kind of ray, and whether it
-    casts shadows). A zero weight means no light: lamps that no kind in vertex_kind sees give
-    none.
-    """
-    kind, i, pmf = pick_light(lights, u_pick)
-    flags = CASTS_SHADOW | USES_MIS | vertex_kind
-    wi, infinite = ZERO, False
-    if kind == EMISSIVE_TRIANGLE:
-        point, density = triangle_light_point(lights, i, p, u0, u1)
-        value = row(lights.tri_radiance, i) if density > 0.0 else ZERO
-    elif kind == AREA:
-        flags = lights.area_flags[i]
-        point, value, density = sample_area_lamp(lights, i, p, u0, u1)
-    elif kind == POINT:
-        flags = lights.point_flags[i]
-        point, value, density = sample_point_lamp(lights, i, p, n, u0, u1)
-    elif kind == SUN:
-        flags = lights.sun_flags[i]
-        wi, value, density = sample_sun(lights, i, u0, u1)
-        point, infinite = p, True
-    else:
-        wi, value, density = sample_world(lights, u0, u1)
-        point, infinite = p, True
-    if not flags & vertex_kind:
-        return (0.0, 0.0, 1.0), p, True, ZERO, 0.0, 0
-    if not infinite:
-        wi = normalize(sub(point, p))
-    if kind == EMISSIVE_TRIANGLE and density > 0.0:
-        # Lift the light point off its triangle towards the shading point, as hit points are
-        # lifted: a shadow ray that ends on the triangle's plane can hit the light itself
-        # (grazing rays to a lamp just under a ceiling did, darkening the ceiling).
-        prim = lights.tri_prim[i]
-        point = offset_origin(point, row(lights.tri_normal, i), hit_offset(mesh, prim, point),
-                              mul(wi, -1.0))
-    if density == 0.0:             # a delta light: value is the irradiance
-        return wi, point, infinite, mul(value, 1.0 / pmf), 0.0, flags
-    pdf = pmf * density
-    if not pdf > 0.0:
-        return (0.0, 0.0, 1.0), p, True, ZERO, 0.0, 0
-    mis_pdf = pdf if flags & USES_MIS else 0.0
-    return wi, point, infinite, mul(value, 1.0 / pdf), mis_pdf, flags
-
-
-@jit_inline
-def sample_world(lights, u0, u1):
-    """A direction towards the world (by its map's distribution, or uniform for a colour), its
-    radiance and density in solid angle."""
-    if lights.has_env:
-        return sample_env(lights.env, u0, u1)
-    value = (lights.world[0], lights.world[1], lights.world[2])
-    return sample_uniform_sphere(u0, u1), value, 1.0 / (4.0 * math.pi)
-
-
-@jit_inline
-def world_radiance(lights, d):
-    """The world's radiance along unit direction d (a ray that escapes)."""
-    if lights.has_env:
-        return env_lookup(lights.env, d)
-    return (lights.world[0], lights.world[1], lights.world[2])
-
-
-@jit_inline
-def pdf_world(lights, d):
-    """Solid-angle density of light sampling picking the world in unit direction d."""
-    if lights.has_env:
-        return lights.world_pmf * pdf_env(lights.env, d)
-    return lights.world_pmf / (4.0 * math.pi)
 
 
 @jit

@@ -1,0 +1,152 @@
+"""What the materials stage does at a hit, one function per surface kind: DIFFUSE (Lambert),
+LAYERED (the rough and Principled lobes of lobes.py) and the smooth specular kinds (mirror,
+glass, refraction; specular.py).
+
+Each takes the hit (`hit`: point, geometric normal, both normals facing the incoming ray, the
+self-intersection offset), the path's sampler (`rng`: key, sample, bits, stratified; `u`: the
+bounce's light pick and BSDF pair) and state, and returns the next ray's direction, throughput,
+visibility kind (a lights.codes VISIBLE_* flag), BSDF density (0 after a specular bounce: no
+light sample competes), place in the split with the light tracer, light-vertex factor (see
+wavefront.Paths.connect) and the new shadow-ray count. Diffuse and layered vertices share the
+light-sampling and light-vertex steps of direct_light.py.
+"""
+from __future__ import annotations
+
+from . import specular
+from .counters import (DIELECTRIC_SAMPLES, DIFFUSE_HITS, LAYERED_HITS, REFLECTIONS, REJECTED,
+                       TIR_ABSORBED_COUNT, TIR_COUNT, TRANSMISSIONS)
+from .direct_light import VISIBLE_ANY_BSDF, connect_to_light_vertex, sample_direct_light
+from .jit import jit, jit_inline
+from .light_tracer import CAUSTIC, FIRST_DIFFUSE, NO_CAUSTIC
+from .light_vertices import camera_step_density
+from .lights.codes import VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
+from .lobes import (DIFFUSE_EVENT, P_METALLIC, P_ROUGHNESS, SHADER_PRINCIPLED, TRANSMIT_EVENT,
+                    bsdf_sample, setup_shader)
+from .material_kinds import DIFFUSE, LAYERED, MIRROR, REFRACTION
+from .sampling import sample_cosine_hemisphere
+from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_number
+from .vec import dot, neg, vmul
+
+
+@jit_inline
+def scatter_diffuse(lights, mesh, can_sample_lights, rng, depth, u, beta, path, o, d, pdf_prev,
+                    hit, albedo, last_connection, connects, lv, lobes, shadows, n_shadow,
+                    radiance, without, stats):
+    """A Lambertian vertex: light sample, light-vertex connection, cosine-weighted BSDF
+    sample."""
+    key, sample, bits, strat = rng
+    u_pick, u0, u1 = u
+    p, ng, ng_f, ns_f, eps = hit
+    stats[DIFFUSE_HITS] += 1
+    # A light vertex could stand in for this vertex if the camera path sampled it from a vertex
+    # that connects (light_vertices.py): that strategy's MIS density needs the density of the
+    # step here.
+    step = 0.0
+    if depth - 1 <= last_connection and pdf_prev > 0.0:
+        step = camera_step_density(pdf_prev, o, p, ng, d)
+    view = neg(d)
+    if can_sample_lights:
+        n_shadow = sample_direct_light(lights, mesh, key, sample, 3 + 3 * depth, bits, strat,
+                                       u_pick, VISIBLE_DIFFUSE, p, ng_f, ns_f, eps, beta, step,
+                                       DIFFUSE, albedo, lobes, 0, view, shadows, n_shadow,
+                                       radiance, without, path)
+    if connects:
+        n_shadow = connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps,
+                                           DIFFUSE, albedo, lobes, 0, view, stats)
+    wi, pdf = sample_cosine_hemisphere(ns_f, u0, u1)
+    # Shading normals can point a sample into the surface: it carries nothing.
+    beta = (0.0, 0.0, 0.0) if dot(wi, ng_f) <= 0.0 else vmul(beta, albedo)
+    connect = 0.0
+    if step > 0.0:
+        connect = dot(wi, ng_f) / step
+    caustic = FIRST_DIFFUSE if depth == 0 else NO_CAUSTIC
+    return wi, beta, VISIBLE_DIFFUSE, pdf, caustic, connect, n_shadow
+
+
+@jit_inline
+def scatter_layered(lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u,
+                    beta, path, d, hit, entering, surface, color, trans_color, connects, lv,
+                    lobes, params, shadows, n_shadow, radiance, without, stats):
+    """A rough or Principled vertex: its lobes (lobes.setup_shader), a light sample and the
+    light-vertex connection evaluated on them, then a sample of one lobe. `surface`: the
+    material, triangle and barycentrics (for textures)."""
+    key, sample, bits, strat = rng
+    u_pick, u0, u1 = u
+    p, _, ng_f, ns_f, eps = hit
+    mat, tri, b1, b2 = surface
+    stats[LAYERED_HITS] += 1
+    view = neg(d)
+    n = specular.valid_reflection_normal(ng_f, view, ns_f) if has_normals else ns_f
+    roughness, shader_params = mats.roughness[mat], mats.principled[mat]
+    if mats.textured[mat]:
+        roughness, shader_params = textured_params(mats, mat, tri, b1, b2, params)
+    count = setup_shader(lobes, tables, mats.shader[mat], color, trans_color, mats.ior[mat],
+                         roughness, mats.distribution[mat], shader_params, n, ns_f, view,
+                         entering)
+    if can_sample_lights:
+        n_shadow = sample_direct_light(lights, mesh, key, sample, 3 + 3 * depth, bits, strat,
+                                       u_pick, VISIBLE_ANY_BSDF, p, ng_f, ns_f, eps, beta, 0.0,
+                                       LAYERED, color, lobes, count, view, shadows, n_shadow,
+                                       radiance, without, path)
+    if connects:
+        n_shadow = connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps,
+                                           LAYERED, color, lobes, count, view, stats)
+    new_d, factor, pdf_prev, event, valid = bsdf_sample(lobes, count, ng_f, view, u_pick, u0, u1)
+    beta = vmul(beta, factor) if valid else (0.0, 0.0, 0.0)
+    ray_kind = VISIBLE_DIFFUSE if event == DIFFUSE_EVENT else \
+        VISIBLE_TRANSMISSION if event == TRANSMIT_EVENT else VISIBLE_GLOSSY
+    # The light tracer ends its paths on layered surfaces, so the path tracer counts every path
+    # through them.
+    return new_d, beta, ray_kind, pdf_prev, NO_CAUSTIC, 0.0, n_shadow
+
+
+@jit_inline
+def scatter_specular(kind, has_normals, fresnel_model, u0, beta, caustic_in, d, ng_f, ns_f,
+                     entering, color, trans_color, ior, stats):
+    """A mirror, smooth glass or refraction-only vertex (specular.sample_specular): no light
+    sample can compete, so the next ray has BSDF density 0."""
+    n = ns_f
+    if has_normals and kind != REFRACTION:
+        n = specular.valid_reflection_normal(ng_f, neg(d), ns_f)
+    new_d, weight, event, valid = specular.sample_specular(
+        kind, d, ng_f, n, entering, color, trans_color, ior, fresnel_model, u0)
+    count_specular(stats, event, valid)
+    if kind != MIRROR:
+        stats[DIELECTRIC_SAMPLES] += 1
+    beta = vmul(beta, weight) if valid else (0.0, 0.0, 0.0)
+    ray_kind = VISIBLE_TRANSMISSION if event == specular.TRANSMITTED else VISIBLE_GLOSSY
+    caustic = CAUSTIC if caustic_in != NO_CAUSTIC else NO_CAUSTIC
+    return new_d, beta, ray_kind, 0.0, caustic, 0.0
+
+
+@jit
+def textured_params(mats, mat, tri, b1, b2, params):
+    """(roughness, Principled parameters) of a textured layered material at a hit: its
+    roughness texture's value, and for a Principled BSDF its parameters copied into the scratch
+    row `params` with the roughness and metallic textures' values."""
+    roughness = material_number(mats, mat, ROUGHNESS_SLOT, tri, b1, b2, mats.roughness[mat])
+    if mats.shader[mat] != SHADER_PRINCIPLED:
+        return roughness, mats.principled[mat]
+    for k in range(params.shape[0]):
+        params[k] = mats.principled[mat, k]
+    params[P_ROUGHNESS] = material_number(mats, mat, ROUGHNESS_SLOT, tri, b1, b2,
+                                          mats.principled[mat, P_ROUGHNESS])
+    params[P_METALLIC] = material_number(mats, mat, METALLIC_SLOT, tri, b1, b2,
+                                         mats.principled[mat, P_METALLIC])
+    return roughness, params
+
+
+@jit
+def count_specular(stats, event, valid):
+    """Count what a specular vertex did."""
+    if event == specular.TIR:
+        stats[TIR_COUNT] += 1
+    elif event == specular.TIR_ABSORBED:
+        stats[TIR_ABSORBED_COUNT] += 1
+        return
+    elif event == specular.TRANSMITTED:
+        stats[TRANSMISSIONS] += 1
+    else:
+        stats[REFLECTIONS] += 1
+    if not valid:
+        stats[REJECTED] += 1
