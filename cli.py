@@ -20,8 +20,8 @@ from .addon.console import stdout_silenced
 from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
                      check_writable_directory, int_at_least, number_at_least, print_error, warn)
 from .tracer.progress import describe_adaptive, pixels_sampling, time_left
-from .tracer.scene import (DEFAULT_RENDER, FRESNEL_MODELS, LIGHT_KINDS, MATERIAL_KINDS, SceneError,
-                           aperture_radius, load, save)
+from .tracer.scene import LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
+from .tracer.settings import RUN, SCENE, of_scope
 from .validation.commands import COMMANDS as VALIDATION_COMMANDS
 
 SCENE_EXTENSIONS = (".blend", ".snell")
@@ -122,45 +122,54 @@ def _setup_render(p):
     p.add_argument("scene", help="a .blend (exported on the fly) or a .snell scene file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="linear float EXR to write")
     p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit sRGB PNG (Standard view transform)")
-    p.add_argument("--spp", type=int_at_least(1), help="samples per pixel (default: the scene's)")
-    p.add_argument("--max-depth", type=int_at_least(0), metavar="M",
-                   help="emission plus up to M bounces; Cycles max_bounces = M - 1 (default: the scene's)")
-    p.add_argument("--seed", type=int_at_least(0), help="random seed (default: the scene's)")
-    p.add_argument("--threads", type=int_at_least(1), help="render threads (default: the integrator's)")
-    p.add_argument("--fresnel", choices=FRESNEL_MODELS, help="Fresnel model for glass (default: the scene's, exact)")
-    p.add_argument("--caustics", choices=("on", "off"),
-                   help="light tracing of caustics (default: the scene's, on); off renders with "
-                        "the path tracer alone")
-    p.add_argument("--light-vertices", choices=("on", "off"),
-                   help="connections of camera paths to light vertices (default: the scene's, "
-                        "on: where an adaptive render measures that they pay); off leaves light "
-                        "next to lamps to the path tracer's two strategies")
-    _add_adaptive_options(p)
+    _add_setting_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
 
 
-def _add_adaptive_options(p):
-    """--noise-threshold and --min-spp, for `snell render` and `snell batch`."""
-    p.add_argument("--noise-threshold", type=number_at_least(0.0), metavar="T",
-                   help="adaptive sampling: a pixel stops once its noise is below T, and --spp is "
-                        "each pixel's maximum; 0 turns it off (default: the scene's, Cycles' 0.01)")
-    p.add_argument("--min-spp", type=int_at_least(0), metavar="N",
-                   help="samples every pixel takes before it may stop (rounded up to a multiple "
-                        "of 16, at least 32); 0 chooses from the threshold as Cycles does "
-                        "(default: the scene's, 0)")
+ON_OFF = ("on", "off")
+
+
+def _add_setting_options(p):
+    """One option per render setting the command line takes (tracer/settings.py's SCENE and RUN
+    settings), for `snell render` and `snell batch`."""
+    for setting in of_scope(SCENE, RUN):
+        p.add_argument(setting.option, dest=setting.name, metavar=setting.metavar or None,
+                       help=_option_help(setting), **_option_values(setting))
+
+
+def _option_values(setting) -> dict:
+    """argparse's choices or type of a setting's option: on/off, its choices, or its range."""
+    if setting.type is bool:
+        return {"choices": ON_OFF}
+    if setting.type is str:
+        return {"choices": setting.values}
+    at_least = int_at_least if setting.type is int else number_at_least
+    return {"type": at_least(setting.least, setting.greatest)}
+
+
+def _option_help(setting) -> str:
+    """The setting's documentation line, and its default (the scene's, for saved settings)."""
+    default = ON_OFF[not setting.default] if setting.type is bool else setting.default
+    where = "the scene's, " if setting.scope == SCENE else ""
+    return f"{setting.doc[0].lower()}{setting.doc[1:]} (default: {where}{default})"
+
+
+def setting_overrides(args) -> dict:
+    """The render settings given on the command line, by name (on/off as booleans)."""
+    given = {}
+    for setting in of_scope(SCENE, RUN):
+        value = getattr(args, setting.name)
+        if value is not None:
+            given[setting.name] = value == "on" if setting.type is bool else value
+    return given
 
 
 def cmd_render(args) -> int:
     _check_output(args.output, ".exr", "-o")
     if args.png:
         _check_output(args.png, ".png", "--png")
-    caustics = None if args.caustics is None else args.caustics == "on"
-    vertices = None if args.light_vertices is None else args.light_vertices == "on"
-    scene = load_scene(args.scene).with_render(spp=args.spp, max_depth=args.max_depth,
-                                                seed=args.seed, fresnel=args.fresnel,
-                                                caustics=caustics, light_vertices=vertices,
-                                                noise_threshold=args.noise_threshold,
-                                                min_spp=args.min_spp)
+    scene = load_scene(args.scene)
+    settings = scene.settings(**setting_overrides(args))
     from .tracer import image
     from .tracer.integrator import kernels_compiled, render, warm_up
 
@@ -169,10 +178,9 @@ def cmd_render(args) -> int:
             print("snell: compiling kernels (first run only)", file=sys.stderr, flush=True)
         warm_up()
 
-    options = {} if args.threads is None else {"threads": args.threads}
     bar = ProgressLine(sys.stderr) if not args.quiet and sys.stderr.isatty() else None
     try:
-        result = render(scene, progress=bar, **options)
+        result = render(scene, settings, progress=bar)
     finally:
         if bar:
             bar.close()
@@ -261,9 +269,10 @@ def describe(scene) -> list[str]:
     """The lines `snell info` prints."""
     from .tracer.integrator import Renderer, describe_stages
 
-    stages = Renderer(scene, threads=1).stages()    # the stages a render of it would run
+    settings = scene.settings(threads=1)
+    stages = Renderer(scene, settings).stages()    # the stages a render of it would run
     run, skipped = describe_stages(stages)
-    cam, dof, render = scene.camera, scene.camera["dof"], scene.render
+    cam, dof = scene.camera, scene.camera["dof"]
     pct = cam.get("resolution_percentage", 100)
     width, height = (int(r * pct / 100) for r in cam["resolution"])
     resolution = f"{width}x{height}" + (f" ({pct}% of {cam['resolution'][0]}x{cam['resolution'][1]})"
@@ -283,9 +292,9 @@ def describe(scene) -> list[str]:
         + (f"orthographic, scale {cam['ortho_scale']:g} m" if cam.get("type") == "ORTHO" else
            f"lens {cam['lens']:g} mm") + ", "
         f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
-        f"render     {render['spp']} spp, max depth {render['max_depth']}, seed {render['seed']}, "
-        f"fresnel {render['fresnel']}",
-        f"sampling   {adaptive_sampling(render)}",
+        f"render     {settings.spp} spp, max depth {settings.max_depth}, seed {settings.seed}, "
+        f"fresnel {settings.fresnel}",
+        f"sampling   {adaptive_sampling(settings)}",
         f"caustics   {light_tracing(stages)}",
         f"runs       {run}",
         f"skips      {skipped}",
@@ -293,22 +302,20 @@ def describe(scene) -> list[str]:
     ]
 
 
-def adaptive_sampling(render) -> str:
+def adaptive_sampling(settings) -> str:
     """What a render's noise_threshold and min_spp do, in words."""
     from .tracer.adaptive import auto_min_spp, first_check
 
-    render = {**DEFAULT_RENDER, **render}     # a scene built in memory may leave them out
-    threshold, least = render["noise_threshold"], render["min_spp"]
+    threshold, least, spp = settings.noise_threshold, settings.min_spp, settings.spp
     if threshold <= 0:
-        return f"every pixel {render['spp']} spp (noise threshold 0: adaptive sampling off)"
+        return f"every pixel {spp} spp (noise threshold 0: adaptive sampling off)"
     # The tracer rounds the minimum up to whole windows of both halves (tracer/adaptive.py).
     effective = first_check(least or auto_min_spp(threshold))
     minimum = f"{effective} spp" + ("" if least else " (automatic)")
-    if effective >= render["spp"]:
-        return (f"every pixel {render['spp']} spp (noise threshold {threshold:g}, but its minimum "
+    if effective >= spp:
+        return (f"every pixel {spp} spp (noise threshold {threshold:g}, but its minimum "
                 f"{minimum} is not below that)")
-    return (f"adaptive, noise threshold {threshold:g}: each pixel from {minimum} up to "
-            f"{render['spp']} spp")
+    return f"adaptive, noise threshold {threshold:g}: each pixel from {minimum} up to {spp} spp"
 
 
 def light_tracing(stages) -> str:
@@ -335,7 +342,7 @@ def _setup_batch(p):
     p.add_argument("-o", "--output", metavar="OUT_####.exr",
                    help="output path, #### = frame number; .exr (linear float) or .png (view "
                         "transform) (default: the file's Output Properties)")
-    _add_adaptive_options(p)
+    _add_setting_options(p)
 
 
 def _frames(text):
@@ -356,7 +363,7 @@ def cmd_batch(args) -> int:
     try:
         from .addon import batch
         return batch.run(args.scene, frames=args.frames, output=args.output,
-                         noise_threshold=args.noise_threshold, min_spp=args.min_spp)
+                         settings=setting_overrides(args))
     except ModuleNotFoundError as exc:
         if exc.name != "bpy":
             raise

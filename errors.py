@@ -36,8 +36,9 @@ def warn(message) -> None:
     print(f"snell: warning: {one_line(message)}", file=sys.stderr)
 
 
-def _at_least(convert, minimum, what):
-    """An argparse type: convert(text), finite and >= minimum, else a usage error naming it."""
+def _at_least(convert, minimum, what, maximum=None):
+    """An argparse type: convert(text), finite and >= minimum (and <= maximum if given), else a
+    usage error naming it."""
     def parse(text):
         try:
             value = convert(text)
@@ -45,18 +46,20 @@ def _at_least(convert, minimum, what):
             value = None
         if value is None or not math.isfinite(value) or value < minimum:
             raise argparse.ArgumentTypeError(f"expected {what} >= {minimum:g}, got {text!r}")
+        if maximum is not None and value > maximum:
+            raise argparse.ArgumentTypeError(f"expected {what} <= {maximum}, got {text!r}")
         return value
     return parse
 
 
-def int_at_least(minimum: int):
-    """An argparse type: an integer >= minimum, else a usage error naming the value."""
-    return _at_least(int, minimum, "an integer")
+def int_at_least(minimum: int, maximum: int | None = None):
+    """An argparse type: an integer >= minimum (and <= maximum), else a usage error naming it."""
+    return _at_least(int, minimum, "an integer", maximum)
 
 
-def number_at_least(minimum: float):
-    """An argparse type: a finite number >= minimum, else a usage error naming the value."""
-    return _at_least(float, minimum, "a number")
+def number_at_least(minimum: float, maximum: float | None = None):
+    """An argparse type: a finite number >= minimum (and <= maximum), else a usage error."""
+    return _at_least(float, minimum, "a number", maximum)
 
 
 def check_writable_directory(path: str, option: str, report: bool = False) -> None:

@@ -61,9 +61,9 @@ def _set_output(scene, output):
 
 
 def run(blend_path: str, frames: str | None = None, output: str | None = None,
-        stream=sys.stderr, noise_threshold: float | None = None, min_spp: int | None = None) -> int:
+        stream=sys.stderr, settings: dict | None = None) -> int:
     """Render the frames of blend_path; returns the exit status (0, or 1 if a frame failed).
-    noise_threshold and min_spp (None: the file's) set the Sampling panel's settings."""
+    settings: render settings over the file's (tracer/settings.py names), for every frame."""
     import bpy
 
     from . import final, registration
@@ -81,20 +81,20 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
     scene.render.engine = "SNELL"
     if output:
         _set_output(scene, output)
-    _set_sampling(scene.snell, noise_threshold, min_spp)
     frame_list = frame_list or [scene.frame_current]
-    with _ctrl_c_stops_the_render(final.stop_requested) as interrupted:
+    with _ctrl_c_stops_the_render(final.stop_requested) as interrupted, \
+            _overriding(final.overrides, settings or {}):
         return _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, stream)
 
 
-def _set_sampling(props, noise_threshold, min_spp):
-    """The Sampling panel's Noise Threshold (a threshold of 0 unchecks it) and Min Samples."""
-    if noise_threshold is not None:
-        props.use_adaptive_sampling = noise_threshold > 0
-        if noise_threshold > 0:
-            props.noise_threshold = noise_threshold
-    if min_spp is not None:
-        props.min_spp = min_spp
+@contextlib.contextmanager
+def _overriding(overrides: dict, settings: dict):
+    """The engine renders with `settings` over the file's while the frames render."""
+    overrides.update(settings)
+    try:
+        yield
+    finally:
+        overrides.clear()
 
 
 @contextlib.contextmanager

@@ -30,6 +30,9 @@ last_render: dict = {}
 # Set by `snell batch` on Ctrl-C: the render stops as on Esc. A KeyboardInterrupt raised inside
 # the engine's callback would unwind through Blender's C code, which prints it and can crash.
 stop_requested = threading.Event()
+# Settings `snell batch` gives on its command line, over the scene's (tracer/settings.py names):
+# they reach the render without being written into the file's properties.
+overrides: dict = {}
 
 
 def _should_stop(engine) -> bool:
@@ -53,12 +56,6 @@ def _border(render, full_w, full_h):
         return window.border_pixels(full_w, full_h)
     return window.border_pixels(full_w, full_h, (render.border_min_x, render.border_max_x,
                                                  render.border_min_y, render.border_max_y))
-
-
-def _threads(bl_scene) -> int:
-    props = getattr(bl_scene, "snell", None)
-    threads = int(getattr(props, "threads", 0) or 0)
-    return threads or max(1, int(bl_scene.render.threads))
 
 
 def _export(engine, depsgraph, record):
@@ -172,11 +169,12 @@ def render(engine, depsgraph):
             return
         x0, y0, w, h = _border(bl_scene.render, engine.resolution_x, engine.resolution_y)
         scene = scene.with_camera(**window.window_camera(scene.camera, x0, y0, w, h))
-        spp = int(scene.render["spp"])
+        settings = _settings(bl_scene, scene)
+        spp = settings.spp
         record["target_spp"] = spp
         _compile_kernels(engine, record)
         engine.update_stats("", f"Snell: building the BVH of {len(scene.triangles)} triangles")
-        renderer = _integrator().Renderer(scene, threads=_threads(bl_scene))
+        renderer = _integrator().Renderer(scene, settings)
         if _should_stop(engine):
             _stop_without_image(engine, record)
             return
@@ -210,6 +208,18 @@ def render(engine, depsgraph):
         if result is not None:
             engine.end_result(result, cancel=True)
         record["total_s"] = time.perf_counter() - t_start
+
+
+def _settings(bl_scene, scene):
+    """The render's settings: the exported scene's, Snell's threads (or Blender's), and `snell
+    batch`'s overrides."""
+    from .export import blender_settings, blender_threads
+
+    try:
+        threads = blender_threads(bl_scene, blender_settings(bl_scene))
+        return scene.settings(threads=threads).replace(**overrides)
+    except SceneError as exc:
+        raise RenderFailed(f"cannot render this scene: {exc}") from None
 
 
 def _stop_without_image(engine, record):

@@ -1,72 +1,57 @@
-"""Snell's render settings, stored on every scene as `scene.snell`.
+"""Snell's render settings, stored on every scene as `scene.snell`: one Blender property per
+setting of tracer/settings.py that Blender shows (scopes SCENE, RUN and VIEWPORT), made from the
+schema's name, documentation, default and range.
 
-The viewport (addon/viewport.py) reads viewport_spp and viewport_time_limit.
-addon/export/settings.py reads spp, max_depth, seed, fresnel, caustics, light_vertices and the
-adaptive sampling settings from here into the scene file; threads is used by the render engine
-only.
+addon/export/settings.py reads them back (blender_settings); the viewport reads viewport_spp and
+viewport_time_limit, the render engine threads.
 """
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
+from bpy.props import BoolProperty
+
+from ..tracer.settings import RUN, SCENE, VIEWPORT, of_scope
+
+# The Sampling panel's checkbox, as Cycles has it: unchecked, the noise threshold is kept but not
+# used (the scene file says noise_threshold 0). Blender's alone: the file has no such setting.
+USE_ADAPTIVE_SAMPLING = BoolProperty(
+    name="Noise Threshold", default=True,
+    description="Stop sampling each pixel once its noise is below the threshold (adaptive "
+                "sampling, as Cycles')")
 
 
-class SnellRenderSettings(bpy.types.PropertyGroup):
-    spp: IntProperty(
-        name="Samples", default=64, min=1, soft_max=4096,
-        description="Samples per pixel of a final render; with a noise threshold, the most any "
-                    "pixel takes")
-    viewport_spp: IntProperty(
-        name="Viewport Samples", default=1024, min=0, soft_max=4096,
-        description="Samples per pixel the viewport's Rendered mode refines to; 0 refines until "
-                    "the view changes or the viewport closes")
-    viewport_time_limit: FloatProperty(
-        name="Viewport Time Limit", default=0.0, min=0.0, soft_max=600.0, subtype="TIME_ABSOLUTE",
-        unit="TIME_ABSOLUTE",
-        description="Stop refining the viewport after this many seconds; 0 has no limit")
-    # Adaptive sampling as Cycles' Sampling panel has it: names, defaults and ranges.
-    use_adaptive_sampling: BoolProperty(
-        name="Noise Threshold", default=True,
-        description="Stop sampling each pixel once its noise is below the threshold (adaptive "
-                    "sampling, as Cycles')")
-    noise_threshold: FloatProperty(
-        name="Noise Threshold", default=0.01, min=0.0, max=1.0, soft_min=0.001, step=0.1,
-        precision=4,
-        description="Noise level at which a pixel stops sampling: lower is less noise and more "
-                    "samples (Cycles' default 0.01)")
-    min_spp: IntProperty(
-        name="Min Samples", default=0, min=0, max=4096,
-        description="Samples every pixel takes before it may stop (rounded up to a multiple of "
-                    "16, at least 32); 0 chooses from the noise threshold as Cycles does (64 at "
-                    "0.01)")
-    max_depth: IntProperty(
-        name="Max Depth", default=8, min=0, soft_max=64,
-        description="Emission plus up to this many bounces (the seed project's max_ray_depth). "
-                    "Cycles equivalent: max_bounces = Max Depth - 1 (with the diffuse, glossy and "
-                    "transmission limits set to the same value); 0 shows only emitters seen directly")
-    seed: IntProperty(
-        name="Seed", default=0, min=0,
-        description="Random seed: the same seed and sample count give the same image, whatever "
-                    "the thread count")
-    threads: IntProperty(
-        name="Threads", default=0, min=0, soft_max=256,
-        description="Render threads; 0 uses Blender's own setting (Performance > Threads)")
-    fresnel: EnumProperty(
-        name="Fresnel", default="EXACT",
-        items=[("EXACT", "Exact", "The exact unpolarised dielectric Fresnel equations, as Cycles"),
-               ("SCHLICK", "Schlick", "Schlick's approximation, as the seed project (not Cycles)")],
-        description="Fresnel model for glass")
-    caustics: BoolProperty(
-        name="Caustics", default=True,
-        description="Trace light paths from the lamps through mirrors and glass to the surfaces "
-                    "they light (the same image as the path tracer alone, with far less noise in "
-                    "caustics); runs only in scenes with mirrors or glass and a lamp that rays "
-                    "can hit")
-    light_vertices: BoolProperty(
-        name="Light Vertices", default=True,
-        description="Connect every diffuse vertex of a camera path to a point that light from a "
-                    "lamp reaches first (the same image, with far less noise where surfaces next "
-                    "to lamps light the scene); runs only with mesh lights or area lamps. "
-                    "Adaptive renders measure in their first samples whether the connections "
-                    "save more samples than their rays cost, and keep them only if they do")
+def enum_items(setting) -> list:
+    """A choice setting's Blender enum items: (VALUE, Value, what it means)."""
+    return [(value.upper(), value.title(), doc) for value, doc in setting.choices]
+
+
+def property_options(setting) -> tuple[str, dict]:
+    """(bpy.props function name, its keywords) of a setting's Blender property."""
+    options = {"name": setting.label or setting.name.replace("_", " ").title(),
+               "description": setting.doc, **setting.ui}
+    if setting.type is bool:
+        return "BoolProperty", {**options, "default": setting.default}
+    if setting.type is str:
+        return "EnumProperty", {**options, "items": enum_items(setting),
+                                "default": setting.default.upper()}
+    limits = {"min": setting.least}
+    if setting.greatest is not None:
+        limits["max"] = setting.greatest
+    kind = "IntProperty" if setting.type is int else "FloatProperty"
+    return kind, {**options, **limits, "default": setting.default}
+
+
+def _annotations() -> dict:
+    """The property group's properties: the schema's, and the adaptive sampling checkbox."""
+    props = {}
+    for setting in of_scope(SCENE, RUN, VIEWPORT):
+        kind, options = property_options(setting)
+        props[setting.name] = getattr(bpy.props, kind)(**options)
+    props["use_adaptive_sampling"] = USE_ADAPTIVE_SAMPLING
+    return props
+
+
+SnellRenderSettings = type("SnellRenderSettings", (bpy.types.PropertyGroup,),
+                           {"__annotations__": _annotations(), "__module__": __name__,
+                            "__doc__": "Snell's render settings (tracer/settings.py)."})
 
 
 def register():

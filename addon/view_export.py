@@ -27,11 +27,10 @@ class Content:
     geometry_version: int
     warnings: list
 
-    def with_camera(self, camera: dict, **render) -> object:
-        """The scene with the viewport's camera and render settings (not yet validated)."""
+    def with_camera(self, camera: dict) -> object:
+        """The scene with the viewport's camera (not yet validated)."""
         scene = copy.copy(self.scene)
         scene.camera = camera
-        scene.render = {**self.scene.render, **render}
         return scene
 
 

@@ -197,7 +197,9 @@ class ViewSession:
         reuse = job.geometry_version == self._geometry_version and self._geometry is not None
         self.status = "building the BVH" if not reuse else "updating"
         t0 = time.perf_counter()
-        renderer = integrator.Renderer(job.scene, threads=self.threads,
+        # Every pixel to the budget: the viewport refines the whole image, never adaptively.
+        settings = job.scene.settings(spp=job.spp, noise_threshold=0.0, threads=self.threads)
+        renderer = integrator.Renderer(job.scene, settings,
                                        geometry=self._geometry if reuse else None)
         self._geometry, self._geometry_version = renderer.geometry, job.geometry_version
         stats = {"bvh_reused": reuse, "build_s": time.perf_counter() - t0}
@@ -207,9 +209,8 @@ class ViewSession:
         keep_going = lambda *_: not self._superseded(generation)  # noqa: E731
         self.status = "rendering"
         for divisor in self.coarse:
-            coarse = renderer.with_camera(scaled(camera, divisor))
-            result = coarse.render(spp=1, progress=keep_going, noise_threshold=0.0,
-                                   stop=job.cancel)
+            coarse = renderer.with_camera(scaled(camera, divisor)).with_sampling(spp=1)
+            result = coarse.render(progress=keep_going, stop=job.cancel)
             if self._superseded(generation):
                 return
             self.mailbox.put(Frame(generation, result.mean(), 1, divisor,
@@ -226,4 +227,4 @@ class ViewSession:
                                           "nan_count": result.nan_count}))
             return not (over or self._superseded(generation))
 
-        renderer.render(spp=job.spp, progress=progress, noise_threshold=0.0, stop=job.cancel)
+        renderer.render(progress=progress, stop=job.cancel)

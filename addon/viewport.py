@@ -55,11 +55,10 @@ def release(engine):
 
 def settings(bl_scene) -> tuple[int, float, int]:
     """(viewport samples, 0 = until stopped; time limit in seconds, 0 = none; threads)."""
-    props = getattr(bl_scene, "snell", None)
-    spp = int(getattr(props, "viewport_spp", 1024))
-    limit = float(getattr(props, "viewport_time_limit", 0.0))
-    threads = int(getattr(props, "threads", 0) or 0) or max(1, int(bl_scene.render.threads))
-    return max(0, spp), max(0.0, limit), threads
+    from .export import blender_settings, blender_threads
+
+    found = blender_settings(bl_scene)
+    return found.viewport_spp, found.viewport_time_limit, blender_threads(bl_scene, found)
 
 
 def region_camera(context, depsgraph) -> dict:
@@ -200,7 +199,7 @@ class Viewport:
             self.session = None
         if self.session is None:
             self.session = self.session_factory(threads=threads)
-        scene = self.content.with_camera(self.camera, spp=max(1, spp), noise_threshold=0.0)
+        scene = self.content.with_camera(self.camera)
         generation = self.session.submit(scene, self.content.geometry_version, spp, limit)
         self.generations[generation] = "first" if self.submitted is None else why
         self.submitted = (self.content, self.camera)

@@ -96,7 +96,7 @@ def slab_transmission(f: float, max_depth: int | None) -> float:
 
 def render(scn, threads, seed):
     """Render a case's scene with its seed and the independent sampler (honest variances)."""
-    return Renderer(scn.with_render(seed=seed), threads=threads, sampler="independent").render()
+    return Renderer(scn, scn.settings(seed=seed, threads=threads, sampler="independent")).render()
 
 
 def settings_of(scn):

@@ -18,16 +18,17 @@ import numpy as np
 from snell.addon.export import export_blend
 from snell.tracer.integrator import Renderer
 
-# (name, Renderer options, render options): every scheduler, and the optional stages on and off.
+# (name, settings): every scheduler, and the optional stages on and off.
+FIXED = {"spp": 16, "noise_threshold": 0.0}
+ADAPTIVE = {"spp": 64, "noise_threshold": 0.05, "min_spp": 16}
 MODES = [
-    ("fixed", {}, {"spp": 16, "noise_threshold": 0.0}),
-    ("fixed-passes", {}, {"spp": 100, "noise_threshold": 0.0}),   # several passes (windows)
-    ("fixed-no-caustics", {"caustics": False}, {"spp": 16, "noise_threshold": 0.0}),
-    ("fixed-no-vertices", {"light_vertices": False}, {"spp": 16, "noise_threshold": 0.0}),
-    ("batches", {"sampler": "independent"}, {"spp": 8, "batches": 4}),
-    ("adaptive", {}, {"spp": 64, "noise_threshold": 0.05, "min_spp": 16}),
-    ("adaptive-no-pilot", {"light_vertex_pilot": False},
-     {"spp": 64, "noise_threshold": 0.05, "min_spp": 16}),
+    ("fixed", FIXED),
+    ("fixed-passes", {"spp": 100, "noise_threshold": 0.0}),   # several passes (windows)
+    ("fixed-no-caustics", {**FIXED, "caustics": False}),
+    ("fixed-no-vertices", {**FIXED, "light_vertices": False}),
+    ("batches", {"sampler": "independent", "spp": 8, "batches": 4}),
+    ("adaptive", ADAPTIVE),
+    ("adaptive-no-pilot", {**ADAPTIVE, "light_vertex_pilot": False}),
 ]
 
 
@@ -52,8 +53,8 @@ def main():
     for blend in blends:
         scene, _ = export_blend(blend)
         scene = scene.with_camera(resolution_percentage=args.percent).with_render(seed=3)
-        for name, options, render in MODES:
-            result = Renderer(scene, threads=2, **options).render(**render)
+        for name, settings in MODES:
+            result = Renderer(scene, scene.settings(threads=2, **settings)).render()
             image = result.mean()
             print(f"{os.path.basename(blend):22s} {name:18s} image {digest(image)} "
                   f"sums {digest(result.sum, result.sum_sq, result.light_sum, result.batch_sum, result.batch_sq)} "

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Choose the caustics light tracer's share of the work: relMSE x time on a scene for several
-numbers of light paths per camera path (tracer/integrator.py LIGHT_PATHS_PER_CAMERA_PATH).
+numbers of light paths per camera path (tracer/settings.py LIGHT_PATHS_PER_CAMERA_PATH).
 
     .venv/bin/python tools/measure_caustics_split.py [SCENE.blend] [--spp 32] [--repeat 3]
         [--ratios 0,0.125,0.25,0.5,1,2] [--reference-spp 2048]
@@ -42,8 +42,8 @@ def main(argv=None):
     integrator.warm_up()
     scene, _ = export_blend(args.scene)
     print(f"reference: {args.reference_spp} spp ...", file=sys.stderr, flush=True)
-    ref_result = Renderer(scene.with_render(seed=12345), threads=args.threads).render(
-        spp=args.reference_spp)
+    ref_result = Renderer(scene, scene.settings(seed=12345, threads=args.threads,
+                                                spp=args.reference_spp)).render()
     ref = ref_result.mean().astype(np.float64)
     region = light_share(ref_result.light_image(), ref) >= CAUSTIC_SHARE
     print(f"caustic region: {region.mean():.1%} of the pixels")
@@ -53,9 +53,10 @@ def main(argv=None):
     for ratio in (float(r) for r in args.ratios.split(",")):
         times = []
         for _ in range(args.repeat):
-            renderer = Renderer(scene, threads=args.threads, caustics=ratio > 0,
-                                light_paths_per_camera_path=max(ratio, 1e-9))
-            result = renderer.render(spp=args.spp)
+            renderer = Renderer(scene, scene.settings(
+                threads=args.threads, caustics=ratio > 0, spp=args.spp,
+                light_paths_per_camera_path=max(ratio, 1e-9)))
+            result = renderer.render()
             times.append(result.time_s)
         image = result.mean()
         t = statistics.median(times)

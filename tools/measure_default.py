@@ -27,8 +27,8 @@ def main():
         start = time.perf_counter()
         scene, _ = export_blend(args.scene)
         export_t.append(time.perf_counter() - start)
-        scene = scene.with_render(spp=args.spp, max_depth=args.max_depth)
-        renderer = Renderer(scene, threads=args.threads)
+        renderer = Renderer(scene, scene.settings(spp=args.spp, max_depth=args.max_depth,
+                                                  threads=args.threads))
         result = renderer.render()
         build_t.append(renderer.build_s)
         snell_t.append(result.time_s)

@@ -36,13 +36,14 @@ def main():
     exr = hdri.write_exr(os.path.join(tmp, "sky.exr"), hdri.sky())
     scene, _ = load_snell_scene(spheres.build_spheres(os.path.join(tmp, "spheres.blend"), exr))
     scene = scene.with_camera(resolution_percentage=args.scale).with_render(noise_threshold=0.0)
-    reference = Renderer(scene.with_render(spp=args.ref_spp, seed=99), threads=2).render()
+    reference = Renderer(scene, scene.settings(spp=args.ref_spp, seed=99, threads=2)).render()
     ref = reference.mean().astype(np.float64)
     print(f"reference {args.ref_spp} spp, {reference.time_s:.1f} s")
     rows = {}
     for label, env_sampling in (("importance", True), ("uniform", False)):
         for spp in map(int, args.spp.split(",")):
-            renderer = Renderer(scene.with_render(spp=spp), threads=2, env_sampling=env_sampling)
+            renderer = Renderer(scene, scene.settings(spp=spp, threads=2,
+                                                      env_sampling=env_sampling))
             start = time.perf_counter()
             result = renderer.render()
             wall = time.perf_counter() - start

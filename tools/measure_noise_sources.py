@@ -27,7 +27,7 @@ import numpy as np
 def render(scene, threads, **settings):
     """A render of the scene with these render settings."""
     from snell.tracer.integrator import Renderer
-    return Renderer(scene.with_render(**settings), threads=threads).render()
+    return Renderer(scene, scene.settings(threads=threads, **settings)).render()
 
 
 def by_depth(scene, depths, spp, threads):

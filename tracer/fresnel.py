@@ -11,7 +11,7 @@ import math
 
 from .jit import jit
 
-# Fresnel models of the smooth dielectrics (order matches scene.FRESNEL_MODELS).
+# Fresnel models of the smooth dielectrics (order matches settings.FRESNEL_MODELS).
 EXACT, SCHLICK = range(2)
 
 

@@ -28,14 +28,8 @@ from .materials import material_tables
 from .microfacet_tables import shipped_tables
 from .passes import CHUNK
 from .result import RenderResult, Window, WindowSums
-from .scene import DEFAULT_RENDER, FRESNEL_MODELS, Scene
-
-SAMPLERS = ("stratified", "independent")
-# Light paths traced per camera path when the light tracer runs (light_tracer.py): the value of
-# least relMSE x time on cornell_spheres at 32 spp (tools/measure_caustics_split.py; README,
-# Caustics). From 1/64 to 1/8 the product is flat within the timing noise; more light paths only
-# cost time, since the camera paths' own noise then dominates even in the caustics.
-LIGHT_PATHS_PER_CAMERA_PATH = 0.125
+from .scene import Scene
+from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
 
 
 class _Buffers(threading.local):
@@ -65,45 +59,43 @@ class _Buffers(threading.local):
 class Renderer:
     """A scene prepared for rendering: camera, Embree geometry, materials and lights."""
 
-    def __init__(self, scene: Scene, threads: int = 2, next_event: bool = True,
-                 sampler: str = "stratified", caustics: bool | str | None = None,
-                 light_paths_per_camera_path: float = LIGHT_PATHS_PER_CAMERA_PATH,
-                 geometry: Geometry | None = None, env_sampling: bool = True,
-                 light_vertices: bool | None = None, light_vertex_pilot: bool = True):
-        """next_event=False turns light sampling off (BSDF sampling only): a second, independent
-        estimator of the same image, which tests use to check the first one. caustics=False
-        renders with the path tracer alone (default: the scene's render setting); the light
-        tracer runs only where it has something to do (light_tracer.caustics_tables).
-        caustics="pure" runs pure light tracing beside a full path tracer, for tests: the
-        result's light image (light_sum / light_paths) is then a second estimate of the image
-        but for emitters seen directly or through specular vertices only.
+    def __init__(self, scene: Scene, settings: RenderSettings | None = None,
+                 geometry: Geometry | None = None):
+        """settings: every setting of the render (tracer/settings.py; default: the scene's).
+
+        caustics=False renders with the path tracer alone; the light tracer runs only where it
+        has something to do (light_tracer.caustics_tables). pure_light_tracing runs it beside a
+        full path tracer, for tests: the result's light image (light_sum / light_paths) is then
+        a second estimate of the image but for emitters seen directly or through specular
+        vertices only. next_event=False turns light sampling off (BSDF sampling only): a second,
+        independent estimator of the same image, which tests use to check the first one.
 
         sampler "stratified" draws each pixel's camera samples (pixel and lens position) and the
         light and BSDF samples of the first bounces from Owen-scrambled Sobol points,
         "independent" from a hash of the path's key. Both are unbiased; the stratified one
         converges faster, but its samples are not independent, so the per-pixel variance from
         the sums over-estimates the error of the mean. The Cycles validator uses "independent"
-        for honest variances.
+        for honest variances. env_sampling=False samples an environment map's directions
+        uniformly instead of by its image (an unbiased, noisier estimator, for measurements and
+        tests).
+
+        light_vertices=False leaves out the connections of camera paths to light vertices
+        (light_vertices.py): the same image, noisier where surfaces next to lamps light the
+        scene. They run only where they can: light sampling on, a lamp that starts them, a
+        diffuse surface and a max depth of 2 or more. Where they run, an adaptive render
+        measures whether they pay (pilot.py) unless light_vertex_pilot=False, which keeps them
+        throughout as a fixed-sample render does.
 
         geometry: an already built Geometry of the same positions, triangles and normals (the
         viewport keeps its BVH while materials, lamps, world or camera change).
-        env_sampling=False samples an environment map's directions uniformly instead of by its
-        image (an unbiased, noisier estimator, for measurements and tests).
-
-        light_vertices=False leaves out the connections of camera paths to light vertices
-        (light_vertices.py; default: the scene's render setting): the same image, noisier where
-        surfaces next to lamps light the scene. They run only where they can: light sampling on,
-        a lamp that starts them, a diffuse surface and a max depth of 2 or more. Where they run,
-        an adaptive render measures whether they pay (pilot.py) unless
-        light_vertex_pilot=False, which keeps them throughout as a fixed-sample render does.
         """
-        if sampler not in SAMPLERS:
-            raise ValueError(f"sampler: expected one of {SAMPLERS}, got {sampler!r}")
-        self.sampler = sampler
+        settings = scene.settings() if settings is None else settings
+        self.settings = settings
+        self.sampler = settings.sampler
         start = time.perf_counter()
         self.scene = scene
-        self.threads = max(1, int(threads))
-        self.next_event = next_event
+        self.threads = settings.render_threads
+        self.next_event = settings.next_event
         self.camera = Camera(scene.camera)
         self.geometry = (Geometry(scene.positions, scene.triangles, scene.normals)
                          if geometry is None else geometry)
@@ -112,32 +104,47 @@ class Renderer:
         self.tables = shipped_tables()
         kind = self.materials.kind
         self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
-                                   env_sampling=env_sampling)
-        render = scene.render
-        self.max_depth = int(render["max_depth"])
-        self.seed = int(render["seed"])
-        self.fresnel = FRESNEL_MODELS.index(render["fresnel"])
-        want_caustics = render.get("caustics", True) if caustics is None else caustics
+                                   env_sampling=settings.env_sampling)
+        self.max_depth = settings.max_depth
+        self.seed = settings.seed
+        self.fresnel = FRESNEL_MODELS.index(settings.fresnel)
+        pure = settings.pure_light_tracing
         # Built whatever the camera, so that with_camera can switch the light tracer either way.
         self._caustic_tables = (light_tracer.caustics_tables(scene, self.lights, self.geometry,
-                                                            kind, pure=want_caustics == "pure")
-                                if want_caustics else None)
+                                                             kind, pure=pure)
+                                if settings.caustics or pure else None)
         self._use_camera_for_caustics()
-        self.light_paths_per_camera_path = float(light_paths_per_camera_path)
+        self.light_paths_per_camera_path = settings.light_paths_per_camera_path
         self.light_vertices, self._why_vertices = self._choose_light_vertices(
-            render.get("light_vertices", True) if light_vertices is None else light_vertices)
-        self.light_vertex_pilot = bool(light_vertex_pilot)
+            settings.light_vertices)
+        self.light_vertex_pilot = settings.light_vertex_pilot
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
 
     def with_camera(self, camera: dict) -> "Renderer":
         """This renderer with another camera (scene format), sharing geometry and tables."""
-        other = copy.copy(self)
+        other = self._copy()
         other.scene = copy.copy(self.scene)
         other.scene.camera = camera
         other.camera = Camera(camera)
         other._use_camera_for_caustics()
+        return other
+
+    def with_sampling(self, **overrides) -> "Renderer":
+        """This renderer with other settings of the ones a render reads pass by pass (spp,
+        batches, noise_threshold, min_spp), sharing everything it built."""
+        for key in overrides:
+            if key not in SAMPLING:
+                raise ValueError(f"with_sampling: {key} is fixed when a Renderer is built "
+                                 f"(only {', '.join(SAMPLING)} may change)")
+        other = self._copy()
+        other.settings = self.settings.replace(**overrides)
+        return other
+
+    def _copy(self) -> "Renderer":
+        """A shallow copy with its own chunk buffers and film lock (renders may overlap)."""
+        other = copy.copy(self)
         other._buffers = _Buffers()
         other._film_lock = threading.Lock()
         return other
@@ -158,7 +165,7 @@ class Renderer:
         lights = self.lights.tables
         next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
         world, env = bool(lights.has_world), bool(lights.has_env)
-        if not self.scene.render.get("caustics", True):
+        if not (self.settings.caustics or self.settings.pure_light_tracing):
             why_no_light = "caustics off"
         elif self.camera.ortho:
             why_no_light = "orthographic camera"
@@ -319,35 +326,33 @@ class Renderer:
 
     # -- passes ----------------------------------------------------------------------------
 
-    def render(self, spp: int | None = None, progress=None, batches: int | None = None,
-               noise_threshold: float | None = None, min_spp: int | None = None,
-               stop: threading.Event | None = None) -> RenderResult:
-        """Render progressively; `progress(result, pass_index, pass_count)` may return False to
-        stop (with adaptive sampling pass_count is an estimate: result.spp / spp is the share of
-        the budget done).
+    def render(self, progress=None, stop: threading.Event | None = None) -> RenderResult:
+        """Render progressively with the settings' spp, batches, noise_threshold and min_spp;
+        `progress(result, pass_index, pass_count)` may return False to stop (with adaptive
+        sampling pass_count is an estimate: result.spp / spp is the share of the budget done).
 
         Each pass adds its samples to the image, and the light tracer (where it runs) as many
-        light paths per camera path as light_paths_per_camera_path says. `batches=K` renders in
+        light paths per camera path as light_paths_per_camera_path says. batches=K renders in
         K passes (of equal samples, give or take one) and keeps each pass's image as a batch, for
         variances of the mean from independent batches (RenderResult.variance_and_dof).
 
-        noise_threshold > 0 (default: the scene's noise_threshold) samples adaptively
-        (tracer/adaptive.py): spp is then each pixel's most, min_spp (default the scene's; 0 =
-        Cycles' automatic minimum) its least. Batches need equal samples in every pixel: with
-        batches adaptive sampling is off.
+        noise_threshold > 0 samples adaptively (tracer/adaptive.py): spp is then each pixel's
+        most, min_spp (0 = Cycles' automatic minimum) its least. Batches need equal samples in
+        every pixel: with batches adaptive sampling is off.
 
         stop: once set, the chunks not yet started are skipped and the render ends cancelled
         without counting its unfinished pass: the result is then no image (the viewport drops
         it for the next one's). Waits one chunk at most.
         """
-        spp, threshold, least = self._settings(spp, batches, noise_threshold, min_spp)
+        spp, batches = self.settings.spp, self.settings.batches
+        threshold, least = self._adaptive()
         adapt = threshold > 0.0 and adaptive.first_check(least) < spp
         w, h = self.camera.width, self.camera.height
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
                               build_s=self.build_s, light_in_image=self.split,
                               stages=self.stages(), spp_budget=spp,
                               noise_threshold=threshold if adapt else 0.0)
-        if batches is not None:
+        if batches:
             scheduler = passes.BatchPasses(self, result, batches)
         elif adapt:
             scheduler = passes.AdaptivePasses(self, result, threshold, least)
@@ -372,19 +377,14 @@ class Renderer:
         result.time_s = time.perf_counter() - start
         return result
 
-    def _settings(self, spp, batches, noise_threshold, min_spp) -> tuple[int, float, int]:
-        """(samples per pixel, noise threshold (0: off), least samples) of a render: the
-        arguments, else the scene's."""
-        render = self.scene.render
-        spp = int(spp if spp is not None else render["spp"])
-        threshold = 0.0 if batches is not None else float(
-            noise_threshold if noise_threshold is not None
-            else render.get("noise_threshold", DEFAULT_RENDER["noise_threshold"]))
-        least = int(min_spp if min_spp is not None
-                    else render.get("min_spp", DEFAULT_RENDER["min_spp"]))
+    def _adaptive(self) -> tuple[float, int]:
+        """(noise threshold (0: off, as with batches), least samples) of a render."""
+        settings = self.settings
+        threshold = 0.0 if settings.batches else settings.noise_threshold
+        least = settings.min_spp
         if threshold > 0.0 and least <= 0:
             least = adaptive.auto_min_spp(threshold)
-        return spp, threshold, least
+        return threshold, least
 
     # -- windows ---------------------------------------------------------------------------
 
@@ -485,9 +485,9 @@ def describe_stages(stages: dict) -> tuple[str, str]:
     return run or "none", skipped or "none"
 
 
-def render(scene: Scene, *, threads: int = 2, progress=None, spp: int | None = None) -> RenderResult:
-    """Render a scene with its own settings; see Renderer.render."""
-    return Renderer(scene, threads=threads).render(spp=spp, progress=progress)
+def render(scene: Scene, settings: RenderSettings | None = None, progress=None) -> RenderResult:
+    """Render a scene with the settings (default: its own); see Renderer.render."""
+    return Renderer(scene, settings).render(progress=progress)
 
 
 def warm_up() -> float:
@@ -514,7 +514,7 @@ def warm_up() -> float:
                   objects=[{"name": "triangle", "closed": False}, {"name": "mirror", "closed": False}],
                   normals=np.tile(np.array([0, 0, 1], np.float32), (6, 1)))
     for sampler in SAMPLERS:
-        Renderer(scene, threads=1, sampler=sampler).render()
+        Renderer(scene, scene.settings(threads=1, sampler=sampler)).render()
     jit.mark_warm()
     return time.perf_counter() - start
 

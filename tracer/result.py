@@ -144,7 +144,7 @@ class RenderResult:
     def variance_and_dof(self):
         """Per-pixel variance of the mean image and its degrees of freedom, (H, W, 3) and a number.
 
-        With K >= 2 batches (Renderer.render(batches=K)), from the spread of the K passes'
+        With K >= 2 batches (the setting batches=K), from the spread of the K passes'
         images (K - 1 degrees of freedom): the light tracer's splats have no per-sample variance,
         and where rare paths carry much of the light the per-sample variance underestimates the
         error far more than batch means do. Without batches, from the camera samples' sums of

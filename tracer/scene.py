@@ -14,6 +14,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .atomic import atomic_path
+from .checks import SceneError
+from .checks import finite_number as _finite_number
+from .checks import int_in as _int_in
+from .checks import short as _short
+from .settings import DEFAULT_RENDER, SCENE, RenderSettings, of_scope
 
 FORMAT = "snell-scene"
 VERSION = 4
@@ -30,7 +35,6 @@ LIGHT_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_t
 AREA_SHAPES = ("rectangle", "square", "disk", "ellipse")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
 CAMERA_TYPES = ("PERSP", "ORTHO")    # camera.type (version 4); absent: PERSP
-FRESNEL_MODELS = ("exact", "schlick")
 INTERPOLATIONS = ("linear", "closest")
 EXTENSIONS = ("repeat", "extend", "clip", "mirror")     # textures.REPEAT ... MIRROR
 COLORSPACES = ("linear", "srgb")
@@ -42,13 +46,9 @@ TEXTURABLE = {"diffuse": ("color",), "mirror": ("color",), "glossy": ("color", "
               "principled": ("color", "roughness", "metallic")}
 MAX_IMAGES = 4096
 
-# noise_threshold and min_spp: adaptive sampling (tracer/adaptive.py) with Cycles' defaults;
-# a threshold of 0 turns it off, a min_spp of 0 is Cycles' automatic minimum.
-DEFAULT_RENDER = {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact", "caustics": True,
-                  "light_vertices": True, "noise_threshold": 0.01, "min_spp": 0}
-# Bounds on integers that size arrays or loops: a file may hold any integer, and one past these
-# would end the render with an overflow or an allocation failure instead of a named field.
-MAX_INT = 2 ** 31 - 1
+# Bounds on integers that size arrays or loops (and MAX_INT, settings.py): a file may hold any
+# integer, and one past these would end the render with an overflow or an allocation failure
+# instead of a named field.
 MAX_RESOLUTION = 65536      # Blender's own limit per side
 MAX_BLADES = 1000
 
@@ -82,10 +82,6 @@ MATERIAL_DISTRIBUTIONS = {"glossy": DISTRIBUTIONS, "glass": DISTRIBUTIONS,
 
 DEFAULT_DOF = {"use_dof": False, "focus_distance": 10.0, "fstop": 2.8, "blades": 0,
                "rotation": 0.0, "ratio": 1.0}
-
-
-class SceneError(ValueError):
-    """A scene file or scene description that cannot be rendered; the message names the field."""
 
 
 @dataclass
@@ -124,12 +120,19 @@ class Scene:
                 "images": images, "texcoords": texcoords}
 
     def with_render(self, **overrides) -> "Scene":
-        """A copy sharing the arrays, with render settings overridden (None values ignored)."""
+        """A copy sharing the arrays, with saved render settings overridden (None: ignored)."""
+        saved = {s.name for s in of_scope(SCENE)}
+        for key in overrides:
+            if key not in saved:
+                raise SceneError(f"render.{key}: not a setting the scene file saves")
         other = copy.copy(self)
-        other.render = dict(self.render)
-        other.render.update({k: v for k, v in overrides.items() if v is not None})
+        other.render = {**self.render, **{k: v for k, v in overrides.items() if v is not None}}
         _check_render(other.render)
         return other
+
+    def settings(self, **overrides) -> RenderSettings:
+        """The scene's render settings with any settings overridden, checked (a render's)."""
+        return RenderSettings.from_render(self.render, **overrides)
 
     def with_camera(self, **overrides) -> "Scene":
         """A copy sharing the arrays, with camera fields (or dof fields via dof={...}) overridden."""
@@ -230,12 +233,6 @@ def aperture_radius(camera: dict) -> float:
 # Validation
 
 
-def _short(value, limit=60) -> str:
-    """repr(value) cut to `limit` characters: a message stays one readable line."""
-    text = repr(value)
-    return text if len(text) <= limit else text[:limit - 3] + "..."
-
-
 def _finite_vec(value, name, n=3, positive=False):
     try:
         arr = np.asarray(value, dtype=np.float64)
@@ -248,26 +245,6 @@ def _finite_vec(value, name, n=3, positive=False):
     if positive and np.any(arr < 0):
         raise SceneError(f"{name}: must not be negative ({_short(value)})")
     return arr
-
-
-def _finite_number(value, name, minimum=None, exclusive=False):
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SceneError(f"{name}: expected a number, got {_short(value)}")
-    try:
-        value = float(value)
-    except OverflowError:  # an integer beyond float64
-        raise SceneError(f"{name}: out of range ({_short(value)})") from None
-    if not math.isfinite(value):
-        raise SceneError(f"{name}: is NaN or Inf")
-    if minimum is not None and (value <= minimum if exclusive else value < minimum):
-        raise SceneError(f"{name}: must be {'>' if exclusive else '>='} {minimum}, got {value!r}")
-    return value
-
-
-def _int_in(value, name, minimum, maximum, what="integer"):
-    if isinstance(value, bool) or not isinstance(value, int) or not minimum <= value <= maximum:
-        raise SceneError(f"{name}: expected {what} from {minimum} to {maximum}, got {_short(value)}")
-    return value
 
 
 def _matrix(value, name, size=4):
@@ -461,21 +438,8 @@ def _check_camera(cam):
 
 
 def _check_render(render):
-    if not isinstance(render, dict):
-        raise SceneError(f"render: expected an object, got {_short(render)}")
-    for key in ("spp", "max_depth", "seed"):
-        _int_in(render.get(key), f"render.{key}", 1 if key == "spp" else 0, MAX_INT, "an integer")
-    # Optional: files written before adaptive sampling have neither (load fills in the defaults).
-    if "noise_threshold" in render:
-        _finite_number(render["noise_threshold"], "render.noise_threshold", minimum=0.0)
-    if "min_spp" in render:
-        _int_in(render["min_spp"], "render.min_spp", 0, MAX_INT, "an integer")
-    for key in ("caustics", "light_vertices"):
-        if not isinstance(render.get(key, True), bool):
-            raise SceneError(f"render.{key}: expected true or false, got {_short(render.get(key))}")
-    if render.get("fresnel") not in FRESNEL_MODELS:
-        raise SceneError(f"render.fresnel: expected one of {', '.join(FRESNEL_MODELS)}, "
-                         f"got {_short(render.get('fresnel'))}")
+    # The schema's checks; keys it does not know are left to an older or newer Snell.
+    RenderSettings.from_render(render)
 
 
 def _check_objects(objects):

@@ -84,11 +84,12 @@ def _snell_point(spec):
     if spec["scale"] != 100:
         scene = scene.with_camera(resolution_percentage=spec["scale"])
     t = time.perf_counter()
-    renderer = Renderer(scene, threads=spec["threads"], caustics=spec["caustics"])
-    build_s = time.perf_counter() - t
     # Ladder points sample every pixel equally (threshold 0, whatever the scene says); adaptive
     # points use Cycles' automatic minimum (min_spp 0), as Cycles does beside them.
-    result = renderer.render(spp=spec["spp"], noise_threshold=spec["threshold"] or 0.0, min_spp=0)
+    renderer = Renderer(scene, scene.settings(threads=spec["threads"], caustics=spec["caustics"],
+                                              noise_threshold=spec["threshold"] or 0.0, min_spp=0))
+    build_s = time.perf_counter() - t
+    result = renderer.render()
     wall = time.perf_counter() - start
     light = result.light_image().astype(np.float32) if result.light_in_image else None
     return result.mean(), light, result.samples(), {

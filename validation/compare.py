@@ -86,12 +86,12 @@ def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_thre
     (docs/validation.md). tests/render/test_light_vertices.py holds the image with light vertices to
     the image without them."""
     from ..tracer.integrator import Renderer
-    if noise_threshold > 0.0:
-        renderer = Renderer(scene, threads=threads, sampler="independent", caustics=caustics)
-        return renderer.render(spp=spp, progress=progress, noise_threshold=noise_threshold)
-    renderer = Renderer(scene, threads=threads, sampler="independent", caustics=caustics,
-                        light_vertices=False)
-    return renderer.render(spp=batch_spp(spp), progress=progress, batches=BATCHES)
+    settings = scene.settings(threads=threads, sampler="independent", spp=spp,
+                              noise_threshold=noise_threshold,
+                              **({} if caustics is None else {"caustics": caustics}))
+    if noise_threshold <= 0.0:
+        settings = settings.replace(light_vertices=False, spp=batch_spp(spp), batches=BATCHES)
+    return Renderer(scene, settings).render(progress=progress)
 
 
 def snell_estimate(result) -> metrics.Estimate:
@@ -129,8 +129,8 @@ def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label=
     stats["exporter_notes"] = list(notes)
     if scene is not None and stats["failing_tiles"]:
         from ..tracer.integrator import Renderer
-        index = Renderer(scene, threads=threads, caustics=False,
-                         light_vertices=False).object_index()
+        index = Renderer(scene, scene.settings(threads=threads, caustics=False,
+                                               light_vertices=False)).object_index()
         names = [o["name"] for o in scene.objects]
         for tile in stats["failing_tiles"]:
             tile["objects"] = objects_in(index, names, tile)

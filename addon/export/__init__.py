@@ -16,7 +16,7 @@ reported in the returned warnings.
 - lights.py: lamp objects and their light nodes (convert_light).
 - camera.py: the scene's camera (convert_camera).
 - world.py: the world's Background and Environment Texture (convert_world).
-- settings.py: Snell's render settings (convert_render).
+- settings.py: Snell's render settings (blender_settings, convert_render, blender_threads).
 
 A new shader node: a converter in materials.py's _CONVERTERS if it is a BSDF, in textures.py if
 a material input reads it (a new material kind or field needs the scene format first:
@@ -31,10 +31,11 @@ from .depsgraph import (DROPPED_TRIANGLES, OPEN_MESH, SAME_IN_CYCLES, ZERO_SCALE
                         rendered_instances)
 from .lights import convert_light
 from .materials import convert_material
-from .settings import convert_render
+from .settings import blender_settings, blender_threads, convert_render
 from .world import convert_world
 
-__all__ = ["DROPPED_TRIANGLES", "OPEN_MESH", "SAME_IN_CYCLES", "ZERO_SCALE", "convert_camera",
+__all__ = ["DROPPED_TRIANGLES", "OPEN_MESH", "SAME_IN_CYCLES", "ZERO_SCALE", "blender_settings",
+           "blender_threads", "convert_camera",
            "convert_light", "convert_material", "convert_render", "convert_world",
            "differs_from_cycles", "export_blend", "export_depsgraph", "export_to_file",
            "rendered_instances"]

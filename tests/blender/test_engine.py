@@ -1,6 +1,7 @@
 """The Snell render engine inside the bpy module: F12 renders, progress, cancel, border, errors,
 `snell batch`, registration hygiene, and Cycles and Snell renders alternating in one process."""
 import contextlib
+import io
 import subprocess
 import sys
 import time
@@ -55,7 +56,8 @@ def tracer_image(spp=None, passes=None):
     depsgraph = bpy.context.evaluated_depsgraph_get()
     scene, _ = export_depsgraph(depsgraph)
     progress = None if passes is None else (lambda result, done, total: done < passes)
-    return Renderer(scene).render(spp=spp, progress=progress).mean()
+    settings = scene.settings() if spp is None else scene.settings(spp=spp)
+    return Renderer(scene, settings).render(progress=progress).mean()
 
 
 @pytest.fixture
@@ -150,6 +152,26 @@ def test_settings_tooltips_and_defaults():
     assert [i.identifier for i in props["fresnel"].enum_items] == ["EXACT", "SCHLICK"]
     assert props["fresnel"].default == "EXACT"
     assert {"spp", "max_depth", "seed", "threads", "fresnel"} <= set(props.keys())
+
+
+def test_the_properties_are_the_schemas():
+    """One Blender property per setting Blender shows, with the schema's description, default,
+    range and choices; none for the estimator switches."""
+    from snell.tracer.settings import ESTIMATOR, RUN, SCENE, VIEWPORT, of_scope
+    props = bpy.types.Scene.bl_rna.properties["snell"].fixed_type.properties
+    for s in of_scope(SCENE, RUN, VIEWPORT):
+        prop = props[s.name]
+        assert prop.description == s.doc, s.name
+        if s.type is str:
+            assert [i.identifier.lower() for i in prop.enum_items] == list(s.values)
+            assert prop.default == s.default.upper()
+            continue
+        assert prop.default == pytest.approx(s.default), s.name
+        if s.type is not bool:
+            assert prop.hard_min == s.least, s.name
+            assert prop.hard_max == (s.greatest if s.greatest is not None else prop.hard_max)
+    for s in of_scope(ESTIMATOR):
+        assert s.name not in props
 
 
 class Layout:
@@ -397,10 +419,10 @@ def test_batch_png_goes_through_colour_management(blends, tmp_path):
     assert img.spec().format == oiio.UINT8 and img.spec().width == SIZE
 
 
-def test_batch_adaptive_options_set_the_sampling_panel(blends, tmp_path):
+def test_batch_setting_options_reach_the_engine(blends, tmp_path):
     """--noise-threshold and --min-spp reach the engine (a copy of the file with 64 samples, no
-    minimum set), and the frame line says what adaptive sampling saved; a threshold of 0 unchecks
-    it."""
+    minimum set), and the frame line says what adaptive sampling saved; settings reach the render
+    without being written into the file's properties, and only while the frames render."""
     open_scene(blends / "cornell.blend", tmp_path / "unused.exr").snell.spp = 64
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "cornell64.blend"), copy=True)
     proc = snell_cli("batch", tmp_path / "cornell64.blend", "-o", tmp_path / "a_####.exr",
@@ -408,12 +430,13 @@ def test_batch_adaptive_options_set_the_sampling_panel(blends, tmp_path):
     assert proc.returncode == 0, proc.stderr
     line = next(line for line in proc.stderr.splitlines() if line.startswith("snell: frame"))
     assert "adaptive 0.05: " in line and ", 64 max, " in line and "% of samples saved in " in line
-    from snell.addon import batch
-    props = types.SimpleNamespace(use_adaptive_sampling=True, noise_threshold=0.01, min_spp=0)
-    batch._set_sampling(props, 0.0, None)
-    assert (props.use_adaptive_sampling, props.noise_threshold, props.min_spp) == (False, 0.01, 0)
-    batch._set_sampling(props, 0.02, 32)
-    assert (props.use_adaptive_sampling, props.noise_threshold, props.min_spp) == (True, 0.02, 32)
+    from snell.addon import batch, final
+    status = batch.run(str(tmp_path / "cornell64.blend"), output=str(tmp_path / "b_####.exr"),
+                       stream=io.StringIO(), settings={"spp": 8, "noise_threshold": 0.0})
+    assert status == 0 and final.last_render["spp"] == 8 and final.overrides == {}
+    props = bpy.context.scene.snell
+    assert (props.spp, props.use_adaptive_sampling) == (64, True)
+    assert props.noise_threshold == pytest.approx(0.01)
 
 
 def test_batch_failing_frames_exit_non_zero(blends, tmp_path):

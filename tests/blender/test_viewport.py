@@ -260,11 +260,11 @@ def test_live_export_redoes_only_what_changed_and_equals_a_fresh_export(captured
 REGION = (48, 27)
 
 
-def viewport_scene(content, spp):
+def viewport_scene(content):
     scene = bpy.context.scene
     view, window = matrices(scene.camera, *REGION)
     camera = camera_from_view(view, window, *REGION)
-    return content.with_camera(camera, spp=spp, noise_threshold=0.0)
+    return content.with_camera(camera)
 
 
 def snell_threads():
@@ -276,30 +276,31 @@ def test_session_restarts_on_an_edit_and_renders_what_a_fresh_render_does(captur
     content = live.update(evaluated(), full())
     session = view_session.ViewSession(threads=2)
     try:
-        first = session.submit(viewport_scene(content, 4096), content.geometry_version, 4096)
+        first = session.submit(viewport_scene(content), content.geometry_version, 4096)
         frame = session.wait(lambda f: f.generation == first and f.divisor == 1, 120)
         assert frame is not None and frame.samples >= 1 and not frame.final
         assert session.refining
         edited = live.update(evaluated(), classify(captured(set_glass_ior)))
-        scene = viewport_scene(edited, 6)
+        scene = viewport_scene(edited)
         second = session.submit(scene, edited.geometry_version, 6)
         assert second == first + 1
         done = session.wait(lambda f: f.generation == second and f.final, 120)
         assert done is not None and done.samples == 6 and done.stats["bvh_reused"]
         fresh, _ = export_depsgraph(evaluated())
         fresh = fresh.with_camera(**scene.camera).with_render(spp=6, noise_threshold=0.0)
-        expected = Renderer(fresh, threads=2).render().mean()
+        expected = Renderer(fresh, fresh.settings(threads=2)).render().mean()
         assert np.array_equal(done.image, expected)
         # The first generation stopped within a pass: it never finished its 4096 samples.
         assert session.done_generation == second and not session.refining
         # A move: new geometry arrays, a new BVH, and again the fresh render's image.
         moved = live.update(evaluated(), classify(captured(move_glass)))
-        third = session.submit(viewport_scene(moved, 2), moved.geometry_version, 2)
+        third = session.submit(viewport_scene(moved), moved.geometry_version, 2)
         done = session.wait(lambda f: f.generation == third and f.final, 120)
         assert not done.stats["bvh_reused"]
         fresh, _ = export_depsgraph(evaluated())
         fresh = fresh.with_camera(**scene.camera).with_render(spp=2, noise_threshold=0.0)
-        assert np.array_equal(done.image, Renderer(fresh, threads=2).render().mean())
+        expected = Renderer(fresh, fresh.settings(threads=2)).render().mean()
+        assert np.array_equal(done.image, expected)
     finally:
         assert session.stop(timeout=60)
     assert not snell_threads()
@@ -319,21 +320,21 @@ def spheres_session():
 
 def test_session_reports_a_scene_it_cannot_render_and_goes_on(spheres_session):
     content, session = spheres_session
-    bad = viewport_scene(content, 1)
+    bad = viewport_scene(content)
     bad.positions = bad.positions.copy()
     bad.positions[0, 0] = np.nan
     gen = session.submit(bad, 99, 1)
     frame = session.wait(lambda f: f.generation == gen, 60)
     assert frame.final and frame.image is None and "cannot render this scene" in frame.error
     assert "positions" in frame.error
-    gen = session.submit(viewport_scene(content, 1), content.geometry_version, 1)
+    gen = session.submit(viewport_scene(content), content.geometry_version, 1)
     frame = session.wait(lambda f: f.generation == gen and f.final, 60)
     assert frame.error is None and frame.image.shape == (REGION[1], REGION[0], 3)
 
 
 def test_time_limit_ends_a_generation(spheres_session):
     content, session = spheres_session
-    gen = session.submit(viewport_scene(content, 100000), content.geometry_version, 0, 0.3)
+    gen = session.submit(viewport_scene(content), content.geometry_version, 0, 0.3)
     frame = session.wait(lambda f: f.generation == gen and f.final, 60)
     assert frame is not None and 1 <= frame.samples < 100000
 

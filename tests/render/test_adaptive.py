@@ -179,8 +179,8 @@ def split_scene(resolution=(32, 16)):
 def test_the_converged_region_gets_the_minimum_and_the_noisy_one_more():
     scene = split_scene()
     shown = []
-    result = Renderer(scene, next_event=False).render(
-        spp=512, noise_threshold=0.01, min_spp=32,
+    result = Renderer(scene, scene.settings(next_event=False, spp=512, noise_threshold=0.01,
+                                            min_spp=32)).render(
         progress=lambda r, done, total: shown.append((r.spp, done, total)))
     counts = result.samples()
     assert result.sample_count is not None and counts.shape == (16, 32)
@@ -191,22 +191,24 @@ def test_the_converged_region_gets_the_minimum_and_the_noisy_one_more():
     # The last pass is shown too, also when every pixel converged before the budget.
     assert shown[-1][0] == result.spp and shown[-1][1] == shown[-1][2]
     unlit = make_scene([scene_panel()], scene.materials, scene.camera)
-    converged = Renderer(unlit).render(spp=512, noise_threshold=0.01, min_spp=32,
-                                       progress=lambda r, *_: shown.append(r.spp))
+    converged = Renderer(unlit, unlit.settings(spp=512, noise_threshold=0.01, min_spp=32)).render(
+        progress=lambda r, *_: shown.append(r.spp))
     assert converged.spp == 32 and shown[-1] == 32 and not converged.cancelled
-    off = Renderer(scene).render(spp=64, noise_threshold=0.0)
+    off = Renderer(scene, scene.settings(spp=64, noise_threshold=0.0)).render()
     assert off.sample_count is None and (off.samples() == 64).all()
 
 
 def test_the_same_seed_gives_the_same_image_and_counts_with_any_threads():
     scene = caustic_room(8, (40, 40))
-    runs = [Renderer(scene, threads=t).render(spp=256, noise_threshold=0.02, min_spp=16)
+    runs = [Renderer(scene, scene.settings(threads=t, spp=256, noise_threshold=0.02,
+                                           min_spp=16)).render()
             for t in (1, 2)]
     assert runs[0].light_paths > 0 and 0.0 < runs[0].saved_share < 1.0
     assert np.array_equal(runs[0].sample_count, runs[1].sample_count)
     assert np.array_equal(runs[0].sum, runs[1].sum)
     assert np.array_equal(runs[0].light_sum, runs[1].light_sum)
-    other = Renderer(scene.with_render(seed=5)).render(spp=256, noise_threshold=0.02, min_spp=16)
+    other = Renderer(scene, scene.settings(seed=5, spp=256, noise_threshold=0.02,
+                                           min_spp=16)).render()
     assert not np.array_equal(other.sample_count, runs[0].sample_count)
 
 
@@ -218,8 +220,8 @@ def test_a_cancelled_adaptive_render_keeps_a_valid_image():
     def stop_after_three(result, done, total):
         seen.append(result.samples().copy())
         return done < 3
-    result = Renderer(scene, next_event=False).render(spp=4096, noise_threshold=0.001,
-                                                      min_spp=16, progress=stop_after_three)
+    result = Renderer(scene, scene.settings(next_event=False, spp=4096, noise_threshold=0.001,
+                                            min_spp=16)).render(progress=stop_after_three)
     assert result.cancelled and len(seen) == 3
     counts = result.samples()
     assert np.array_equal(counts, seen[-1]) and counts.max() == result.spp < 4096
@@ -238,10 +240,10 @@ def room_agreement(threshold, scale=1.0, seed=0):
     """An adaptive render of the caustic room (independent samples, its variances from each
     pixel's own count) against a fixed-sample one with batches: the validator's statistics."""
     scene = caustic_room(8, (32, 32))
-    reference = Renderer(scene.with_render(seed=99), sampler="independent").render(
-        spp=1024, batches=BATCHES)
-    adaptive_run = Renderer(scene.with_render(seed=seed), sampler="independent").render(
-        spp=1024, noise_threshold=threshold)
+    reference = Renderer(scene, scene.settings(seed=99, sampler="independent", spp=1024,
+                                               batches=BATCHES)).render()
+    adaptive_run = Renderer(scene, scene.settings(seed=seed, sampler="independent", spp=1024,
+                                                  noise_threshold=threshold)).render()
     va, dfa = adaptive_run.variance_and_dof()
     vb, dfb = reference.variance_and_dof()
     stats = metrics.compare(adaptive_run.mean() * scale, va, dfa, reference.mean(), vb, dfb)

@@ -71,8 +71,9 @@ def pure(scene, spp):
     """(path tracer mean, variance, dof, light tracer mean, variance, dof) of one pure render:
     variances from BATCHES independent batches."""
     # Pure light tracing carries the whole image: more light paths than the hybrid's share.
-    result = Renderer(scene, sampler="independent", caustics="pure",
-                      light_paths_per_camera_path=0.5).render(spp=spp, batches=BATCHES)
+    result = Renderer(scene, scene.settings(sampler="independent", pure_light_tracing=True,
+                                            light_paths_per_camera_path=0.5, spp=spp,
+                                            batches=BATCHES)).render()
     assert result.light_paths > 0 and result.batches == BATCHES
     return (result.mean().astype(np.float64), result.variance_of_mean(), BATCHES - 1,
             result.light_image(), result.light_variance_of_mean(), BATCHES - 1)
@@ -153,10 +154,11 @@ def test_hybrid_renders_the_path_tracers_image(max_depth):
     """The split of path space is disjoint and complete: at every max depth the hybrid and the
     path tracer alone (independent seeds) agree in every 8x8 tile and in the image mean."""
     scene = caustic_room(max_depth)
-    hybrid = Renderer(scene, sampler="independent").render(spp=512, batches=BATCHES)
+    hybrid = Renderer(scene, scene.settings(sampler="independent", spp=512,
+                                            batches=BATCHES)).render()
     assert hybrid.light_in_image and hybrid.light_paths > 0
-    path = Renderer(scene.with_render(seed=1), sampler="independent", caustics=False).render(
-        spp=512, batches=BATCHES)
+    path = Renderer(scene, scene.settings(seed=1, sampler="independent", caustics=False, spp=512,
+                                          batches=BATCHES)).render()
     assert not path.light_in_image and path.light_paths == 0
     # Variances from batches: the path tracer finds the caustics by rare paths, and its
     # per-sample variance underestimates the error there. Single pixels stay heavy-tailed (with
@@ -175,12 +177,12 @@ def test_the_hybrid_image_depends_on_the_seed_only():
     """Light splats are added in chunk order: one thread or two give the same bits."""
     # One pass of 64x64 x 64 samples: 4 chunks of light paths, many splats per caustic pixel.
     scene = caustic_room(8, (64, 64)).with_render(spp=64)
-    a = Renderer(scene, threads=1).render(batches=1)
-    b = Renderer(scene, threads=2).render(batches=1)
+    a = Renderer(scene, scene.settings(threads=1, batches=1)).render()
+    b = Renderer(scene, scene.settings(threads=2, batches=1)).render()
     assert a.light_paths > 3 * 8192 and a.stats["caustic_splats"] > 0
     # The float64 sums, not only the float32 image (which would round most differences away).
     assert np.array_equal(a.light_sum, b.light_sum) and np.array_equal(a.sum, b.sum)
-    assert not np.array_equal(a.mean(), Renderer(scene.with_render(seed=1)).render().mean())
+    assert not np.array_equal(a.mean(), Renderer(scene, scene.settings(seed=1)).render().mean())
 
 
 def test_light_tracing_runs_only_where_it_has_something_to_do():
@@ -190,12 +192,12 @@ def test_light_tracing_runs_only_where_it_has_something_to_do():
     assert Renderer(diffuse).caustics is None
     specular = caustic_room(8)
     assert Renderer(specular).caustics is not None
-    assert Renderer(specular, caustics=False).caustics is None
+    assert Renderer(specular, specular.settings(caustics=False)).caustics is None
     point = {"name": "Point", "kind": "point", "position": [0.0, 0.0, 1.9],
              "intensity": [5.0, 5.0, 5.0], "radius": 0.0}
     no_emitter = room([(*icosphere(2, 0.3, (0, 0, 0.5))[:2], GLASS)], lights=[point])
     assert Renderer(no_emitter).caustics is None
-    result = Renderer(diffuse).render(spp=2)
+    result = Renderer(diffuse, diffuse.settings(spp=2)).render()
     assert result.light_paths == 0 and not result.light_in_image
 
 
@@ -231,7 +233,8 @@ def test_the_command_line_says_whether_light_tracing_runs(tmp_path):
 def test_a_render_skips_what_the_scene_does_not_need():
     """No glass: the dielectric code is never entered; no depth of field: no lens samples;
     each skip is named, with its reason."""
-    plain = Renderer(pure_room()).render(spp=2)          # diffuse only, pinhole, no world
+    room = pure_room()                                   # diffuse only, pinhole, no world
+    plain = Renderer(room, room.settings(spp=2)).render()
     assert plain.stats["dielectric_samples"] == 0 and plain.stats["lens_samples"] == 0
     assert plain.stages["dielectric sampling"] == (False, "no smooth glass")
     assert plain.stages["lens sampling"] == (False, "no depth of field")
@@ -239,7 +242,7 @@ def test_a_render_skips_what_the_scene_does_not_need():
     assert plain.stages["light tracing"][0] is False
     assert plain.stages["next-event estimation"][0] is True
     dof = {"use_dof": True, "focus_distance": 1.2, "fstop": 0.5}
-    glass = Renderer(caustic_room(3, (16, 16)).with_camera(dof=dof)).render(spp=2)
+    glass = Renderer(caustic_room(3, (16, 16)).with_camera(dof=dof).with_render(spp=2)).render()
     assert glass.stats["dielectric_samples"] > 0 and glass.stats["lens_samples"] == 16 * 16 * 2
     assert glass.stages["dielectric sampling"] == (True, "glass")
     assert glass.stages["lens sampling"] == (True, "depth of field")
@@ -259,4 +262,4 @@ def test_the_light_tracer_follows_the_camera_between_orthographic_and_perspectiv
         perspective = built.with_camera(scene.camera)
         assert perspective.caustics is not None and perspective.split
         assert perspective.stages()["light tracing"][0]
-        assert perspective.render(spp=2).light_paths > 0
+        assert perspective.with_sampling(spp=2).render().light_paths > 0

@@ -173,12 +173,12 @@ def test_info_reports_depth_of_field(tmp_path):
 
 
 class StubResult:
-    def __init__(self, scene, cancelled=False):
+    def __init__(self, scene, settings, cancelled=False):
         w, h = scene.camera["resolution"]
         self.image = np.zeros((h, w, 3), np.float32)
         self.image[0] = 1.0
         self.image[-1, -1] = np.nan
-        self.spp, self.nan_count, self.rays = scene.render["spp"], 3, 1000
+        self.spp, self.nan_count, self.rays = settings.spp, 3, 1000
         self.time_s, self.embree_time_s, self.cancelled = 0.5, 0.25, cancelled
         self.threads = 2
         self.embree_share = self.embree_time_s / (self.time_s * self.threads)
@@ -197,11 +197,11 @@ def stub_integrator(monkeypatch):
     calls = []
     module = types.ModuleType("snell.tracer.integrator")
 
-    def render(scene, *, threads=2, progress=None):
-        calls.append({"scene": scene, "threads": threads})
+    def render(scene, settings, progress=None):
+        calls.append({"scene": scene, "settings": settings})
         if module.behaviour == "interrupt":
             raise KeyboardInterrupt
-        result = StubResult(scene, cancelled=module.behaviour == "cancel")
+        result = StubResult(scene, settings, cancelled=module.behaviour == "cancel")
         if progress:
             progress(result, 1, 1)
         return result
@@ -218,9 +218,9 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
                      "--max-depth", "0", "--seed", "5", "--fresnel", "schlick", "--threads", "3",
                      "--noise-threshold", "0.05", "--min-spp", "3", "--light-vertices", "off"])
     assert code == 0
-    call = stub_integrator.calls[0]
-    assert call["threads"] == 3
-    assert call["scene"].render == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick",
+    settings = stub_integrator.calls[0]["settings"]
+    assert settings.threads == 3
+    assert settings.to_render() == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick",
                                     "caustics": True, "light_vertices": False,
                                     "noise_threshold": 0.05, "min_spp": 3}
     rgb = image.read_exr(out)
@@ -235,8 +235,9 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
 def test_render_defaults_come_from_the_scene(scene_file, tmp_path, stub_integrator, capsys):
     assert cli.main(["render", str(scene_file), "-o", str(tmp_path / "a.exr"), "--quiet"]) == 0
     # what the file holds, and the defaults of what it does not (caustics)
-    assert stub_integrator.calls[0]["scene"].render == {**DEFAULT_RENDER, **tiny_scene().render}
-    assert stub_integrator.calls[0]["threads"] == 2  # the integrator's own default
+    settings = stub_integrator.calls[0]["settings"]
+    assert settings.to_render() == {**DEFAULT_RENDER, **tiny_scene().render}
+    assert settings.render_threads == 2  # the integrator's own default
     assert capsys.readouterr() == ("", "")
 
 
@@ -306,7 +307,8 @@ def test_render_samples_adaptively_and_writes_the_counts(tmp_path):
                "--threads", "1")
     assert proc.returncode == 0, proc.stderr
     counts = image.read_channel(out, "samples")
-    result = integrator.Renderer(load(str(path))).render(noise_threshold=0.01, min_spp=16)
+    scene = load(str(path))
+    result = integrator.Renderer(scene, scene.settings(noise_threshold=0.01, min_spp=16)).render()
     assert np.array_equal(counts, result.samples())
     # The minimum rounded up to a window of each half: 32.
     assert counts.min() == 32 and counts.max() > 32 and result.saved_share > 0.5

@@ -357,7 +357,7 @@ def _sphere_scene(world=(0.0, 0.0, 0.0), spp=64):
 
 def _render(scene, **kw):
     from snell.tracer.integrator import Renderer
-    result = Renderer(scene, threads=2, sampler="independent", **kw).render()
+    result = Renderer(scene, scene.settings(threads=2, sampler="independent", **kw)).render()
     return result.mean().astype(np.float64), result.variance_of_mean(), result
 
 

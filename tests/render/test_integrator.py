@@ -38,7 +38,7 @@ def test_white_furnace_lossless_spheres(material, scale):
     scene = make_scene([(pos, tri, 0, nrm)], [LOSSLESS[material]],
                        camera(position=(0, 0, 4 * scale), resolution=(48, 48)),
                        world=WHITE, spp=spp, max_depth=64)
-    result = render(scene, threads=2)
+    result = render(scene, scene.settings(threads=2))
     img = result.mean()
     assert result.nan_count == 0
     stats = result.stats
@@ -232,9 +232,9 @@ def test_deterministic_for_seed_and_independent_of_threads():
     pos, tri, nrm = icosphere(3)
     mats = [{"name": "Grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
     scene = make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(20, 20)), world=WHITE, spp=4)
-    a = render(scene, threads=1).mean()
-    b = render(scene, threads=2).mean()
-    c = render(scene.with_render(seed=1), threads=2).mean()
+    a = render(scene, scene.settings(threads=1)).mean()
+    b = render(scene, scene.settings(threads=2)).mean()
+    c = render(scene, scene.settings(seed=1, threads=2)).mean()
     assert np.array_equal(a, b)
     assert not np.array_equal(a, c)
 
@@ -254,7 +254,7 @@ def test_stop_event_ends_a_pass_within_a_chunk(monkeypatch):
     pos, tri, nrm = icosphere(2)
     mats = [{"name": "Grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
     scene = make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(512, 512)), world=WHITE, spp=8)
-    renderer, stop, traced = Renderer(scene, threads=1), threading.Event(), []
+    renderer, stop, traced = Renderer(scene, scene.settings(threads=1)), threading.Event(), []
     trace = renderer.trace_chunk
 
     def one_chunk_then_stop(*args):
@@ -346,7 +346,7 @@ def test_interreflection_inside_a_diffuse_sphere_with_russian_roulette():
     light = {"name": "P", "kind": "point", "position": [0, 0, 0], "intensity": [math.pi] * 3}
     scene = make_scene([(pos, tri, 0, nrm)], mats, camera(position=(0, 0, 0.2), resolution=(16, 16)),
                        lights=[light], spp=256, max_depth=100)
-    result = Renderer(scene, sampler="independent").render()
+    result = Renderer(scene, scene.settings(sampler="independent")).render()
     img, var = result.mean(), result.variance_of_mean()
     assert result.stats["rr_killed"] > 0.5 * img[..., 0].size * result.spp
     mean = img[..., 0].mean()
@@ -378,7 +378,7 @@ scene = make_scene([(pos, tri, 0, nrm), (*quad((0, 0, -1), 3, 3), 1), (*quad((0,
                    mats, camera(resolution=(8, 8), dof={"use_dof": True, "aperture_radius": 0.1}),
                    world=[0.2, 0.2, 0.2], lights=[area, sun], spp=4, max_depth=6)
 for sampler in integrator.SAMPLERS:
-    integrator.Renderer(scene, sampler=sampler).render()
+    integrator.Renderer(scene, scene.settings(sampler=sampler)).render()
 print(before, count())
 """
 

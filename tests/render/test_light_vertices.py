@@ -58,7 +58,8 @@ def _room(lamp="mesh", light_vertices=True, glossy_box=True, max_depth=4, gap=0.
 
 
 def _render(scene, spp, **options):
-    return Renderer(scene, sampler="independent", **options).render(spp=spp, noise_threshold=0.0)
+    return Renderer(scene, scene.settings(sampler="independent", **options, spp=spp,
+                                          noise_threshold=0.0)).render()
 
 
 def _assert_same_image(a, b):
@@ -139,8 +140,8 @@ def test_scenes_without_light_vertices_say_why_and_never_connect():
 
 def test_light_vertices_give_the_same_image_for_any_thread_count():
     scene = _room()
-    one = Renderer(scene, threads=1).render(spp=8, noise_threshold=0.0).mean()
-    two = Renderer(scene, threads=2).render(spp=8, noise_threshold=0.0).mean()
+    one = Renderer(scene, scene.settings(threads=1, spp=8, noise_threshold=0.0)).render().mean()
+    two = Renderer(scene, scene.settings(threads=2, spp=8, noise_threshold=0.0)).render().mean()
     assert np.array_equal(one, two)
 
 
@@ -160,7 +161,7 @@ def test_the_pilot_counts_every_sample_as_the_render_without_light_vertices(lamp
 
     without = (np.zeros((pixels, 3)), np.zeros((pixels, 3)))
     with_vertices = chunk(Renderer(scene), without)
-    plain = chunk(Renderer(scene, light_vertices=False))
+    plain = chunk(Renderer(scene, scene.settings(light_vertices=False)))
     assert np.array_equal(without[0], plain[0]) and np.array_equal(without[1], plain[1])
     assert not np.array_equal(with_vertices[0], plain[0])
 
@@ -175,15 +176,16 @@ def test_adaptive_renders_keep_light_vertices_where_they_pay(lamp, gap, pays):
     scene = _room(lamp, gap=gap)
     pilot_paths = 64 * 16 * 16          # every pixel's first 64 samples (the minimum at 0.01)
     for seed in (0, 1, 2):
-        result = Renderer(scene.with_render(seed=seed), sampler="independent").render(
-            spp=1024, noise_threshold=0.01)
+        result = Renderer(scene, scene.settings(seed=seed, sampler="independent", spp=1024,
+                                                noise_threshold=0.01)).render()
         runs, why = result.stages["light vertices"]
         assert runs is pays and "measured" in why, why
         rays = result.stats["light_vertex_rays"]
         assert rays > pilot_paths if pays else rays == pilot_paths
     forced = _render(scene, 512, light_vertices=pays)
     _assert_same_image(result, forced)
-    kept = Renderer(scene, light_vertex_pilot=False).render(spp=128, noise_threshold=0.01)
+    kept = Renderer(scene, scene.settings(light_vertex_pilot=False, spp=128,
+                                          noise_threshold=0.01)).render()
     assert kept.stages["light vertices"] == (True, "mesh lights or area lamps light diffuse "
                                                    "surfaces")
     assert kept.stats["light_vertex_rays"] > pilot_paths

@@ -52,7 +52,8 @@ def test_a_fixed_render_is_the_merge_of_its_windows(monkeypatch, caustics):
     light paths, NaN count and counters. Added in another order, or with a window left out, the
     sums differ: the comparison can see a wrong merge."""
     monkeypatch.setattr(passes, "PASS_PATHS", 3 * SIZE * SIZE)   # windows of 3 samples
-    renderer = Renderer(glass_room(), caustics=caustics)
+    room = glass_room()
+    renderer = Renderer(room, room.settings(caustics=caustics))
     assert (renderer.caustics is not None) == caustics
     whole = renderer.render()
     windows = renderer.windows(SPP)

@@ -26,7 +26,7 @@ def _furnace(material, spp=32, resolution=24):
     scene = make_scene([(pos, tri, 0, nrm)], [material],
                        camera(position=(0, 0, 4), resolution=(resolution, resolution)),
                        world=WHITE, spp=spp, max_depth=64)
-    result = render(scene, threads=2)
+    result = render(scene, scene.settings(threads=2))
     return result.mean().astype(np.float64), result
 
 
@@ -138,7 +138,7 @@ def test_principled_emission_lights_the_scene_like_an_emission_shader():
         scene = make_scene([(*floor, 0), (*panel, 1)], [grey, panel_mat],
                            camera(resolution=(16, 16), lens=30.0, matrix=m.tolist()),
                            spp=256, max_depth=2, seed=3)
-        result = render(scene, threads=2)
+        result = render(scene, scene.settings(threads=2))
         images.append((result.mean().astype(np.float64), result.variance_of_mean()))
     (a, va), (b, vb) = images
     for c in range(3):
@@ -165,10 +165,10 @@ def test_light_tracer_leaves_rough_glass_to_the_path_tracer():
     scene = make_scene([(*floor, 0), (pos, tri, 1, nrm), (*mirror, 2)], mats,
                        camera(resolution=(16, 16), lens=30.0, matrix=m.tolist()),
                        lights=[lamp], spp=128, max_depth=6)
-    on = Renderer(scene, caustics=True)
+    on = Renderer(scene, scene.settings(caustics=True))
     assert on.caustics is not None          # the mirror gives the light tracer work
     a = on.render()
-    b = Renderer(scene, caustics=False).render()
+    b = Renderer(scene, scene.settings(caustics=False)).render()
     ma, mb = a.mean().astype(np.float64), b.mean().astype(np.float64)
     va, vb = a.variance_of_mean(), b.variance_of_mean()
     for c in range(3):
@@ -189,7 +189,7 @@ def test_a_lamp_invisible_to_glossy_rays_does_not_light_a_glossy_lobe():
                 "size": [2.0, 2.0], "radiance": [3.0, 3.0, 3.0], "visible_glossy": visible_glossy}
         scene = make_scene([(pos, tri, 0, nrm)], [material], camera(resolution=(12, 12)),
                            lights=[lamp], spp=16, max_depth=3)
-        return render(scene, threads=2).mean()
+        return render(scene, scene.settings(threads=2)).mean()
 
     metal = {"name": "Metal", "kind": "glossy", "color": WHITE, "roughness": 0.4}
     assert sphere_light(metal, True).max() > 0.05

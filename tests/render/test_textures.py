@@ -6,7 +6,7 @@ import pytest
 
 from support.builders import camera, make_scene, quad
 from snell.tracer import textures
-from snell.tracer.integrator import Renderer
+from snell.tracer.integrator import Renderer, render
 from snell.tracer.scene import validate
 
 
@@ -98,7 +98,7 @@ def test_checker_renders_its_values_at_pixel_centres():
     contrast); the 4 x 4 pixels of each texel have its value."""
     image = checker()
     scene = textured_plane(image, spp=256)
-    result = Renderer(scene, threads=2, sampler="independent").render()
+    result = Renderer(scene, scene.settings(threads=2, sampler="independent")).render()
     assert result.stages["world"][0]
     img = result.mean()[:, :, 0].astype(np.float64)
     se = np.sqrt(result.variance_of_mean()[:, :, 0])
@@ -113,8 +113,8 @@ def test_srgb_and_non_color_differ_as_they_must():
     """The same pixels as sRGB decode to linear (0.7 -> 0.448, 0.2 -> 0.0331) and as Non-Color
     (linear) stay as they are."""
     image = checker()
-    srgb = Renderer(textured_plane(image, colorspace="srgb", spp=64), threads=2).render()
-    linear = Renderer(textured_plane(image, colorspace="linear", spp=64), threads=2).render()
+    srgb = render(textured_plane(image, colorspace="srgb", spp=64))
+    linear = render(textured_plane(image, colorspace="linear", spp=64))
     decode = lambda c: ((c + 0.055) / 1.055) ** 2.4 if c >= 0.04045 else c / 12.92  # noqa: E731
     # The 4 x 4 pixels of the top-left (light) texel and of its right neighbour (dark).
     light = lambda r: float(r.mean()[0:4, 0:4, 0].mean())  # noqa: E731

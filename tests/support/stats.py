@@ -128,8 +128,9 @@ def integrate_bins(pdf, grid, tolerance=1e-7, max_depth=6):
 def estimators_agree(scene, spp_mis, spp_bsdf, region=None, light_vertices=None):
     """Per-pixel and whole-image z-tests between NEE+MIS and BSDF-only renders of one scene."""
     from snell.tracer.integrator import Renderer
-    a = Renderer(scene, light_vertices=light_vertices).render(spp=spp_mis)
-    b = Renderer(scene, next_event=False).render(spp=spp_bsdf)
+    vertices = {} if light_vertices is None else {"light_vertices": light_vertices}
+    a = Renderer(scene, scene.settings(spp=spp_mis, **vertices)).render()
+    b = Renderer(scene, scene.settings(next_event=False, spp=spp_bsdf)).render()
     ma, mb = a.mean().astype(np.float64), b.mean().astype(np.float64)
     va, vb = a.variance_of_mean(), b.variance_of_mean()
     if region is not None:

@@ -58,8 +58,8 @@ def test_stratified_renders_are_unbiased():
     dof = {"use_dof": True, "focus_distance": 3.0, "aperture_radius": 0.3}
     scene = make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(24, 24), dof=dof),
                        world=[1.0, 0.9, 0.8], spp=256, max_depth=4)
-    a = Renderer(scene, sampler="independent").render()
-    b = Renderer(scene.with_render(seed=5), sampler="stratified").render()
+    a = Renderer(scene, scene.settings(sampler="independent")).render()
+    b = Renderer(scene, scene.settings(seed=5, sampler="stratified")).render()
     for c in range(3):
         se = math.sqrt(2 * a.variance_of_mean()[..., c].sum()) / (24 * 24)
         assert abs(a.mean()[..., c].mean() - b.mean()[..., c].mean()) < 3.4 * se

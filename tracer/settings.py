@@ -1,0 +1,223 @@
+"""Snell's render settings: one schema, and the frozen RenderSettings a Renderer renders with.
+
+Each setting is one Setting entry in SETTINGS: its name, type, default, range or choices, one
+line of documentation and its scope, which says where it appears:
+
+- SCENE: saved in the scene file's "render" object, a Blender property and a command-line option;
+- RUN: a Blender property and a command-line option, never saved (threads);
+- VIEWPORT: a Blender property the viewport's Rendered mode reads;
+- ESTIMATOR: other estimators of the same image, for the tests and the validator only.
+
+The Blender properties (addon/properties.py), the exporter (addon/export/settings.py), the
+command-line options (cli.py) and the table in docs/scene-format.md are all made from SETTINGS,
+so adding a setting is one entry here (and the code that uses it).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+from .checks import SceneError, finite_number, int_in, short
+
+SCENE, RUN, VIEWPORT, ESTIMATOR = "scene", "run", "viewport", "estimator"
+# Integers that size arrays or loops stop here: one past would end the render with an overflow
+# or an allocation failure instead of a named field.
+MAX_INT = 2 ** 31 - 1
+# Light paths traced per camera path when the light tracer runs (light_tracer.py): the value of
+# least relMSE x time on cornell_spheres at 32 spp (tools/measure_caustics_split.py; README,
+# Caustics). From 1/64 to 1/8 the product is flat within the timing noise; more light paths only
+# cost time, since the camera paths' own noise then dominates even in the caustics.
+LIGHT_PATHS_PER_CAMERA_PATH = 0.125
+DEFAULT_THREADS = 2       # what threads 0 means outside Blender
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One render setting: what it holds, where it appears and what it does."""
+    name: str
+    type: type                  # int, float, bool, or str: one of `choices`
+    default: object
+    doc: str                    # one line: the Blender tooltip, the option's help, the docs
+    scope: str = SCENE
+    least: float | None = None
+    greatest: float | None = None
+    least_excluded: bool = False
+    choices: tuple = ()         # (value, what it means) pairs of a str setting
+    label: str = ""             # Blender's property name (default: the name in words)
+    metavar: str = ""           # the command-line option's value in its help (default: choices)
+    ui: dict = field(default_factory=dict)   # Blender-only look: soft limits, step, subtype
+
+    @property
+    def option(self) -> str | None:
+        """The command-line option, or None (VIEWPORT and ESTIMATOR settings have none)."""
+        return "--" + self.name.replace("_", "-") if self.scope in (SCENE, RUN) else None
+
+    @property
+    def values(self) -> tuple:
+        """The values of a choice setting."""
+        return tuple(value for value, _ in self.choices)
+
+    def check(self, value):
+        """value, if this setting may hold it, else a SceneError naming render.<name>."""
+        where = f"render.{self.name}"
+        if self.type is bool:
+            if not isinstance(value, bool):
+                raise SceneError(f"{where}: expected true or false, got {short(value)}")
+            return value
+        if self.type is int:
+            return int_in(value, where, self.least, self.greatest, "an integer")
+        if self.type is float:
+            return finite_number(value, where, self.least, self.least_excluded, self.greatest)
+        if value not in self.values:
+            raise SceneError(f"{where}: expected one of {', '.join(self.values)}, "
+                             f"got {short(value)}")
+        return value
+
+
+FRESNEL_MODELS = ("exact", "schlick")    # the kernels' codes are positions in this tuple
+SAMPLERS = ("stratified", "independent")
+
+SETTINGS = (
+    Setting("spp", int, 64, "Samples per pixel; with a noise threshold, the most any pixel takes",
+            least=1, greatest=MAX_INT, label="Samples", metavar="N", ui={"soft_max": 4096}),
+    Setting("max_depth", int, 8, "Emission plus up to this many bounces (the seed project's "
+            "max_ray_depth; Cycles: max_bounces = Max Depth - 1); 0 shows only emitters seen "
+            "directly",
+            least=0, greatest=MAX_INT, metavar="M", ui={"soft_max": 64}),
+    Setting("seed", int, 0, "Random seed: the same seed and sample count give the same image, "
+            "whatever the thread count", least=0, greatest=MAX_INT, metavar="S"),
+    Setting("fresnel", str, "exact", "Fresnel model for glass",
+            choices=(("exact", "The exact unpolarised dielectric Fresnel equations, as Cycles"),
+                     ("schlick", "Schlick's approximation, as the seed project (not Cycles)"))),
+    Setting("caustics", bool, True, "Trace light paths from the lamps through mirrors and glass "
+            "to the surfaces they light (the same image as the path tracer alone, with far less "
+            "noise in caustics); runs only in scenes with mirrors or glass and a lamp that rays "
+            "can hit"),
+    Setting("light_vertices", bool, True, "Connect every diffuse vertex of a camera path to a "
+            "point that light from a lamp reaches first (the same image, with far less noise "
+            "where surfaces next to lamps light the scene); runs only with mesh lights or area "
+            "lamps, and an adaptive render keeps them only if its first samples measure that "
+            "they pay"),
+    # Adaptive sampling as Cycles' Sampling panel has it: names, defaults and ranges. Both are
+    # optional in the file: files written before adaptive sampling have neither.
+    Setting("noise_threshold", float, 0.01, "Adaptive sampling: a pixel stops sampling once its "
+            "noise is below this (Cycles' default 0.01); 0 turns adaptive sampling off",
+            least=0.0, metavar="T",
+            ui={"soft_min": 0.001, "soft_max": 1.0, "step": 0.1, "precision": 4}),
+    Setting("min_spp", int, 0, "Samples every pixel takes before it may stop (rounded up to a "
+            "multiple of 16, at least 32); 0 chooses from the noise threshold as Cycles does "
+            "(64 at 0.01)", least=0, greatest=MAX_INT, label="Min Samples",
+            metavar="N", ui={"soft_max": 4096}),
+    Setting("threads", int, 0, "Render threads; 0: Blender's Performance > Threads in "
+            f"Blender, {DEFAULT_THREADS} elsewhere", scope=RUN, least=0, greatest=4096,
+            metavar="T", ui={"soft_max": 256}),
+    Setting("viewport_spp", int, 1024, "Samples per pixel the viewport's Rendered mode refines "
+            "to; 0 refines until the view changes or the viewport closes", scope=VIEWPORT,
+            least=0, greatest=MAX_INT, label="Viewport Samples", ui={"soft_max": 4096}),
+    Setting("viewport_time_limit", float, 0.0, "Stop refining the viewport after this many "
+            "seconds; 0 has no limit", scope=VIEWPORT, least=0.0,
+            ui={"soft_max": 600.0, "subtype": "TIME_ABSOLUTE", "unit": "TIME_ABSOLUTE"}),
+    Setting("batches", int, 0, "Render in this many passes of equal samples and keep each "
+            "pass's image, for variances from independent batches (adaptive sampling off); 0: "
+            "no batches", scope=ESTIMATOR, least=0, greatest=MAX_INT),
+    Setting("sampler", str, "stratified", "Where the camera, lens, light and BSDF samples come "
+            "from", scope=ESTIMATOR,
+            choices=(("stratified", "Owen-scrambled Sobol points: faster convergence, but the "
+                                    "variances from the sums over-estimate the error"),
+                     ("independent", "A hash of each path's key: honest variances (the "
+                                     "validator's)"))),
+    Setting("next_event", bool, True, "Sample the lights at every bounce; off: BSDF sampling "
+            "only, a second estimator of the same image", scope=ESTIMATOR),
+    Setting("env_sampling", bool, True, "Sample an environment map's directions by its image; "
+            "off: uniformly (unbiased, noisier)", scope=ESTIMATOR),
+    Setting("pure_light_tracing", bool, False, "Run the light tracer beside a full path tracer "
+            "(not splitting the paths): its light image is a second estimate of the image but "
+            "for emitters seen directly or through specular vertices only", scope=ESTIMATOR),
+    Setting("light_paths_per_camera_path", float, LIGHT_PATHS_PER_CAMERA_PATH, "Light paths "
+            "the light tracer traces per camera path", scope=ESTIMATOR, least=0.0,
+            least_excluded=True),
+    Setting("light_vertex_pilot", bool, True, "An adaptive render measures in its first "
+            "samples whether light vertices pay; off: keep them throughout", scope=ESTIMATOR),
+)
+BY_NAME = {s.name: s for s in SETTINGS}
+# The settings a render reads pass by pass, not when a Renderer is built (Renderer.with_sampling).
+SAMPLING = ("spp", "batches", "noise_threshold", "min_spp")
+
+
+def of_scope(*scopes) -> tuple:
+    """The settings of the given scopes, in schema order."""
+    return tuple(s for s in SETTINGS if s.scope in scopes)
+
+
+class _Settings:
+    """RenderSettings' methods; its fields are made from SETTINGS below."""
+
+    def __post_init__(self):
+        for s in SETTINGS:     # numbers as their type: 0 given for a threshold is 0.0
+            object.__setattr__(self, s.name, s.check(getattr(self, s.name)))
+
+    def replace(self, **overrides) -> "RenderSettings":
+        """A copy with some settings changed, checked (an unknown name is a SceneError too)."""
+        unknown = sorted(set(overrides) - set(BY_NAME))
+        if unknown:
+            raise SceneError(f"render.{unknown[0]}: not a render setting")
+        return dataclasses.replace(self, **overrides)
+
+    @classmethod
+    def from_render(cls, render: dict, **overrides) -> "RenderSettings":
+        """The settings of a scene file's "render" object (absent keys: their defaults), with
+        overrides; keys that are not saved settings are left out, as an older Snell would."""
+        if not isinstance(render, dict):
+            raise SceneError(f"render: expected an object, got {short(render)}")
+        saved = {s.name: render[s.name] for s in of_scope(SCENE) if s.name in render}
+        return cls().replace(**{**saved, **overrides})
+
+    def to_render(self) -> dict:
+        """The scene file's "render" object: the SCENE settings."""
+        return {s.name: getattr(self, s.name) for s in of_scope(SCENE)}
+
+    @property
+    def render_threads(self) -> int:
+        """The threads to render with (threads 0: DEFAULT_THREADS)."""
+        return self.threads or DEFAULT_THREADS
+
+
+# Frozen, one field per setting with its default: a setting is added to SETTINGS only.
+RenderSettings = dataclasses.make_dataclass(
+    "RenderSettings", [(s.name, s.type, field(default=s.default)) for s in SETTINGS],
+    bases=(_Settings,), frozen=True,
+    namespace={"__doc__": "Every setting of a render, checked; build with from_render or "
+                          "replace.", "__module__": __name__})
+
+DEFAULT_RENDER = RenderSettings().to_render()
+
+
+def markdown_table() -> str:
+    """The settings as the Markdown table in docs/scene-format.md (tests/unit/test_settings.py
+    holds the page to it)."""
+    where = {SCENE: "scene file, Blender, command line", RUN: "Blender, command line",
+             VIEWPORT: "Blender (viewport)", ESTIMATOR: "tests and validator"}
+    rows = ["| setting | type | default | range | where | what it does |",
+            "| --- | --- | --- | --- | --- | --- |"]
+    for s in SETTINGS:
+        rows.append(f"| `{s.name}` | {_type_name(s)} | `{_literal(s.default)}` | {_range(s)} "
+                    f"| {where[s.scope]} | {s.doc} |")
+    return "\n".join(rows) + "\n"
+
+
+def _type_name(s: Setting) -> str:
+    return {int: "integer", float: "number", bool: "boolean", str: "choice"}[s.type]
+
+
+def _literal(value) -> str:
+    """A default as the scene file's JSON writes it."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+def _range(s: Setting) -> str:
+    if s.choices:
+        return ", ".join(f"`{v}`" for v in s.values)
+    if s.type is bool:
+        return "`true`, `false`"
+    low = f"> {s.least}" if s.least_excluded else f">= {s.least}"
+    return low if s.greatest is None else f"{s.least} to {s.greatest}"
