@@ -14,8 +14,9 @@ from support.builders import icosphere, tiny_scene
 
 def _result(rng, shape=(4, 6, 3), scale=1.0):
     images = [(scale * rng.random(shape)).astype(np.float32) for _ in range(8)]
-    for image in images:                    # a lamp seen directly: every seed renders 15.3
-        image[0, :2] = 15.3
+    for k, image in enumerate(images):
+        image[0, :2] = 15.3                 # a lamp seen directly: every seed renders 15.3
+        image[0, 2] = 15.3 + 2e-6 * k       # seeds that differ in their last bits
     images = [im.astype(np.float64) for im in images]
     stack = np.stack(images)
     return CyclesResult(stack.mean(0), stack.var(0, ddof=1) / len(stack), 64, list(range(1, 9)), 1.5,
@@ -45,6 +46,9 @@ def test_a_stored_reference_reads_back_as_rendered(tmp_path, blender_501):
     assert np.allclose(back.variance_of_mean[noisy], cyc.variance_of_mean[noisy], rtol=0.01)
     # pixels every seed rendered alike are exact (the validator holds them to Snell's exactly)
     assert np.all(back.mean[0, :2] == 15.3 * np.ones(1, np.float32)) and np.all(back.variance_of_mean[0, :2] == 0)
+    # and so are pixels of little noise, whose float16 rounding would move their mean by many
+    # standard errors (15.3 +- 1e-6 rounds to 15.3 +- 0.004)
+    assert all(np.array_equal(a[0, 2], b[0, 2]) for a, b in zip(back.images, cyc.images))
 
 
 def test_images_float16_cannot_hold_are_stored_as_float32(tmp_path, blender_501):
