@@ -224,13 +224,13 @@ def _rna_values(struct):
     return values
 
 
-# The per-seed images are stored as float16 (half the size of float32), where float16's rounding
+# The per-seed images are stored as float16 (half the size of float32) where float16's rounding
 # (2^-11 relative) is far below the across-seed noise the statistics use: a pixel whose seeds'
 # standard deviation is at least PRECISE_NOISE times its rounding keeps its variance to a few %
 # and its mean to a twentieth of its standard error (measured on the 29 stored references: 2.9 %
-# and 0.045 at most, median variance change 0.17 % at most). The other pixels (those every seed rendered
-# alike, a lamp or the world seen directly, which the validator holds to Snell's exactly, and
-# those of little noise) are stored as float32, as are images float16 cannot hold.
+# and 0.045 at most; the median variance change 0.17 % at most). The other pixels (those every
+# seed rendered alike, a lamp or the world seen directly, which the validator holds to Snell's
+# exactly, and those of little noise) are stored as float32, as are images float16 cannot hold.
 HALF_MAX = 60000.0
 PRECISE_NOISE = 30.0
 
