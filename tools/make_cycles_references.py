@@ -23,7 +23,9 @@ REFERENCES = os.path.join(ROOT, "tests", "references")
 
 
 def stored():
-    return {f[:-4] for f in os.listdir(REFERENCES) if f.endswith(".npz")} if os.path.isdir(REFERENCES) else set()
+    if not os.path.isdir(REFERENCES):
+        return set()
+    return {f[:-4] for f in os.listdir(REFERENCES) if f.endswith(".npz")}
 
 
 def main(argv):
@@ -34,8 +36,8 @@ def main(argv):
     with tempfile.NamedTemporaryFile("r", suffix=".keys") as log:
         env = dict(os.environ, SNELL_CYCLES_REFERENCES="write" if rewrite else "update",
                    SNELL_CYCLES_REFERENCES_LOG=log.name)
-        status = subprocess.call([sys.executable, "-m", "pytest", "-q",
-                                  *(args or [os.path.join("tests", "validation")])], cwd=ROOT, env=env)
+        args = args or [os.path.join("tests", "validation")]
+        status = subprocess.call([sys.executable, "-m", "pytest", "-q", *args], cwd=ROOT, env=env)
         used = set(log.read().split())
     after = stored()
     unused = sorted(after - used)
