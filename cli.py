@@ -21,7 +21,7 @@ from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_i
                      check_writable_directory, int_at_least, number_at_least, print_error, warn)
 from .tracer.progress import describe_adaptive, pixels_sampling, time_left
 from .tracer.scene import LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
-from .tracer.settings import RUN, SCENE, of_scope
+from .tracer.settings import DEFAULT_THREADS, RUN, SCENE, of_scope
 from .validation.commands import COMMANDS as VALIDATION_COMMANDS
 
 SCENE_EXTENSIONS = (".blend", ".snell")
@@ -30,8 +30,18 @@ SCENE_EXTENSIONS = (".blend", ".snell")
 class _Parser(argparse.ArgumentParser):
     """Usage errors as one `snell: error: ...` line too (exit status 2, as argparse does)."""
 
+    commands: dict = {}     # the top parser's subcommand parsers, by name
+
     def error(self, message):
         self.exit(EXIT_USAGE, f"snell: error: {message} (see {self.prog} --help)\n")
+
+    def parse_args(self, args=None, namespace=None):
+        """As argparse's, but an unknown option is the subcommand's error, pointing to its help."""
+        parsed, extra = self.parse_known_args(args, namespace)
+        if extra:
+            parser = self.commands.get(getattr(parsed, "command", None), self)
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        return parsed
 
 
 # ---------------------------------------------------------------------------------------------
@@ -123,6 +133,7 @@ def _setup_render(p):
     p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="linear float EXR to write")
     p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit sRGB PNG (Standard view transform)")
     _add_setting_options(p)
+    _add_scale_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
 
 
@@ -135,6 +146,12 @@ def _add_setting_options(p):
     for setting in of_scope(SCENE, RUN):
         p.add_argument(setting.option, dest=setting.name, metavar=setting.metavar or None,
                        help=_option_help(setting), **_option_values(setting))
+
+
+def _add_scale_option(p):
+    """--scale, Blender's Resolution % (not a render setting: the scene's camera holds it)."""
+    p.add_argument("--scale", type=int_at_least(1, 10000), metavar="PCT",
+                   help="resolution percentage, as Blender's Resolution %% (default: the scene's)")
 
 
 def _option_values(setting) -> dict:
@@ -169,6 +186,8 @@ def cmd_render(args) -> int:
     if args.png:
         _check_output(args.png, ".png", "--png")
     scene = load_scene(args.scene)
+    if args.scale is not None:
+        scene = scene.with_camera(resolution_percentage=args.scale)
     settings = scene.settings(**setting_overrides(args))
     from .tracer import image
     from .tracer.integrator import kernels_compiled, render, warm_up
@@ -343,6 +362,7 @@ def _setup_batch(p):
                    help="output path, #### = frame number; .exr (linear float) or .png (view "
                         "transform) (default: the file's Output Properties)")
     _add_setting_options(p)
+    _add_scale_option(p)
 
 
 def _frames(text):
@@ -363,7 +383,7 @@ def cmd_batch(args) -> int:
     try:
         from .addon import batch
         return batch.run(args.scene, frames=args.frames, output=args.output,
-                         settings=setting_overrides(args))
+                         settings=setting_overrides(args), scale=args.scale)
     except ModuleNotFoundError as exc:
         if exc.name != "bpy":
             raise
@@ -379,7 +399,8 @@ def cmd_batch(args) -> int:
 def _setup_stress(p):
     p.add_argument("--report", metavar="DIR", help="write DIR/stress.json and DIR/stress.html (created)")
     p.add_argument("--quick", action="store_true", help="the CI subset (under 2 minutes on 2 cores)")
-    p.add_argument("--threads", type=int_at_least(1), default=2, help="render threads (default 2)")
+    p.add_argument("--threads", type=int_at_least(1), default=DEFAULT_THREADS,
+                   help=f"render threads (default: the machine's {DEFAULT_THREADS} cores)")
 
 
 def cmd_stress(args) -> int:
@@ -412,11 +433,25 @@ COMMANDS = [
 COMMANDS += VALIDATION_COMMANDS  # compare, study, false-alarms, bench (validation/commands.py)
 
 
+class _Version(argparse.Action):
+    """--version: asks git for the commit only when given (not on every command)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from .tracer.provenance import blender_version, snell_commit, snell_version
+        commit, blender = snell_commit(), blender_version()
+        print(f"snell {snell_version()}" + (f" (commit {commit})" if commit else "")
+              + (f", Blender {blender} (bpy)" if blender else ", no Blender (bpy) installed"))
+        parser.exit(0)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="snell", description="Snell: an Embree path tracer for Blender scenes.")
+    parser.add_argument("--version", action=_Version, nargs=0,
+                        help="print Snell's version (and its git commit in a checkout) and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    parser.commands = {}
     for name, help_text, setup, run in COMMANDS:
-        p = sub.add_parser(name, help=help_text, description=help_text)
+        p = parser.commands[name] = sub.add_parser(name, help=help_text, description=help_text)
         setup(p)
         p.set_defaults(run=run)
     return parser

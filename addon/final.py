@@ -189,7 +189,8 @@ def render(engine, depsgraph):
                       rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count,
                       light_paths=rendered.light_paths, adaptive=adaptive,
                       saved_share=rendered.saved_share,
-                      mean_spp=float(rendered.samples().mean()))
+                      mean_spp=float(rendered.samples().mean()),
+                      sample_counts=rendered.samples())
         if rendered.nan_count:
             engine.report({"WARNING"}, f"Snell: {rendered.nan_count} NaN/Inf samples counted as 0")
         state = "Cancelled after" if rendered.cancelled else "Done:"
