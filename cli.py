@@ -313,12 +313,48 @@ def describe(scene) -> list[str]:
         f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
         f"render     {settings.spp} spp, max depth {settings.max_depth}, seed {settings.seed}, "
         f"fresnel {settings.fresnel}",
-        f"sampling   {adaptive_sampling(settings)}",
+        f"sampling   {adaptive_sampling(settings)}"
+        + (f", time limit {settings.time_limit:g} s" if settings.time_limit else ""),
+        f"sources    {setting_sources(scene.render)}",
+        *not_rendered_lines(scene.render),
         f"caustics   {light_tracing(stages)}",
         f"runs       {run}",
         f"skips      {skipped}",
         f"features   {', '.join(features) or 'none'}",
     ]
+
+
+def setting_sources(render: dict) -> str:
+    """Where each saved render setting came from (the exporter's render["sources"]): the file's
+    Cycles setting, a Snell override, a Snell setting or the default, grouped by source."""
+    sources = render.get("sources")
+    if not isinstance(sources, dict) or not sources:
+        return "the scene file's render settings"
+    groups = {}
+    for name in render:
+        if isinstance(sources.get(name), str):
+            groups.setdefault(sources[name], []).append(name)
+    return "; ".join(f"{source}: {', '.join(names)}" for source, names in groups.items())
+
+
+def not_rendered_lines(render: dict) -> list[str]:
+    """`cycles` lines for the Cycles settings Snell does not render (the exporter's
+    render["cycles_not_rendered"]): one each where the image differs (a warning where the user
+    set that), then those where only the noise differs, then those set as Snell renders."""
+    entries = render.get("cycles_not_rendered")
+    if not isinstance(entries, list):
+        return []
+    entries = [e for e in entries if isinstance(e, dict) and
+               all(isinstance(e.get(k), str) for k in ("label", "value", "snell", "status"))]
+    lines = [f"cycles     {'warning: ' if e.get('warn') else ''}{e['label']} {e['value']}: not "
+             f"rendered ({e['snell']})" for e in entries if e["status"] == "differs"]
+    for status, what in (("noise", "not rendered, the same image with other noise"),
+                         ("same", "rendered as set")):
+        names = [f"{e['label'].rsplit(' > ', 1)[-1]} {e['value']}" for e in entries
+                 if e["status"] == status]
+        if names:
+            lines.append(f"cycles     {what}: {', '.join(names)}")
+    return lines
 
 
 def adaptive_sampling(settings) -> str:

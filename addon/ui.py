@@ -40,26 +40,56 @@ class SnellPanel:
         return layout.column(**options)
 
 
+def _cycles(context):
+    """The scene's Cycles settings when Snell follows them (Follow Cycles' Settings on), else None."""
+    props, cycles = context.scene.snell, getattr(context.scene, "cycles", None)
+    return cycles if props.use_cycles_settings and hasattr(cycles, "samples") else None
+
+
 class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
     bl_label = "Sampling"
 
     def draw(self, context):
-        props = context.scene.snell
+        props, cycles = context.scene.snell, _cycles(context)
+        self.column().prop(props, "use_cycles_settings")
+        if cycles is not None:
+            # The file's Cycles settings themselves: editing them here is editing Cycles'.
+            self._draw_sampling(cycles, "use_adaptive_sampling", "adaptive_threshold", "samples",
+                                "adaptive_min_samples", "time_limit")
+            row = self.column().row(align=True)
+            row.prop(cycles, "seed")
+            row.prop(cycles, "use_animated_seed", text="", icon="TIME")
+            self.layout.label(text="Not rendered by Snell: denoising, light tree, path guiding",
+                              icon="INFO")
+            return
+        self._draw_sampling(props, "use_adaptive_sampling", "noise_threshold", "spp", "min_spp",
+                            "time_limit")
+        self.column().prop(props, "seed")
+
+    def _draw_sampling(self, owner, use, threshold, samples, least, time_limit):
         # Cycles' layout: the checkbox and the value on one row under a "Noise Threshold" heading,
         # the value greyed out when off; the samples then are a maximum, with a minimum.
         col = self.column(heading="Noise Threshold", align=True)
         row = col.row(align=True)
-        row.prop(props, "use_adaptive_sampling", text="")
+        row.prop(owner, use, text="")
         sub = row.row()
-        sub.active = props.use_adaptive_sampling
-        sub.prop(props, "noise_threshold", text="")
+        sub.active = getattr(owner, use)
+        sub.prop(owner, threshold, text="")
         col = self.column(align=True)
-        if props.use_adaptive_sampling:
-            col.prop(props, "spp", text="Max Samples")
-            col.prop(props, "min_spp", text="Min Samples")
+        if getattr(owner, use):
+            col.prop(owner, samples, text="Max Samples")
+            col.prop(owner, least, text="Min Samples")
+            if getattr(owner, least) == 0 and getattr(owner, threshold) > 0:
+                # The automatic minimum at Cycles' 0.01 is 64: at 64 samples or fewer the
+                # threshold changes nothing (`snell info` says so too).
+                from ..tracer.adaptive import auto_min_spp, first_check
+                least_spp = first_check(auto_min_spp(getattr(owner, threshold)))
+                if least_spp >= getattr(owner, samples):
+                    col.label(text=f"Automatic minimum {least_spp}: no adaptive saving",
+                              icon="INFO")
         else:
-            col.prop(props, "spp", text="Samples")
-        self.column().prop(props, "seed")
+            col.prop(owner, samples, text="Samples")
+        col.prop(owner, time_limit)
 
 
 class RENDER_PT_snell_sampling_viewport(SnellPanel, bpy.types.Panel):
@@ -77,11 +107,17 @@ class RENDER_PT_snell_light_paths(SnellPanel, bpy.types.Panel):
     bl_label = "Light Paths"
 
     def draw(self, context):
-        props = context.scene.snell
+        props, cycles = context.scene.snell, _cycles(context)
         col = self.column()
-        col.prop(props, "max_depth")
-        col.label(text=f"Cycles: Max Bounces {props.max_depth - 1}" if props.max_depth > 0
-                  else "No Cycles equivalent (emitters only)")
+        if cycles is not None:
+            col.prop(cycles, "max_bounces", text="Max Bounces")
+            col.label(text=f"Snell: Max Depth {cycles.max_bounces + 1}; per-kind limits, "
+                           "clamping and Filter Glossy are not rendered")
+        else:
+            col.prop(props, "max_depth")
+            col.label(text=f"Cycles: Max Bounces {props.max_depth - 1}" if props.max_depth > 0
+                      else "No Cycles equivalent (emitters only)")
+        # What Snell adds: its own whether or not it follows Cycles.
         col.prop(props, "fresnel")
         col.prop(props, "caustics")
         col.prop(props, "light_vertices")

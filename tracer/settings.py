@@ -110,6 +110,10 @@ SETTINGS = (
             "multiple of 16, at least 32); 0 chooses from the noise threshold as Cycles does "
             "(64 at 0.01)", least=0, greatest=MAX_INT, label="Min Samples",
             metavar="N", ui={"soft_max": 4096}),
+    Setting("time_limit", float, 0.0, "Stop adding samples after this many seconds of "
+            "rendering (the pass under way finishes; Cycles' Time Limit); 0 has no limit",
+            least=0.0, metavar="S",
+            ui={"soft_max": 3600.0, "subtype": "TIME_ABSOLUTE", "unit": "TIME_ABSOLUTE"}),
     Setting("threads", int, 0, "Render threads; 0: Blender's Performance > Threads in "
             "Blender, the machine's logical cores elsewhere", scope=RUN, least=0, greatest=4096,
             metavar="T", ui={"soft_max": 256}),
@@ -143,7 +147,7 @@ SETTINGS = (
 )
 BY_NAME = {s.name: s for s in SETTINGS}
 # The settings a render reads pass by pass, not when a Renderer is built (Renderer.with_sampling).
-SAMPLING = ("spp", "batches", "noise_threshold", "min_spp")
+SAMPLING = ("spp", "batches", "noise_threshold", "min_spp", "time_limit")
 
 
 def of_scope(*scopes) -> tuple:

@@ -248,7 +248,7 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
     assert settings.threads == 3
     assert settings.to_render() == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick",
                                     "caustics": True, "light_vertices": False,
-                                    "noise_threshold": 0.05, "min_spp": 3}
+                                    "noise_threshold": 0.05, "min_spp": 3, "time_limit": 0.0}
     rgb = image.read_exr(out)
     assert rgb[0].min() == 1.0 and rgb[1:].max() == 0.0  # top row first, NaN written as 0
     assert np.all(image.read_channel(out, "samples") == 9)
