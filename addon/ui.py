@@ -59,6 +59,33 @@ def _cycles(context):
     return cycles if props.use_cycles_settings and hasattr(cycles, "samples") else None
 
 
+def _draw_sampling(panel, owner, use, threshold, samples, least, time_limit):
+    """The Sampling panel's adaptive sampling rows, of Snell's or of Cycles' properties."""
+    # Cycles' layout: the checkbox and the value on one row under a "Noise Threshold" heading,
+    # the value greyed out when off; the samples then are a maximum, with a minimum.
+    col = panel.column(heading="Noise Threshold", align=True)
+    row = col.row(align=True)
+    row.prop(owner, use, text="")
+    sub = row.row()
+    sub.active = getattr(owner, use)
+    sub.prop(owner, threshold, text="")
+    col = panel.column(align=True)
+    if getattr(owner, use):
+        col.prop(owner, samples, text="Max Samples")
+        col.prop(owner, least, text="Min Samples")
+        if getattr(owner, least) == 0 and getattr(owner, threshold) > 0:
+            # The automatic minimum at Cycles' 0.01 is 64: at 64 samples or fewer the
+            # threshold changes nothing (`snell info` says so too).
+            from ..tracer.adaptive import auto_min_spp, first_check
+            least_spp = first_check(auto_min_spp(getattr(owner, threshold)))
+            if least_spp >= getattr(owner, samples):
+                col.label(text=f"Automatic minimum {least_spp}: no adaptive saving",
+                          icon="INFO")
+    else:
+        col.prop(owner, samples, text="Samples")
+    col.prop(owner, time_limit)
+
+
 class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
     bl_label = "Sampling"
 
@@ -67,7 +94,7 @@ class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
         self.column().prop(props, "use_cycles_settings")
         if cycles is not None:
             # The file's Cycles settings themselves: editing them here is editing Cycles'.
-            self._draw_sampling(cycles, "use_adaptive_sampling", "adaptive_threshold", "samples",
+            _draw_sampling(self, cycles, "use_adaptive_sampling", "adaptive_threshold", "samples",
                                 "adaptive_min_samples", "time_limit")
             row = self.column().row(align=True)
             row.prop(cycles, "seed")
@@ -75,35 +102,9 @@ class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
             self.layout.label(text="Not rendered by Snell: denoising, light tree, path guiding",
                               icon="INFO")
             return
-        self._draw_sampling(props, "use_adaptive_sampling", "noise_threshold", "spp", "min_spp",
+        _draw_sampling(self, props, "use_adaptive_sampling", "noise_threshold", "spp", "min_spp",
                             "time_limit")
         self.column().prop(props, "seed")
-
-    def _draw_sampling(self, owner, use, threshold, samples, least, time_limit):
-        # Cycles' layout: the checkbox and the value on one row under a "Noise Threshold" heading,
-        # the value greyed out when off; the samples then are a maximum, with a minimum.
-        col = self.column(heading="Noise Threshold", align=True)
-        row = col.row(align=True)
-        row.prop(owner, use, text="")
-        sub = row.row()
-        sub.active = getattr(owner, use)
-        sub.prop(owner, threshold, text="")
-        col = self.column(align=True)
-        if getattr(owner, use):
-            col.prop(owner, samples, text="Max Samples")
-            col.prop(owner, least, text="Min Samples")
-            if getattr(owner, least) == 0 and getattr(owner, threshold) > 0:
-                # The automatic minimum at Cycles' 0.01 is 64: at 64 samples or fewer the
-                # threshold changes nothing (`snell info` says so too).
-                from ..tracer.adaptive import auto_min_spp, first_check
-                least_spp = first_check(auto_min_spp(getattr(owner, threshold)))
-                if least_spp >= getattr(owner, samples):
-                    col.label(text=f"Automatic minimum {least_spp}: no adaptive saving",
-                              icon="INFO")
-        else:
-            col.prop(owner, samples, text="Samples")
-        col.prop(owner, time_limit)
-
 
 class RENDER_PT_snell_sampling_viewport(SnellPanel, bpy.types.Panel):
     bl_label = "Viewport"

@@ -185,25 +185,46 @@ class Layout:
 
     row = column
 
-    def prop(self, data, name, text=None):
+    def prop(self, data, name, text=None, **options):
         self.drawn.append((name, text))
 
+    def label(self, text="", **options):
+        self.drawn.append(("label", text))
 
-@pytest.mark.parametrize("adaptive, drawn", [
-    (True, [("use_adaptive_sampling", ""), ("noise_threshold", ""), ("spp", "Max Samples"),
-            ("min_spp", "Min Samples"), ("seed", None)]),
-    (False, [("use_adaptive_sampling", ""), ("noise_threshold", ""), ("spp", "Samples"),
-             ("seed", None)]),
+
+SNELL_SAMPLING = dict(noise_threshold=0.01, spp=1024, min_spp=0)
+CYCLES_SAMPLING = dict(samples=64, adaptive_threshold=0.01, adaptive_min_samples=0, seed=0,
+                       use_animated_seed=False)
+
+
+@pytest.mark.parametrize("follow, adaptive, drawn", [
+    (False, True, [("use_cycles_settings", None), ("use_adaptive_sampling", ""),
+                   ("noise_threshold", ""), ("spp", "Max Samples"), ("min_spp", "Min Samples"),
+                   ("time_limit", None), ("seed", None)]),
+    (False, False, [("use_cycles_settings", None), ("use_adaptive_sampling", ""),
+                    ("noise_threshold", ""), ("spp", "Samples"), ("time_limit", None),
+                    ("seed", None)]),
+    # Following Cycles: Cycles' own properties, and why 64 samples do not sample adaptively.
+    (True, True, [("use_cycles_settings", None), ("use_adaptive_sampling", ""),
+                  ("adaptive_threshold", ""), ("samples", "Max Samples"),
+                  ("adaptive_min_samples", "Min Samples"),
+                  ("label", "Automatic minimum 64: no adaptive saving"), ("time_limit", None),
+                  ("seed", None), ("use_animated_seed", ""),
+                  ("label", "Not rendered by Snell: denoising, light tree, path guiding")]),
 ])
-def test_sampling_panel_is_laid_out_as_cycles(adaptive, drawn):
-    """Noise Threshold's checkbox and value, then Max and Min Samples (Samples when off)."""
+def test_sampling_panel_is_laid_out_as_cycles(follow, adaptive, drawn):
+    """Follow Cycles' Settings, then Noise Threshold's checkbox and value, Max and Min Samples
+    (Samples when off), Time Limit and Seed: Snell's own properties, or Cycles' when following."""
     props = bpy.types.Scene.bl_rna.properties["snell"].fixed_type.properties
     assert (props["use_adaptive_sampling"].default, props["noise_threshold"].default,
-            props["min_spp"].default) == (True, pytest.approx(0.01), 0)
+            props["min_spp"].default, props["use_cycles_settings"].default) == \
+        (True, pytest.approx(0.01), 0, True)
     panel = types.SimpleNamespace(layout=Layout())
     panel.column = lambda **options: ui.SnellPanel.column(panel, **options)
     context = types.SimpleNamespace(scene=types.SimpleNamespace(
-        snell=types.SimpleNamespace(use_adaptive_sampling=adaptive)))
+        snell=types.SimpleNamespace(use_adaptive_sampling=adaptive, use_cycles_settings=follow,
+                                    **SNELL_SAMPLING),
+        cycles=types.SimpleNamespace(use_adaptive_sampling=adaptive, **CYCLES_SAMPLING)))
     ui.RENDER_PT_snell_sampling.draw(panel, context)
     assert panel.layout.drawn == drawn
 
