@@ -231,6 +231,8 @@ def _summary(args, rgb, result, bad_pixels) -> str:
         from .tracer.integrator import describe_stages
         skipped = f"; skipped: {describe_stages(result.stages)[1]}"
     samples = describe_adaptive(result) or f"{result.spp} spp"
+    if getattr(result, "time_limited", False):
+        samples += " (time limit reached)"
     return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {samples} in {_duration(wall)} "
             f"({rays}, {embree}){light}, {nans}{skipped}")
 

@@ -193,7 +193,8 @@ def render(engine, depsgraph):
                       sample_counts=rendered.samples())
         if rendered.nan_count:
             engine.report({"WARNING"}, f"Snell: {rendered.nan_count} NaN/Inf samples counted as 0")
-        state = "Cancelled after" if rendered.cancelled else "Done:"
+        state = ("Cancelled after" if rendered.cancelled else
+                 "Time limit reached after" if rendered.time_limited else "Done:")
         engine.update_stats("", f"Snell: {state} {rendered.spp}/{spp} samples in "
                                 f"{_duration(time.perf_counter() - t_start)} "
                                 f"({rendered.rays_per_second / 1e6:.2f} M rays/s)"

@@ -460,6 +460,69 @@ def test_batch_setting_options_reach_the_engine(blends, tmp_path):
     assert props.noise_threshold == pytest.approx(0.01)
 
 
+def cycles_configured(blends, tmp_path):
+    """cornell.blend following its Cycles settings, set to non-default ones: 3 samples (no
+    adaptive sampling), max bounces 2 (max depth 3), seed 11."""
+    scene = open_scene(blends / "cornell.blend", tmp_path / "f12.exr")
+    scene.snell.use_cycles_settings = True
+    c = scene.cycles
+    c.samples, c.use_adaptive_sampling, c.max_bounces, c.seed = 3, False, 2, 11
+    path = tmp_path / "follow.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    return scene, path
+
+
+def test_f12_snell_render_and_batch_follow_the_files_cycles_settings(blends, tmp_path):
+    """The same file's Cycles samples, bounces and seed in F12, `snell render` and `snell batch`;
+    the same image from each, and the same EXR channels from render and batch."""
+    scene, path = cycles_configured(blends, tmp_path)
+    exported, _ = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert {k: exported.render[k] for k in ("spp", "max_depth", "seed", "noise_threshold")} == \
+        {"spp": 3, "max_depth": 3, "seed": 11, "noise_threshold": 0.0}
+    bpy.ops.render.render(write_still=True)
+    assert final.last_render["spp"] == 3 and final.last_render["error"] is None
+    f12 = read_exr(tmp_path / "f12.exr")
+    np.testing.assert_allclose(f12, tracer_image(), rtol=1e-6, atol=1e-7)
+    # Another seed in Cycles' panel is another image: the comparison above could fail.
+    scene.cycles.seed = 12
+    assert np.abs(tracer_image() - f12).max() > 1e-3
+
+    proc = snell_cli("render", path, "-o", tmp_path / "cli.exr")
+    assert proc.returncode == 0, proc.stderr
+    assert "3 spp" in proc.stdout, proc.stdout
+    np.testing.assert_allclose(read_exr(tmp_path / "cli.exr"), f12, rtol=1e-5, atol=1e-6)
+
+    proc = snell_cli("batch", path, "-o", tmp_path / "b_####.exr")
+    assert proc.returncode == 0, proc.stderr
+    assert "3 spp" in proc.stderr, proc.stderr
+    batch_exr = tmp_path / f"b_{scene.frame_current:04d}.exr"
+    np.testing.assert_allclose(read_exr(batch_exr), f12, rtol=1e-5, atol=1e-6)
+    channels = [oiio.ImageInput.open(str(p)).spec().channelnames
+                for p in (tmp_path / "cli.exr", batch_exr)]
+    assert channels[0] == channels[1] == ("R", "G", "B", "samples"), channels
+
+
+def test_batch_spp_threads_and_scale_options(blends, tmp_path):
+    """--spp and --threads over the file's settings, --scale its resolution percentage."""
+    _, path = cycles_configured(blends, tmp_path)
+    proc = snell_cli("batch", path, "-o", tmp_path / "s_####.exr", "--spp", "2", "--threads", "1",
+                     "--scale", "50")
+    assert proc.returncode == 0, proc.stderr
+    assert "2 spp" in proc.stderr, proc.stderr
+    out = next(tmp_path.glob("s_*.exr"))
+    assert read_exr(out).shape == (SIZE // 2, SIZE // 2, 3)
+    from snell.tracer.image import read_channel
+    assert np.all(read_channel(out, "samples") == 2)
+
+
+def test_a_snell_override_wins_only_when_asked(blends, tmp_path):
+    """Follow Cycles' Settings off: Snell's own samples (8), not Cycles' (3)."""
+    scene, _ = cycles_configured(blends, tmp_path)
+    scene.snell.use_cycles_settings = False
+    bpy.ops.render.render(write_still=True)
+    assert final.last_render["spp"] == 8
+
+
 def test_batch_failing_frames_exit_non_zero(blends, tmp_path):
     proc = snell_cli("batch", blends / "nocamera.blend", "--frames", "1,2", "-o", tmp_path / "x_####.exr")
     assert proc.returncode == 1
