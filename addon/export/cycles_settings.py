@@ -29,9 +29,10 @@ class Followed:
 def _noise_threshold(c, frame):
     if not c.use_adaptive_sampling:
         return 0.0
-    # Cycles' 0 means automatic: max(0.001, 1 / samples) (scene/integrator.cpp).
-    threshold = float(f"{c.adaptive_threshold:.7g}") or max(0.001, 1.0 / max(1, c.samples))
-    return threshold
+    # Cycles' 0 means automatic (its tooltip: 'based on number of AA samples'); the rule
+    # max(0.001, 1 / samples) is Cycles' scene/integrator.cpp as recalled, not yet checked
+    # against a Cycles render's sample counts.
+    return float(f"{c.adaptive_threshold:.7g}") or max(0.001, 1.0 / max(1, c.samples))
 
 
 def _seed(c, frame):
