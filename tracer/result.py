@@ -63,6 +63,7 @@ class RenderResult:
     rays: int = 0
     threads: int = 1
     cancelled: bool = False
+    time_limited: bool = False      # stopped by the settings' time_limit (a whole image)
     stats: dict = field(default_factory=dict)
     stages: dict = field(default_factory=dict)   # Renderer.stages(): what the scene runs, skips
     # Adaptive sampling (tracer/adaptive.py): each pixel's samples (None: spp everywhere) and
