@@ -120,6 +120,12 @@ class Exporter:
         mesh = self.mesh_of(inst)
         if mesh is None:
             return
+        if mesh.dropped_nonfinite:
+            self.warn(f"object {name!r}: dropped {mesh.dropped_nonfinite} triangle(s) with a "
+                      "NaN or Inf vertex coordinate")
+        if mesh.dropped_out_of_range:
+            self.warn(f"object {name!r}: dropped {mesh.dropped_out_of_range} triangle(s) with a "
+                      f"vertex coordinate beyond +-{scene_mod.MAX_COORDINATE:g} (out of range)")
         if mesh.dropped:
             self.warn(f"object {name!r}: dropped {mesh.dropped} {DROPPED_TRIANGLES}")
         if len(mesh.triangles) == 0:
@@ -164,6 +170,12 @@ class Exporter:
         for parts in by_mesh.values():
             mesh, parts = self.parts[parts[0]][0], np.array(parts)
             p, n, t = to_world(mesh, np.stack([self.parts[i][1] for i in parts]))
+            far = ~(np.abs(p) <= scene_mod.MAX_COORDINATE).all(axis=(1, 2))
+            if far.any():
+                name = self.objects[self.parts[parts[int(np.argmax(far))]][3]]["name"]
+                raise SceneError(f"object {name!r}: world-space vertex coordinates beyond "
+                                 f"+-{scene_mod.MAX_COORDINATE:g} or not finite (its location, "
+                                 "scale or parent's transform)")
             rows = _rows(v_start[parts], len(mesh.positions))
             positions[rows] = p.reshape(-1, 3)
             normals[rows] = n.reshape(-1, 3)
