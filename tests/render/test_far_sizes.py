@@ -77,11 +77,12 @@ def test_trace_chunk_refuses_more_paths_than_its_buffers():
 def test_a_batch_of_more_samples_than_a_chunk_renders():
     """The segfault's case at a tiny size: one pixel, a batch of 2 CHUNK + 5 samples (in
     compare, 262144 spp in 16 batches is 16384 samples a batch). Its sums are the samples'."""
-    scene = tiny_scene(spp=2 * CHUNK + 5).with_camera(resolution=[1, 1])
+    scene = tiny_scene(spp=2 * CHUNK + 5, noise_threshold=0.0).with_camera(resolution=[1, 1])
     result = Renderer(scene, scene.settings(threads=2, sampler="independent",
                                              batches=1)).render()
     assert result.spp == 2 * CHUNK + 5 and result.batches == 1
     fixed = Renderer(scene, scene.settings(threads=2, sampler="independent")).render()
+    assert fixed.spp == result.spp
     np.testing.assert_allclose(result.sum, fixed.sum, rtol=1e-9)
     np.testing.assert_allclose(result.sum_sq, fixed.sum_sq, rtol=1e-9)
 
@@ -122,7 +123,7 @@ def test_sample_indices_up_to_the_largest_spp_stay_in_range():
     for spp in (SPP, 2 ** 31 - 1):
         bits = (spp - 1).bit_length()
         samples = np.array([spp - 1, spp - 2, 1 << 16, (1 << 16) + 1], np.int64)
-        points = sampler.stratified_2d(NPIX - 1, samples, 7, 0, bits)
+        points = sampler.stratified_2d(np.full(4, NPIX - 1), samples, 7, 0, bits)
         assert ((points >= 0) & (points < 1)).all()
         assert len({tuple(p) for p in points.T}) == len(samples)
 
