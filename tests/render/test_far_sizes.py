@@ -150,3 +150,16 @@ def test_a_light_pass_beyond_the_segment_runs_in_segments():
     assert count == n_light // LIGHT_SEGMENT
     assert list(light_segments(1000, 500)) == [(0, 500), (500, 1000)]
     assert list(light_segments(1000, 1000)) == [(0, 1000)]
+
+
+def test_sub_passes_add_the_same_sums_as_one_pass(monkeypatch):
+    """A batch cut into sub-passes adds each pixel's samples in the same order as one pass of
+    whole pixels: the same bits (a batch of more than samples_per_pass samples was one pass
+    before the cut)."""
+    scene = tiny_scene(spp=2 * 2048 + 3, noise_threshold=0.0)        # 8x8: 2048 a pass
+    settings = scene.settings(threads=2, sampler="independent", batches=1)
+    cut = Renderer(scene, settings).render()
+    monkeypatch.setattr(passes, "samples_per_pass", lambda rows: CHUNK)
+    whole = Renderer(scene, settings).render()
+    assert np.array_equal(cut.sum, whole.sum) and np.array_equal(cut.sum_sq, whole.sum_sq)
+    assert cut.stats == whole.stats
