@@ -62,9 +62,16 @@ def number_at_least(minimum: float, maximum: float | None = None):
     return _at_least(float, minimum, "a number", maximum)
 
 
+# What the atomic writes (tracer/atomic.py) add to a name for their temporary file beside it:
+# "." + base + "." + mkstemp's 8 random characters + ".tmp" + the extension; a report's
+# directory: "." + name + "." + 8 + ".tmp".
+TEMPORARY_EXTRA = len(".." + "x" * 8 + ".tmp")
+
+
 def check_writable_directory(path: str, option: str, report: bool = False) -> None:
-    """CliError unless `path` can be written: its directory exists and takes new files, and
-    `path` is not a directory (for a report, `report=True`: not a file)."""
+    """CliError unless `path` can be written: its directory exists and takes new files, its name
+    (and the temporary name the atomic write gives it first) fits the file system, and `path`
+    is not a directory, a device, a FIFO or a socket (for a report, `report=True`: is no file)."""
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         what = "is not a directory" if os.path.exists(directory) else "does not exist"
@@ -73,6 +80,18 @@ def check_writable_directory(path: str, option: str, report: bool = False) -> No
         raise CliError(f"{option} {path}: is a file, expected a directory for the report")
     if not report and os.path.isdir(path):
         raise CliError(f"{option} {path}: is a directory")
+    if not report and os.path.exists(path) and not os.path.isfile(path):
+        # Writing replaces the path with a new file: never a device node such as /dev/null.
+        raise CliError(f"{option} {path}: exists and is not a regular file (a device, FIFO or "
+                       "socket); Snell only replaces regular files")
+    name = os.fsencode(os.path.basename(os.path.abspath(path)))
+    try:
+        longest = os.pathconf(directory, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        longest = 255
+    if len(name) + TEMPORARY_EXTRA > longest:
+        raise CliError(f"{option} {path}: file name too long ({len(name)} bytes; at most "
+                       f"{longest - TEMPORARY_EXTRA} in {directory})")
     # os.access ignores read-only file systems and says yes to root: try what the write will do.
     try:
         fd, probe = tempfile.mkstemp(prefix=".snell-write-test.", dir=directory)
@@ -89,5 +108,8 @@ def check_input_file(path: str, extensions=(".blend",)) -> None:
         raise CliError(f"{path}: expected a {' or '.join(extensions)} file")
     if os.path.isdir(path):
         raise CliError(f"{path}: is a directory, expected a {' or '.join(extensions)} file")
+    if os.path.exists(path) and not os.path.isfile(path):
+        raise CliError(f"{path}: is not a regular file (a device, FIFO or socket), expected a "
+                       f"{' or '.join(extensions)} file")
     if not os.path.isfile(path):
         raise CliError(f"{path}: no such file")

@@ -97,9 +97,17 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
     if output:
         _set_output(scene, output)
     frame_list = frame_list or [scene.frame_current]
+    exact = None
+    if output and "#" not in os.path.basename(output):
+        # Blender would append the frame number to a name without #: same.exr0001.exr.
+        if len(frame_list) > 1:
+            raise BatchError(f"-o {output}: {len(frame_list)} frames need #### in the file name "
+                             "for the frame number (e.g. frame_####.exr)")
+        exact = os.path.abspath(output)
     with _ctrl_c_stops_the_render(final.stop_requested) as interrupted, \
             _overriding(final.overrides, settings or {}):
-        return _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, stream)
+        return _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, stream,
+                              exact)
 
 
 @contextlib.contextmanager
@@ -130,7 +138,9 @@ def _ctrl_c_stops_the_render(stop):
         stop.clear()
 
 
-def _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, stream):
+def _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, stream, exact=None):
+    """Render the frames; `exact`: the one frame's image goes to this path as given (-o without
+    #), renamed from the numbered name Blender writes."""
     pattern = scene.render.filepath
     failed, seen_warnings, reasons = 0, set(), set()
     for i, frame in enumerate(frame_list, 1):
@@ -169,8 +179,12 @@ def _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, strea
         if error:
             failed += 1
             reasons.add(error)
-            print(f"{head}: FAILED: {error}", file=stream, flush=True)
+            if len(frame_list) > 1:     # one frame's reason is the error line's (printed once)
+                print(f"{head}: FAILED: {error}", file=stream, flush=True)
             continue
+        if exact is not None and path != exact:
+            os.replace(path, exact)
+            path = exact
         if path.lower().endswith(".exr"):
             _add_sample_counts(path, record.get("sample_counts"))
         rate = record.get("rays_per_second", 0.0) / 1e6

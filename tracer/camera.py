@@ -14,7 +14,7 @@ import numpy as np
 
 from .sampling import sample_regular_polygon, sample_uniform_disk
 from .jit import jit, jit_inline
-from .scene import aperture_radius
+from .scene import aperture_radius, exact_unit_scale
 from .vec import madd, mul, normalize
 
 
@@ -71,8 +71,10 @@ class Camera:
         self.clip_start = float(cam["clip_start"])
         self.clip_end = float(cam["clip_end"])
         m = np.asarray(cam["matrix"], dtype=np.float64)
-        # Object scale plays no part in a Blender camera: keep only the rotation.
-        self.rotation = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0, keepdims=True)
+        # Object scale plays no part in a Blender camera: keep only the rotation. A huge matrix
+        # (a scene file's) is scaled by a power of two first (exact), so its norms stay finite.
+        m3 = m[:3, :3] if np.abs(m[:3, :3]).max() < 1e150 else exact_unit_scale(m[:3, :3])
+        self.rotation = m3 / np.linalg.norm(m3, axis=0, keepdims=True)
         self.position = m[:3, 3].copy()
         dof = cam["dof"]
         self.lens_radius = aperture_radius(cam)

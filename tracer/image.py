@@ -24,9 +24,23 @@ def _as_rgb(rgb, what="image") -> np.ndarray:
     return arr
 
 
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def as_float32(values) -> np.ndarray:
+    """Values as float32, those beyond float32's range as +-Inf: what NumPy's cast gives them,
+    without its "overflow encountered in cast" RuntimeWarning on the user's terminal."""
+    values = np.asarray(values)
+    if values.dtype != np.float32 and values.size:
+        big = np.abs(values) > FLOAT32_MAX
+        if big.any():
+            values = np.where(big, np.copysign(np.inf, values), values)
+    return values.astype(np.float32)
+
+
 def sanitize(rgb) -> tuple[np.ndarray, int]:
     """Return (a float32 copy with every NaN/Inf channel set to 0, the number of pixels affected)."""
-    arr = np.array(_as_rgb(rgb), dtype=np.float32, copy=True)
+    arr = np.array(as_float32(_as_rgb(rgb)), dtype=np.float32, copy=True)
     bad = ~np.isfinite(arr)
     bad_pixels = int(np.count_nonzero(bad.any(axis=2)))
     if bad_pixels:
@@ -88,7 +102,7 @@ def write_exr(path, rgb, channels=None) -> int:
     names = ["R", "G", "B"]
     layers = [clean]
     for name, values in (channels or {}).items():
-        values = np.asarray(values, dtype=np.float32)
+        values = as_float32(values)
         if values.shape != clean.shape[:2]:
             raise ValueError(f"channel {name!r}: expected shape {clean.shape[:2]}, got {values.shape}")
         names.append(name)

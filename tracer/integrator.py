@@ -215,6 +215,10 @@ class Renderer:
         that get the same samples without light vertices (wavefront.emitters). merge: add the
         chunk's pixels' sums of the pass, from zero, to total and total_sq (a window merged into
         a render, RenderResult.add). Returns (NaN/Inf samples, event counters)."""
+        if not 0 < n <= CHUNK or n % in_pass or in_pass > CHUNK:
+            # The compiled stages write n paths into buffers of CHUNK, unchecked.
+            raise ValueError(f"trace_chunk: {n} paths of {in_pass} samples per pixel do not fit "
+                             f"a chunk of {CHUNK}")
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
         (paths, out, shadows, radiance, without, active, stats, scratch, params,
@@ -286,6 +290,8 @@ class Renderer:
         """Trace light paths start .. start + n of a pass; returns their splats that reached the
         camera, (pixels, contributions). The caller adds them in chunk order, so that the image
         does not depend on which thread finished first (float sums depend on their order)."""
+        if not 0 < n <= CHUNK:
+            raise ValueError(f"trace_light_chunk: {n} paths do not fit a chunk of {CHUNK}")
         geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
         mesh, cam = geom.mesh, self.camera.params()
         paths, out, connections = self._buffers.light()
@@ -447,15 +453,17 @@ class Renderer:
         or Inf samples."""
         rows = pixels.shape[0] or self.camera.width * self.camera.height
         # Chunks hold whole pixels' samples, so that each pixel's sum is added in the same
-        # order with any number of threads (float addition is not associative).
+        # order with any number of threads (float addition is not associative); a pass of more
+        # samples than a chunk holds is traced as sub-passes, one after the other.
         bad = 0
-        for chunk_bad, stats in pool.map(
-                lambda job: (0, 0) if stop is not None and stop.is_set() else
-                self.trace_chunk(job[0], job[1], step.samples, step.first, pixels, bits, *film,
-                                 vertices, pilot, merge),
-                passes.jobs(0, rows * step.samples, step.samples)):
-            bad += chunk_bad
-            counters += stats
+        for sub in passes.sub_passes(step, rows):
+            for chunk_bad, stats in pool.map(
+                    lambda job, sub=sub: (0, 0) if stop is not None and stop.is_set() else
+                    self.trace_chunk(job[0], job[1], sub.samples, sub.first, pixels, bits, *film,
+                                     vertices, pilot, merge),
+                    passes.jobs(0, rows * sub.samples, sub.samples)):
+                bad += chunk_bad
+                counters += stats
         return bad
 
     def _light_count(self, rows: int, samples: int, share: float = 1.0) -> int:
@@ -470,15 +478,17 @@ class Renderer:
         film[:] = 0.0
         if film_a is not None:
             film_a[:] = 0.0
-        # Jobs never straddle n_a, so each job's splats belong to one half.
-        jobs = passes.jobs(0, n_a, 1) + passes.jobs(n_a, n_light, 1)
+        # Jobs never straddle n_a, so each job's splats belong to one half; a big pass's jobs
+        # come segment by segment (passes.light_segments), splatted in chunk order.
         bad = 0
-        for (first, _), (pixels, contributions) in zip(jobs, pool.map(
-                lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs)):
-            bad += wavefront.splat(pixels, contributions, film)
-            if film_a is not None and first < n_a:
-                wavefront.splat(pixels, contributions, film_a)
-            counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+        for begin, end in passes.light_segments(n_light, n_a):
+            jobs = passes.jobs(begin, end, 1)
+            for (first, _), (pixels, contributions) in zip(jobs, pool.map(
+                    lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs)):
+                bad += wavefront.splat(pixels, contributions, film)
+                if film_a is not None and first < n_a:
+                    wavefront.splat(pixels, contributions, film_a)
+                counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
         return bad
 
 

@@ -213,6 +213,18 @@ def set_light_path(paths, j, key, origin, direction, beta, bounces, lamp):
 
 
 @jit
+def light_path_key(base, index):
+    """Light path `index`'s key in a pass keyed by `base`: the index's low 32 bits, and its high
+    bits where it has any (a pass of 2^32 light paths and more, a batch of a big render), so
+    that paths 2^32 apart do not share their random numbers."""
+    key = mix(base, np.uint64(index))
+    high = np.uint64(index) >> np.uint64(32)
+    if high != np.uint64(0):
+        key = mix(key, high)
+    return key
+
+
+@jit
 def emit_light_paths(caustics, lights, mesh, seed, pass_index, start, n, paths):
     """Light paths start .. start + n of a pass leave their emitters (zero weight: left out)."""
     # Chained hashes: a single mix of seed ^ pass would give (seed 0, pass 1) the keys of
@@ -220,7 +232,7 @@ def emit_light_paths(caustics, lights, mesh, seed, pass_index, start, n, paths):
     base = mix(mix(mix(np.uint64(0), np.uint64(seed)), LIGHT_DOMAIN), np.uint64(pass_index))
     kept = 0
     for j in range(n):
-        key = mix(base, np.uint64(start + j))
+        key = light_path_key(base, start + j)
         u_pick, u_aim = random_pair(key, 0, 0)
         u_point = random_pair(key, 0, 1)
         u_dir = random_pair(key, 0, 2)

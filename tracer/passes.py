@@ -10,16 +10,21 @@ seed and the sample count only, never on the threads.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
 
 from . import adaptive, wavefront
+from .image import as_float32
 from .pilot import LightVertexPilot
 from .result import RenderResult, Window
 
 CHUNK = 1 << 13           # paths per chunk: measured best (8k-16k) for Python overhead vs cache
 PASS_PATHS = 1 << 17      # aim for about this many paths per progressive pass
+# The light paths of one pool.map: a pass's light paths beyond this (a batch of a big render)
+# are traced in segments of it, so that no pass holds more than LIGHT_SEGMENT / CHUNK Futures.
+LIGHT_SEGMENT = CHUNK << 10
 JOB_MULTIPLE = 4          # a pass's jobs come in multiples of this: 1, 2 or 4 threads end together
 ALL_PIXELS = np.zeros(0, np.int64)   # a pass's pixels: every pixel, in order (wavefront.pixel_of)
 NO_ROWS = np.zeros((0, 3))           # film: no class-A image
@@ -35,7 +40,12 @@ def jobs(begin: int, end: int, unit: int) -> list:
     """(start, count) jobs covering begin .. end in whole units (a pixel's samples in a pass),
     at most CHUNK paths each, of equal size give or take a unit, and as many as the next multiple
     of JOB_MULTIPLE (the units allowing): adaptive sampling's small passes then keep every thread
-    busy. The split depends on the counts alone, so the image does not depend on the threads."""
+    busy. The split depends on the counts alone, so the image does not depend on the threads.
+
+    A unit of more than CHUNK paths cannot be a job (the chunk buffers hold CHUNK paths, and the
+    compiled stages have no bounds checks): split the pass first (sub_passes)."""
+    if unit > CHUNK:
+        raise ValueError(f"jobs: a pixel's {unit} samples exceed a chunk of {CHUNK} paths")
     units = (end - begin) // unit
     if units <= 0:
         return []
@@ -51,11 +61,56 @@ def samples_per_pass(rows: int) -> int:
     return max(1, min(PASS_PATHS // rows, CHUNK))
 
 
-def fixed_windows(pixels: int, spp: int) -> list[Window]:
+def sub_passes(step: Pass, rows: int) -> list[Pass]:
+    """A pass over `rows` pixels cut into passes of at most samples_per_pass(rows) samples, traced
+    one after the other. Jobs hold whole pixels' samples and at most CHUNK paths, so a pass of
+    more samples per pixel than a chunk holds (a batch of a render of 2^17 spp and more) must be
+    cut; each pixel's samples are still added in sample order, so the sums are those of the
+    uncut pass. A progressive pass (samples_per_pass) is its own only sub-pass."""
+    most = samples_per_pass(rows)
+    if step.samples <= most:
+        return [step]
+    end = step.first + step.samples
+    return [Pass(first, min(most, end - first)) for first in range(step.first, end, most)]
+
+
+def light_segments(n_light: int, n_a: int):
+    """A light pass's paths 0 .. n_light, as (begin, end) segments of at most LIGHT_SEGMENT
+    paths, none straddling n_a (adaptive sampling's half A), made as they are traced one after
+    the other, so the jobs in flight stay few. A pass of at most LIGHT_SEGMENT paths keeps its
+    two halves whole."""
+    for begin, end in ((0, n_a), (n_a, n_light)):
+        for a in range(begin, end, LIGHT_SEGMENT):
+            yield a, min(a + LIGHT_SEGMENT, end)
+
+
+class FixedWindows(Sequence):
+    """The windows of a fixed-sample render of `pixels` pixels and `spp` samples: one progressive
+    pass each, made on demand (an 8192 x 8192 render of 2^24 spp has 2^24 windows of one sample:
+    a list of them would take gigabytes)."""
+
+    def __init__(self, pixels: int, spp: int):
+        self.step = samples_per_pass(pixels)
+        self.spp = spp
+        self.count = -(-spp // self.step)
+
+    def __len__(self) -> int:
+        return self.count
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(self.count))]
+        if k < 0:
+            k += self.count
+        if not 0 <= k < self.count:
+            raise IndexError("window index out of range")
+        first = k * self.step
+        return Window(k, first, min(first + self.step, self.spp))
+
+
+def fixed_windows(pixels: int, spp: int) -> FixedWindows:
     """The windows of a fixed-sample render of `pixels` pixels: one progressive pass each."""
-    step = samples_per_pass(pixels)
-    return [Window(k, first, min(first + step, spp))
-            for k, first in enumerate(range(0, spp, step))]
+    return FixedWindows(pixels, spp)
 
 
 class _Passes:
@@ -160,10 +215,10 @@ class BatchPasses(_Passes):
             _add_batch(result.light_batch_sum, result.light_batch_sq, light_image)
             if renderer.split:
                 image += light_image
-                result.light_batch_images.append(light_image.reshape(h, w, 3).astype(np.float32))
+                result.light_batch_images.append(as_float32(light_image.reshape(h, w, 3)))
         result.sum.reshape(-1, 3)[:] += self.pass_sum
         _add_batch(result.batch_sum, result.batch_sq, image)
-        result.batch_images.append(image.reshape(h, w, 3).astype(np.float32))
+        result.batch_images.append(as_float32(image.reshape(h, w, 3)))
         result.batches += 1
         result.spp += step.samples
         self._count()

@@ -8,6 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import adaptive, wavefront
+from .image import as_float32
 
 
 class Window(NamedTuple):
@@ -114,7 +115,7 @@ class RenderResult:
                     end - r, self.width, 3)
             if light:
                 part += self.light_sum[band] / self.light_paths
-            image[band] = part
+            image[band] = as_float32(part)
         return image
 
     def samples(self) -> np.ndarray:

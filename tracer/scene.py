@@ -50,6 +50,8 @@ MAX_IMAGES = 4096
 # integer, and one past these would end the render with an overflow or an allocation failure
 # instead of a named field.
 MAX_RESOLUTION = 65536      # Blender's own limit per side
+# Vertex coordinates stop here: Embree intersects in float32, whose squares overflow near 1.8e19.
+MAX_COORDINATE = 1e18
 MAX_BLADES = 1000
 
 # The optional material fields of each kind and what a file without them means: Blender's node
@@ -247,6 +249,13 @@ def _finite_vec(value, name, n=3, positive=False):
     return arr
 
 
+def exact_unit_scale(m: np.ndarray) -> np.ndarray:
+    """m divided by the power of two at or above its largest magnitude (exact: the same
+    directions), so that squares and products of its entries neither overflow nor underflow."""
+    big = float(np.abs(m).max(initial=0.0))
+    return np.ldexp(m, -int(np.frexp(big)[1])) if big > 0.0 else m
+
+
 def _matrix(value, name, size=4):
     """A finite size x size matrix, or a SceneError naming the field."""
     try:
@@ -267,12 +276,20 @@ def _check_array(arrays, key, dtype, ncols):
     if not isinstance(arr, np.ndarray):
         raise SceneError(f"{key}: expected an array, got {type(arr).__name__}")
     if arr.dtype != dtype:
-        raise SceneError(f"{key}: expected dtype {np.dtype(dtype).name}, got {arr.dtype.name}")
+        raise SceneError(f"{key}: expected dtype {_dtype_name(dtype)}, got {_dtype_name(arr.dtype)}")
     want_ndim = 1 if ncols is None else 2
     if arr.ndim != want_ndim or (ncols is not None and arr.shape[1] != ncols):
         want = "(n,)" if ncols is None else f"(n, {ncols})"
         raise SceneError(f"{key}: expected shape {want}, got {arr.shape}")
     return arr
+
+
+def _dtype_name(dtype) -> str:
+    """A dtype's name, with its byte order where it is not the machine's ("big-endian float32")."""
+    dtype = np.dtype(dtype)
+    order = {">": "big-endian ", "<": "little-endian "}.get(dtype.byteorder, "")
+    native = "<" if np.little_endian else ">"
+    return (order if dtype.byteorder != native else "") + dtype.name
 
 
 def _entry_kind(section, i, entry, kinds):
@@ -370,8 +387,12 @@ def _check_light(i, light):
                              f"(known: {', '.join(AREA_SHAPES)})")
         m = _matrix(light.get("matrix"), f"{where}.matrix")
         size = _finite_vec(light.get("size"), f"{where}.size", n=2)
-        if np.any(size <= 0) or abs(np.linalg.det(m[:3, :3])) < 1e-300:
+        if np.any(size < 0):
+            raise SceneError(f"{where}.size: must not be negative ({size.tolist()})")
+        if np.any(size == 0):
             raise SceneError(f"{where}: zero-area emitter (size {size.tolist()})")
+        if abs(np.linalg.det(m[:3, :3])) < 1e-300:
+            raise SceneError(f"{where}.matrix: singular (zero scale)")
         _finite_vec(light.get("radiance"), f"{where}.radiance", positive=True)
         _check_angle(light, "spread", where, default=math.pi)
     elif kind in ("point", "spot"):
@@ -398,7 +419,13 @@ def _check_light(i, light):
 def _check_camera(cam):
     if not isinstance(cam, dict):
         raise SceneError("camera: missing (the scene has no camera)")
-    _matrix(cam.get("matrix"), "camera.matrix")
+    m3 = exact_unit_scale(_matrix(cam.get("matrix"), "camera.matrix")[:3, :3])
+    lengths = np.linalg.norm(m3, axis=0)
+    # The camera keeps only the rotation of its matrix: columns of no length, or parallel ones
+    # (a zero scale in some axis), leave it no direction to look in.
+    if not np.all(lengths > 1e-12) or not abs(np.linalg.det(m3 / lengths)) > 1e-12:
+        raise SceneError("camera.matrix: singular (a zero scale in some axis): the camera has "
+                         "no view direction")
     if cam.get("type", "PERSP") not in CAMERA_TYPES:
         raise SceneError(f"camera.type: unknown value {_short(cam.get('type'))}")
     ortho = cam.get("type", "PERSP") == "ORTHO"
@@ -408,8 +435,10 @@ def _check_camera(cam):
                        else 0.0, exclusive=True)
     if ortho:
         _finite_number(cam.get("ortho_scale"), "camera.ortho_scale", 0.0, exclusive=True)
-        if not cam["clip_end"] > cam["clip_start"]:
-            raise SceneError("camera.clip_end: must be greater than camera.clip_start")
+    if not cam["clip_end"] > cam["clip_start"]:
+        raise SceneError(f"camera.clip_end: must be greater than camera.clip_start "
+                         f"({cam['clip_end']!r} <= {cam['clip_start']!r}): nothing would be "
+                         "in view")
     for key in ("shift_x", "shift_y"):
         _finite_number(cam.get(key, 0.0), f"camera.{key}")
     if cam.get("sensor_fit", "AUTO") not in SENSOR_FITS:
@@ -422,6 +451,11 @@ def _check_camera(cam):
                          f"got {_short(res)}")
     pct = cam.get("resolution_percentage", 100)
     _int_in(pct, "camera.resolution_percentage", 1, 32767, "a percentage")
+    size = [r * pct // 100 for r in res]
+    if max(size) > MAX_RESOLUTION:
+        # The image's own arrays (and pixel indices, 32-bit in the sampler's keys) stop here.
+        raise SceneError(f"camera.resolution_percentage: {pct}% of {res[0]}x{res[1]} is "
+                         f"{size[0]}x{size[1]} pixels, more than {MAX_RESOLUTION} a side")
     aspect = _finite_vec(cam.get("pixel_aspect", [1.0, 1.0]), "camera.pixel_aspect", n=2)
     if np.any(aspect <= 0):
         raise SceneError("camera.pixel_aspect: must be positive")
@@ -470,7 +504,7 @@ def _check_images(images):
         if not isinstance(px, np.ndarray):
             raise SceneError(f"{where}: missing pixels")
         if px.dtype != np.float32:
-            raise SceneError(f"{where}: expected dtype float32, got {px.dtype.name}")
+            raise SceneError(f"{where}: expected dtype float32, got {_dtype_name(px.dtype)}")
         if px.ndim != 3 or px.shape[2] not in (1, 3) or px.shape[0] < 1 or px.shape[1] < 1:
             raise SceneError(f"{where}: expected shape (height, width, 1 or 3), got {px.shape}")
         if px.shape[0] > MAX_RESOLUTION or px.shape[1] > MAX_RESOLUTION:
@@ -516,6 +550,16 @@ def _check_environment(env, images):
                          f"got {_short(env.get('interpolation'))}")
 
 
+def _of_object(scene, triangles, vertex) -> str:
+    """' (object NAME)' of a triangle that uses the vertex, where the scene names it, else ''."""
+    try:
+        uses = np.flatnonzero((triangles == vertex).any(axis=1))
+        name = scene.objects[int(scene.object_ids[uses[0]])]["name"]
+    except Exception:  # noqa: BLE001  (the arrays are not checked yet: name what can be named)
+        return ""
+    return f" (object {_short(name, 60)})" if isinstance(name, str) else ""
+
+
 def validate(scene: Scene) -> Scene:
     """Check every array and header field; raise SceneError naming the first one at fault."""
     arrays = {"positions": scene.positions, "triangles": scene.triangles,
@@ -526,7 +570,11 @@ def validate(scene: Scene) -> Scene:
     oid = _check_array(arrays, "object_ids", np.int32, None)
     if not np.all(np.isfinite(pos)):
         bad = int(np.argmax(~np.isfinite(pos).all(axis=1)))
-        raise SceneError(f"positions: vertex {bad} is NaN or Inf")
+        raise SceneError(f"positions: vertex {bad}{_of_object(scene, tri, bad)} is NaN or Inf")
+    if len(pos) and not np.abs(pos).max() <= MAX_COORDINATE:
+        bad = int(np.argmax((np.abs(pos) > MAX_COORDINATE).any(axis=1)))
+        raise SceneError(f"positions: vertex {bad}{_of_object(scene, tri, bad)} is out of range "
+                         f"(a coordinate beyond +-{MAX_COORDINATE:g})")
     for key, arr in (("material_ids", mid), ("object_ids", oid)):
         if len(arr) != len(tri):
             raise SceneError(f"{key}: {len(arr)} entries for {len(tri)} triangles")
@@ -550,7 +598,8 @@ def validate(scene: Scene) -> Scene:
         if len(nrm) != len(pos):
             raise SceneError(f"normals: {len(nrm)} normals for {len(pos)} vertices")
         if not np.all(np.isfinite(nrm)):
-            raise SceneError("normals: contains NaN or Inf")
+            bad = int(np.argmax(~np.isfinite(nrm).all(axis=1)))
+            raise SceneError(f"normals: vertex {bad}{_of_object(scene, tri, bad)} is NaN or Inf")
     if not isinstance(scene.lights, list):
         raise SceneError("lights: expected a list")
     for i, light in enumerate(scene.lights):
@@ -649,6 +698,11 @@ def _read_images(entries, arrays) -> list:
         pixels = arrays[key]
         if not isinstance(entry.get("sha256"), str):
             raise SceneError(f"{where}.sha256: expected a string")
+        shape = entry.get("shape")
+        if shape is not None and (not isinstance(shape, list)
+                                  or list(pixels.shape) != shape):
+            raise SceneError(f"{where}.shape: the header says {_short(shape)}, its array "
+                             f"{key} has shape {list(pixels.shape)} (a damaged file)")
         if pixels.dtype == np.float32 and image_hash(pixels) != entry["sha256"]:
             raise SceneError(f"{where}: pixels do not match their sha256 (a damaged file)")
         images.append({"name": entry["name"], "source": str(entry.get("source", "")),
@@ -683,7 +737,8 @@ def load(path: str) -> Scene:
         raise SceneError(f"header: expected a JSON object, got {_short(header)}")
     if header.get("format") != FORMAT:
         raise SceneError(f"header.format: expected {FORMAT!r}, got {_short(header.get('format'))}")
-    if header.get("version") not in READS_VERSIONS:
+    version = header.get("version")
+    if isinstance(version, bool) or not isinstance(version, int) or version not in READS_VERSIONS:
         raise SceneError(f"header.version: unknown version {_short(header.get('version'))} "
                          f"(this Snell reads {', '.join(map(str, READS_VERSIONS))})")
     for key in ("positions", "triangles", "material_ids", "object_ids"):
@@ -706,4 +761,11 @@ def load(path: str) -> Scene:
         images=images, texcoords=texcoords)
     if isinstance(scene.camera, dict) and isinstance(scene.camera.get("dof"), dict):
         scene.camera["dof"] = {**DEFAULT_DOF, **scene.camera["dof"]}
-    return validate(scene)
+    validate(scene)
+    # A file without "objects" (written before them) has object ids 0; one that lists its
+    # objects must list every object its triangles name.
+    oid = scene.object_ids
+    if objects is not None and len(oid) and int(oid.max()) >= len(scene.objects):
+        raise SceneError(f"object_ids: index {int(oid.max())} out of range "
+                         f"[0, {len(scene.objects)}) (objects lists {len(scene.objects)})")
+    return scene

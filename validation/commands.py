@@ -13,29 +13,37 @@ import sys
 
 from ..errors import (CliError, check_input_file, check_writable_directory, int_at_least,
                       number_at_least)
-from ..tracer.settings import DEFAULT_THREADS
+from ..tracer.settings import BY_NAME, DEFAULT_THREADS
+
+# The render settings' ranges (tracer/settings.py), so that a value out of range is a usage error
+# naming the option (exit 2), not a scene field's error after the scene was read. compare rounds
+# --spp up to a multiple of its 16 batches: its most stays within the setting's.
+MOST_SPP = BY_NAME["spp"].greatest - 15
+MOST_SEED = BY_NAME["seed"].greatest
+MOST_DEPTH = BY_NAME["max_depth"].greatest
+MOST_THREADS = BY_NAME["threads"].greatest
 
 
 def _common(p):
     p.add_argument("scene", metavar="SCENE.blend", help="the Blender file to render in both renderers")
     p.add_argument("--report", required=True, metavar="DIR",
                    help="directory for report.html, metrics.json and the images (created)")
-    p.add_argument("--spp", type=int_at_least(2),
+    p.add_argument("--spp", type=int_at_least(2, MOST_SPP),
                    help="samples per pixel for each renderer (default: the scene's); Cycles renders "
                         "--cycles-seeds seeds of spp / seeds samples")
-    p.add_argument("--seed", type=int_at_least(0), help="Snell seed; Cycles seeds derive from it")
-    p.add_argument("--scale", type=int_at_least(1), metavar="PCT",
+    p.add_argument("--seed", type=int_at_least(0, MOST_SEED), help="Snell seed; Cycles seeds derive from it")
+    p.add_argument("--scale", type=int_at_least(1, 32767), metavar="PCT",
                    help="resolution percentage for both renderers (default: the file's)")
-    p.add_argument("--cycles-seeds", type=int_at_least(2), default=8, metavar="K",
+    p.add_argument("--cycles-seeds", type=int_at_least(2, 4096), default=8, metavar="K",
                    help="independent Cycles renders for the per-pixel variance (default 8)")
-    p.add_argument("--threads", type=int_at_least(1), default=DEFAULT_THREADS,
+    p.add_argument("--threads", type=int_at_least(1, MOST_THREADS), default=DEFAULT_THREADS,
                    help=f"threads for each renderer (default: the machine's {DEFAULT_THREADS} cores)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def setup_compare(p):
     _common(p)
-    p.add_argument("--max-depth", type=int_at_least(0), metavar="M",
+    p.add_argument("--max-depth", type=int_at_least(0, MOST_DEPTH), metavar="M",
                    help="emission plus up to M bounces = Cycles max_bounces M - 1 (default: the scene's)")
     p.add_argument("--noise-threshold", type=number_at_least(0.0), default=0.0, metavar="T",
                    help="Snell samples adaptively at this threshold, --spp at most per pixel "
@@ -125,7 +133,7 @@ def setup_false_alarms(p):
                         "(default out/false-alarms)")
     p.add_argument("--cached", action="store_true",
                    help="render nothing: evaluate the runs already in the cache (up to --runs)")
-    p.add_argument("--threads", type=int_at_least(1), default=DEFAULT_THREADS,
+    p.add_argument("--threads", type=int_at_least(1, MOST_THREADS), default=DEFAULT_THREADS,
                    help=f"threads for each renderer (default: the machine's {DEFAULT_THREADS} cores)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
@@ -183,17 +191,17 @@ def setup_bench(p):
     p.add_argument("--quick", action="store_true",
                    help="smoke test: 25%% resolution, ladder 4, 8, 16 spp, reference 4 seeds x 64 spp, "
                         "thresholds 0.1 and 0.03 with at most 256 spp")
-    p.add_argument("--threads", type=int_at_least(1), help="threads for each renderer (default 2)")
-    p.add_argument("--max-depth", type=int_at_least(1), metavar="M", help="default 8")
+    p.add_argument("--threads", type=int_at_least(1, MOST_THREADS), help="threads for each renderer (default 2)")
+    p.add_argument("--max-depth", type=int_at_least(1, MOST_DEPTH), metavar="M", help="default 8")
     p.add_argument("--scale", type=int_at_least(1), metavar="PCT",
                    help="resolution percentage (default 100, --quick 25)")
-    p.add_argument("--min-spp", type=int_at_least(1), help="bottom of the ladder (default 1, --quick 4)")
-    p.add_argument("--max-spp", type=int_at_least(1), help="top of the ladder (default 1024, --quick 16)")
+    p.add_argument("--min-spp", type=int_at_least(1, MOST_SPP), help="bottom of the ladder (default 1, --quick 4)")
+    p.add_argument("--max-spp", type=int_at_least(1, MOST_SPP), help="top of the ladder (default 1024, --quick 16)")
     p.add_argument("--time-cap", type=float, metavar="S",
                    help="stop a ladder before a point predicted to take longer (default 60, --quick 20)")
     p.add_argument("--ref-seeds", type=int_at_least(2), metavar="K",
                    help="Cycles seeds of the reference (default 16, --quick 4)")
-    p.add_argument("--ref-spp", type=int_at_least(1), metavar="N",
+    p.add_argument("--ref-spp", type=int_at_least(1, MOST_SPP), metavar="N",
                    help="samples per reference seed (default 256, --quick 64)")
     p.add_argument("--repeat", type=int_at_least(1), metavar="N",
                    help="time every point N times and keep the run of median wall time (default 1)")
@@ -203,7 +211,7 @@ def setup_bench(p):
     p.add_argument("--thresholds", type=thresholds, metavar="T,T,...",
                    help="noise thresholds of the 'as users render' comparison, both renderers "
                         "adaptive (default 0.1,0.03,0.01,0.003, --quick 0.1,0.03; 'none': skip it)")
-    p.add_argument("--adaptive-max-spp", type=int_at_least(1), metavar="N",
+    p.add_argument("--adaptive-max-spp", type=int_at_least(1, MOST_SPP), metavar="N",
                    help="per-pixel sample cap of both renderers in that comparison "
                         "(default 1024, --quick 256)")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/snell/bench)")

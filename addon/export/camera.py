@@ -6,27 +6,51 @@ import numpy as np
 from ...tracer.scene import SceneError
 
 
+# A camera's 3x3 whose columns are shorter than this, or that is this close to singular (its
+# determinant over the product of its column lengths), has no direction to look in.
+SINGULAR = 1e-12
+
+
 def unit_columns(m):
-    """The matrix with its 3x3 columns normalised (object scale removed, handedness kept)."""
+    """The matrix with its 3x3 columns normalised (object scale removed, handedness kept); None
+    if a column has no length or the columns are (nearly) parallel: a zero scale."""
+    lengths = np.linalg.norm(m[:3, :3], axis=0)
+    if not np.all(lengths > SINGULAR):
+        return None
     out = m.copy()
-    out[:3, :3] = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+    out[:3, :3] = m[:3, :3] / lengths
+    if not abs(np.linalg.det(out[:3, :3])) > SINGULAR:
+        return None
     return out
 
 
 def convert_camera(scene, depsgraph):
-    """Camera dict from scene.camera; SceneError if there is none or it is panoramic."""
+    """Camera dict from scene.camera; SceneError if there is none, it is not a camera object,
+    it is panoramic or its scale is zero."""
     cam_obj = scene.camera
     if cam_obj is None:
         raise SceneError(f"scene {scene.name!r} has no camera")
+    if cam_obj.type != "CAMERA":
+        # Blender lets any object be the scene's camera; Cycles then renders through its axes
+        # with a default lens. Snell asks for a camera.
+        raise SceneError(f"scene {scene.name!r}: its camera {cam_obj.name!r} is a "
+                         f"{cam_obj.type.lower()} object, not a camera (set Scene > Camera to "
+                         "a camera object)")
     cam_obj = cam_obj.evaluated_get(depsgraph)
     cam = cam_obj.data
     if cam.type not in ("PERSP", "ORTHO"):
         raise SceneError(f"camera {cam_obj.name!r}: only perspective and orthographic cameras "
                          f"are supported (got {cam.type})")
-    m = np.array(cam_obj.matrix_world, np.float64)
-    if not np.all(np.isfinite(m)):
+    world = np.array(cam_obj.matrix_world, np.float64)
+    if not np.all(np.isfinite(world)):
         raise SceneError(f"camera {cam_obj.name!r}: world matrix contains NaN or Inf")
-    m = unit_columns(m)
+    m = unit_columns(world)
+    if m is None:
+        raise SceneError(f"camera {cam_obj.name!r}: its scale is zero in some axis (its world "
+                         "matrix is singular), so it has no view direction")
+    if not cam.clip_end > cam.clip_start:
+        raise SceneError(f"camera {cam_obj.name!r}: Clip Start {cam.clip_start:g} is not below "
+                         f"Clip End {cam.clip_end:g}, so nothing is in view")
     dof = cam.dof
     focus = float(dof.focus_distance)
     if dof.focus_object is not None:

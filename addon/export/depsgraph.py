@@ -113,13 +113,26 @@ class Exporter:
                 light["name"] = name
                 self.lights.append(light)
             return
+        if obj.type in NOT_RENDERED:
+            # Cycles renders these as curves or spheres; Snell has triangles only (embreex
+            # exposes no curve or point geometry).
+            self.warn(f"object {name!r}: {NOT_RENDERED[obj.type]} not rendered (Snell renders "
+                      "meshes only)")
+            return
         # Curves, surfaces, metaballs and text reach the depsgraph twice: as themselves and as
         # the mesh instance their evaluation makes. Cycles renders the mesh; so does Snell.
         if obj.type != "MESH":
             return
+        self.warn_hair(obj, name)
         mesh = self.mesh_of(inst)
         if mesh is None:
             return
+        if mesh.dropped_nonfinite:
+            self.warn(f"object {name!r}: dropped {mesh.dropped_nonfinite} triangle(s) with a "
+                      "NaN or Inf vertex coordinate")
+        if mesh.dropped_out_of_range:
+            self.warn(f"object {name!r}: dropped {mesh.dropped_out_of_range} triangle(s) with a "
+                      f"vertex coordinate beyond +-{scene_mod.MAX_COORDINATE:g} (out of range)")
         if mesh.dropped:
             self.warn(f"object {name!r}: dropped {mesh.dropped} {DROPPED_TRIANGLES}")
         if len(mesh.triangles) == 0:
@@ -137,6 +150,24 @@ class Exporter:
                 if scene_mod.refracts(mat):
                     self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} {OPEN_MESH}")
         self.parts.append((mesh, matrix, mat_ids, object_id))
+
+    def warn_hair(self, obj, name):
+        """Warn for the hair particle systems of a mesh object, which Cycles renders as curves."""
+        for system in getattr(obj, "particle_systems", ()):
+            settings = system.settings
+            if settings.type == "HAIR" and settings.render_type == "PATH":
+                self.warn(f"object {name!r}: hair particle system {system.name!r} not rendered "
+                          "(Snell renders meshes only)")
+
+    def warn_missing_libraries(self, data):
+        """Warn for each linked library whose file is missing: its objects are not rendered."""
+        for library in getattr(data, "libraries", ()):
+            if getattr(library, "is_missing", False):
+                lost = sorted(o.name for o in data.objects
+                              if o.library == library and getattr(o, "is_missing", False))
+                what = f" ({len(lost)} object(s): {', '.join(lost[:3])}{', ...' if len(lost) > 3 else ''})" if lost else ""
+                self.warn(f"library {library.filepath!r} is missing: what it links is not "
+                          f"rendered{what}")
 
     def mesh_of(self, inst):
         """The local-space Mesh of an instance's evaluated object (None if it has no mesh)."""
@@ -164,6 +195,12 @@ class Exporter:
         for parts in by_mesh.values():
             mesh, parts = self.parts[parts[0]][0], np.array(parts)
             p, n, t = to_world(mesh, np.stack([self.parts[i][1] for i in parts]))
+            far = ~(np.abs(p) <= scene_mod.MAX_COORDINATE).all(axis=(1, 2))
+            if far.any():
+                name = self.objects[self.parts[parts[int(np.argmax(far))]][3]]["name"]
+                raise SceneError(f"object {name!r}: world-space vertex coordinates beyond "
+                                 f"+-{scene_mod.MAX_COORDINATE:g} or not finite (its location, "
+                                 "scale or parent's transform)")
             rows = _rows(v_start[parts], len(mesh.positions))
             positions[rows] = p.reshape(-1, 3)
             normals[rows] = n.reshape(-1, 3)
@@ -201,6 +238,9 @@ def _det3(m):
     return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
 
 
+# Object types Cycles renders and Snell drops, with a warning naming them.
+NOT_RENDERED = {"CURVES": "hair curves", "POINTCLOUD": "point cloud"}
+
 # Notes whose cause Cycles renders the same way: a zero-area triangle covers no pixel in either
 # renderer, a zero-scale object none, and glass on an open mesh refracts at the same surfaces.
 DROPPED_TRIANGLES = "zero-area triangle(s)"
@@ -220,6 +260,8 @@ def export_depsgraph(depsgraph, *, source=""):
     bl_scene = depsgraph.scene
     camera = convert_camera(bl_scene, depsgraph)
     ex = Exporter(depsgraph)
+    import bpy
+    ex.warn_missing_libraries(bpy.data)
     for inst in rendered_instances(depsgraph, ex):
         ex.add_instance(inst)
     scene = ex.scene(bl_scene, camera, source)

@@ -78,8 +78,12 @@ def convert_light(obj, matrix, warn):
         if area <= 0:
             warn(f"light {obj.name!r}: zero-area area light skipped")
             return None
+        unit = unit_columns(matrix)
+        if unit is None:
+            warn(f"light {obj.name!r}: zero scale, skipped")
+            return None
         radiance = strength / (math.pi * (area if normalize else 1.0))
-        return {**common, "kind": "area", "shape": shape, "matrix": unit_columns(matrix).tolist(),
+        return {**common, "kind": "area", "shape": shape, "matrix": unit.tolist(),
                 "size": size, "radiance": radiance.tolist(), "spread": float(light.spread)}
     if light.type in ("POINT", "SPOT"):
         radius = float(light.shadow_soft_size)

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...tracer.scene import MAX_COORDINATE
+
 
 def _read(collection, prop, count, dtype):
     """collection.foreach_get(prop) into a new flat array of count values."""
@@ -96,9 +98,25 @@ class Mesh:
         """co: (V, 3) positions; corner_verts, corner_n: per corner; the rest per triangle;
         coords: _mesh_texcoords' (UV maps, active name, Generated), or None."""
         tris = corner_verts[tri_corners]
-        keep = _nondegenerate(co, tris)
-        self.dropped = int(len(keep) - np.count_nonzero(keep))
-        if self.dropped:
+        # Vertices at NaN, Inf or beyond MAX_COORDINATE drop their triangles, counted apart
+        # from the zero-area ones (Embree skips such triangles too, and Cycles renders none).
+        in_range = (np.abs(co) <= MAX_COORDINATE).all(axis=1)          # False for NaN
+        self.dropped_nonfinite = self.dropped_out_of_range = 0
+        if not in_range.all():
+            finite = np.isfinite(co).all(axis=1)
+            nonfinite = ~finite[tris].all(axis=1)
+            self.dropped_nonfinite = int(np.count_nonzero(nonfinite))
+            self.dropped_out_of_range = int(np.count_nonzero(~in_range[tris].all(axis=1)
+                                                             & ~nonfinite))
+            co = np.where(in_range[:, None], co, 0.0)     # no Inf - Inf in the tests below
+            valid = in_range[tris].all(axis=1)
+            keep = valid & _nondegenerate(co, tris)
+            self.dropped = int(np.count_nonzero(valid & ~keep))
+            corner_n = _finite_normals(corner_n, co, tris[keep], tri_corners[keep])
+        else:
+            keep = _nondegenerate(co, tris)
+            self.dropped = int(len(keep) - np.count_nonzero(keep))
+        if not keep.all():
             tri_corners, tris, mat_index = tri_corners[keep], tris[keep], mat_index[keep]
         self.tri_corners, self.coords = tri_corners, coords
         self.mat_index = mat_index
@@ -157,6 +175,24 @@ def _nondegenerate(co, tris):
         # Relative test, so that a tiny but well-shaped triangle is kept.
         keep[s:s + CHUNK] = np.sqrt(cross_sq) > 1e-12 * longest_sq
     return keep
+
+
+def _finite_normals(corner_n, co, tris, tri_corners):
+    """corner_n, with the NaN or Inf normals of these triangles' corners (a smooth vertex next
+    to a NaN one) replaced by the triangle's own normal."""
+    bad = ~np.isfinite(corner_n).all(axis=1)
+    if not bad.any():
+        return corner_n
+    corner_n = corner_n.copy()
+    hit = bad[tri_corners].any(axis=1)
+    p = co[tris[hit]]
+    g = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
+    for k in range(3):
+        corners = tri_corners[hit, k]
+        fix = bad[corners]
+        corner_n[corners[fix]] = g[fix]
+    return corner_n
 
 
 def _dot(a, b):

@@ -3,10 +3,12 @@ and strength, or an equirectangular Environment Texture (through a Mapping node 
 """
 from __future__ import annotations
 
+import math
 import warnings as _pywarnings
 
 import numpy as np
 
+from ...tracer.scene import SceneError
 from .materials import Inputs, active_output, follow
 from .textures import mapping_of
 
@@ -37,7 +39,13 @@ def convert_world(world, warn, images=None):
     environment = texture is not None and texture.bl_idname == "ShaderNodeTexEnvironment"
     # The colour is read only without a map (reading a linked one notes the link).
     color = None if environment else inp.color("Color")
-    strength = max(inp.value("Strength"), 0.0)
+    strength = inp.value("Strength")
+    if not math.isfinite(strength):
+        raise SceneError(f"world {world.name!r}: Background Strength is {strength} (not a "
+                         "finite number)")
+    if color is not None and not all(math.isfinite(c) for c in color):
+        raise SceneError(f"world {world.name!r}: Background Color contains NaN or Inf")
+    strength = max(strength, 0.0)
     for issue in issues:
         warn(f"world {world.name!r}: {issue}")
     if environment:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -29,7 +30,7 @@ import time
 import numpy as np
 import pytest
 
-from snell.tracer.scene import save
+from snell.tracer.scene import image_hash, save
 
 from support.builders import tiny_scene
 
@@ -125,6 +126,30 @@ def corpus(tmp_path_factory):
     _raw_snell(d / "unknown_material_kind.snell",
                header=_header(materials=[{"name": "Velvet", "kind": "velvet", "color": [1, 1, 1]}]))
     _raw_snell(d / "pickled_positions.snell", positions=np.array([object()] * 3, dtype=object))
+    # Round two (issue 31): singular cameras, versions that only compare equal, headers that
+    # disagree with their arrays, byte order, ranges, and inputs that are not regular files.
+    _raw_snell(d / "zero_camera_matrix.snell", header=_header(camera__matrix=[[0.0] * 4] * 4))
+    _raw_snell(d / "camera_scale_zero.snell",
+               header=_header(camera__matrix=np.diag([1.0, 0.0, 1.0, 1.0]).tolist()))
+    _raw_snell(d / "version_true.snell", header=_header(version=True))
+    _raw_snell(d / "version_float.snell", header=_header(version=4.0))
+    _raw_snell(d / "objects_empty.snell", header=_header(objects=[]))
+    _raw_snell(d / "clip_reversed.snell", header=_header(camera__clip_start=200.0))
+    _raw_snell(d / "big_endian.snell", positions=scene.positions.astype(">f4"))
+    _raw_snell(d / "area_negative.snell", header=_header(lights=[{
+        "name": "Area", "kind": "area", "shape": "rectangle", "matrix": np.eye(4).tolist(),
+        "size": [-1.0, 1.0], "radiance": [1.0, 1.0, 1.0]}]))
+    huge = scene.positions.copy()
+    huge[0, 0] = 1e30
+    _raw_snell(d / "huge_vertex.snell", positions=huge)
+    _raw_snell(d / "huge_percentage.snell", header=_header(camera__resolution=[65536, 8],
+                                                           camera__resolution_percentage=200))
+    pixels = np.ones((4, 4, 3), np.float32)
+    _raw_snell(d / "image_shape_mismatch.snell", image_0=pixels, header=_header(images=[{
+        "name": "Tex", "source": "", "colorspace": "linear", "shape": [2, 8, 3],
+        "sha256": image_hash(pixels)}]))
+    os.mkfifo(d / "fifo.snell")
+    os.symlink("/dev/null", d / "device_link.snell")
     empty = tiny_scene()
     empty.positions = np.zeros((0, 3), np.float32)
     empty.triangles = np.zeros((0, 3), np.int32)
@@ -181,6 +206,38 @@ CASES = [
     ("negative_material_id_snell", ("render",), 1, ("material_ids",)),
     ("unknown_material_kind_snell", ("info",), 1, ("materials[0] ('Velvet').kind", "velvet")),
     ("pickled_positions_snell", ("info",), 1, ("positions: cannot read",)),
+    # Round two (issue 31)
+    ("camera_is_mesh", ("render", "info", "batch"), 1, ("camera 'Cube' is a mesh object",)),
+    ("camera_zero_scale", ("render", "info"), 1, ("camera 'Camera'", "scale is zero")),
+    ("clip_reversed", ("render", "export"), 1, ("camera 'Camera'", "Clip Start 50")),
+    ("world_nan_strength", ("render", "export"), 1, ("world 'World'", "Strength")),
+    ("world_huge", ("render",), 0, ()),           # Inf pixels: written 0 and counted, no warning
+    ("zero_camera_matrix_snell", ("render", "info"), 1, ("camera.matrix", "singular")),
+    ("camera_scale_zero_snell", ("render",), 1, ("camera.matrix", "singular")),
+    ("version_true_snell", ("info",), 1, ("header.version", "True")),
+    ("version_float_snell", ("info",), 1, ("header.version", "4.0")),
+    ("objects_empty_snell", ("render", "info"), 1, ("object_ids", "objects lists 0")),
+    ("clip_reversed_snell", ("render", "info"), 1, ("camera.clip_end", "clip_start")),
+    ("big_endian_snell", ("info",), 1, ("positions", "got big-endian float32")),
+    ("area_negative_snell", ("info",), 1, ("lights[0] ('Area').size", "negative")),
+    ("huge_vertex_snell", ("render",), 1, ("positions: vertex 0 (object 'Quad')", "out of range")),
+    ("huge_percentage_snell", ("info",), 1, ("camera.resolution_percentage", "131072x16")),
+    ("image_shape_mismatch_snell", ("info",), 1, ("images[0] ('Tex').shape", "[4, 4, 3]")),
+    ("fifo_snell", ("render", "info"), 1, ("is not a regular file",)),
+    ("device_link_snell", ("info",), 1, ("is not a regular file",)),
+]
+
+# Inputs rendered with a warning: (input, command, fragments of one warning line, fragments no
+# line may hold). A NaN vertex drops its triangles, as Cycles does, and says why.
+WARNING_CASES = [
+    ("nan_vertex", "render", ("object 'Cube'", "NaN or Inf vertex coordinate"), ("zero-area",)),
+    ("inf_vertex", "export", ("object 'Cube'", "out of range"), ("zero-area", "normals")),
+    ("huge_vertex", "export", ("object 'Cube'", "out of range"), ("zero-area",)),
+    # Dropped, not rendered (issue 31, item 8): Cycles renders them, so the warning says so.
+    ("dropped_objects", "export", ("object 'Cube'", "hair particle system 'Hair'"), ()),
+    ("dropped_objects", "info", ("object 'Points'", "point cloud not rendered"), ()),
+    ("dropped_objects", "render", ("object 'Curves'", "hair curves not rendered"), ()),
+    ("missing_library", "export", ("library", "library_gone.blend", "is missing", "LinkedCube"), ()),
 ]
 
 # Outputs that cannot be written: (name, command, argv maker, fragments). {out} is the output
@@ -204,6 +261,21 @@ OUTPUT_CASES = [
     ("--spp 0", "render", lambda s, o: ["render", s, "-o", f"{o}/a.exr", "--spp", "0"], ("--spp",)),
     ("--spp 1", "compare", lambda s, o: ["compare", s, "--report", f"{o}/r", "--spp", "1"], ("--spp",)),
     ("--frames 5-1", "batch", lambda s, o: ["batch", s, "--frames", "5-1"], ("--frames",)),
+    # Round two (issue 31): outputs that are not regular files, names too long for the file
+    # system with the temporary name's extra characters, options beyond the settings' ranges.
+    ("output is a FIFO", "render", lambda s, o: ["render", s, "-o", f"{o}/fifo.exr"], ("not a regular file",)),
+    ("output links to /dev/null", "export", lambda s, o: ["export", s, "-o", f"{o}/null.snell"], ("not a regular file",)),
+    ("png output links to /dev/null", "render", lambda s, o: ["render", s, "-o", f"{o}/a.exr", "--png", f"{o}/null.png"], ("--png", "not a regular file")),
+    ("output name too long", "render", lambda s, o: ["render", s, "-o", f"{o}/{'a' * 246}.exr"], ("file name too long",)),
+    ("output name too long", "export", lambda s, o: ["export", s, "-o", f"{o}/{'a' * 240}.snell"], ("file name too long",)),
+    ("report name too long", "compare", lambda s, o: ["compare", s, "--report", f"{o}/{'r' * 250}", *FAST], ("file name too long",)),
+    ("--spp 99999999999", "render", lambda s, o: ["render", s, "-o", f"{o}/a.exr", "--spp", "99999999999"], ("--spp",)),
+    ("--min-spp 99999999999", "render", lambda s, o: ["render", s, "-o", f"{o}/a.exr", "--min-spp", "99999999999"], ("--min-spp",)),
+    ("--seed 2147483648", "render", lambda s, o: ["render", s, "-o", f"{o}/a.exr", "--seed", "2147483648"], ("--seed",)),
+    ("--spp 99999999999", "compare", lambda s, o: ["compare", s, "--report", f"{o}/r", "--spp", "99999999999"], ("--spp",)),
+    ("--seed 2147483648", "study", lambda s, o: ["study", "depth", s, "--report", f"{o}/r", "--seed", "2147483648"], ("--seed",)),
+    ("--max-spp 99999999999", "bench", lambda s, o: ["bench", s, "--report", f"{o}/r", "--max-spp", "99999999999"], ("--max-spp",)),
+    ("several frames, no ####", "batch", lambda s, o: ["batch", s, "--frames", "1,2", "-o", f"{o}/same.exr"], ("####",)),
     ("output directory missing", "stress", lambda s, o: ["stress", "--report", f"{o}/no/r"], ("does not exist",)),
     ("output directory unwritable", "stress", lambda s, o: ["stress", "--report", f"{o}/ro/r"], ("cannot write",)),
     ("report path is a file", "stress", lambda s, o: ["stress", "--report", f"{o}/file.txt"], ("is a file",)),
@@ -226,9 +298,13 @@ def leftovers(directory):
     return sorted(found)
 
 
+PYTHON_WARNING = re.compile(r"\w*Warning: ")    # a raw warnings.warn line (RuntimeWarning, ...)
+
+
 def check(proc, status, fragments, names=()):
     """The status, and for errors one `snell: error:` line naming what it must; the line."""
     assert "Traceback" not in proc.stderr and "Traceback" not in proc.stdout, proc.stderr
+    assert not PYTHON_WARNING.search(proc.stderr), proc.stderr
     assert proc.returncode == status, proc.stderr
     lines = proc.stderr.strip().splitlines()
     if status == 0:
@@ -287,12 +363,44 @@ def test_output(corpus, out, name, command, argv, fragments):
     os.mkdir(os.path.join(out, "dir.exr"))
     with open(os.path.join(out, "file.txt"), "w") as f:
         f.write("x")
+    os.mkfifo(os.path.join(out, "fifo.exr"))
+    for link in ("null.snell", "null.png"):
+        os.symlink("/dev/null", os.path.join(out, link))
     before = leftovers(out)
     proc = run_snell(args)
     status = 2 if name.startswith("--") else 1
     line = check(proc, status, fragments)
     _row(name, command, proc.returncode, line)
     assert leftovers(out) == before
+
+
+@pytest.mark.parametrize("name,command,fragments,forbidden", [
+    pytest.param(*case, id=f"{case[0]}-{case[1]}") for case in WARNING_CASES])
+def test_warning(corpus, out, name, command, fragments, forbidden):
+    """Inputs Snell renders in part: exit 0, and a warning line that names the object and the
+    real cause."""
+    proc = run_snell(COMMANDS[command](corpus[name], out))
+    line = check(proc, 0, ())
+    warnings = [w for w in proc.stderr.splitlines() if w.startswith("snell: warning: ")]
+    assert any(all(f in w for f in fragments) for w in warnings), proc.stderr
+    assert not any(f in w for w in warnings for f in forbidden), proc.stderr
+    _row(os.path.basename(corpus[name]), command, proc.returncode, line)
+    assert command == "info" or leftovers(out)
+
+
+def test_batch_output_without_frame_number_is_written_as_named(corpus, out):
+    """`batch -o same.exr` of one frame writes same.exr (Blender alone would append the frame
+    number: same.exr0001.exr)."""
+    proc = run_snell(["batch", corpus["tiny"], "-o", os.path.join(out, "same.exr"), "--spp", "2",
+                      "--noise-threshold", "0"])
+    check(proc, 0, ())
+    assert leftovers(out) == ["same.exr"]
+
+
+def test_batch_prints_a_single_frame_failure_once(corpus, out):
+    proc = run_snell(COMMANDS["batch"](corpus["camera_pano"], out))
+    check(proc, 1, ("PANO",))
+    assert proc.stderr.count("PANO") == 1, proc.stderr
 
 
 # Ctrl-C: (command, input, stage); stages in tests/support/interrupt_hook.py.

@@ -93,6 +93,64 @@ def build(directory):
     bpy.data.objects["Cube"].scale = (0.0, 0.0, 0.0)
     save(directory, "zero_scale.blend")
 
+    scene = factory()
+    tiny(scene)
+    scene.camera = bpy.data.objects["Cube"]      # Blender allows any object as the camera
+    save(directory, "camera_is_mesh.blend")
+
+    for name, value in (("nan", math.nan), ("inf", math.inf), ("huge", 1e30)):
+        scene = factory()
+        tiny(scene)
+        bpy.data.objects["Cube"].data.vertices[0].co = (value, 1.0, 1.0)
+        save(directory, f"{name}_vertex.blend")
+
+    scene = factory()
+    tiny(scene)
+    scene.camera.scale = (0.0, 1.0, 1.0)
+    save(directory, "camera_zero_scale.blend")
+
+    scene = factory()
+    tiny(scene)
+    scene.camera.data.clip_start, scene.camera.data.clip_end = 50.0, 1.0
+    save(directory, "clip_reversed.blend")
+
+    for name, color, strength in (("nan_strength", (0.05, 0.05, 0.05, 1.0), math.nan),
+                                  ("huge", (1e38, 1e38, 1e38, 1.0), 10.0)):
+        scene = factory()
+        tiny(scene)
+        background = scene.world.node_tree.nodes["Background"]
+        background.inputs["Color"].default_value = color
+        background.inputs["Strength"].default_value = strength
+        save(directory, f"world_{name}.blend")
+
+    # Objects Cycles renders and Snell drops (with a warning): hair particles, a point cloud
+    # (what Geometry Nodes' points make), hair curves; and a linked library that went missing.
+    scene = factory()
+    tiny(scene)
+    cube = bpy.data.objects["Cube"]
+    cube.modifiers.new("Hair", "PARTICLE_SYSTEM")
+    cube.particle_systems[0].settings.type = "HAIR"
+    cube.particle_systems[0].settings.count = 10
+    points = bpy.data.objects.new("Points", bpy.data.pointclouds.new("Points"))
+    scene.collection.objects.link(points)
+    curves = bpy.data.objects.new("Curves", bpy.data.hair_curves.new("Curves"))
+    scene.collection.objects.link(curves)
+    save(directory, "dropped_objects.blend")
+
+    scene = factory()
+    tiny(scene)
+    bpy.data.objects["Cube"].name = "LinkedCube"
+    library = os.path.join(directory, "library_gone.blend")
+    save(directory, "library_gone.blend")
+    scene = factory()
+    tiny(scene)
+    with bpy.data.libraries.load(library, link=True) as (source, target):
+        target.objects = ["LinkedCube"]
+    for obj in target.objects:
+        scene.collection.objects.link(obj)
+    save(directory, "missing_library.blend")
+    os.remove(library)
+
 
 if __name__ == "__main__":
     build(sys.argv[1])

@@ -154,3 +154,24 @@ def test_written_files_get_ordinary_permissions(tmp_path):
         os.umask(mask)
     assert (tmp_path / "a.exr").stat().st_mode & 0o777 == 0o644
     assert (tmp_path / "a.png").stat().st_mode & 0o777 == 0o644
+
+
+def test_values_beyond_float32_become_inf_without_a_numpy_warning():
+    """A colour of 1e38 times a strength makes pixels beyond float32: they are Inf (written as 0
+    and counted), and NumPy's "overflow encountered in cast" never reaches the user's terminal
+    (issue 31, item 4). Within range, the cast is NumPy's own (the image is bit-identical)."""
+    import warnings
+
+    from snell.tracer.result import RenderResult
+    values = np.array([[[1e39, -1e39, 3.0e38]]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        f32 = image.as_float32(values)
+        clean, bad = image.sanitize(values)
+        result = RenderResult(1, 1, values.copy(), np.zeros((1, 1, 3)), spp=1)
+        mean = result.mean()
+    assert f32[0, 0, 0] == np.inf and f32[0, 0, 1] == -np.inf
+    assert f32[0, 0, 2] == np.float32(3.0e38) and mean[0, 0, 0] == np.inf
+    assert bad == 1 and clean[0, 0].tolist() == [0.0, 0.0, np.float32(3.0e38)]
+    ramp = np.random.default_rng(2).random((4, 5, 3)) * 1e3
+    assert np.array_equal(image.as_float32(ramp), ramp.astype(np.float32))

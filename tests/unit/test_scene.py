@@ -119,7 +119,7 @@ def test_nan_vertex_and_out_of_range_index(good, tmp_path):
     sc, path = good
     pos = sc.positions.copy()
     pos[5, 1] = np.nan
-    with pytest.raises(S.SceneError, match="positions: vertex 5 is NaN or Inf"):
+    with pytest.raises(S.SceneError, match=r"positions: vertex 5 \(object .object0.\) is NaN or Inf"):
         S.load(_rewrite(path, tmp_path / "a.npz", positions=pos))
     tri = sc.triangles.copy()
     tri[0, 0] = len(pos)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import json
+import warnings
 import zipfile
 
 import numpy as np
@@ -23,6 +24,7 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
+from snell.tracer.camera import Camera  # noqa: E402
 from snell.tracer.scene import Scene, SceneError, load, save  # noqa: E402
 
 from support.builders import tiny_scene  # noqa: E402
@@ -90,13 +92,24 @@ def valid(tmp_path_factory):
 
 
 def check_load(path):
-    """Load path; a SceneError must name a field or the file; anything else propagates."""
+    """Load path; a SceneError must name a field or the file; anything else propagates. What it
+    accepts must be a scene the renderer can set up without a Python warning (a raw NumPy
+    RuntimeWarning reaches the user's terminal): its camera, a version that is an integer, and
+    object ids within the objects it lists."""
     try:
-        load(path)
+        scene = load(path)
     except SceneError as exc:
         message = str(exc)
         assert message.startswith(FIELDS) or message.startswith(path), message
         assert "\n" not in message.strip() or message.startswith(path)
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        camera = Camera(scene.camera)
+    assert np.isfinite(camera.rotation).all() and abs(np.linalg.det(camera.rotation)) > 0.5
+    assert camera.clip_end > camera.clip_start
+    if len(scene.object_ids) and scene.objects:
+        assert scene.object_ids.max() < len(scene.objects)
 
 
 def write(path, header, arrays, raw_header=None):
@@ -224,8 +237,9 @@ def test_whole_header_replaced(valid, tmp_path, value):
     check_load(target)
 
 
-DTYPES = ["float32", "float64", "float16", "int32", "int64", "int8", "uint32", "uint8", "bool", "complex64", "U3"]
-SPECIAL = [np.nan, np.inf, -np.inf, -1.0, 0.0, 1e30, -1e30, 2 ** 31 - 1, -(2 ** 31), 3.5]
+DTYPES = ["float32", "float64", "float16", "int32", "int64", "int8", "uint32", "uint8", "bool",
+          "complex64", "U3", ">f4", ">i4"]     # big-endian: the same name, another byte order
+SPECIAL = [np.nan, np.inf, -np.inf, -1.0, 0.0, 1e30, -1e30, 2 ** 31 - 1, -(2 ** 31), 3.5, 1e38]
 
 
 @FUZZ
