@@ -123,7 +123,18 @@ def _setup_render(p):
     p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="linear float EXR to write")
     p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit sRGB PNG (Standard view transform)")
     _add_setting_options(p)
+    _add_farm_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
+
+
+def _add_farm_options(p):
+    """--workers N and --cluster ADDRESS: render on Dask (farm/), fixed samples."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int_at_least(1), metavar="N",
+                       help="render on N local worker processes (Dask; fixed samples)")
+    where.add_argument("--cluster", metavar="ADDRESS",
+                       help="render on the Dask scheduler at ADDRESS, e.g. tcp://host:8786 "
+                            "(fixed samples)")
 
 
 ON_OFF = ("on", "off")
@@ -170,17 +181,27 @@ def cmd_render(args) -> int:
         _check_output(args.png, ".png", "--png")
     scene = load_scene(args.scene)
     settings = scene.settings(**setting_overrides(args))
+    farm = args.workers is not None or args.cluster is not None
+    if farm:
+        from .farm.render import check_fixed
+        check_fixed(settings, args.scene)
     from .tracer import image
     from .tracer.integrator import kernels_compiled, render, warm_up
 
-    if not kernels_compiled():
+    if not kernels_compiled() and args.cluster is None:
+        # Local workers load the kernels this compiles from the disk cache.
         if not args.quiet:
             print("snell: compiling kernels (first run only)", file=sys.stderr, flush=True)
         warm_up()
 
     bar = ProgressLine(sys.stderr) if not args.quiet and sys.stderr.isatty() else None
     try:
-        result = render(scene, settings, progress=bar)
+        if farm:
+            from .farm.render import render_on
+            result = render_on(args.cluster, args.workers, scene, settings, args.scene,
+                               progress=bar, quiet=args.quiet)
+        else:
+            result = render(scene, settings, progress=bar)
     finally:
         if bar:
             bar.close()
@@ -212,7 +233,8 @@ def _summary(args, rgb, result, bad_pixels) -> str:
         from .tracer.integrator import describe_stages
         skipped = f"; skipped: {describe_stages(result.stages)[1]}"
     samples = describe_adaptive(result) or f"{result.spp} spp"
-    return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {samples} in {_duration(wall)} "
+    on = f" on {_plural(result.workers, 'worker')}" if result.workers else ""
+    return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {samples} in {_duration(wall)}{on} "
             f"({rays}, {embree}){light}, {nans}{skipped}")
 
 

@@ -25,7 +25,7 @@ def _dask():
 
 @contextlib.contextmanager
 def connect(address: str | None = None, workers: int | None = None,
-            timeout: float = CONNECT_TIMEOUT):
+            timeout: float | None = None):
     """A Dask Client: of the scheduler at `address`, or of a LocalCluster of `workers` processes
     (one thread each) closed on exit. Unreachable scheduler: CliError."""
     distributed = _dask()
@@ -42,7 +42,7 @@ def connect(address: str | None = None, workers: int | None = None,
             cluster.close()
         return
     try:
-        client = distributed.Client(address, timeout=timeout)
+        client = distributed.Client(address, timeout=timeout or CONNECT_TIMEOUT)
     except (OSError, TimeoutError) as exc:
         raise CliError(f"--cluster {address}: cannot reach the scheduler "
                        f"({_reason(exc)})") from None
@@ -56,9 +56,10 @@ def _reason(exc: BaseException) -> str:
     return text[-1] if text else type(exc).__name__
 
 
-def check_workers(client, timeout: float = WORKERS_TIMEOUT) -> int:
+def check_workers(client, timeout: float | None = None) -> int:
     """Wait for a worker, then check that every worker runs this Snell (the same tracer sources)
     and can render; returns the worker threads. CliError otherwise."""
+    timeout = timeout or WORKERS_TIMEOUT
     try:
         client.wait_for_workers(1, timeout=timeout)
     except TimeoutError:

@@ -3,6 +3,7 @@ and spp, not by the workers) traced as tasks, and added in window order as they 
 makes the local render's float sums bit for bit (RenderResult.add)."""
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
@@ -11,7 +12,7 @@ from ..errors import CliError, one_line
 from ..tracer import passes
 from ..tracer.camera import Camera
 from ..tracer.result import RenderResult
-from . import keys, worker
+from . import cluster, keys, worker
 
 AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait for the client
 
@@ -21,6 +22,23 @@ def check_fixed(settings, where: str) -> None:
     if settings.noise_threshold > 0.0 or settings.batches:
         raise CliError(f"{where}: renders fixed samples only: add --noise-threshold 0 "
                        "(adaptive sampling and batches are not distributed yet)")
+
+
+def render_on(address: str | None, workers: int | None, scene, settings, name: str,
+              progress=None, quiet: bool = False) -> RenderResult:
+    """Render a scene on the scheduler at `address`, or on a LocalCluster of `workers`
+    processes started and stopped here; says where on stderr unless quiet."""
+    with cluster.connect(address, workers) as client:
+        threads = cluster.check_workers(client)
+        processes = len(client.nthreads())
+        if not quiet:
+            board = cluster.dashboard(client)
+            print(f"snell: rendering on {processes} Dask worker{'s' if processes != 1 else ''} "
+                  f"({threads} threads){', dashboard ' + board if board else ''}",
+                  file=sys.stderr, flush=True)
+        result = render_frame(client, scene, settings, name, progress=progress, threads=threads)
+        result.workers = processes
+        return result
 
 
 def render_frame(client, scene, settings, name: str, frame: int = 0, progress=None,

@@ -62,6 +62,7 @@ class RenderResult:
     embree_time_s: float = 0.0
     rays: int = 0
     threads: int = 1
+    workers: int = 0                 # Dask worker processes that traced it (farm/); 0: this one
     cancelled: bool = False
     stats: dict = field(default_factory=dict)
     stages: dict = field(default_factory=dict)   # Renderer.stages(): what the scene runs, skips

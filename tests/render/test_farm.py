@@ -7,12 +7,15 @@ workers import this checkout's snell through PYTHONPATH, which they inherit.
 import os
 import signal
 import socket
+import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
 
 distributed = pytest.importorskip("distributed")
+cloudpickle = pytest.importorskip("cloudpickle")
 
 from snell import cli                                            # noqa: E402
 from snell.farm import cluster as cluster_module, keys    # noqa: E402
@@ -22,7 +25,7 @@ from snell.tracer import image, passes                            # noqa: E402
 from snell.tracer.integrator import Renderer, kernels_compiled, warm_up   # noqa: E402
 from snell.tracer.result import RenderResult                       # noqa: E402
 from snell.tracer.scene import save                               # noqa: E402
-from support.builders import box, camera, icosphere, make_scene, quad   # noqa: E402
+from support.builders import box, camera, icosphere, make_scene, quad, tiny_scene  # noqa: E402
 
 SIZE = 16
 SPP = 12
@@ -41,8 +44,8 @@ def glass_room(**render):
     lamp = quad((0, 0, 1.98), 0.25, 0.25, normal_sign=-1)
     sphere = icosphere(2, radius=0.3, center=(0.0, 0.0, 0.6))[:2]
     cam = camera(position=(0.0, 0.0, 1.9), resolution=(SIZE, SIZE), lens=20.0)
-    return make_scene([(*walls, 0), (*lamp, 1), (*sphere, 2)], MATERIALS, cam, max_depth=4,
-                      spp=SPP, noise_threshold=0.0, **render)
+    render = {"max_depth": 4, "spp": SPP, "noise_threshold": 0.0, **render}
+    return make_scene([(*walls, 0), (*lamp, 1), (*sphere, 2)], MATERIALS, cam, **render)
 
 
 @pytest.fixture(scope="module")
@@ -103,3 +106,169 @@ def test_the_merge_order_is_what_makes_it_exact(client, small_windows, monkeypat
     assert same_image(local, merged(replies))
     assert not same_image(local, merged(replies[::-1]))
     assert not same_image(local, merged(replies[:2] + replies[3:]))
+
+
+# ---------------------------------------------------------------------------------------------
+# The command line
+
+
+def test_render_workers_writes_the_local_image(tmp_path):
+    """`snell render --workers 2` starts and stops two worker processes and writes the EXR of
+    the local render, says where it rendered and where the dashboard is."""
+    path = tmp_path / "room.snell"
+    save(glass_room(), str(path))
+    local, farm = tmp_path / "local.exr", tmp_path / "farm.exr"
+    assert cli.main(["render", str(path), "-o", str(local), "--quiet"]) == 0
+    proc = subprocess.run([sys.executable, "-m", "snell.cli", "render", str(path), "-o", str(farm),
+                           "--workers", "2"], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "rendering on 2 Dask workers (2 threads), dashboard http" in proc.stderr
+    assert f"{SPP} spp in " in proc.stdout and " on 2 workers " in proc.stdout
+    assert np.array_equal(image.read_exr(str(local)), image.read_exr(str(farm)))
+
+
+def test_adaptive_settings_are_refused_before_any_work(tmp_path, capsys):
+    path = tmp_path / "room.snell"
+    save(glass_room(noise_threshold=0.01), str(path))
+    assert cli.main(["render", str(path), "-o", str(tmp_path / "a.exr"), "--workers", "2"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("snell: error: ") and "room.snell" in err[0]
+    assert "--noise-threshold 0" in err[0]
+    assert sorted(os.listdir(tmp_path)) == ["room.snell"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Faults
+
+
+def on_workers(client, name, replacement):
+    """Replace a function of farm/worker.py in every worker process, the original kept there as
+    worker.saved_<name>."""
+    def swap():
+        if not hasattr(worker, "saved_" + name):
+            setattr(worker, "saved_" + name, getattr(worker, name))
+        setattr(worker, name, replacement)
+    client.run(swap)
+
+
+def restore(client, name):
+    """Put back what on_workers replaced (a restarted worker has its own already)."""
+    def put():
+        if hasattr(worker, "saved_" + name):
+            setattr(worker, name, getattr(worker, "saved_" + name))
+    client.run(put)
+
+
+# The worker processes cannot import this module: its functions travel by value.
+cloudpickle.register_pickle_by_value(sys.modules[__name__])
+
+
+def test_a_worker_killed_mid_render_loses_nothing(client, small_windows):
+    """Kill the process of a worker that is tracing a window: Dask reruns its windows on the
+    other worker and the image is still the local render's, bit for bit."""
+    scene = glass_room()
+    local = Renderer(scene, scene.settings()).render()
+    def slow(*args):      # long enough that the kill lands inside a task
+        time.sleep(0.5)
+        return worker.saved_trace_window(*args)
+    on_workers(client, "trace_window", slow)
+    pids = client.run(os.getpid)
+    killed = {}
+
+    def kill(result, done, total):
+        if killed:
+            return
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            busy = [a for a, keys in client.processing().items() if keys and a in pids]
+            if busy:
+                killed["pid"], killed["keys"] = pids[busy[0]], set(client.processing()[busy[0]])
+                killed["left"] = total - done
+                os.kill(killed["pid"], signal.SIGKILL)
+                return
+            time.sleep(0.01)
+    try:
+        merged = render_module.render_frame(client, scene, scene.settings(), "room.snell",
+                                            progress=kill)
+    finally:
+        restore(client, "trace_window")
+    assert killed and killed["keys"] and killed["left"] >= 1, killed
+    with pytest.raises(ProcessLookupError):
+        os.kill(killed["pid"], 0)
+    assert same_image(local, merged)
+    assert (local.nan_count, local.stats) == (merged.nan_count, merged.stats)
+
+
+def test_a_task_that_keeps_failing_is_one_error_naming_the_scene(client, tmp_path, capsys):
+    """Every try of a window fails on the workers: `snell render --cluster` exits 1 with one
+    line naming the scene and the failure, and writes nothing."""
+    path = tmp_path / "tiny.snell"
+    save(tiny_scene(noise_threshold=0.0), str(path))
+
+    def broken(*args):
+        raise RuntimeError("the BVH could not be built")
+    on_workers(client, "renderer_for", broken)
+    try:
+        status = cli.main(["render", str(path), "-o", str(tmp_path / "a.exr"),
+                           "--png", str(tmp_path / "a.png"), "--cluster",
+                           client.scheduler.address])
+    finally:
+        restore(client, "renderer_for")
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 1
+    assert err[-1].startswith("snell: error: ") and "tiny.snell" in err[-1]
+    assert "RuntimeError: the BVH could not be built" in err[-1] and "Traceback" not in err[-1]
+    assert len(err) == 2 and err[0].startswith("snell: rendering on 2 Dask workers")
+    assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
+
+
+def test_a_worker_of_another_snell_is_refused(client, tmp_path, capsys):
+    """A worker whose tracer sources differ from the client's: one error naming it, no render."""
+    path = tmp_path / "tiny.snell"
+    save(tiny_scene(noise_threshold=0.0), str(path))
+    real = worker.describe
+    on_workers(client, "describe", lambda: {**worker.saved_describe(), "sources": "0123abcd"})
+    try:
+        status = cli.main(["render", str(path), "-o", str(tmp_path / "a.exr"), "--cluster",
+                           client.scheduler.address])
+    finally:
+        restore(client, "describe")
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 1 and len(err) == 1 and real is worker.describe
+    assert "runs another Snell" in err[0] and "0123abcd" in err[0]
+    assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
+
+
+def test_an_unreachable_scheduler_is_one_error(tmp_path, capsys, monkeypatch):
+    """A closed port: one line naming the address, within the connect timeout."""
+    monkeypatch.setattr(cluster_module, "CONNECT_TIMEOUT", 2.0)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    path = tmp_path / "tiny.snell"
+    save(tiny_scene(noise_threshold=0.0), str(path))
+    start = time.monotonic()
+    status = cli.main(["render", str(path), "-o", str(tmp_path / "a.exr"), "--cluster",
+                       f"tcp://127.0.0.1:{port}"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 1 and len(err) == 1, err
+    assert err[0].startswith(f"snell: error: --cluster tcp://127.0.0.1:{port}: cannot reach "
+                             "the scheduler")
+    assert time.monotonic() - start < 30
+    assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
+
+
+def test_task_keys_are_the_render_content_frame_window_and_seed():
+    """The same scene and settings give the same keys (a retried task is the same task); the
+    scene, a setting of the image, the frame, the window or the seed each change it, the threads
+    do not."""
+    scene = glass_room()
+    key = keys.render_key(scene, scene.settings())
+    assert key == keys.render_key(glass_room(), scene.settings(threads=7))
+    assert key != keys.render_key(scene, scene.settings(spp=SPP + 1))
+    assert key != keys.render_key(glass_room(max_depth=3), scene.settings())
+    moved = glass_room()
+    moved.positions = moved.positions + np.float32(1e-3)
+    assert keys.scene_hash(moved) != keys.scene_hash(scene)
+    names = {keys.window_key(key, f, w, s) for f in (0, 1) for w in (0, 1) for s in (0, 1)}
+    assert len(names) == 8
