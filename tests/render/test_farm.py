@@ -4,10 +4,10 @@ order make the local render bit for bit, through lost workers; failures are one-
 One LocalCluster of two worker processes serves the module (starting one takes seconds); the
 workers import this checkout's snell through PYTHONPATH, which they inherit.
 """
+import multiprocessing
 import os
 import signal
 import socket
-import subprocess
 import sys
 import time
 
@@ -112,19 +112,20 @@ def test_the_merge_order_is_what_makes_it_exact(client, small_windows, monkeypat
 # The command line
 
 
-def test_render_workers_writes_the_local_image(tmp_path):
-    """`snell render --workers 2` starts and stops two worker processes and writes the EXR of
-    the local render, says where it rendered and where the dashboard is."""
+def test_render_workers_writes_the_local_image(tmp_path, capsys):
+    """`snell render --workers 2` starts two worker processes, writes the EXR of the local
+    render, says where it rendered and where the dashboard is, and stops its workers."""
     path = tmp_path / "room.snell"
     save(glass_room(), str(path))
     local, farm = tmp_path / "local.exr", tmp_path / "farm.exr"
     assert cli.main(["render", str(path), "-o", str(local), "--quiet"]) == 0
-    proc = subprocess.run([sys.executable, "-m", "snell.cli", "render", str(path), "-o", str(farm),
-                           "--workers", "2"], capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    assert "rendering on 2 Dask workers (2 threads), dashboard http" in proc.stderr
-    assert f"{SPP} spp in " in proc.stdout and " on 2 workers " in proc.stdout
+    before = set(multiprocessing.active_children())
+    assert cli.main(["render", str(path), "-o", str(farm), "--workers", "2"]) == 0
+    out, err = capsys.readouterr()
+    assert "snell: rendering on 2 Dask workers (2 threads), dashboard http" in err
+    assert f"{SPP} spp in " in out and " on 2 workers " in out
     assert np.array_equal(image.read_exr(str(local)), image.read_exr(str(farm)))
+    assert set(multiprocessing.active_children()) <= before    # no worker left running
 
 
 def test_adaptive_settings_are_refused_before_any_work(tmp_path, capsys):
@@ -192,6 +193,8 @@ def test_a_worker_killed_mid_render_loses_nothing(client, small_windows):
                                             progress=kill)
     finally:
         restore(client, "trace_window")
+        # The nanny restarts the killed worker: the tests after this one see two workers again.
+        client.wait_for_workers(2, timeout=120)
     assert killed and killed["keys"] and killed["left"] >= 1, killed
     with pytest.raises(ProcessLookupError):
         os.kill(killed["pid"], 0)
