@@ -233,7 +233,8 @@ def _summary(args, rgb, result, bad_pixels) -> str:
         from .tracer.integrator import describe_stages
         skipped = f"; skipped: {describe_stages(result.stages)[1]}"
     samples = describe_adaptive(result) or f"{result.spp} spp"
-    on = f" on {_plural(result.workers, 'worker')}" if result.workers else ""
+    workers = getattr(result, "workers", 0)     # Dask workers (farm/); 0: this process
+    on = f" on {_plural(workers, 'worker')}" if workers else ""
     return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {samples} in {_duration(wall)}{on} "
             f"({rays}, {embree}){light}, {nans}{skipped}")
 

@@ -46,6 +46,8 @@ def connect(address: str | None = None, workers: int | None = None,
     except (OSError, TimeoutError) as exc:
         raise CliError(f"--cluster {address}: cannot reach the scheduler "
                        f"({_reason(exc)})") from None
+    except ValueError as exc:     # not an address: no port, an unknown scheme
+        raise CliError(f"--cluster {address}: {_reason(exc)}") from None
     with client:
         yield client
 
@@ -66,7 +68,12 @@ def check_workers(client, timeout: float | None = None) -> int:
         raise CliError(f"no Dask worker joined the scheduler {client.scheduler.address} "
                        f"in {timeout:g} s") from None
     here = jit.sources_hash()
-    for address, info in sorted(client.run(worker.describe).items()):
+    try:
+        described = client.run(worker.describe)
+    except Exception as exc:  # noqa: BLE001  (a worker without snell cannot even unpickle it)
+        raise CliError(f"a Dask worker cannot run Snell ({type(exc).__name__}: "
+                       f"{_reason(exc)}): install snell[distributed] on every worker") from None
+    for address, info in sorted(described.items()):
         if info["error"]:
             raise CliError(f"worker {address}: {info['error']}")
         if info["sources"] != here:

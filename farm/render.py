@@ -15,6 +15,9 @@ from ..tracer.result import RenderResult
 from . import cluster, keys, worker
 
 AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait for the client
+# ...but no more than about this many bytes of window sums (a 3840x2160 window is 600 MB): the
+# client holds at most the windows in flight, so its memory stays bounded however long the render.
+AHEAD_BYTES = 4 << 30
 
 
 def check_fixed(settings, where: str) -> None:
@@ -57,7 +60,8 @@ def render_frame(client, scene, settings, name: str, frame: int = 0, progress=No
                           spp_budget=spp)
     futures, arrived = {}, {}
     tasks = _dask().as_completed()
-    ahead = AHEAD_PER_THREAD * threads + 1
+    window_bytes = w * h * 3 * 8 * 3          # sums, sums of squares, light sums: float64 RGB
+    ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, AHEAD_BYTES // window_bytes))
     start = time.perf_counter()
 
     def submit(i):

@@ -108,6 +108,30 @@ def test_the_merge_order_is_what_makes_it_exact(client, small_windows, monkeypat
     assert not same_image(local, merged(replies[:2] + replies[3:]))
 
 
+
+def test_the_client_holds_a_bounded_number_of_windows(client, small_windows, monkeypatch):
+    """With room for two windows' sums, never more than two windows are submitted and not yet
+    added (the client's memory), and the image is still the local render's."""
+    monkeypatch.setattr(render_module, "AHEAD_BYTES", 1)
+    scene = glass_room()
+    local = Renderer(scene, scene.settings()).render()
+    counts = {"submitted": 0, "added": 0, "most": 0}
+    submit, add = client.submit, render_module._add
+
+    def counting_submit(*args, **kwargs):
+        counts["submitted"] += 1
+        counts["most"] = max(counts["most"], counts["submitted"] - counts["added"])
+        return submit(*args, **kwargs)
+
+    def counting_add(result, reply):
+        counts["added"] += 1
+        add(result, reply)
+    monkeypatch.setattr(client, "submit", counting_submit)
+    monkeypatch.setattr(render_module, "_add", counting_add)
+    merged = render_module.render_frame(client, scene, scene.settings(), "room.snell")
+    assert counts["submitted"] == counts["added"] == 6 and counts["most"] == 2
+    assert same_image(local, merged)
+
 # ---------------------------------------------------------------------------------------------
 # The command line
 
