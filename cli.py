@@ -21,7 +21,7 @@ from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_i
                      check_writable_directory, int_at_least, number_at_least, print_error, warn)
 from .tracer.progress import describe_adaptive, pixels_sampling, time_left
 from .tracer.scene import LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
-from .tracer.settings import RUN, SCENE, of_scope
+from .tracer.settings import DEFAULT_THREADS, RUN, SCENE, of_scope
 from .validation.commands import COMMANDS as VALIDATION_COMMANDS
 
 SCENE_EXTENSIONS = (".blend", ".snell")
@@ -30,8 +30,18 @@ SCENE_EXTENSIONS = (".blend", ".snell")
 class _Parser(argparse.ArgumentParser):
     """Usage errors as one `snell: error: ...` line too (exit status 2, as argparse does)."""
 
+    commands: dict = {}     # the top parser's subcommand parsers, by name
+
     def error(self, message):
         self.exit(EXIT_USAGE, f"snell: error: {message} (see {self.prog} --help)\n")
+
+    def parse_args(self, args=None, namespace=None):
+        """As argparse's, but an unknown option is the subcommand's error, pointing to its help."""
+        parsed, extra = self.parse_known_args(args, namespace)
+        if extra:
+            parser = self.commands.get(getattr(parsed, "command", None), self)
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        return parsed
 
 
 # ---------------------------------------------------------------------------------------------
@@ -123,6 +133,7 @@ def _setup_render(p):
     p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="linear float EXR to write")
     p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit sRGB PNG (Standard view transform)")
     _add_setting_options(p)
+    _add_scale_option(p)
     _add_farm_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
 
@@ -146,6 +157,12 @@ def _add_setting_options(p):
     for setting in of_scope(SCENE, RUN):
         p.add_argument(setting.option, dest=setting.name, metavar=setting.metavar or None,
                        help=_option_help(setting), **_option_values(setting))
+
+
+def _add_scale_option(p):
+    """--scale, Blender's Resolution % (not a render setting: the scene's camera holds it)."""
+    p.add_argument("--scale", type=int_at_least(1, 10000), metavar="PCT",
+                   help="resolution percentage, as Blender's Resolution %% (default: the scene's)")
 
 
 def _option_values(setting) -> dict:
@@ -180,6 +197,8 @@ def cmd_render(args) -> int:
     if args.png:
         _check_output(args.png, ".png", "--png")
     scene = load_scene(args.scene)
+    if args.scale is not None:
+        scene = scene.with_camera(resolution_percentage=args.scale)
     settings = scene.settings(**setting_overrides(args))
     farm = args.workers is not None or args.cluster is not None
     if farm:
@@ -233,6 +252,8 @@ def _summary(args, rgb, result, bad_pixels) -> str:
         from .tracer.integrator import describe_stages
         skipped = f"; skipped: {describe_stages(result.stages)[1]}"
     samples = describe_adaptive(result) or f"{result.spp} spp"
+    if getattr(result, "time_limited", False):
+        samples += " (time limit reached)"
     workers = getattr(result, "workers", 0)     # Dask workers (farm/); 0: this process
     on = f" on {_plural(workers, 'worker')}" if workers else ""
     return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {samples} in {_duration(wall)}{on} "
@@ -317,12 +338,48 @@ def describe(scene) -> list[str]:
         f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
         f"render     {settings.spp} spp, max depth {settings.max_depth}, seed {settings.seed}, "
         f"fresnel {settings.fresnel}",
-        f"sampling   {adaptive_sampling(settings)}",
+        f"sampling   {adaptive_sampling(settings)}"
+        + (f", time limit {settings.time_limit:g} s" if settings.time_limit else ""),
+        f"sources    {setting_sources(scene.render)}",
+        *not_rendered_lines(scene.render),
         f"caustics   {light_tracing(stages)}",
         f"runs       {run}",
         f"skips      {skipped}",
         f"features   {', '.join(features) or 'none'}",
     ]
+
+
+def setting_sources(render: dict) -> str:
+    """Where each saved render setting came from (the exporter's render["sources"]): the file's
+    Cycles setting, a Snell override, a Snell setting or the default, grouped by source."""
+    sources = render.get("sources")
+    if not isinstance(sources, dict) or not sources:
+        return "the scene file's render settings"
+    groups = {}
+    for name in render:
+        if isinstance(sources.get(name), str):
+            groups.setdefault(sources[name], []).append(name)
+    return "; ".join(f"{source}: {', '.join(names)}" for source, names in groups.items())
+
+
+def not_rendered_lines(render: dict) -> list[str]:
+    """`cycles` lines for the Cycles settings Snell does not render (the exporter's
+    render["cycles_not_rendered"]): one each where the image differs (a warning where the user
+    set that), then those where only the noise differs, then those set as Snell renders."""
+    entries = render.get("cycles_not_rendered")
+    if not isinstance(entries, list):
+        return []
+    entries = [e for e in entries if isinstance(e, dict) and
+               all(isinstance(e.get(k), str) for k in ("label", "value", "snell", "status"))]
+    lines = [f"cycles     {'warning: ' if e.get('warn') else ''}{e['label']} {e['value']}: not "
+             f"rendered ({e['snell']})" for e in entries if e["status"] == "differs"]
+    for status, what in (("noise", "not rendered, the same image with other noise"),
+                         ("same", "rendered as set")):
+        names = [f"{e['label'].rsplit(' > ', 1)[-1]} {e['value']}" for e in entries
+                 if e["status"] == status]
+        if names:
+            lines.append(f"cycles     {what}: {', '.join(names)}")
+    return lines
 
 
 def adaptive_sampling(settings) -> str:
@@ -366,6 +423,7 @@ def _setup_batch(p):
                    help="output path, #### = frame number; .exr (linear float) or .png (view "
                         "transform) (default: the file's Output Properties)")
     _add_setting_options(p)
+    _add_scale_option(p)
 
 
 def _frames(text):
@@ -386,7 +444,7 @@ def cmd_batch(args) -> int:
     try:
         from .addon import batch
         return batch.run(args.scene, frames=args.frames, output=args.output,
-                         settings=setting_overrides(args))
+                         settings=setting_overrides(args), scale=args.scale)
     except ModuleNotFoundError as exc:
         if exc.name != "bpy":
             raise
@@ -402,7 +460,8 @@ def cmd_batch(args) -> int:
 def _setup_stress(p):
     p.add_argument("--report", metavar="DIR", help="write DIR/stress.json and DIR/stress.html (created)")
     p.add_argument("--quick", action="store_true", help="the CI subset (under 2 minutes on 2 cores)")
-    p.add_argument("--threads", type=int_at_least(1), default=2, help="render threads (default 2)")
+    p.add_argument("--threads", type=int_at_least(1), default=DEFAULT_THREADS,
+                   help=f"render threads (default: the machine's {DEFAULT_THREADS} cores)")
 
 
 def cmd_stress(args) -> int:
@@ -435,11 +494,25 @@ COMMANDS = [
 COMMANDS += VALIDATION_COMMANDS  # compare, study, false-alarms, bench (validation/commands.py)
 
 
+class _Version(argparse.Action):
+    """--version: asks git for the commit only when given (not on every command)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from .tracer.provenance import blender_version, snell_commit, snell_version
+        commit, blender = snell_commit(), blender_version()
+        print(f"snell {snell_version()}" + (f" (commit {commit})" if commit else "")
+              + (f", Blender {blender} (bpy)" if blender else ", no Blender (bpy) installed"))
+        parser.exit(0)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="snell", description="Snell: an Embree path tracer for Blender scenes.")
+    parser.add_argument("--version", action=_Version, nargs=0,
+                        help="print Snell's version (and its git commit in a checkout) and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    parser.commands = {}
     for name, help_text, setup, run in COMMANDS:
-        p = sub.add_parser(name, help=help_text, description=help_text)
+        p = parser.commands[name] = sub.add_parser(name, help=help_text, description=help_text)
         setup(p)
         p.set_defaults(run=run)
     return parser

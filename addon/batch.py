@@ -60,10 +60,23 @@ def _set_output(scene, output):
     scene.render.filepath = os.path.abspath(output)
 
 
+def _add_sample_counts(path, counts):
+    """Blender's EXR of a frame with each pixel's samples added as the channel `samples`, so
+    that `snell batch` and `snell render` write the same channels (R, G, B, samples). Left as
+    Blender wrote it when the counts do not cover the image (a render region without crop)."""
+    from ..tracer import image
+
+    rgb = image.read_exr(path)
+    if counts is None or counts.shape != rgb.shape[:2]:
+        return
+    image.write_exr(path, rgb, channels={"samples": counts})
+
+
 def run(blend_path: str, frames: str | None = None, output: str | None = None,
-        stream=sys.stderr, settings: dict | None = None) -> int:
+        stream=sys.stderr, settings: dict | None = None, scale: int | None = None) -> int:
     """Render the frames of blend_path; returns the exit status (0, or 1 if a frame failed).
-    settings: render settings over the file's (tracer/settings.py names), for every frame."""
+    settings: render settings over the file's (tracer/settings.py names), for every frame;
+    scale: the resolution percentage over the file's."""
     import bpy
 
     from . import final, registration
@@ -79,6 +92,8 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
         raise BatchError(str(exc)) from None
     scene = bpy.context.scene
     scene.render.engine = "SNELL"
+    if scale is not None:
+        scene.render.resolution_percentage = scale
     if output:
         _set_output(scene, output)
     frame_list = frame_list or [scene.frame_current]
@@ -156,6 +171,8 @@ def _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, strea
             reasons.add(error)
             print(f"{head}: FAILED: {error}", file=stream, flush=True)
             continue
+        if path.lower().endswith(".exr"):
+            _add_sample_counts(path, record.get("sample_counts"))
         rate = record.get("rays_per_second", 0.0) / 1e6
         samples = record.get("adaptive") or f"{record.get('spp', 0)} spp"
         print(f"{head}: {path}: {samples} in {time.perf_counter() - start:.1f}s "

@@ -189,10 +189,12 @@ def render(engine, depsgraph):
                       rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count,
                       light_paths=rendered.light_paths, adaptive=adaptive,
                       saved_share=rendered.saved_share,
-                      mean_spp=float(rendered.samples().mean()))
+                      mean_spp=float(rendered.samples().mean()),
+                      sample_counts=rendered.samples())
         if rendered.nan_count:
             engine.report({"WARNING"}, f"Snell: {rendered.nan_count} NaN/Inf samples counted as 0")
-        state = "Cancelled after" if rendered.cancelled else "Done:"
+        state = ("Cancelled after" if rendered.cancelled else
+                 "Time limit reached after" if rendered.time_limited else "Done:")
         engine.update_stats("", f"Snell: {state} {rendered.spp}/{spp} samples in "
                                 f"{_duration(time.perf_counter() - t_start)} "
                                 f"({rendered.rays_per_second / 1e6:.2f} M rays/s)"

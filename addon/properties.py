@@ -17,6 +17,14 @@ USE_ADAPTIVE_SAMPLING = BoolProperty(
     description="Stop sampling each pixel once its noise is below the threshold (adaptive "
                 "sampling, as Cycles')")
 
+# Snell follows the file's Cycles sampling and light-path settings (addon/export/cycles_settings.py)
+# unless this is unchecked; then Snell's own Sampling and Light Paths settings override them.
+USE_CYCLES_SETTINGS = BoolProperty(
+    name="Follow Cycles' Settings", default=True,
+    description="Render with the file's Cycles settings (samples, noise threshold, min samples, "
+                "time limit, seed, max bounces), as a Cycles render of it would; off: Snell's "
+                "own settings below override them")
+
 
 def enum_items(setting) -> list:
     """A choice setting's Blender enum items: (VALUE, Value, what it means)."""
@@ -46,6 +54,7 @@ def _annotations() -> dict:
         kind, options = property_options(setting)
         props[setting.name] = getattr(bpy.props, kind)(**options)
     props["use_adaptive_sampling"] = USE_ADAPTIVE_SAMPLING
+    props["use_cycles_settings"] = USE_CYCLES_SETTINGS
     return props
 
 

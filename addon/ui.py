@@ -4,16 +4,29 @@ import bpy
 ENGINE = "SNELL"
 
 # Built-in (bl_ui) panels whose settings Snell reads with the same meaning: camera lens and depth
-# of field, lights, material and world surface node trees, output format, frame range, output path,
-# dimensions and colour management. Cycles' own panels (cycles.ui) are left alone: they draw
-# scene.cycles settings that Snell ignores.
+# of field, material and world surface node trees, output format, frame range, output path,
+# metadata, encoding, dimensions and colour management, and the custom-property and animation
+# panels, which hold data, not render settings. Each has a COMPAT_ENGINES set of its own.
+#
+# Cycles' own panels (cycles.ui) are never given SNELL: they all share CyclesButtonsPanel's one
+# COMPAT_ENGINES set, so adding SNELL to one shows every Cycles panel (tests/blender/
+# test_panels.py). Where Snell renders what a Cycles panel shows (the lamp's fields, the
+# objects' ray visibility) it has a panel of its own below.
 COMPAT_PANELS = (
     "DATA_PT_context_camera", "DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_dof",
-    "DATA_PT_camera_dof_aperture", "DATA_PT_camera_safe_areas", "DATA_PT_camera_display",
-    "DATA_PT_context_light", "DATA_PT_light", "DATA_PT_spot",
+    "DATA_PT_camera_dof_aperture", "DATA_PT_camera_safe_areas",
+    "DATA_PT_camera_safe_areas_center_cut", "DATA_PT_camera_display",
+    "DATA_PT_camera_display_composition_guides", "DATA_PT_camera_background_image",
+    "DATA_PT_camera_animation", "DATA_PT_custom_props_camera",
+    "DATA_PT_context_light", "DATA_PT_light_animation", "DATA_PT_custom_props_light",
     "EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface",
-    "WORLD_PT_context_world", "EEVEE_WORLD_PT_surface",
-    "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_output", "RENDER_PT_output_color_management",
+    "WORLD_PT_context_world", "EEVEE_WORLD_PT_surface", "WORLD_PT_animation",
+    "WORLD_PT_custom_props",
+    "OBJECT_PT_custom_props",
+    "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_time_stretching",
+    "RENDER_PT_output", "RENDER_PT_output_color_management", "RENDER_PT_output_pixel_density",
+    "RENDER_PT_encoding", "RENDER_PT_encoding_video", "RENDER_PT_encoding_audio",
+    "RENDER_PT_stamp", "RENDER_PT_stamp_note", "RENDER_PT_stamp_burn",
     "RENDER_PT_color_management", "RENDER_PT_color_management_curves",
     "RENDER_PT_color_management_white_balance", "RENDER_PT_color_management_working_space",
     "RENDER_PT_color_management_advanced",
@@ -40,27 +53,58 @@ class SnellPanel:
         return layout.column(**options)
 
 
+def _cycles(context):
+    """The scene's Cycles settings when Snell follows them (Follow Cycles' Settings on), else None."""
+    props, cycles = context.scene.snell, getattr(context.scene, "cycles", None)
+    return cycles if props.use_cycles_settings and hasattr(cycles, "samples") else None
+
+
+def _draw_sampling(panel, owner, use, threshold, samples, least, time_limit):
+    """The Sampling panel's adaptive sampling rows, of Snell's or of Cycles' properties."""
+    # Cycles' layout: the checkbox and the value on one row under a "Noise Threshold" heading,
+    # the value greyed out when off; the samples then are a maximum, with a minimum.
+    col = panel.column(heading="Noise Threshold", align=True)
+    row = col.row(align=True)
+    row.prop(owner, use, text="")
+    sub = row.row()
+    sub.active = getattr(owner, use)
+    sub.prop(owner, threshold, text="")
+    col = panel.column(align=True)
+    if getattr(owner, use):
+        col.prop(owner, samples, text="Max Samples")
+        col.prop(owner, least, text="Min Samples")
+        if getattr(owner, least) == 0 and getattr(owner, threshold) > 0:
+            # The automatic minimum at Cycles' 0.01 is 64: at 64 samples or fewer the
+            # threshold changes nothing (`snell info` says so too).
+            from ..tracer.adaptive import auto_min_spp, first_check
+            least_spp = first_check(auto_min_spp(getattr(owner, threshold)))
+            if least_spp >= getattr(owner, samples):
+                col.label(text=f"Automatic minimum {least_spp}: no adaptive saving",
+                          icon="INFO")
+    else:
+        col.prop(owner, samples, text="Samples")
+    col.prop(owner, time_limit)
+
+
 class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
     bl_label = "Sampling"
 
     def draw(self, context):
-        props = context.scene.snell
-        # Cycles' layout: the checkbox and the value on one row under a "Noise Threshold" heading,
-        # the value greyed out when off; the samples then are a maximum, with a minimum.
-        col = self.column(heading="Noise Threshold", align=True)
-        row = col.row(align=True)
-        row.prop(props, "use_adaptive_sampling", text="")
-        sub = row.row()
-        sub.active = props.use_adaptive_sampling
-        sub.prop(props, "noise_threshold", text="")
-        col = self.column(align=True)
-        if props.use_adaptive_sampling:
-            col.prop(props, "spp", text="Max Samples")
-            col.prop(props, "min_spp", text="Min Samples")
-        else:
-            col.prop(props, "spp", text="Samples")
+        props, cycles = context.scene.snell, _cycles(context)
+        self.column().prop(props, "use_cycles_settings")
+        if cycles is not None:
+            # The file's Cycles settings themselves: editing them here is editing Cycles'.
+            _draw_sampling(self, cycles, "use_adaptive_sampling", "adaptive_threshold", "samples",
+                                "adaptive_min_samples", "time_limit")
+            row = self.column().row(align=True)
+            row.prop(cycles, "seed")
+            row.prop(cycles, "use_animated_seed", text="", icon="TIME")
+            self.layout.label(text="Not rendered by Snell: denoising, light tree, path guiding",
+                              icon="INFO")
+            return
+        _draw_sampling(self, props, "use_adaptive_sampling", "noise_threshold", "spp", "min_spp",
+                            "time_limit")
         self.column().prop(props, "seed")
-
 
 class RENDER_PT_snell_sampling_viewport(SnellPanel, bpy.types.Panel):
     bl_label = "Viewport"
@@ -77,11 +121,17 @@ class RENDER_PT_snell_light_paths(SnellPanel, bpy.types.Panel):
     bl_label = "Light Paths"
 
     def draw(self, context):
-        props = context.scene.snell
+        props, cycles = context.scene.snell, _cycles(context)
         col = self.column()
-        col.prop(props, "max_depth")
-        col.label(text=f"Cycles: Max Bounces {props.max_depth - 1}" if props.max_depth > 0
-                  else "No Cycles equivalent (emitters only)")
+        if cycles is not None:
+            col.prop(cycles, "max_bounces", text="Max Bounces")
+            col.label(text=f"Snell: Max Depth {cycles.max_bounces + 1}; per-kind limits, "
+                           "clamping and Filter Glossy are not rendered")
+        else:
+            col.prop(props, "max_depth")
+            col.label(text=f"Cycles: Max Bounces {props.max_depth - 1}" if props.max_depth > 0
+                      else "No Cycles equivalent (emitters only)")
+        # What Snell adds: its own whether or not it follows Cycles.
         col.prop(props, "fresnel")
         col.prop(props, "caustics")
         col.prop(props, "light_vertices")
@@ -95,8 +145,132 @@ class RENDER_PT_snell_performance(SnellPanel, bpy.types.Panel):
         self.column().prop(context.scene.snell, "threads")
 
 
+class RENDER_PT_snell_film(SnellPanel, bpy.types.Panel):
+    bl_label = "Film"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        # Cycles' Film panel would offer settings Snell does not render yet: say what it does.
+        col = self.column()
+        rd, cycles = context.scene.render, getattr(context.scene, "cycles", None)
+        col.label(text="Pixel filter: 1-pixel box"
+                  + (f" (file: {cycles.pixel_filter_type.replace('_', '-').title()} "
+                     f"{cycles.filter_width:g} px, not rendered)" if cycles is not None and
+                     (cycles.pixel_filter_type != "BOX" or cycles.filter_width != 1.0) else ""))
+        if cycles is not None and cycles.film_exposure != 1.0:
+            col.label(text=f"Exposure {cycles.film_exposure:g}: not rendered", icon="ERROR")
+        col.label(text="Transparent: not rendered, the film is opaque"
+                  + (" (set in this file)" if rd.film_transparent else ""),
+                  icon="ERROR" if rd.film_transparent else "NONE")
+
+
+class SnellDataPanel(SnellPanel):
+    bl_context = "data"
+
+
+class DATA_PT_snell_light(SnellDataPanel, bpy.types.Panel):
+    """Every lamp field Snell renders (addon/export/lights.py), laid out as Cycles' Light panel."""
+    bl_label = "Light"
+
+    @classmethod
+    def poll(cls, context):
+        return context.light is not None and super().poll(context)
+
+    def draw(self, context):
+        light, layout = context.light, self.layout
+        layout.row().prop(light, "type", expand=True)
+        col = self.column()
+        row = col.column(align=True, heading="Temperature").row(align=True)
+        row.prop(light, "use_temperature", text="")
+        sub = row.row()
+        sub.active = light.use_temperature
+        sub.prop(light, "temperature", text="")
+        col.prop(light, "color", text="Tint" if light.use_temperature else "Color")
+        col = self.column()
+        col.prop(light, "energy")
+        col.prop(light, "exposure")
+        col.prop(light, "normalize")
+        col = self.column()
+        if light.type in {"POINT", "SPOT"}:
+            col.prop(light, "shadow_soft_size", text="Radius")
+            col.prop(light, "use_soft_falloff")
+        elif light.type == "SUN":
+            col.prop(light, "angle")
+        elif light.type == "AREA":
+            col.prop(light, "shape")
+            sub = col.column(align=True)
+            if light.shape in {"RECTANGLE", "ELLIPSE"}:
+                sub.prop(light, "size", text="Size X")
+                sub.prop(light, "size_y", text="Y")
+            else:
+                sub.prop(light, "size")
+
+
+class DATA_PT_snell_light_beam(SnellDataPanel, bpy.types.Panel):
+    bl_label = "Beam Shape"
+    bl_parent_id = "DATA_PT_snell_light"
+
+    @classmethod
+    def poll(cls, context):
+        return context.light is not None and context.light.type in {"SPOT", "AREA"} \
+            and super().poll(context)
+
+    def draw(self, context):
+        light, col = context.light, self.column()
+        if light.type == "SPOT":
+            col.prop(light, "spot_size", text="Angle")
+            col.prop(light, "spot_blend", text="Blend", slider=True)
+            col.prop(light, "show_cone")
+        else:
+            col.prop(light, "spread")
+
+
+class DATA_PT_snell_light_settings(SnellDataPanel, bpy.types.Panel):
+    """Cycles' light Settings, but only what Snell renders: Cast Shadow and Multiple Importance
+    (not the per-light max bounces, portals or the shadow-caustics flag)."""
+    bl_label = "Settings"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.light is not None and super().poll(context)
+
+    def draw(self, context):
+        light, col = context.light, self.column(align=True)
+        col.prop(light, "use_shadow", text="Cast Shadow")
+        cycles = getattr(light, "cycles", None)
+        if cycles is not None:
+            col.prop(cycles, "use_multiple_importance_sampling", text="Multiple Importance")
+
+
+class OBJECT_PT_snell_visibility(SnellPanel, bpy.types.Panel):
+    """Show In Renders for every object; ray visibility for lamps, which Snell honours (not for
+    meshes, which every ray sees)."""
+    bl_label = "Visibility"
+    bl_context = "object"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and super().poll(context)
+
+    def draw(self, context):
+        ob, col = context.object, self.column(heading="Show In")
+        col.prop(ob, "hide_viewport", text="Viewports", invert_checkbox=True, toggle=False)
+        col.prop(ob, "hide_render", text="Renders", invert_checkbox=True, toggle=False)
+        col = self.column(heading="Ray Visibility")
+        if ob.type == "LIGHT":
+            col.prop(ob, "visible_camera", text="Camera")
+            col.prop(ob, "visible_diffuse", text="Diffuse")
+            col.prop(ob, "visible_glossy", text="Glossy")
+            col.prop(ob, "visible_transmission", text="Transmission")
+        else:
+            col.label(text="Not rendered for meshes: every ray sees them")
+
+
 classes = (RENDER_PT_snell_sampling, RENDER_PT_snell_sampling_viewport, RENDER_PT_snell_light_paths,
-           RENDER_PT_snell_performance)
+           RENDER_PT_snell_film, RENDER_PT_snell_performance, DATA_PT_snell_light,
+           DATA_PT_snell_light_beam, DATA_PT_snell_light_settings, OBJECT_PT_snell_visibility)
 
 
 def add_compat_engine():

@@ -198,7 +198,9 @@ class ViewSession:
         self.status = "building the BVH" if not reuse else "updating"
         t0 = time.perf_counter()
         # Every pixel to the budget: the viewport refines the whole image, never adaptively.
-        settings = job.scene.settings(spp=job.spp, noise_threshold=0.0, threads=self.threads)
+        # The final render's time limit is not the viewport's (viewport_time_limit, per session).
+        settings = job.scene.settings(spp=job.spp, noise_threshold=0.0, time_limit=0.0,
+                                      threads=self.threads)
         renderer = integrator.Renderer(job.scene, settings,
                                        geometry=self._geometry if reuse else None)
         self._geometry, self._geometry_version = renderer.geometry, job.geometry_version

@@ -25,6 +25,9 @@ def check_fixed(settings, where: str) -> None:
     if settings.noise_threshold > 0.0 or settings.batches:
         raise CliError(f"{where}: renders fixed samples only: add --noise-threshold 0 "
                        "(adaptive sampling and batches are not distributed yet)")
+    if getattr(settings, "time_limit", 0):
+        # The local render's samples would depend on its clock: no image to be equal to.
+        raise CliError(f"{where}: renders fixed samples only: add --time-limit 0")
 
 
 def render_on(address: str | None, workers: int | None, scene, settings, name: str,

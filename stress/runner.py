@@ -22,6 +22,7 @@ from ..pages.images import colour_bar, diverging, png_bytes, upscale
 from . import extremes, glass, lens, lights
 from .cases import AT_MOST, EXACT, STATISTICAL, UNSUPPORTED, Case
 from ..tracer.image import to_srgb8
+from ..tracer.provenance import provenance
 
 ALPHA = 0.01
 JSON_VERSION = 1
@@ -231,7 +232,7 @@ def write_json(path, data):
         return v
     tmp = path + ".tmp"
     with open(tmp, "w") as f:
-        json.dump(plain(data), f, indent=2, sort_keys=True, allow_nan=False)
+        json.dump(plain({**data, "provenance": provenance()}), f, indent=2, sort_keys=True, allow_nan=False)
     os.replace(tmp, path)
 
 

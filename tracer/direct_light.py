@@ -14,9 +14,9 @@ import math
 from .counters import CONNECTIONS
 from .geometry import FAR, offset_origin
 from .jit import jit, jit_inline
-from .light_vertices import connection, direction_to, light_vertex_density
+from .light_vertices import connection, direction_to
 from .lights.codes import CASTS_SHADOW, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
-from .lights.dispatch import pick_light, sample_light
+from .lights.dispatch import light_vertex_density, pick_light, sample_light
 from .lobes import DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT, bsdf_eval
 from .material_kinds import DIFFUSE
 from .sampler import sample_pair

@@ -133,7 +133,7 @@ class Renderer:
 
     def with_sampling(self, **overrides) -> "Renderer":
         """This renderer with other settings of the ones a render reads pass by pass (spp,
-        batches, noise_threshold, min_spp), sharing everything it built."""
+        batches, noise_threshold, min_spp, time_limit), sharing everything it built."""
         for key in overrides:
             if key not in SAMPLING:
                 raise ValueError(f"with_sampling: {key} is fixed when a Renderer is built "
@@ -374,6 +374,10 @@ class Renderer:
                     break
                 if scheduler.converged:
                     break                 # every pixel has converged
+                limit = self.settings.time_limit
+                if limit > 0.0 and time.perf_counter() - start >= limit:
+                    result.time_limited = True    # a whole image of the passes done
+                    break
         result.time_s = time.perf_counter() - start
         return result
 

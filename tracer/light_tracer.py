@@ -35,10 +35,8 @@ from . import specular
 from .camera import camera_connection
 from .geometry import hit_point, offset_origin
 from .jit import jit, jit_inline
-from .lights.codes import (AREA, EMISSIVE_TRIANGLE, POINT, SUN, USES_MIS, VISIBLE_DIFFUSE,
-                           VISIBLE_GLOSSY, VISIBLE_TRANSMISSION)
-from .lights.dispatch import emission_anchor, emit_along
-from .lights.point import intersect_point_lamp
+from .lights.codes import SUN, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
+from .lights.dispatch import emission_anchor, emit_along, light_seen, starts_light_paths
 from .lights.sun import emit_sun
 from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, REFRACTION
 from .sampler import mix, random_pair
@@ -111,19 +109,7 @@ def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caust
     kinds, indices, power = [], [], []
     for k in np.flatnonzero(t.pmf > 0):
         kind, i = int(t.kind[k]), int(t.index[k])
-        if kind == AREA:
-            flags, ok = t.area_flags[i], t.area_spread_tan[i] > 0.0
-            # A one-sided lamp with every specular object behind its plane lights none of them.
-            ok &= pure or bool(np.any((centers - t.area_center[i]) @ t.area_emit[i] > -radii))
-        elif kind == POINT:
-            flags, ok = t.point_flags[i], t.point_radius[i] > 0.0
-        elif kind == SUN:
-            flags, ok = t.sun_flags[i], t.sun_one_minus_cos[i] > 0.0
-        elif kind == EMISSIVE_TRIANGLE:
-            flags, ok = USES_MIS, True
-        else:                      # the world: the path tracer keeps it
-            continue
-        if ok and flags & USES_MIS:
+        if starts_light_paths(t, kind, i, centers, radii, pure):
             kinds.append(kind)
             indices.append(i)
             power.append(t.pmf[k])
@@ -252,18 +238,8 @@ def emit_light_paths(caustics, lights, mesh, seed, pass_index, start, n, paths):
 @jit_inline
 def lamp_sees(caustics, lights, e, w, s1, kind):
     """Whether the path tracer's ray from the first specular vertex s1 back along the light path
-    (a ray of kind `kind`) would find the emitter: its visibility to that kind of ray and, for
-    point and spot lamps, the lamp's own shape seen from s1."""
-    lamp_kind, i = caustics.emitter_kind[e], caustics.emitter_index[e]
-    if lamp_kind == AREA:
-        return (lights.area_flags[i] & kind) != 0
-    if lamp_kind == SUN:
-        return (lights.sun_flags[i] & kind) != 0
-    if lamp_kind == POINT:
-        if not lights.point_flags[i] & kind:
-            return False
-        return intersect_point_lamp(lights, i, s1, neg(w)) > 0.0
-    return True
+    (a ray of kind `kind`) would find emitter e of the caustics tables (dispatch.light_seen)."""
+    return light_seen(lights, caustics.emitter_kind[e], caustics.emitter_index[e], s1, w, kind)
 
 
 @jit

@@ -16,7 +16,8 @@ same density of reaching y1 from z):
     p2 = the light vertex:                    q(y0) cos_g(y1, w0) / p_A(z -> y1)
 
 where q = (the lamp's pick probability / its area) x (emission sides / pi) is the light vertex's
-density of y0 in area and of its direction per cosine (`light_vertex_density`), and p_A(z -> y1)
+density of y0 in area and of its direction per cosine (`light_vertex_density`, in
+lights/dispatch.py with the other switches on a light's kind), and p_A(z -> y1)
 = pdf_bsdf(z, w1) cos_g(y1, w1) / |y1 - z|^2 the density of the camera path's own step to y1.
 The path tracer adds p2 to the weights of its two strategies (wavefront.emitters, materials);
 the connection itself is weighted by p2^2 / (p0^2 + p1^2 + p2^2). Light vertices start on
@@ -32,8 +33,8 @@ import numpy as np
 
 from .geometry import hit_point, offset_origin
 from .jit import jit, jit_inline
-from .lights.codes import AREA, CASTS_SHADOW, EMISSIVE_TRIANGLE, USES_MIS, VISIBLE_DIFFUSE
-from .lights.dispatch import emitter_density, light_vertex_ray, pick_light
+from .lights.codes import STARTS_LIGHT_VERTICES
+from .lights.dispatch import emitter_density, light_vertex_density, light_vertex_ray, pick_light
 from .material_kinds import DIFFUSE
 from .sampler import sample_pair
 from .textures import surface_colors
@@ -41,9 +42,6 @@ from .vec import dot, mul, neg, row, store, sub
 
 # Sampler dimensions of a camera path's light vertex (any numbers apart from the bounces' own).
 PICK_DIMENSION, POINT_DIMENSION, DIRECTION_DIMENSION = 0x4C56_0000, 0x4C56_0001, 0x4C56_0002
-# A lamp starts light vertices only if camera paths treat it as a surface light: found by BSDF
-# samples (MIS), blocked by geometry (shadows) and lighting diffuse vertices.
-STARTS = USES_MIS | CASTS_SHADOW | VISIBLE_DIFFUSE
 
 
 class LightVertices(NamedTuple):
@@ -75,30 +73,8 @@ def new_light_vertices(n: int) -> LightVertices:
 
 def starts_light_vertices(lights) -> bool:
     """Whether any light of these tables (lights.tables.Lights) starts light vertices."""
-    area = (lights.area_flags & STARTS) == STARTS
+    area = (lights.area_flags & STARTS_LIGHT_VERTICES) == STARTS_LIGHT_VERTICES
     return bool(lights.tri_prim.shape[0] > 0 or np.any(area & (lights.area_spread_tan > 0.0)))
-
-
-@jit_inline
-def light_vertex_density(lights, kind, i, pmf):
-    """q of light i of this kind (a lights.codes kind) picked with probability pmf: the density
-    of the light vertex's point on it (per area) times that of its direction (per cosine); 0 for
-    the lights that start no light vertices."""
-    if kind == EMISSIVE_TRIANGLE:
-        return pmf / lights.tri_area[i] * (0.5 / math.pi)      # cosine-weighted, either face
-    if kind == AREA and lights.area_flags[i] & STARTS == STARTS \
-            and lights.area_spread_tan[i] > 0.0:
-        return pmf / lights.area_area[i] / math.pi
-    return 0.0
-
-
-@jit_inline
-def triangle_density(lights, prim):
-    """light_vertex_density of mesh triangle prim (0 where it is no light)."""
-    if lights.tri_prim.shape[0] == 0 or lights.tri_pmf[prim] == 0.0:
-        return 0.0
-    return light_vertex_density(lights, EMISSIVE_TRIANGLE, lights.light_of_prim[prim],
-                                lights.tri_pmf[prim])
 
 
 @jit_inline

@@ -64,6 +64,7 @@ class RenderResult:
     threads: int = 1
     workers: int = 0                 # Dask worker processes that traced it (farm/); 0: this one
     cancelled: bool = False
+    time_limited: bool = False      # stopped by the settings' time_limit (a whole image)
     stats: dict = field(default_factory=dict)
     stages: dict = field(default_factory=dict)   # Renderer.stages(): what the scene runs, skips
     # Adaptive sampling (tracer/adaptive.py): each pixel's samples (None: spp everywhere) and

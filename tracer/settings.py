@@ -15,6 +15,7 @@ so adding a setting is one entry here (and the code that uses it).
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass, field
 
 from .checks import SceneError, finite_number, int_in, short
@@ -28,7 +29,8 @@ MAX_INT = 2 ** 31 - 1
 # Caustics). From 1/64 to 1/8 the product is flat within the timing noise; more light paths only
 # cost time, since the camera paths' own noise then dominates even in the caustics.
 LIGHT_PATHS_PER_CAMERA_PATH = 0.125
-DEFAULT_THREADS = 2       # what threads 0 means outside Blender
+# What threads 0 means outside Blender: every logical core, as Cycles' automatic detection.
+DEFAULT_THREADS = os.cpu_count() or 1
 
 
 @dataclass(frozen=True)
@@ -108,8 +110,12 @@ SETTINGS = (
             "multiple of 16, at least 32); 0 chooses from the noise threshold as Cycles does "
             "(64 at 0.01)", least=0, greatest=MAX_INT, label="Min Samples",
             metavar="N", ui={"soft_max": 4096}),
+    Setting("time_limit", float, 0.0, "Stop adding samples after this many seconds of "
+            "rendering (the pass under way finishes; Cycles' Time Limit); 0 has no limit",
+            least=0.0, metavar="S",
+            ui={"soft_max": 3600.0, "subtype": "TIME_ABSOLUTE", "unit": "TIME_ABSOLUTE"}),
     Setting("threads", int, 0, "Render threads; 0: Blender's Performance > Threads in "
-            f"Blender, {DEFAULT_THREADS} elsewhere", scope=RUN, least=0, greatest=4096,
+            "Blender, the machine's logical cores elsewhere", scope=RUN, least=0, greatest=4096,
             metavar="T", ui={"soft_max": 256}),
     Setting("viewport_spp", int, 1024, "Samples per pixel the viewport's Rendered mode refines "
             "to; 0 refines until the view changes or the viewport closes", scope=VIEWPORT,
@@ -141,7 +147,7 @@ SETTINGS = (
 )
 BY_NAME = {s.name: s for s in SETTINGS}
 # The settings a render reads pass by pass, not when a Renderer is built (Renderer.with_sampling).
-SAMPLING = ("spp", "batches", "noise_threshold", "min_spp")
+SAMPLING = ("spp", "batches", "noise_threshold", "min_spp", "time_limit")
 
 
 def of_scope(*scopes) -> tuple:

@@ -28,13 +28,9 @@ from .direct_light import add_light
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
 from .light_tracer import CAUSTIC, NO_CAUSTIC
-from .light_vertices import light_vertex_density, triangle_density
-from .lights.area import area_lamp_hit, intersect_area_lamp
-from .lights.codes import AREA, USES_MIS, VISIBLE_CAMERA, seen_by
-from .lights.point import intersect_point_lamp, point_lamp_hit
-from .lights.sun import sun_hit
-from .lights.triangles import pdf_triangle
-from .lights.world import pdf_world, world_radiance
+from .lights.codes import VISIBLE_CAMERA
+from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lights_at_escape,
+                              triangle_hit)
 from .material_kinds import DIFFUSE, EMISSION, LAYERED
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
@@ -165,56 +161,38 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
     vertex could have found change. A pilot compares the two (pilot.py).
 
     Lamps have no surface, as in Cycles: a ray adds the light of every lamp it crosses before its
-    hit (or escape) and goes on as if the lamp were not there. A lamp is seen by the rays its
-    visibility flags allow (codes.seen_by). With `caustics` (the light tracer runs), paths in the
-    CAUSTIC state get no light from lamps, emissive triangles or suns: those paths are the light
-    tracer's to count.
+    hit (or escape) and goes on as if the lamp were not there. What a ray gets from each kind of
+    light is lights.dispatch's (lamp_crossed, light_at_escape, triangle_hit); the MIS weights
+    are this stage's. With `caustics` (the light tracer runs), paths in the CAUSTIC state get no
+    light from lamps, emissive triangles or suns: those paths are the light tracer's to count.
     """
     kept = 0
     for i in range(m):
         o, d = row(paths.o, i), row(paths.d, i)
         beta, path, kind = row(paths.beta, i), paths.path[i], paths.ray_kind[i]
-        pdf_prev = paths.pdf_prev[i]
+        pdf_prev, connect = paths.pdf_prev[i], paths.connect[i]
         t_surface = np.float64(t[i])     # Embree leaves a miss's t at the ray's length
         emitters_count = not (caustics and paths.caustic[i] == CAUSTIC)
-        for lamp in range(lights.area_area.shape[0] if emitters_count else 0):
-            if not seen_by(lights.area_flags[lamp], kind):
-                continue
-            t_lamp = intersect_area_lamp(lights, lamp, o, d)
-            if 0.0 < t_lamp < t_surface:
-                light, density = area_lamp_hit(lights, lamp, d, t_lamp)
-                q = light_vertex_density(lights, AREA, lamp, lights.area_pmf[lamp])
-                pdf_light = lights.area_pmf[lamp] * density
+        for lamp in range(lamps_to_cross(lights) if emitters_count else 0):
+            crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
+                                                                 kind, pdf_prev, connect)
+            if crossed:
                 add_light_both(radiance, without, path, beta, light,
-                               mis_weight(next_event, pdf_prev, pdf_light, q * paths.connect[i]),
+                               mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
                                mis_weight(next_event, pdf_prev, pdf_light, 0.0))
-        for lamp in range(lights.point_radius.shape[0] if emitters_count else 0):
-            if not seen_by(lights.point_flags[lamp], kind):
-                continue
-            t_lamp = intersect_point_lamp(lights, lamp, o, d)
-            if 0.0 < t_lamp < t_surface:
-                light, density = point_lamp_hit(lights, lamp, o, d, t_lamp, pdf_prev)
-                w = mis_weight(next_event, pdf_prev, lights.point_pmf[lamp] * density, 0.0)
-                add_light_both(radiance, without, path, beta, light, w, w)
         if prim[i] < 0:
-            if lights.has_world:
-                w = mis_weight(next_event, pdf_prev, pdf_world(lights, d), 0.0)
-                add_light_both(radiance, without, path, beta, world_radiance(lights, d), w, w)
-            for sun in range(lights.sun_one_minus_cos.shape[0] if emitters_count else 0):
-                # Cycles finds a sun's disc only with its MIS option, camera rays included.
-                flags = lights.sun_flags[sun]
-                if flags & kind and flags & USES_MIS:
-                    light, density = sun_hit(lights, sun, d)
-                    w = mis_weight(next_event, pdf_prev, lights.sun_pmf[sun] * density, 0.0)
+            for k in range(lights_at_escape(lights, emitters_count)):
+                found, light, pdf_light = light_at_escape(lights, k, d, kind)
+                if found:
+                    w = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
                     add_light_both(radiance, without, path, beta, light, w, w)
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
         if emitters_count and max3(emission) > 0.0:     # Emission, or a Principled BSDF's
-            pdf_light = pdf_triangle(lights, prim[i], o, d, t_surface)
+            pdf_light, pdf_vertex = triangle_hit(lights, prim[i], o, d, t_surface, connect)
             add_light_both(radiance, without, path, beta, emission,
-                           mis_weight(next_event, pdf_prev, pdf_light,
-                                      triangle_density(lights, prim[i]) * paths.connect[i]),
+                           mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
                            mis_weight(next_event, pdf_prev, pdf_light, 0.0))
         if mats.kind[mat] == EMISSION:
             continue

@@ -13,6 +13,7 @@ import numpy as np
 from ..pages.html_page import data_uri, page
 from ..pages.images import png_bytes
 from ..pages.plots import loglog_svg
+from ..tracer.provenance import provenance
 from .bench_curves import ADAPTIVE_RENDERERS, light_share
 
 SCHEMA = 1
@@ -54,7 +55,7 @@ def missing_values(data, path="") -> list:
 def write_json(path, data):
     tmp = path + ".tmp"
     with open(tmp, "w") as f:
-        json.dump(_finite(data), f, indent=2, sort_keys=True)
+        json.dump(_finite({**data, "provenance": provenance()}), f, indent=2, sort_keys=True)
     os.replace(tmp, path)
 
 

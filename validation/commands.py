@@ -13,6 +13,7 @@ import sys
 
 from ..errors import (CliError, check_input_file, check_writable_directory, int_at_least,
                       number_at_least)
+from ..tracer.settings import DEFAULT_THREADS
 
 
 def _common(p):
@@ -27,7 +28,8 @@ def _common(p):
                    help="resolution percentage for both renderers (default: the file's)")
     p.add_argument("--cycles-seeds", type=int_at_least(2), default=8, metavar="K",
                    help="independent Cycles renders for the per-pixel variance (default 8)")
-    p.add_argument("--threads", type=int_at_least(1), default=2, help="threads for each renderer")
+    p.add_argument("--threads", type=int_at_least(1), default=DEFAULT_THREADS,
+                   help=f"threads for each renderer (default: the machine's {DEFAULT_THREADS} cores)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
@@ -123,7 +125,8 @@ def setup_false_alarms(p):
                         "(default out/false-alarms)")
     p.add_argument("--cached", action="store_true",
                    help="render nothing: evaluate the runs already in the cache (up to --runs)")
-    p.add_argument("--threads", type=int_at_least(1), default=2, help="threads for each renderer")
+    p.add_argument("--threads", type=int_at_least(1), default=DEFAULT_THREADS,
+                   help=f"threads for each renderer (default: the machine's {DEFAULT_THREADS} cores)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
 

@@ -86,8 +86,9 @@ def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_thre
     (docs/validation.md). tests/render/test_light_vertices.py holds the image with light vertices to
     the image without them."""
     from ..tracer.integrator import Renderer
+    # No time limit (a file's Cycles Time Limit): the comparison is at matched sample counts.
     settings = scene.settings(threads=threads, sampler="independent", spp=spp,
-                              noise_threshold=noise_threshold,
+                              noise_threshold=noise_threshold, time_limit=0.0,
                               **({} if caustics is None else {"caustics": caustics}))
     if noise_threshold <= 0.0:
         settings = settings.replace(light_vertices=False, spp=batch_spp(spp), batches=BATCHES)

@@ -19,6 +19,7 @@ from ..pages.images import colour_bar, diverging, png_bytes, text_label, upscale
 from ..pages.plots import rate_svg
 from ..tracer.atomic import atomic_directory
 from ..tracer.image import to_srgb8
+from ..tracer.provenance import provenance
 
 Z_RANGE = 6.0
 
@@ -91,7 +92,7 @@ def metrics_json(result) -> dict:
 def _write_json(path, data):
     tmp = path + ".tmp"
     with open(tmp, "w") as f:
-        json.dump(data, f, indent=2, sort_keys=True)
+        json.dump({**data, "provenance": provenance()}, f, indent=2, sort_keys=True)
     os.replace(tmp, path)
 
 

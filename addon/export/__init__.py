@@ -16,7 +16,9 @@ reported in the returned warnings.
 - lights.py: lamp objects and their light nodes (convert_light).
 - camera.py: the scene's camera (convert_camera).
 - world.py: the world's Background and Environment Texture (convert_world).
-- settings.py: Snell's render settings (blender_settings, convert_render, blender_threads).
+- settings.py: the render settings (blender_settings, setting_sources, convert_render,
+  blender_threads); cycles_settings.py: the file's Cycles settings Snell follows (FOLLOWED)
+  and those it does not render (NOT_RENDERED).
 
 A new shader node: a converter in materials.py's _CONVERTERS if it is a BSDF, in textures.py if
 a material input reads it (a new material kind or field needs the scene format first:

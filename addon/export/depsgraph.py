@@ -183,7 +183,7 @@ class Exporter:
             object_ids=np.repeat(np.array([p[3] for p in self.parts], np.int32), n_tris),
             materials=self.materials, lights=self.lights, camera=camera,
             world=convert_world(bl_scene.world, self.warn, self.images),
-            render=convert_render(bl_scene), objects=self.objects, source=source,
+            render=convert_render(bl_scene, self.warn), objects=self.objects, source=source,
             images=self.images, texcoords=self.texcoords())
 
 

@@ -1,8 +1,11 @@
-"""The scene's Snell render settings: every Blender property of tracer/settings.py's schema read
-back (blender_settings), and the scene file's render dict (convert_render)."""
+"""The scene's render settings: the file's Cycles settings Snell follows (cycles_settings.py)
+over every Blender property of tracer/settings.py's schema (blender_settings, with where each
+value came from: setting_sources), and the scene file's render dict (convert_render)."""
 from __future__ import annotations
 
 from ...tracer.settings import RUN, SCENE, VIEWPORT, RenderSettings, of_scope
+from . import cycles_settings
+from .cycles_settings import FROM_CYCLES, FROM_DEFAULT, FROM_SNELL, FROM_SNELL_PANEL
 
 
 def _stored(scene):
@@ -36,9 +39,8 @@ def _value(setting, value):
     return bool(value) if setting.type is bool else int(value)
 
 
-def blender_settings(scene) -> RenderSettings:
-    """The settings of the scene's Snell properties (the defaults without them); the Sampling
-    panel's unchecked Noise Threshold is a threshold of 0."""
+def _snell_properties(scene) -> dict:
+    """{name: value} of the Snell properties the scene holds (the add-on's, or saved ones)."""
     get = _stored(scene)
     found = {}
     for setting in of_scope(SCENE, RUN, VIEWPORT):
@@ -48,12 +50,80 @@ def blender_settings(scene) -> RenderSettings:
     use_adaptive = get("use_adaptive_sampling")
     if isinstance(use_adaptive, int) and not use_adaptive:
         found["noise_threshold"] = 0.0      # unchecked: the threshold is kept, not used
-    return RenderSettings().replace(**found)
+    return found
 
 
-def convert_render(scene) -> dict:
-    """The scene file's render dict of the scene's Snell properties."""
-    return blender_settings(scene).to_render()
+def follows_cycles(scene) -> bool:
+    """Whether the scene's render follows its Cycles settings (Snell's "Follow Cycles' Settings",
+    on unless unchecked) and Cycles' settings can be read (Cycles is registered)."""
+    use = _stored(scene)("use_cycles_settings")
+    return (use is None or bool(use)) and _cycles(scene) is not None
+
+
+def _cycles(scene):
+    cycles = getattr(scene, "cycles", None)
+    return cycles if cycles is not None and hasattr(cycles, "samples") else None
+
+
+def _resolve(scene) -> tuple[dict, dict]:
+    """({name: value}, {name: where it came from}) of the scene's settings."""
+    own = _snell_properties(scene)
+    values, sources = {}, {}
+    followed = (cycles_settings.followed(_cycles(scene), int(scene.frame_current))
+                if follows_cycles(scene) else {})
+    follows = {f.name for f in cycles_settings.FOLLOWED}
+    for setting in of_scope(SCENE, RUN, VIEWPORT):
+        name = setting.name
+        if name in followed:
+            values[name], sources[name] = followed[name], FROM_CYCLES
+            continue
+        if name in own:
+            values[name] = own[name]
+        # Followed settings read from Snell's panel override Cycles' (the user turned following
+        # off); Snell's own settings are the user's where they differ from the default (a
+        # registered property always reads back, so its default is not a choice).
+        if name in follows and name in own and not followed and _cycles(scene) is not None:
+            sources[name] = FROM_SNELL
+        elif values.get(name, setting.default) != setting.default:
+            sources[name] = FROM_SNELL_PANEL
+        else:
+            sources[name] = FROM_DEFAULT
+    return values, sources
+
+
+def blender_settings(scene) -> RenderSettings:
+    """The scene's render settings: the file's Cycles settings Snell follows (unless "Follow
+    Cycles' Settings" is off), then its Snell properties (the defaults without them); Snell's
+    unchecked Noise Threshold is a threshold of 0."""
+    return RenderSettings().replace(**_resolve(scene)[0])
+
+
+def setting_sources(scene) -> dict:
+    """{setting name: where its value came from} (cycles_settings' FROM_ names)."""
+    return _resolve(scene)[1]
+
+
+def not_followed(scene) -> list[dict]:
+    """The file's Cycles settings Snell does not render (cycles_settings.not_rendered), or none
+    when Cycles' settings cannot be read."""
+    cycles = _cycles(scene)
+    if cycles is None:
+        return []
+    return cycles_settings.not_rendered(cycles, bool(scene.render.film_transparent))
+
+
+def convert_render(scene, warn=None) -> dict:
+    """The scene file's render dict of the scene's settings, with where each came from
+    ("sources") and the Cycles settings Snell does not render ("cycles_not_rendered"); warn(message)
+    for each of those whose value the user set to something Snell renders differently."""
+    render = blender_settings(scene).to_render()
+    sources = setting_sources(scene)
+    render["sources"] = {name: sources[name] for name in render}
+    render["cycles_not_rendered"] = not_followed(scene)
+    for entry in render["cycles_not_rendered"]:
+        if entry["warn"] and warn is not None:
+            warn(f"Cycles' {entry['label']} {entry['value']} is not rendered: {entry['snell']}")
+    return render
 
 
 def blender_threads(bl_scene, settings: RenderSettings) -> int:

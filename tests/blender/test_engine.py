@@ -185,25 +185,46 @@ class Layout:
 
     row = column
 
-    def prop(self, data, name, text=None):
+    def prop(self, data, name, text=None, **options):
         self.drawn.append((name, text))
 
+    def label(self, text="", **options):
+        self.drawn.append(("label", text))
 
-@pytest.mark.parametrize("adaptive, drawn", [
-    (True, [("use_adaptive_sampling", ""), ("noise_threshold", ""), ("spp", "Max Samples"),
-            ("min_spp", "Min Samples"), ("seed", None)]),
-    (False, [("use_adaptive_sampling", ""), ("noise_threshold", ""), ("spp", "Samples"),
-             ("seed", None)]),
+
+SNELL_SAMPLING = dict(noise_threshold=0.01, spp=1024, min_spp=0)
+CYCLES_SAMPLING = dict(samples=64, adaptive_threshold=0.01, adaptive_min_samples=0, seed=0,
+                       use_animated_seed=False)
+
+
+@pytest.mark.parametrize("follow, adaptive, drawn", [
+    (False, True, [("use_cycles_settings", None), ("use_adaptive_sampling", ""),
+                   ("noise_threshold", ""), ("spp", "Max Samples"), ("min_spp", "Min Samples"),
+                   ("time_limit", None), ("seed", None)]),
+    (False, False, [("use_cycles_settings", None), ("use_adaptive_sampling", ""),
+                    ("noise_threshold", ""), ("spp", "Samples"), ("time_limit", None),
+                    ("seed", None)]),
+    # Following Cycles: Cycles' own properties, and why 64 samples do not sample adaptively.
+    (True, True, [("use_cycles_settings", None), ("use_adaptive_sampling", ""),
+                  ("adaptive_threshold", ""), ("samples", "Max Samples"),
+                  ("adaptive_min_samples", "Min Samples"),
+                  ("label", "Automatic minimum 64: no adaptive saving"), ("time_limit", None),
+                  ("seed", None), ("use_animated_seed", ""),
+                  ("label", "Not rendered by Snell: denoising, light tree, path guiding")]),
 ])
-def test_sampling_panel_is_laid_out_as_cycles(adaptive, drawn):
-    """Noise Threshold's checkbox and value, then Max and Min Samples (Samples when off)."""
+def test_sampling_panel_is_laid_out_as_cycles(follow, adaptive, drawn):
+    """Follow Cycles' Settings, then Noise Threshold's checkbox and value, Max and Min Samples
+    (Samples when off), Time Limit and Seed: Snell's own properties, or Cycles' when following."""
     props = bpy.types.Scene.bl_rna.properties["snell"].fixed_type.properties
     assert (props["use_adaptive_sampling"].default, props["noise_threshold"].default,
-            props["min_spp"].default) == (True, pytest.approx(0.01), 0)
+            props["min_spp"].default, props["use_cycles_settings"].default) == \
+        (True, pytest.approx(0.01), 0, True)
     panel = types.SimpleNamespace(layout=Layout())
     panel.column = lambda **options: ui.SnellPanel.column(panel, **options)
     context = types.SimpleNamespace(scene=types.SimpleNamespace(
-        snell=types.SimpleNamespace(use_adaptive_sampling=adaptive)))
+        snell=types.SimpleNamespace(use_adaptive_sampling=adaptive, use_cycles_settings=follow,
+                                    **SNELL_SAMPLING),
+        cycles=types.SimpleNamespace(use_adaptive_sampling=adaptive, **CYCLES_SAMPLING)))
     ui.RENDER_PT_snell_sampling.draw(panel, context)
     assert panel.layout.drawn == drawn
 
@@ -437,6 +458,69 @@ def test_batch_setting_options_reach_the_engine(blends, tmp_path):
     props = bpy.context.scene.snell
     assert (props.spp, props.use_adaptive_sampling) == (64, True)
     assert props.noise_threshold == pytest.approx(0.01)
+
+
+def cycles_configured(blends, tmp_path):
+    """cornell.blend following its Cycles settings, set to non-default ones: 3 samples (no
+    adaptive sampling), max bounces 2 (max depth 3), seed 11."""
+    scene = open_scene(blends / "cornell.blend", tmp_path / "f12.exr")
+    scene.snell.use_cycles_settings = True
+    c = scene.cycles
+    c.samples, c.use_adaptive_sampling, c.max_bounces, c.seed = 3, False, 2, 11
+    path = tmp_path / "follow.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    return scene, path
+
+
+def test_f12_snell_render_and_batch_follow_the_files_cycles_settings(blends, tmp_path):
+    """The same file's Cycles samples, bounces and seed in F12, `snell render` and `snell batch`;
+    the same image from each, and the same EXR channels from render and batch."""
+    scene, path = cycles_configured(blends, tmp_path)
+    exported, _ = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert {k: exported.render[k] for k in ("spp", "max_depth", "seed", "noise_threshold")} == \
+        {"spp": 3, "max_depth": 3, "seed": 11, "noise_threshold": 0.0}
+    bpy.ops.render.render(write_still=True)
+    assert final.last_render["spp"] == 3 and final.last_render["error"] is None
+    f12 = read_exr(tmp_path / "f12.exr")
+    np.testing.assert_allclose(f12, tracer_image(), rtol=1e-6, atol=1e-7)
+    # Another seed in Cycles' panel is another image: the comparison above could fail.
+    scene.cycles.seed = 12
+    assert np.abs(tracer_image() - f12).max() > 1e-3
+
+    proc = snell_cli("render", path, "-o", tmp_path / "cli.exr")
+    assert proc.returncode == 0, proc.stderr
+    assert "3 spp" in proc.stdout, proc.stdout
+    np.testing.assert_allclose(read_exr(tmp_path / "cli.exr"), f12, rtol=1e-5, atol=1e-6)
+
+    proc = snell_cli("batch", path, "-o", tmp_path / "b_####.exr")
+    assert proc.returncode == 0, proc.stderr
+    assert "3 spp" in proc.stderr, proc.stderr
+    batch_exr = tmp_path / f"b_{scene.frame_current:04d}.exr"
+    np.testing.assert_allclose(read_exr(batch_exr), f12, rtol=1e-5, atol=1e-6)
+    channels = [oiio.ImageInput.open(str(p)).spec().channelnames
+                for p in (tmp_path / "cli.exr", batch_exr)]
+    assert channels[0] == channels[1] == ("R", "G", "B", "samples"), channels
+
+
+def test_batch_spp_threads_and_scale_options(blends, tmp_path):
+    """--spp and --threads over the file's settings, --scale its resolution percentage."""
+    _, path = cycles_configured(blends, tmp_path)
+    proc = snell_cli("batch", path, "-o", tmp_path / "s_####.exr", "--spp", "2", "--threads", "1",
+                     "--scale", "50")
+    assert proc.returncode == 0, proc.stderr
+    assert "2 spp" in proc.stderr, proc.stderr
+    out = next(tmp_path.glob("s_*.exr"))
+    assert read_exr(out).shape == (SIZE // 2, SIZE // 2, 3)
+    from snell.tracer.image import read_channel
+    assert np.all(read_channel(out, "samples") == 2)
+
+
+def test_a_snell_override_wins_only_when_asked(blends, tmp_path):
+    """Follow Cycles' Settings off: Snell's own samples (8), not Cycles' (3)."""
+    scene, _ = cycles_configured(blends, tmp_path)
+    scene.snell.use_cycles_settings = False
+    bpy.ops.render.render(write_still=True)
+    assert final.last_render["spp"] == 8
 
 
 def test_batch_failing_frames_exit_non_zero(blends, tmp_path):

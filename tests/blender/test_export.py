@@ -718,8 +718,62 @@ def test_world(bl):
 
 
 def test_render_settings_default(bl):
+    """A new file follows Cycles' defaults: 4096 samples, noise threshold 0.01, max bounces 12
+    (max depth 13); Snell's own settings at theirs; each value's source saved with it."""
+    s, warnings = run()
+    saved = {k: s.render[k] for k in scene_mod.DEFAULT_RENDER}
+    assert saved == {**scene_mod.DEFAULT_RENDER, "spp": 4096, "max_depth": 13}
+    assert s.render["sources"] == {
+        **dict.fromkeys(["spp", "noise_threshold", "min_spp", "time_limit", "seed", "max_depth"],
+                        "file's Cycles setting"),
+        **dict.fromkeys(["fresnel", "caustics", "light_vertices"], "default")}
+    labels = {e["label"]: e for e in s.render["cycles_not_rendered"]}
+    assert labels["Light Paths > Diffuse bounces"]["value"] == "4"
+    assert not any(e["warn"] for e in labels.values())      # Cycles' defaults
+    assert not any("Cycles'" in w for w in warnings)
+
+
+def test_the_files_cycles_settings_are_followed(bl):
+    """Samples, noise threshold, min samples, time limit, seed (animated too) and max bounces
+    from Cycles' panels; the Cycles settings Snell does not render, when set to something Snell
+    renders differently, are warnings."""
+    c = bl.cycles
+    c.samples, c.adaptive_threshold, c.adaptive_min_samples, c.time_limit = 300, 0.03, 40, 12.5
+    c.seed, c.max_bounces = 17, 3
+    c.sample_clamp_indirect, c.diffuse_bounces = 0.0, 2     # Snell's / a limit Snell ignores
+    bl.render.film_transparent = True
+    s, warnings = run()
+    assert {k: s.render[k] for k in ("spp", "noise_threshold", "min_spp", "time_limit", "seed",
+                                     "max_depth")} == {"spp": 300, "noise_threshold": 0.03,
+                                                       "min_spp": 40, "time_limit": 12.5,
+                                                       "seed": 17, "max_depth": 4}
+    assert any("Diffuse bounces 2 is not rendered" in w for w in warnings), warnings
+    assert any("Film > Transparent on is not rendered" in w for w in warnings), warnings
+    assert not any("Clamping" in w for w in warnings)       # 0: what Snell renders
+    c.use_adaptive_sampling = False
+    assert run()[0].render["noise_threshold"] == 0.0
+    c.use_adaptive_sampling, c.adaptive_threshold = True, 0.0    # Cycles' automatic threshold
+    assert run()[0].render["noise_threshold"] == pytest.approx(1 / 300)
+    c.use_animated_seed = True
+    seeds = set()
+    for frame in (1, 2, 3):
+        bl.frame_set(frame)
+        seeds.add(run()[0].render["seed"])
+    assert len(seeds) == 3
+
+
+def test_snells_own_settings_override_cycles_only_when_asked(bl):
+    from snell.addon import registration
+    registration.ensure_registered()
+    bl.cycles.samples, bl.cycles.max_bounces = 300, 3
+    bl.snell.spp, bl.snell.max_depth, bl.snell.fresnel = 20, 2, "SCHLICK"
     s, _ = run()
-    assert s.render == scene_mod.DEFAULT_RENDER
+    assert (s.render["spp"], s.render["max_depth"], s.render["fresnel"]) == (300, 4, "schlick")
+    assert s.render["sources"]["fresnel"] == "Snell setting"
+    bl.snell.use_cycles_settings = False
+    s, _ = run()
+    assert (s.render["spp"], s.render["max_depth"]) == (20, 2)
+    assert s.render["sources"]["spp"] == s.render["sources"]["max_depth"] == "Snell override"
 
 
 @pytest.mark.parametrize("use_adaptive, threshold", [(True, 0.05), (False, 0.0)])
@@ -729,6 +783,7 @@ def test_sampling_panel_settings_reach_the_scene_file(bl, tmp_path, use_adaptive
     from snell.addon import registration
     registration.ensure_registered()
     props = bl.snell
+    props.use_cycles_settings = False       # Snell's own Sampling panel
     props.spp, props.use_adaptive_sampling, props.noise_threshold, props.min_spp = \
         512, use_adaptive, 0.05, 24
     path = str(tmp_path / "adaptive.blend")
@@ -807,3 +862,29 @@ def test_blenders_startup_scene_exports_its_lamp_without_warnings():
     assert lamp["kind"] == "point" and lamp["radius"] == pytest.approx(0.1)
     assert lamp["soft_falloff"] is True and np.allclose(lamp["intensity"], 1000 / (4 * math.pi))
     assert len(s.triangles) == 12
+
+
+def test_info_names_where_each_setting_came_from(bl, tmp_path):
+    """`snell info` of a file with its own Cycles settings: the values, their sources, and the
+    Cycles settings Snell does not render (a warning where the file set one Snell renders
+    differently)."""
+    from snell import cli
+    cube()
+    add_light(bl, "Lamp", "POINT", energy=10.0)
+    bl.cycles.samples, bl.cycles.max_bounces, bl.cycles.seed = 96, 6, 9
+    bl.cycles.sample_clamp_direct = 5.0
+    path = str(tmp_path / "info.blend")
+    common.save(path)
+    lines = cli.describe(cli.load_scene(path))
+    text = "\n".join(lines)
+    assert "render     96 spp, max depth 7, seed 9" in text, text
+    sources = next(line for line in lines if line.startswith("sources"))
+    assert sources == ("sources    file's Cycles setting: spp, max_depth, seed, noise_threshold, "
+                       "min_spp, time_limit; default: fresnel, caustics, light_vertices"), sources
+    cycles = [line for line in lines if line.startswith("cycles")]
+    assert "cycles     warning: Light Paths > Clamping > Direct Light 5: not rendered" \
+        in "\n".join(cycles), cycles
+    assert any(line.startswith("cycles     Light Paths > Diffuse bounces 4: not rendered")
+               for line in cycles), cycles      # Cycles' default, a difference but no warning
+    assert "cycles     not rendered, the same image with other noise: Light Tree on" in text
+    assert sum("warning" in line for line in cycles) == 1

@@ -10,11 +10,10 @@ import numpy as np
 import pytest
 
 from support.builders import camera, make_scene, quad
+from support.caustic_scenes import BATCHES, caustic_room
 from snell.validation import metrics
 from snell.tracer import adaptive
 from snell.tracer.integrator import Renderer
-
-from test_caustics import BATCHES, caustic_room
 
 
 def test_cycles_automatic_minimum():

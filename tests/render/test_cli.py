@@ -117,6 +117,32 @@ def test_bad_adaptive_options_are_usage_errors(scene_file, tmp_path, command, op
     assert_one_line_error(proc, option, fragment, repr(value))
 
 
+@pytest.mark.parametrize("command", ["render", "batch", "info", "export", "compare", "stress"])
+def test_usage_errors_point_to_the_subcommands_help(command):
+    proc = run(command, "--no-such-option")
+    assert proc.returncode == 2
+    assert_one_line_error(proc, f"(see snell {command} --help)")
+
+
+def test_version(monkeypatch):
+    proc = run("--version")
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    from snell.tracer.provenance import snell_commit, snell_version
+    assert proc.stdout.startswith(f"snell {snell_version()}")
+    commit = snell_commit()     # this checkout's, from git
+    assert (f"(commit {commit.removesuffix('+dirty')}" in proc.stdout) if commit else "commit" not in proc.stdout
+    assert "Blender 5." in proc.stdout
+
+
+@pytest.mark.parametrize("option, value", [("--scale", "0"), ("--scale", "half")])
+@pytest.mark.parametrize("command", ["render", "batch"])
+def test_bad_scale_is_a_usage_error(scene_file, tmp_path, command, option, value):
+    args = ["-o", tmp_path / "a.exr"] if command == "render" else []
+    proc = run(command, scene_file, *args, option, value)
+    assert proc.returncode == 2
+    assert_one_line_error(proc, option, repr(value))
+
+
 def test_usage_errors_are_one_line_too(scene_file, tmp_path):
     proc = run("render", scene_file, "-o", tmp_path / "a.exr", "--spp", "0")
     assert proc.returncode == 2
@@ -222,7 +248,7 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
     assert settings.threads == 3
     assert settings.to_render() == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick",
                                     "caustics": True, "light_vertices": False,
-                                    "noise_threshold": 0.05, "min_spp": 3}
+                                    "noise_threshold": 0.05, "min_spp": 3, "time_limit": 0.0}
     rgb = image.read_exr(out)
     assert rgb[0].min() == 1.0 and rgb[1:].max() == 0.0  # top row first, NaN written as 0
     assert np.all(image.read_channel(out, "samples") == 9)
@@ -237,8 +263,18 @@ def test_render_defaults_come_from_the_scene(scene_file, tmp_path, stub_integrat
     # what the file holds, and the defaults of what it does not (caustics)
     settings = stub_integrator.calls[0]["settings"]
     assert settings.to_render() == {**DEFAULT_RENDER, **tiny_scene().render}
-    assert settings.render_threads == 2  # the integrator's own default
+    assert settings.render_threads == (os.cpu_count() or 1)  # every core, as Cycles' auto-detect
     assert capsys.readouterr() == ("", "")
+
+
+def test_render_scale_sets_the_resolution_percentage(scene_file, tmp_path, stub_integrator):
+    out = tmp_path / "a.exr"
+    assert cli.main(["render", str(scene_file), "-o", str(out), "--scale", "50", "--quiet"]) == 0
+    scene = stub_integrator.calls[0]["scene"]
+    assert scene.camera["resolution_percentage"] == 50
+    # the scene's own otherwise
+    assert cli.main(["render", str(scene_file), "-o", str(out), "--quiet"]) == 0
+    assert stub_integrator.calls[1]["scene"].camera.get("resolution_percentage", 100) == 100
 
 
 @pytest.mark.parametrize("behaviour", ["interrupt", "cancel"])

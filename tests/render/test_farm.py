@@ -299,3 +299,11 @@ def test_task_keys_are_the_render_content_frame_window_and_seed():
     assert keys.scene_hash(moved) != keys.scene_hash(scene)
     names = {keys.window_key(key, f, w, s) for f in (0, 1) for w in (0, 1) for s in (0, 1)}
     assert len(names) == 8
+
+
+def test_a_time_limit_is_refused():
+    """A time-limited render's samples depend on its clock: there is no image to be equal to."""
+    scene = glass_room()
+    with pytest.raises(CliError, match="--time-limit 0"):
+        render_module.check_fixed(scene.settings(time_limit=5.0), "room.snell")
+    render_module.check_fixed(scene.settings(), "room.snell")

@@ -430,3 +430,17 @@ def test_a_pass_splits_into_even_jobs_of_whole_pixels(begin, end, unit):
     units = (end - begin) // unit
     assert len(jobs) % JOB_MULTIPLE == 0 or len(jobs) == units
     assert max(sizes) - min(sizes) <= unit
+
+
+def test_time_limit_stops_after_whole_passes():
+    """time_limit (Cycles' Time Limit): the render stops once the limit has passed, with a whole
+    image of the passes done, not a cancelled one; 0 has no limit."""
+    from support.builders import tiny_scene
+    scene = tiny_scene()
+    limited = Renderer(scene, scene.settings(spp=10_000_000, noise_threshold=0.0, time_limit=0.3,
+                                             threads=1)).render()
+    assert limited.time_limited and not limited.cancelled
+    assert 0 < limited.spp < 10_000_000 and limited.time_s < 30
+    assert np.isfinite(limited.mean()).all() and limited.mean().max() > 0
+    full = Renderer(scene, scene.settings(spp=4, noise_threshold=0.0, threads=1)).render()
+    assert not full.time_limited and full.spp == 4

@@ -2,7 +2,8 @@
 
     python tests/support/blender_scenes.py OUT_DIR [SIZE]
 
-cornell.blend: the default scene (scenes/cornell_spheres.py) at SIZE x SIZE, Snell 8 spp, seed 5.
+cornell.blend: the default scene (scenes/cornell_spheres.py) at SIZE x SIZE, Snell 8 spp, seed 5,
+max depth 6 (Snell's own settings: Follow Cycles' Settings off).
 animated.blend: the same with the camera moving over frames 1-3.
 unsupported.blend: the left wall with a Toon BSDF (not supported: grey diffuse fallback).
 nocamera.blend: no camera object. empty.blend: a camera and nothing else.
@@ -31,6 +32,9 @@ def main(out, size):
     scene = bpy.context.scene
     scene.render.resolution_x = scene.render.resolution_y = size
     scene.snell.spp, scene.snell.seed, scene.snell.max_depth = 8, 5, 6
+    # The engine tests set Snell's own settings: they render at them, not at the file's Cycles
+    # settings (tests/blender/test_engine.py has its own tests of following Cycles').
+    scene.snell.use_cycles_settings = False
     scene.cycles.samples = 8
     save(out, "cornell.blend")
 

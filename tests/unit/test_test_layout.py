@@ -10,9 +10,6 @@ from support.paths import TESTS
 
 FOLDERS = ("unit", "render", "blender", "validation")
 
-# Imports between test modules still to move into support/: test_caustics.py's caustic room is
-# being edited on another branch (issue 28), so it moves there after the merge.
-PENDING = {("test_adaptive", "test_caustics")}
 
 
 def find_test_modules():
@@ -32,14 +29,23 @@ def parse(path):
 
 
 def imported(tree):
-    """Top-level names of every module the tree imports (inside functions too)."""
+    """Every name an import in the tree could bind a module to (inside functions too): each part
+    of a dotted module name, the names imported from a module, and the string arguments of
+    importlib.import_module / __import__ (so `from render import test_caustics` and
+    `importlib.import_module("test_caustics")` count as well as `import test_caustics`)."""
     names = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            names |= {a.name.split(".")[0] for a in node.names}
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            names.add(node.module.split(".")[0])
-    return names
+            for a in node.names:
+                names |= set(a.name.split("."))
+        elif isinstance(node, ast.ImportFrom):
+            names |= set((node.module or "").split(".")) | {a.name for a in node.names}
+        elif (isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant)
+              and isinstance(node.args[0].value, str)
+              and getattr(node.func, "attr", getattr(node.func, "id", None))
+              in ("import_module", "__import__")):
+            names |= set(node.args[0].value.split("."))
+    return names - {""}
 
 
 def test_every_test_module_is_in_one_of_the_folders():
@@ -51,6 +57,8 @@ def test_every_test_module_is_in_one_of_the_folders():
 
 
 def test_no_test_module_imports_another():
+    """Shared code belongs in support/ (test_adaptive once imported the caustic room from
+    test_caustics; it is support/caustic_scenes.py now)."""
     modules = find_test_modules()
     found = set()
     for name, path in modules.items():
@@ -60,7 +68,7 @@ def test_no_test_module_imports_another():
         if file.endswith(".py"):
             found |= {("support." + file[:-3], other)
                       for other in imported(parse(os.path.join(support, file))) & set(modules)}
-    assert found <= PENDING, sorted(found - PENDING)
+    assert not found, sorted(found)
 
 
 def test_no_test_module_edits_sys_path():
@@ -75,3 +83,14 @@ def test_no_test_module_edits_sys_path():
                     and isinstance(node.func.value.value, ast.Name) and node.func.value.value.id == "sys"):
                 edits.append((name, node.lineno))
     assert not edits
+
+
+def test_the_import_check_sees_every_form_of_import():
+    """imported() finds a test module however it is imported."""
+    forms = ["import test_caustics", "from test_caustics import caustic_room",
+             "from render import test_caustics", "import render.test_caustics as t",
+             "def f():\n    from test_caustics import BATCHES",
+             "import importlib\nimportlib.import_module('test_caustics')"]
+    for source in forms:
+        assert "test_caustics" in imported(ast.parse(source)), source
+    assert "test_caustics" not in imported(ast.parse("from support import caustic_scenes"))

@@ -1,8 +1,8 @@
 """The Cycles validator: statistics, teeth (deliberate Snell errors are caught), reports, CLI.
 
-Each Cycles reference is rendered once per session (fixtures) at 64x64 (25 % of 256x256) with
-SPP samples per pixel (8 independent seeds of SPP / 8); each test renders Snell once with the
-same sample count, correct or with one deliberate error. Power was checked by hand at these
+Each Cycles reference (a fixture, stored in tests/references: support/cycles_reference.py) is
+at 64x64 (25 % of 256x256) with SPP samples per pixel (8 independent seeds of SPP / 8); each test
+renders Snell once with the same sample count, correct or with one deliberate error. Power was checked by hand at these
 settings (see the numbers in the module-level comments of each test).
 """
 from __future__ import annotations

@@ -1,8 +1,9 @@
 """Blender light objects against Cycles in a closed room (scenes/light_room.py).
 
-Each case builds the room with one light, renders Cycles once (8 seeds) and Snell with the same
-samples, and asks the validator for its verdict; a deliberate 10 % error in the light's radius,
-angle, spread or size shows that the comparison has the power to see one. Measured verdicts and
+Each case builds the room with one light, renders Cycles once (8 seeds; a stored reference,
+support/cycles_reference.py) and Snell with the same samples, and asks the validator for its
+verdict; a deliberate 10 % error in the light's radius, angle, spread or size shows that the
+comparison has the power to see one. Measured verdicts and
 the errors' z scores are in the closing note of issue #10 and docs/lights.md.
 """
 from __future__ import annotations
@@ -14,36 +15,22 @@ import os
 import subprocess
 import sys
 
-import numpy as np
 import pytest
 
+from support.cycles_reference import Reference
 from support.paths import ROOT  # noqa: E402
+
 SPP = 256
 SCALE = 50      # 64x64 of the room's 128x128
-SEED = 0
 
 
-class Room:
-    """The room with one light: its Cycles reference and its exported Snell scene."""
-
-    def __init__(self, directory, name, light=None, spp=SPP):
-        from snell.validation import compare
-        path = str(directory / f"{name}.blend")
-        args = [sys.executable, os.path.join(ROOT, "scenes", "light_room.py"), path]
-        subprocess.run(args + ([json.dumps(light)] if light else []), check=True,
-                       capture_output=True)
-        scene, self.warnings = compare.load_snell_scene(path)
-        self.spp = spp
-        self.scene = scene.with_camera(resolution_percentage=SCALE).with_render(spp=spp, seed=SEED)
-        self.cycles = compare.cycles_render(path, spp=spp, max_depth=self.scene.render["max_depth"],
-                                            seed=SEED, camera={"resolution_percentage": SCALE})
-
-    def compare(self, modify=lambda s: s):
-        """The validator's report dict for Snell (with a deliberate change) against Cycles."""
-        from snell.validation import compare
-        scene = modify(self.scene)
-        result = compare.snell_render(scene, self.spp)
-        return compare.compare_renders(result, self.cycles, settings=compare.snell_settings(scene))
+def Room(directory, name, light=None, spp=SPP):
+    """The room with one light (scenes/light_room.py): its Cycles reference (stored, see
+    support/cycles_reference.py) and its exported Snell scene at SCALE %."""
+    path = str(directory / f"{name}.blend")
+    args = [sys.executable, os.path.join(ROOT, "scenes", "light_room.py"), path]
+    subprocess.run(args + ([json.dumps(light)] if light else []), check=True, capture_output=True)
+    return Reference(path, framing={"resolution_percentage": SCALE}, spp=spp)
 
 
 def _verdict(result):

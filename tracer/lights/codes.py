@@ -11,6 +11,9 @@ EMISSIVE_TRIANGLE, AREA, POINT, SUN, WORLD = range(5)
 # flag.
 VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION = 1, 2, 4, 8
 CASTS_SHADOW, USES_MIS = 16, 32
+# A lamp starts light vertices (light_vertices.py) only if camera paths treat it as a surface
+# light: found by BSDF samples (MIS), blocked by geometry (shadows) and lighting diffuse vertices.
+STARTS_LIGHT_VERTICES = USES_MIS | CASTS_SHADOW | VISIBLE_DIFFUSE
 ZERO = (0.0, 0.0, 0.0)
 
 

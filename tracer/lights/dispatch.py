@@ -1,12 +1,16 @@
 """The one place that switches on a light's kind: pick a light, then its sample, density, hit
 and emission from its kind's module (triangles, area, point, sun, world).
 
-`sample_light` serves next-event estimation; a light's `*_hit` function (area.py, point.py,
-sun.py; pdf_triangle, pdf_world) and the pick probability give the density of the same light
-found by a BSDF-sampled ray, for multiple importance sampling. The light tracer (light_tracer.py)
-and light vertices (light_vertices.py) start their paths with the emission functions below.
+`sample_light` serves next-event estimation. What a BSDF-sampled ray finds (wavefront.emitters)
+is here too: `lamp_crossed` for the lamps a ray crosses, `light_at_escape` for the world and suns
+an escaped ray sees, `triangle_hit` for an emissive triangle it hits, each with the densities the
+other strategies give the same light, for multiple importance sampling. The light tracer
+(light_tracer.py: `starts_light_paths`, `light_seen`) and light vertices (light_vertices.py:
+`light_vertex_density`) start their paths with the emission functions below.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -14,13 +18,14 @@ from ..jit import jit_inline
 from ..sampling import sample_cosine_hemisphere
 from ..vec import mul, neg, normalize, row, sub
 from .area import (area_lamp_emitted, area_lamp_hit, area_lamp_point, emit_area_lamp,
-                   sample_area_lamp)
-from .codes import AREA, CASTS_SHADOW, EMISSIVE_TRIANGLE, POINT, SUN, USES_MIS, ZERO
-from .point import emit_point_lamp, sample_point_lamp
-from .sun import sample_sun
+                   intersect_area_lamp, sample_area_lamp)
+from .codes import (AREA, CASTS_SHADOW, EMISSIVE_TRIANGLE, POINT, STARTS_LIGHT_VERTICES, SUN,
+                    USES_MIS, ZERO, seen_by)
+from .point import emit_point_lamp, intersect_point_lamp, point_lamp_hit, sample_point_lamp
+from .sun import sample_sun, sun_hit
 from .triangles import (emit_triangle, lift_off_triangle, pdf_triangle, triangle_light_point,
                         triangle_point)
-from .world import sample_world
+from .world import pdf_world, sample_world, world_radiance
 
 
 @jit_inline
@@ -79,6 +84,131 @@ def sample_light(lights, mesh, p, n, vertex_kind, u_pick, u0, u1):
         return (0.0, 0.0, 1.0), p, True, ZERO, 0.0, 0
     mis_pdf = pdf if flags & USES_MIS else 0.0
     return wi, point, infinite, mul(value, 1.0 / pdf), mis_pdf, flags
+
+
+# -- what a BSDF-sampled ray finds (wavefront.emitters) -----------------------------------------
+
+@jit_inline
+def lamps_to_cross(lights):
+    """How many lamps a ray may cross (area lamps, then point and spot lamps): lamp_crossed's
+    range."""
+    return lights.area_area.shape[0] + lights.point_radius.shape[0]
+
+
+@jit_inline
+def lamp_crossed(lights, lamp, o, d, t_surface, ray_kind, pdf_bsdf, connect):
+    """Whether the ray o + t d of kind ray_kind (a codes.VISIBLE_* flag), sampled with density
+    pdf_bsdf, crosses lamp `lamp` (of lamps_to_cross) before t_surface, and what it gets there:
+    (crossed, radiance, pick x density of next-event estimation, the light vertex's density:
+    connect per unit of light_vertex_density, 0 for lamps that start no light vertices)."""
+    n_area = lights.area_area.shape[0]
+    if lamp < n_area:
+        if not seen_by(lights.area_flags[lamp], ray_kind):
+            return False, ZERO, 0.0, 0.0
+        t_lamp = intersect_area_lamp(lights, lamp, o, d)
+        if not 0.0 < t_lamp < t_surface:
+            return False, ZERO, 0.0, 0.0
+        light, density = area_lamp_hit(lights, lamp, d, t_lamp)
+        q = light_vertex_density(lights, AREA, lamp, lights.area_pmf[lamp])
+        return True, light, lights.area_pmf[lamp] * density, q * connect
+    k = lamp - n_area
+    if not seen_by(lights.point_flags[k], ray_kind):
+        return False, ZERO, 0.0, 0.0
+    t_lamp = intersect_point_lamp(lights, k, o, d)
+    if not 0.0 < t_lamp < t_surface:
+        return False, ZERO, 0.0, 0.0
+    light, density = point_lamp_hit(lights, k, o, d, t_lamp, pdf_bsdf)
+    return True, light, lights.point_pmf[k] * density, 0.0
+
+
+@jit_inline
+def lights_at_escape(lights, lamps):
+    """How many lights a ray that escapes may see: the world (if it gives light), then the suns
+    if `lamps` (the light tracer's paths get the world only): light_at_escape's range."""
+    return (1 if lights.has_world else 0) + (lights.sun_one_minus_cos.shape[0] if lamps else 0)
+
+
+@jit_inline
+def light_at_escape(lights, k, d, ray_kind):
+    """What an escaped ray of direction d and kind ray_kind gets from light k (of
+    lights_at_escape): (found, radiance, pick x density of next-event estimation)."""
+    if lights.has_world:
+        if k == 0:
+            return True, world_radiance(lights, d), pdf_world(lights, d)
+        k -= 1
+    # Cycles finds a sun's disc only with its MIS option, camera rays included.
+    flags = lights.sun_flags[k]
+    if not (flags & ray_kind and flags & USES_MIS):
+        return False, ZERO, 0.0
+    light, density = sun_hit(lights, k, d)
+    return True, light, lights.sun_pmf[k] * density
+
+
+@jit_inline
+def triangle_hit(lights, prim, o, d, t, connect):
+    """The densities of the other strategies for the emissive mesh triangle prim that the ray
+    o + t d hit: (next-event estimation's, the light vertex's: connect per unit of
+    light_vertex_density)."""
+    return pdf_triangle(lights, prim, o, d, t), triangle_density(lights, prim) * connect
+
+
+# -- light vertices and the light tracer ----------------------------------------------------------
+
+@jit_inline
+def light_vertex_density(lights, kind, i, pmf):
+    """q of light i of this kind (a codes kind) picked with probability pmf: the density of the
+    light vertex's point on it (per area) times that of its direction (per cosine); 0 for the
+    lights that start no light vertices (light_vertices.py)."""
+    if kind == EMISSIVE_TRIANGLE:
+        return pmf / lights.tri_area[i] * (0.5 / math.pi)      # cosine-weighted, either face
+    if kind == AREA and lights.area_flags[i] & STARTS_LIGHT_VERTICES == STARTS_LIGHT_VERTICES \
+            and lights.area_spread_tan[i] > 0.0:
+        return pmf / lights.area_area[i] / math.pi
+    return 0.0
+
+
+@jit_inline
+def triangle_density(lights, prim):
+    """light_vertex_density of mesh triangle prim (0 where it is no light)."""
+    if lights.tri_prim.shape[0] == 0 or lights.tri_pmf[prim] == 0.0:
+        return 0.0
+    return light_vertex_density(lights, EMISSIVE_TRIANGLE, lights.light_of_prim[prim],
+                                lights.tri_pmf[prim])
+
+
+def starts_light_paths(t, kind, i, centers, radii, pure) -> bool:
+    """Whether the light tracer starts paths on light i of this kind (t: the Lights tables): a
+    light of some size that camera paths find by BSDF sampling (Cycles' MIS option), and for an
+    area lamp one facing a specular object's bounding sphere (centers, radii) unless pure."""
+    if kind == AREA:
+        flags, ok = t.area_flags[i], t.area_spread_tan[i] > 0.0
+        # A one-sided lamp with every specular object behind its plane lights none of them.
+        ok &= pure or bool(np.any((centers - t.area_center[i]) @ t.area_emit[i] > -radii))
+    elif kind == POINT:
+        flags, ok = t.point_flags[i], t.point_radius[i] > 0.0
+    elif kind == SUN:
+        flags, ok = t.sun_flags[i], t.sun_one_minus_cos[i] > 0.0
+    elif kind == EMISSIVE_TRIANGLE:
+        flags, ok = USES_MIS, True
+    else:                          # the world: the path tracer keeps it
+        return False
+    return bool(ok and flags & USES_MIS)
+
+
+@jit_inline
+def light_seen(lights, kind, i, s1, w, ray_kind):
+    """Whether the path tracer's ray of kind ray_kind from s1 back along a light path that left
+    light i (a light starts_light_paths accepts) along w would find the light: its visibility to
+    that kind of ray and, for point and spot lamps, the lamp's own shape seen from s1."""
+    if kind == AREA:
+        return (lights.area_flags[i] & ray_kind) != 0
+    if kind == SUN:
+        return (lights.sun_flags[i] & ray_kind) != 0
+    if kind == POINT:
+        if not lights.point_flags[i] & ray_kind:
+            return False
+        return intersect_point_lamp(lights, i, s1, neg(w)) > 0.0
+    return True
 
 
 # -- emission -----------------------------------------------------------------------------------

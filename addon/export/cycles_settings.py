@@ -1,0 +1,162 @@
+"""The file's Cycles settings: the ones Snell follows, and the ones it does not render.
+
+A Blender user sets samples, noise threshold and bounces in Cycles' panels; a file renders with
+them in Snell too unless its Snell settings say "Follow Cycles' Settings" off (then Snell's own
+Sampling and Light Paths panels hold them). FOLLOWED says how each Cycles setting becomes a Snell
+setting; NOT_RENDERED lists the Cycles settings Snell has no counterpart for, what Snell does
+instead, and when the difference is worth a warning (docs/blender.md, "The file's Cycles
+settings").
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+# Where a render setting's value came from, as `snell info` says it.
+FROM_CYCLES = "file's Cycles setting"
+FROM_SNELL = "Snell override"            # Follow Cycles' Settings off: Snell's panel
+FROM_SNELL_PANEL = "Snell setting"        # a setting Cycles has not (fresnel, caustics, ...)
+FROM_DEFAULT = "default"
+
+
+@dataclass(frozen=True)
+class Followed:
+    """A Snell setting read from Cycles' settings: its name, Cycles' label and the reading."""
+    name: str
+    label: str          # Cycles' panel and property, for `snell info`
+    read: object        # (cycles, frame) -> the Snell value
+
+
+def _noise_threshold(c, frame):
+    if not c.use_adaptive_sampling:
+        return 0.0
+    # Cycles' 0 means automatic (its tooltip: 'based on number of AA samples'); the rule
+    # max(0.001, 1 / samples) is Cycles' scene/integrator.cpp as recalled, not yet checked
+    # against a Cycles render's sample counts.
+    return float(f"{c.adaptive_threshold:.7g}") or max(0.001, 1.0 / max(1, c.samples))
+
+
+def _seed(c, frame):
+    # Animated seed: a different noise pattern on every frame, as Cycles'. Cycles hashes the
+    # frame with the seed; Snell's sampler differs from Cycles' anyway, so any per-frame change
+    # of the seed gives the same kind of image.
+    if c.use_animated_seed:
+        return (c.seed + 7919 * frame) % (2 ** 31 - 1)
+    return c.seed
+
+
+FOLLOWED = (
+    Followed("spp", "Sampling > Render > Max Samples", lambda c, f: int(c.samples)),
+    Followed("noise_threshold", "Sampling > Render > Noise Threshold", _noise_threshold),
+    Followed("min_spp", "Sampling > Render > Min Samples",
+             lambda c, f: int(c.adaptive_min_samples)),
+    Followed("time_limit", "Sampling > Render > Time Limit",
+             lambda c, f: float(f"{c.time_limit:.7g}")),
+    Followed("seed", "Sampling > Advanced > Seed", _seed),
+    # Cycles' max_bounces N allows N + 1 scattering events; Snell's max depth counts emission
+    # plus up to M bounces, so M = N + 1 (validation/cycles.py forces the same; checked there).
+    Followed("max_depth", "Light Paths > Max Bounces > Total", lambda c, f: int(c.max_bounces) + 1),
+)
+
+
+@dataclass(frozen=True)
+class NotRendered:
+    """A Cycles setting Snell has no counterpart for: what Snell renders instead, whether a value
+    renders as Snell does (same(value, cycles)), and whether a different value changes only the
+    noise, not the image's expected value (noise_only)."""
+    prop: str
+    label: str
+    snell: str
+    same: object
+    noise_only: bool = False
+
+
+def _not_below_total(value, c):
+    return value >= c.max_bounces
+
+
+def _zero(value, c):
+    return value == 0
+
+
+def _always(value, c):
+    return True
+
+
+NOT_RENDERED = (
+    NotRendered("diffuse_bounces", "Light Paths > Diffuse bounces", "Snell limits every bounce "
+                "by the total only: brighter where diffuse light bounces often",
+                _not_below_total),
+    NotRendered("glossy_bounces", "Light Paths > Glossy bounces", "limited by the total only",
+                _not_below_total),
+    NotRendered("transmission_bounces", "Light Paths > Transmission bounces",
+                "limited by the total only", _not_below_total),
+    NotRendered("transparent_max_bounces", "Light Paths > Transparent bounces",
+                "Snell has no transparent surfaces", _always),
+    NotRendered("volume_bounces", "Light Paths > Volume bounces", "Snell has no volumes",
+                _always),
+    NotRendered("sample_clamp_direct", "Light Paths > Clamping > Direct Light", "no clamping: "
+                "brighter highlights than a clamped Cycles render", _zero),
+    NotRendered("sample_clamp_indirect", "Light Paths > Clamping > Indirect Light",
+                "no clamping: brighter caustics and indirect highlights than a clamped Cycles "
+                "render", _zero),
+    NotRendered("blur_glossy", "Light Paths > Caustics > Filter Glossy", "no glossy filtering: "
+                "sharper caustics", _zero),
+    NotRendered("caustics_reflective", "Light Paths > Caustics > Reflective",
+                "Snell always renders reflective caustics", lambda v, c: bool(v)),
+    NotRendered("caustics_refractive", "Light Paths > Caustics > Refractive",
+                "Snell always renders refractive caustics", lambda v, c: bool(v)),
+    NotRendered("use_light_tree", "Sampling > Lights > Light Tree", "Snell's own light "
+                "sampling", lambda v, c: False, noise_only=True),
+    NotRendered("light_sampling_threshold", "Sampling > Lights > Light Threshold", "Snell's own "
+                "light sampling", _zero, noise_only=True),
+    NotRendered("use_guiding", "Sampling > Path Guiding", "no path guiding",
+                lambda v, c: not v, noise_only=True),
+    NotRendered("use_denoising", "Sampling > Render > Denoise", "no denoising: the image keeps "
+                "its noise", lambda v, c: not v),
+    NotRendered("film_exposure", "Film > Exposure", "exposure 1", lambda v, c: v == 1.0),
+)
+
+
+def not_rendered(cycles, film_transparent: bool = False) -> list[dict]:
+    """The Cycles settings Snell does not render, each {"label", "value", "snell", "status",
+    "warn"}: status "same" (the value renders as Snell does), "noise" (only the noise differs) or
+    "differs"; warn when it differs and is not Cycles' default (a difference the user set)."""
+    out = []
+    for entry in NOT_RENDERED:
+        value = getattr(cycles, entry.prop, None)
+        if value is None:
+            continue        # an older or newer Cycles without it
+        default = getattr(cycles.bl_rna.properties.get(entry.prop), "default", None)
+        if isinstance(value, float):
+            value = float(f"{value:.7g}")
+            default = None if default is None else float(f"{default:.7g}")
+        status = ("same" if entry.same(value, cycles) else
+                  "noise" if entry.noise_only else "differs")
+        out.append(_entry(entry.label, _shown(value), entry.snell, status, value != default))
+    kind, width = cycles.pixel_filter_type, float(f"{cycles.filter_width:.7g}")
+    box = kind == "BOX" and width == 1.0
+    out.append(_entry("Film > Pixel Filter", f"{_shown(kind)} {width:g} px", "a 1-pixel box: "
+                      "sharper edges than Cycles' Blackman-Harris or Gaussian",
+                      "same" if box else "differs", kind != "BLACKMAN_HARRIS" or width != 1.5))
+    out.append(_entry("Film > Transparent", _shown(film_transparent), "an opaque film: alpha 1 "
+                      "everywhere, the world visible", "differs" if film_transparent else "same",
+                      film_transparent))
+    return out
+
+
+def _entry(label, value, snell, status, non_default) -> dict:
+    return {"label": label, "value": value, "snell": snell, "status": status,
+            "warn": bool(status == "differs" and non_default)}
+
+
+def followed(cycles, frame: int) -> dict:
+    """{setting name: value} of the Cycles settings Snell follows, at this frame."""
+    return {f.name: f.read(cycles, frame) for f in FOLLOWED}
+
+
+def _shown(value) -> str:
+    if isinstance(value, bool):
+        return "on" if value else "off"
+    if isinstance(value, str):
+        return value.replace("_", "-").title()
+    return f"{value:g}"
