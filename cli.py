@@ -134,7 +134,18 @@ def _setup_render(p):
     p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit sRGB PNG (Standard view transform)")
     _add_setting_options(p)
     _add_scale_option(p)
+    _add_farm_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
+
+
+def _add_farm_options(p):
+    """--workers N and --cluster ADDRESS: render on Dask (farm/), fixed samples."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int_at_least(1), metavar="N",
+                       help="render on N local worker processes (Dask; fixed samples)")
+    where.add_argument("--cluster", metavar="ADDRESS",
+                       help="render on the Dask scheduler at ADDRESS, e.g. tcp://host:8786 "
+                            "(fixed samples)")
 
 
 ON_OFF = ("on", "off")
@@ -189,17 +200,27 @@ def cmd_render(args) -> int:
     if args.scale is not None:
         scene = scene.with_camera(resolution_percentage=args.scale)
     settings = scene.settings(**setting_overrides(args))
+    farm = args.workers is not None or args.cluster is not None
+    if farm:
+        from .farm.render import check_fixed
+        check_fixed(settings, args.scene)
     from .tracer import image
     from .tracer.integrator import kernels_compiled, render, warm_up
 
-    if not kernels_compiled():
+    if not kernels_compiled() and args.cluster is None:
+        # Local workers load the kernels this compiles from the disk cache.
         if not args.quiet:
             print("snell: compiling kernels (first run only)", file=sys.stderr, flush=True)
         warm_up()
 
     bar = ProgressLine(sys.stderr) if not args.quiet and sys.stderr.isatty() else None
     try:
-        result = render(scene, settings, progress=bar)
+        if farm:
+            from .farm.render import render_on
+            result = render_on(args.cluster, args.workers, scene, settings, args.scene,
+                               progress=bar, quiet=args.quiet)
+        else:
+            result = render(scene, settings, progress=bar)
     finally:
         if bar:
             bar.close()
@@ -233,7 +254,9 @@ def _summary(args, rgb, result, bad_pixels) -> str:
     samples = describe_adaptive(result) or f"{result.spp} spp"
     if getattr(result, "time_limited", False):
         samples += " (time limit reached)"
-    return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {samples} in {_duration(wall)} "
+    workers = getattr(result, "workers", 0)     # Dask workers (farm/); 0: this process
+    on = f" on {_plural(workers, 'worker')}" if workers else ""
+    return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {samples} in {_duration(wall)}{on} "
             f"({rays}, {embree}){light}, {nans}{skipped}")
 
 

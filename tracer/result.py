@@ -63,6 +63,7 @@ class RenderResult:
     embree_time_s: float = 0.0
     rays: int = 0
     threads: int = 1
+    workers: int = 0                 # Dask worker processes that traced it (farm/); 0: this one
     cancelled: bool = False
     time_limited: bool = False      # stopped by the settings' time_limit (a whole image)
     stats: dict = field(default_factory=dict)

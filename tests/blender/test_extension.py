@@ -128,7 +128,8 @@ def test_build_makes_one_zip_per_platform_with_its_wheels(built):
         assert not [n for n in names if "numpy" in n.lower()]
         # The extension is addon/, tracer/, errors.py and __init__.py: not the command line nor
         # what only it runs (the validator, snell stress, their pages), which Blender cannot import.
-        assert not [n for n in names if n.startswith(("validation/", "stress/", "pages/", "compare/"))
+        assert not [n for n in names if n.startswith(("validation/", "stress/", "pages/", "compare/",
+                                                      "farm/"))
                     or n == "cli.py"]
         assert {m for m in shipped_modules(built / name) if "." not in m} == {
             "", "addon", "errors", "tracer"}

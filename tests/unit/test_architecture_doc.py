@@ -7,7 +7,8 @@ import pytest
 
 from support.paths import ROOT
 
-FOLDERS = ("tracer", "tracer/lights", "addon", "addon/export", "validation", "stress", "pages")
+FOLDERS = ("tracer", "tracer/lights", "addon", "addon/export", "validation", "stress", "pages",
+           "farm")
 
 
 def _paragraphs() -> dict:

@@ -13,7 +13,8 @@ import tomllib
 from support.paths import ROOT
 
 PACKAGE = "snell"
-SUBPACKAGES = ("addon", "pages", "stress", "tracer", "validation")  # pyproject's packages, besides the root
+# pyproject's packages, besides the root
+SUBPACKAGES = ("addon", "farm", "pages", "stress", "tracer", "validation")
 
 
 # The packages and what each may import, modules collapsed to their top-level package (the root's
@@ -28,8 +29,10 @@ PACKAGE_IMPORTS = {
     "snell.pages": {"snell.tracer"},
     "snell.validation": {"snell.addon", "snell.pages", "snell.tracer", "snell.errors"},
     "snell.stress": {"snell.addon", "snell.pages", "snell.tracer", "snell.errors"},
-    "snell.cli": {"snell.validation", "snell.stress", "snell.addon", "snell.pages", "snell.tracer",
-                  "snell.errors"},
+    # Distributed rendering on Dask: above the tracer (and errors.py), below the command line.
+    "snell.farm": {"snell.tracer", "snell.errors"},
+    "snell.cli": {"snell.validation", "snell.stress", "snell.farm", "snell.addon",
+                  "snell.pages", "snell.tracer", "snell.errors"},
     "snell": {"snell.addon"},
 }
 

@@ -1,0 +1,90 @@
+"""Connecting to Dask: a scheduler at an address, or a LocalCluster of worker processes started
+and stopped with the command; and checking that every worker runs this Snell."""
+from __future__ import annotations
+
+import contextlib
+import logging
+
+from ..errors import CliError
+from ..tracer import jit
+from . import worker
+
+CONNECT_TIMEOUT = 10.0   # seconds to reach a scheduler
+WORKERS_TIMEOUT = 60.0   # seconds for a scheduler's first worker to join
+
+
+def _dask():
+    """dask.distributed, or a CliError saying how to install it."""
+    try:
+        import distributed
+    except ImportError:
+        raise CliError("--workers and --cluster need Dask "
+                       "(pip install 'snell[distributed]')") from None
+    return distributed
+
+
+@contextlib.contextmanager
+def connect(address: str | None = None, workers: int | None = None,
+            timeout: float | None = None):
+    """A Dask Client: of the scheduler at `address`, or of a LocalCluster of `workers` processes
+    (one thread each) closed on exit. Unreachable scheduler: CliError."""
+    distributed = _dask()
+    if address is None:
+        # Processes, not threads: the tracer releases the GIL but Python between its kernels does
+        # not. Dashboard on a free port: other renders may run on this machine.
+        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
+                                           processes=True, dashboard_address=":0",
+                                           silence_logs=logging.ERROR)
+        try:
+            with distributed.Client(cluster) as client:
+                yield client
+        finally:
+            cluster.close()
+        return
+    try:
+        client = distributed.Client(address, timeout=timeout or CONNECT_TIMEOUT)
+    except (OSError, TimeoutError) as exc:
+        raise CliError(f"--cluster {address}: cannot reach the scheduler "
+                       f"({_reason(exc)})") from None
+    except ValueError as exc:     # not an address: no port, an unknown scheme
+        raise CliError(f"--cluster {address}: {_reason(exc)}") from None
+    with client:
+        yield client
+
+
+def _reason(exc: BaseException) -> str:
+    """The last line of a connection error's message (Dask's say what they tried first)."""
+    text = str(exc).strip().splitlines()
+    return text[-1] if text else type(exc).__name__
+
+
+def check_workers(client, timeout: float | None = None) -> int:
+    """Wait for a worker, then check that every worker runs this Snell (the same tracer sources)
+    and can render; returns the worker threads. CliError otherwise."""
+    timeout = timeout or WORKERS_TIMEOUT
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except TimeoutError:
+        raise CliError(f"no Dask worker joined the scheduler {client.scheduler.address} "
+                       f"in {timeout:g} s") from None
+    here = jit.sources_hash()
+    try:
+        described = client.run(worker.describe)
+    except Exception as exc:  # noqa: BLE001  (a worker without snell cannot even unpickle it)
+        raise CliError(f"a Dask worker cannot run Snell ({type(exc).__name__}: "
+                       f"{_reason(exc)}): install snell[distributed] on every worker") from None
+    for address, info in sorted(described.items()):
+        if info["error"]:
+            raise CliError(f"worker {address}: {info['error']}")
+        if info["sources"] != here:
+            raise CliError(f"worker {address} runs another Snell (tracer {info['path']}, sources "
+                           f"{info['sources']}; here {here}): install the same version")
+    return sum(client.nthreads().values())
+
+
+def dashboard(client) -> str:
+    """The Dask dashboard's address, or '' if the scheduler serves none."""
+    try:
+        return client.dashboard_link or ""
+    except Exception:  # noqa: BLE001  (no dashboard: bokeh missing, or disabled)
+        return ""

@@ -1,0 +1,123 @@
+"""A fixed-sample frame on a Dask cluster: its windows (Renderer.windows, fixed by the image size
+and spp, not by the workers) traced as tasks, and added in window order as they arrive, which
+makes the local render's float sums bit for bit (RenderResult.add)."""
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from ..errors import CliError, one_line
+from ..tracer import passes
+from ..tracer.camera import Camera
+from ..tracer.result import RenderResult
+from . import cluster, keys, worker
+
+AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait for the client
+# ...but no more than about this many bytes of window sums (a 3840x2160 window is 600 MB): the
+# client holds at most the windows in flight, so its memory stays bounded however long the render.
+AHEAD_BYTES = 4 << 30
+
+
+def check_fixed(settings, where: str) -> None:
+    """CliError unless the settings render fixed samples (what is distributed so far)."""
+    if settings.noise_threshold > 0.0 or settings.batches:
+        raise CliError(f"{where}: renders fixed samples only: add --noise-threshold 0 "
+                       "(adaptive sampling and batches are not distributed yet)")
+    if getattr(settings, "time_limit", 0):
+        # The local render's samples would depend on its clock: no image to be equal to.
+        raise CliError(f"{where}: renders fixed samples only: add --time-limit 0")
+
+
+def render_on(address: str | None, workers: int | None, scene, settings, name: str,
+              progress=None, quiet: bool = False) -> RenderResult:
+    """Render a scene on the scheduler at `address`, or on a LocalCluster of `workers`
+    processes started and stopped here; says where on stderr unless quiet."""
+    with cluster.connect(address, workers) as client:
+        threads = cluster.check_workers(client)
+        processes = len(client.nthreads())
+        if not quiet:
+            board = cluster.dashboard(client)
+            print(f"snell: rendering on {processes} Dask worker{'s' if processes != 1 else ''} "
+                  f"({threads} threads){', dashboard ' + board if board else ''}",
+                  file=sys.stderr, flush=True)
+        result = render_frame(client, scene, settings, name, progress=progress, threads=threads)
+        result.workers = processes
+        return result
+
+
+def render_frame(client, scene, settings, name: str, frame: int = 0, progress=None,
+                 threads: int | None = None) -> RenderResult:
+    """Render a scene's frame on the client's workers; `name` (the scene file) names it in
+    errors. progress(result, windows done, windows) as Renderer.render's."""
+    check_fixed(settings, name)
+    key = keys.render_key(scene, settings)
+    camera = Camera(scene.camera)
+    w, h, spp = camera.width, camera.height, settings.spp
+    windows = passes.fixed_windows(w * h, spp)
+    threads = threads or sum(client.nthreads().values())
+    # Sent once to every worker (a worker that joins later copies it from another), not per task.
+    [scene_future] = client.scatter([scene], broadcast=True, hash=False)
+    result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=threads,
+                          spp_budget=spp)
+    futures, arrived = {}, {}
+    tasks = _dask().as_completed()
+    window_bytes = w * h * 3 * 8 * 3          # sums, sums of squares, light sums: float64 RGB
+    ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, AHEAD_BYTES // window_bytes))
+    start = time.perf_counter()
+
+    def submit(i):
+        window = windows[i]
+        futures[i] = client.submit(worker.trace_window, scene_future, key, window, spp, settings,
+                                   key=keys.window_key(key, frame, window.index, settings.seed),
+                                   retries=2)
+        tasks.add(futures[i])
+
+    try:
+        for i in range(min(ahead, len(windows))):
+            submit(i)
+        merged = 0
+        for future in tasks:
+            i = next(k for k, f in futures.items() if f is future)
+            arrived[i] = _reply(future, name, windows[i])
+            del futures[i]
+            future.release()
+            # Only the next window is added: float sums depend on their order.
+            while merged in arrived:
+                _add(result, arrived.pop(merged))
+                merged += 1
+                result.time_s = time.perf_counter() - start
+                if merged + ahead - 1 < len(windows):
+                    submit(merged + ahead - 1)
+                if progress is not None:
+                    progress(result, merged, len(windows))
+    finally:
+        client.cancel(list(futures.values()) + [scene_future])
+    result.time_s = time.perf_counter() - start
+    return result
+
+
+def _dask():
+    import distributed
+    return distributed
+
+
+def _reply(future, name: str, window) -> worker.WindowReply:
+    """A finished task's reply, or a CliError naming the scene and the failure."""
+    try:
+        return future.result()
+    except Exception as exc:  # noqa: BLE001  (whatever the worker raised, or KilledWorker)
+        raise CliError(f"{name}: window {window.index} (samples {window.first}-{window.end}) "
+                       f"failed on the cluster: {type(exc).__name__}: "
+                       f"{one_line(exc)[:300]}") from None
+
+
+def _add(result: RenderResult, reply: worker.WindowReply) -> None:
+    """Add a window to the result, with the counters of the summary line."""
+    if not result.stages:
+        result.stages, result.build_s = reply.stages, reply.build_s
+        result.light_in_image = reply.split
+    result.add(reply.sums)
+    result.rays += reply.rays
+    result.embree_time_s += reply.embree_s

@@ -1,0 +1,309 @@
+"""Rendering on Dask (farm/): windows traced by worker processes and merged in window
+order make the local render bit for bit, through lost workers; failures are one-line errors.
+
+One LocalCluster of two worker processes serves the module (starting one takes seconds); the
+workers import this checkout's snell through PYTHONPATH, which they inherit.
+"""
+import multiprocessing
+import os
+import signal
+import socket
+import sys
+import time
+
+import numpy as np
+import pytest
+
+distributed = pytest.importorskip("distributed")
+cloudpickle = pytest.importorskip("cloudpickle")
+
+from snell import cli                                            # noqa: E402
+from snell.farm import cluster as cluster_module, keys    # noqa: E402
+from snell.farm import render as render_module, worker    # noqa: E402
+from snell.errors import CliError                                 # noqa: E402
+from snell.tracer import image, passes                            # noqa: E402
+from snell.tracer.integrator import Renderer, kernels_compiled, warm_up   # noqa: E402
+from snell.tracer.result import RenderResult                       # noqa: E402
+from snell.tracer.scene import save                               # noqa: E402
+from support.builders import box, camera, icosphere, make_scene, quad, tiny_scene  # noqa: E402
+
+SIZE = 16
+SPP = 12
+# Windows of 2 samples on a 16x16 image (the tracer sizes them from PASS_PATHS): 6 windows. Only
+# the client's windows change: a worker traces the window it is given, as one pass.
+PASS_PATHS = 2 * SIZE * SIZE
+MATERIALS = [{"name": "White", "kind": "diffuse", "color": [0.8, 0.8, 0.8]},
+             {"name": "Lamp", "kind": "emission", "color": [1.0, 1.0, 1.0], "strength": 20.0},
+             {"name": "Glass", "kind": "glass", "color": [1.0, 1.0, 1.0], "ior": 1.5}]
+
+
+def glass_room(**render):
+    """A closed room, a ceiling lamp and a glass sphere: the path and light tracers both run."""
+    pos, tri = box((-1, -1, 0), (1, 1, 2))
+    walls = pos[tri].reshape(-1, 3), np.arange(3 * len(tri), dtype=np.int32).reshape(-1, 3)
+    lamp = quad((0, 0, 1.98), 0.25, 0.25, normal_sign=-1)
+    sphere = icosphere(2, radius=0.3, center=(0.0, 0.0, 0.6))[:2]
+    cam = camera(position=(0.0, 0.0, 1.9), resolution=(SIZE, SIZE), lens=20.0)
+    render = {"max_depth": 4, "spp": SPP, "noise_threshold": 0.0, **render}
+    return make_scene([(*walls, 0), (*lamp, 1), (*sphere, 2)], MATERIALS, cam, **render)
+
+
+@pytest.fixture(scope="module")
+def client():
+    """A LocalCluster of two single-threaded worker processes, kernels warm on disk first."""
+    if not kernels_compiled():
+        warm_up()
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=":0") as local, \
+            distributed.Client(local) as dask_client:
+        yield dask_client
+
+
+@pytest.fixture
+def small_windows(monkeypatch):
+    monkeypatch.setattr(passes, "PASS_PATHS", PASS_PATHS)
+
+
+def same_image(a, b) -> bool:
+    """The same float64 sums, bit for bit, and the same light paths."""
+    return (np.array_equal(a.sum, b.sum) and np.array_equal(a.sum_sq, b.sum_sq)
+            and a.light_paths == b.light_paths
+            and (a.light_sum is None) == (b.light_sum is None)
+            and (a.light_sum is None or np.array_equal(a.light_sum, b.light_sum)))
+
+
+def test_a_distributed_render_is_the_local_render_bit_for_bit(client, small_windows):
+    """Two worker processes, six windows: the local render's sums, light paths, NaN count,
+    counters and image, and both workers traced some."""
+    scene = glass_room()
+    local = Renderer(scene, scene.settings()).render()
+    seen = []
+    merged = render_module.render_frame(client, scene, scene.settings(), "room.snell",
+                                        progress=lambda r, done, total: seen.append((done, total)))
+    assert local.light_paths > 0 and local.spp == merged.spp == SPP
+    assert same_image(local, merged)
+    assert (local.nan_count, local.stats) == (merged.nan_count, merged.stats)
+    assert np.array_equal(local.mean(), merged.mean())
+    assert seen == [(k, 6) for k in range(1, 7)]
+    assert merged.light_in_image and merged.stages == local.stages and merged.rays > 0
+
+
+def test_the_merge_order_is_what_makes_it_exact(client, small_windows, monkeypatch):
+    """The comparison above sees a wrong merge: windows added in reverse order, or one left out,
+    change the sums."""
+    scene = glass_room()
+    local = Renderer(scene, scene.settings()).render()
+    replies = []
+    monkeypatch.setattr(render_module, "_add", lambda result, reply: replies.append(reply))
+    render_module.render_frame(client, scene, scene.settings(), "room.snell")
+    assert [r.sums.window.index for r in replies] == list(range(6))
+
+    def merged(order):
+        out = RenderResult(SIZE, SIZE, np.zeros((SIZE, SIZE, 3)), np.zeros((SIZE, SIZE, 3)))
+        for reply in order:
+            out.add(reply.sums)
+        return out
+    assert same_image(local, merged(replies))
+    assert not same_image(local, merged(replies[::-1]))
+    assert not same_image(local, merged(replies[:2] + replies[3:]))
+
+
+
+def test_the_client_holds_a_bounded_number_of_windows(client, small_windows, monkeypatch):
+    """With room for two windows' sums, never more than two windows are submitted and not yet
+    added (the client's memory), and the image is still the local render's."""
+    monkeypatch.setattr(render_module, "AHEAD_BYTES", 1)
+    scene = glass_room()
+    local = Renderer(scene, scene.settings()).render()
+    counts = {"submitted": 0, "added": 0, "most": 0}
+    submit, add = client.submit, render_module._add
+
+    def counting_submit(*args, **kwargs):
+        counts["submitted"] += 1
+        counts["most"] = max(counts["most"], counts["submitted"] - counts["added"])
+        return submit(*args, **kwargs)
+
+    def counting_add(result, reply):
+        counts["added"] += 1
+        add(result, reply)
+    monkeypatch.setattr(client, "submit", counting_submit)
+    monkeypatch.setattr(render_module, "_add", counting_add)
+    merged = render_module.render_frame(client, scene, scene.settings(), "room.snell")
+    assert counts["submitted"] == counts["added"] == 6 and counts["most"] == 2
+    assert same_image(local, merged)
+
+# ---------------------------------------------------------------------------------------------
+# The command line
+
+
+def test_render_workers_writes_the_local_image(tmp_path, capsys):
+    """`snell render --workers 2` starts two worker processes, writes the EXR of the local
+    render, says where it rendered and where the dashboard is, and stops its workers."""
+    path = tmp_path / "room.snell"
+    save(glass_room(), str(path))
+    local, farm = tmp_path / "local.exr", tmp_path / "farm.exr"
+    assert cli.main(["render", str(path), "-o", str(local), "--quiet"]) == 0
+    before = set(multiprocessing.active_children())
+    assert cli.main(["render", str(path), "-o", str(farm), "--workers", "2"]) == 0
+    out, err = capsys.readouterr()
+    assert "snell: rendering on 2 Dask workers (2 threads), dashboard http" in err
+    assert f"{SPP} spp in " in out and " on 2 workers " in out
+    assert np.array_equal(image.read_exr(str(local)), image.read_exr(str(farm)))
+    assert set(multiprocessing.active_children()) <= before    # no worker left running
+
+
+def test_adaptive_settings_are_refused_before_any_work(tmp_path, capsys):
+    path = tmp_path / "room.snell"
+    save(glass_room(noise_threshold=0.01), str(path))
+    assert cli.main(["render", str(path), "-o", str(tmp_path / "a.exr"), "--workers", "2"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("snell: error: ") and "room.snell" in err[0]
+    assert "--noise-threshold 0" in err[0]
+    assert sorted(os.listdir(tmp_path)) == ["room.snell"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Faults
+
+
+def on_workers(client, name, replacement):
+    """Replace a function of farm/worker.py in every worker process, the original kept there as
+    worker.saved_<name>."""
+    def swap():
+        if not hasattr(worker, "saved_" + name):
+            setattr(worker, "saved_" + name, getattr(worker, name))
+        setattr(worker, name, replacement)
+    client.run(swap)
+
+
+def restore(client, name):
+    """Put back what on_workers replaced (a restarted worker has its own already)."""
+    def put():
+        if hasattr(worker, "saved_" + name):
+            setattr(worker, name, getattr(worker, "saved_" + name))
+    client.run(put)
+
+
+# The worker processes cannot import this module: its functions travel by value.
+cloudpickle.register_pickle_by_value(sys.modules[__name__])
+
+
+def test_a_worker_killed_mid_render_loses_nothing(client, small_windows):
+    """Kill the process of a worker that is tracing a window: Dask reruns its windows on the
+    other worker and the image is still the local render's, bit for bit."""
+    scene = glass_room()
+    local = Renderer(scene, scene.settings()).render()
+    def slow(*args):      # long enough that the kill lands inside a task
+        time.sleep(0.5)
+        return worker.saved_trace_window(*args)
+    on_workers(client, "trace_window", slow)
+    pids = client.run(os.getpid)
+    killed = {}
+
+    def kill(result, done, total):
+        if killed:
+            return
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            busy = [a for a, keys in client.processing().items() if keys and a in pids]
+            if busy:
+                killed["pid"], killed["keys"] = pids[busy[0]], set(client.processing()[busy[0]])
+                killed["left"] = total - done
+                os.kill(killed["pid"], signal.SIGKILL)
+                return
+            time.sleep(0.01)
+    try:
+        merged = render_module.render_frame(client, scene, scene.settings(), "room.snell",
+                                            progress=kill)
+    finally:
+        restore(client, "trace_window")
+        # The nanny restarts the killed worker: the tests after this one see two workers again.
+        client.wait_for_workers(2, timeout=120)
+    assert killed and killed["keys"] and killed["left"] >= 1, killed
+    with pytest.raises(ProcessLookupError):
+        os.kill(killed["pid"], 0)
+    assert same_image(local, merged)
+    assert (local.nan_count, local.stats) == (merged.nan_count, merged.stats)
+
+
+def test_a_task_that_keeps_failing_is_one_error_naming_the_scene(client, tmp_path, capsys):
+    """Every try of a window fails on the workers: `snell render --cluster` exits 1 with one
+    line naming the scene and the failure, and writes nothing."""
+    path = tmp_path / "tiny.snell"
+    save(tiny_scene(noise_threshold=0.0), str(path))
+
+    def broken(*args):
+        raise RuntimeError("the BVH could not be built")
+    on_workers(client, "renderer_for", broken)
+    try:
+        status = cli.main(["render", str(path), "-o", str(tmp_path / "a.exr"),
+                           "--png", str(tmp_path / "a.png"), "--cluster",
+                           client.scheduler.address])
+    finally:
+        restore(client, "renderer_for")
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 1
+    assert err[-1].startswith("snell: error: ") and "tiny.snell" in err[-1]
+    assert "RuntimeError: the BVH could not be built" in err[-1] and "Traceback" not in err[-1]
+    assert len(err) == 2 and err[0].startswith("snell: rendering on 2 Dask workers")
+    assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
+
+
+def test_a_worker_of_another_snell_is_refused(client, tmp_path, capsys):
+    """A worker whose tracer sources differ from the client's: one error naming it, no render."""
+    path = tmp_path / "tiny.snell"
+    save(tiny_scene(noise_threshold=0.0), str(path))
+    real = worker.describe
+    on_workers(client, "describe", lambda: {**worker.saved_describe(), "sources": "0123abcd"})
+    try:
+        status = cli.main(["render", str(path), "-o", str(tmp_path / "a.exr"), "--cluster",
+                           client.scheduler.address])
+    finally:
+        restore(client, "describe")
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 1 and len(err) == 1 and real is worker.describe
+    assert "runs another Snell" in err[0] and "0123abcd" in err[0]
+    assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
+
+
+def test_an_unreachable_scheduler_is_one_error(tmp_path, capsys, monkeypatch):
+    """A closed port: one line naming the address, within the connect timeout."""
+    monkeypatch.setattr(cluster_module, "CONNECT_TIMEOUT", 2.0)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    path = tmp_path / "tiny.snell"
+    save(tiny_scene(noise_threshold=0.0), str(path))
+    start = time.monotonic()
+    status = cli.main(["render", str(path), "-o", str(tmp_path / "a.exr"), "--cluster",
+                       f"tcp://127.0.0.1:{port}"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 1 and len(err) == 1, err
+    assert err[0].startswith(f"snell: error: --cluster tcp://127.0.0.1:{port}: cannot reach "
+                             "the scheduler")
+    assert time.monotonic() - start < 30
+    assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
+
+
+def test_task_keys_are_the_render_content_frame_window_and_seed():
+    """The same scene and settings give the same keys (a retried task is the same task); the
+    scene, a setting of the image, the frame, the window or the seed each change it, the threads
+    do not."""
+    scene = glass_room()
+    key = keys.render_key(scene, scene.settings())
+    assert key == keys.render_key(glass_room(), scene.settings(threads=7))
+    assert key != keys.render_key(scene, scene.settings(spp=SPP + 1))
+    assert key != keys.render_key(glass_room(max_depth=3), scene.settings())
+    moved = glass_room()
+    moved.positions = moved.positions + np.float32(1e-3)
+    assert keys.scene_hash(moved) != keys.scene_hash(scene)
+    names = {keys.window_key(key, f, w, s) for f in (0, 1) for w in (0, 1) for s in (0, 1)}
+    assert len(names) == 8
+
+
+def test_a_time_limit_is_refused():
+    """A time-limited render's samples depend on its clock: there is no image to be equal to."""
+    scene = glass_room()
+    with pytest.raises(CliError, match="--time-limit 0"):
+        render_module.check_fixed(scene.settings(time_limit=5.0), "room.snell")
+    render_module.check_fixed(scene.settings(), "room.snell")
