@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .materials import Inputs, follow, linked_socket
+from .nodes import Inputs, follow, linked_socket
 
 
 def uses_image_textures():

@@ -77,7 +77,7 @@ def test_cube_world_transform(bl):
     obj.scale = (1.0, 2.0, 0.5)
     s, warnings = run()
     assert s.triangles.shape == (12, 3)
-    assert warnings == ["object 'Cube', material '(none)': no material, using grey 0.8 diffuse"]
+    assert warnings == [f"object 'Cube', material '(none)': {materials.NO_MATERIAL}"]
     m = np.array(obj.matrix_world)
     local = np.array([v.co for v in obj.data.vertices])
     expected = local @ m[:3, :3].T + m[:3, 3]
@@ -499,7 +499,8 @@ def test_a_linked_input_uses_its_unlinked_value(bl, kind, socket, field, shown):
     m, warnings = exported_material(bl, mat, "TexObj")
     assert np.allclose(m[field], unlinked_value(bsdf(mat).inputs[socket]))
     assert warnings == [f"object 'TexObj', material 'Tex': node {bsdf(mat).name!r}: input "
-                        f"{socket!r} is linked to {noise.name!r}, which Snell cannot evaluate: "
+                        f"{socket!r} is linked to {noise.name!r} (a procedural texture), which "
+                        f"Snell cannot evaluate: "
                         f"using its unlinked value {shown}"]
     bsdf(mat).inputs[socket].links[0].is_muted = True   # a muted link passes nothing: no warning
     assert exported_material(bl, mat)[1] == []
@@ -519,8 +520,9 @@ def test_linked_normals_and_tangents_are_ignored_with_a_warning(bl, kind, socket
     mat = common.material("Bumpy", kind, (0.5, 0.5, 0.5))
     source = link(mat, socket, "ShaderNodeBump" if "Normal" in socket else "ShaderNodeTangent")
     _, warnings = exported_material(bl, mat, "BumpyObj")
+    shown = "'Bump' (a bump map)" if "Normal" in socket else "'Tangent' (ShaderNodeTangent)"
     assert warnings == [f"object 'BumpyObj', material 'Bumpy': node {bsdf(mat).name!r}: input "
-                        f"{socket!r} is linked to {source.name!r}, which Snell ignores: {rendered}"]
+                        f"{socket!r} is linked to {shown}, which Snell ignores: {rendered}"]
 
 
 def test_fallback_warnings_name_object_material_node(bl):
@@ -531,13 +533,165 @@ def test_fallback_warnings_name_object_material_node(bl):
     mix.node_tree.links.new(node.outputs[0], out.inputs["Surface"])
     m, warnings = exported_material(bl, mix, "MixObj")
     assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.8)
-    assert any("'MixObj'" in w and "'Mixed'" in w and "'Mix Shader'" in w for w in warnings)
-
-    m, warnings = exported_material(bl, None, "Bare")
-    assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.8)
-    assert any("'Bare'" in w and "no material" in w for w in warnings)
+    assert warnings == ["object 'MixObj', material 'Mixed': node 'Material Output': input "
+                        "'Surface' is linked to 'Mix Shader' (a shader mix), which Snell cannot "
+                        "evaluate: using grey 0.8 diffuse"]
     # A material Snell replaces renders differently from Cycles: "not comparable".
-    assert all(export.differs_from_cycles(w) for w in warnings if "no material" in w)
+    assert all(export.differs_from_cycles(w) for w in warnings)
+
+
+def test_no_material_is_cycles_default_surface(bl):
+    """An object without a material, and an empty slot, render as Cycles' default surface: a
+    Principled BSDF of base colour 0.8 (Cycles' images of it and of a new material are equal),
+    with a note that does not make the validator say "not comparable"."""
+    m, warnings = exported_material(bl, None, "Bare")
+    assert m == {**scene_mod.MATERIAL_DEFAULTS["principled"], "name": "(default surface)",
+                 "kind": "principled", "color": [0.8, 0.8, 0.8]}
+    assert warnings == [f"object 'Bare', material '(none)': {materials.NO_MATERIAL}"]
+    assert not any(export.differs_from_cycles(w) for w in warnings)
+    # Equal to what a new material (Blender's default Principled BSDF) exports as.
+    new, _ = materials.convert_material(bpy.data.materials.new("New"))
+    assert set(new) == set(m)
+    for key, value in m.items():
+        if key != "name":
+            assert new[key] == (value if isinstance(value, str) else pytest.approx(value)), key
+
+
+@pytest.mark.parametrize("how", ["unlinked", "no output", "muted bsdf"])
+def test_a_material_without_surface_renders_black_as_in_cycles(bl, how):
+    """Cycles renders a material whose output has no Surface (or no output at all, or a muted
+    BSDF, which passes no shader) black: so does Snell, with a note."""
+    mat = common.material("Empty", "principled")
+    tree = mat.node_tree
+    if how == "unlinked":
+        tree.links.remove(tree.links[0])
+    elif how == "no output":
+        tree.nodes.remove(tree.nodes["Material Output"])
+    else:
+        bsdf(mat).mute = True
+    m, warnings = exported_material(bl, mat, "Dark")
+    assert m == {"name": "Empty", "kind": "diffuse", "color": [0.0, 0.0, 0.0]}
+    (warning,) = warnings
+    assert warning.startswith("object 'Dark', material 'Empty': ")
+    assert warning.endswith(materials.NO_SURFACE) and not export.differs_from_cycles(warning)
+
+
+def _glass_with(bl, output_input, idname):
+    """A glass material whose Material Output's `output_input` is fed by a new `idname` node."""
+    mat = common.material("Coffee", "glass", (1.0, 1.0, 1.0), IOR=1.33)
+    node = mat.node_tree.nodes.new(idname)
+    mat.node_tree.links.new(node.outputs[0],
+                            mat.node_tree.nodes["Material Output"].inputs[output_input])
+    return mat
+
+
+@pytest.mark.parametrize("output_input, idname, shown, rendered", [
+    ("Volume", "ShaderNodeVolumeAbsorption", "'Volume Absorption' (a volume)",
+     "rendered without it (the object's inside is clear)"),
+    ("Displacement", "ShaderNodeDisplacement", "'Displacement' (a displacement)",
+     "rendered without displacement or bump (the mesh's normals)"),
+])
+def test_material_output_volume_and_displacement_warn(bl, output_input, idname, shown, rendered):
+    """A Volume Absorption inside glass was dropped without a word: now one warning names the
+    output, the input, the node and what renders instead; the surface still converts."""
+    m, warnings = exported_material(bl, _glass_with(bl, output_input, idname), "Cup")
+    assert m["kind"] == "glass" and m["ior"] == pytest.approx(1.33)
+    assert warnings == [f"object 'Cup', material 'Coffee': node 'Material Output': input "
+                        f"{output_input!r} is linked to {shown}, which Snell does not render: "
+                        f"{rendered}"]
+    assert export.differs_from_cycles(warnings[0])
+
+
+def test_world_volume_warns(bl):
+    world = common.set_world(bl, (0.1, 0.1, 0.1))
+    fog = world.node_tree.nodes.new("ShaderNodeVolumeScatter")
+    world.node_tree.links.new(fog.outputs[0], world.node_tree.nodes["World Output"].inputs["Volume"])
+    s, warnings = run()
+    assert s.world["color"] == pytest.approx([0.1, 0.1, 0.1])
+    assert warnings == ["world 'World': node 'World Output': input 'Volume' is linked to "
+                        "'Volume Scatter' (a volume), which Snell does not render: rendered "
+                        "without it (clear air)"]
+
+
+def test_node_group_on_the_surface_and_on_an_input_warn(bl):
+    group = bpy.data.node_groups.new("Dispersion", "ShaderNodeTree")
+    group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
+    group.interface.new_socket("Value", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    mat = bpy.data.materials.new("Grouped")
+    tree = mat.node_tree
+    surface = tree.nodes.new("ShaderNodeGroup")
+    surface.node_tree = group
+    tree.links.new(surface.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    m, warnings = exported_material(bl, mat, "G")
+    assert m["kind"] == "diffuse"
+    assert warnings == ["object 'G', material 'Grouped': node 'Material Output': input 'Surface' "
+                        "is linked to 'Group' (a node group), which Snell cannot evaluate: using "
+                        "grey 0.8 diffuse"]
+    tree.links.new(tree.nodes["Principled BSDF"].outputs[0],
+                   tree.nodes["Material Output"].inputs["Surface"])
+    tree.links.new(surface.outputs[1], tree.nodes["Principled BSDF"].inputs["Roughness"])
+    m, warnings = exported_material(bl, mat, "G")
+    assert m["kind"] == "principled" and m["roughness"] == pytest.approx(0.5)
+    assert warnings == ["object 'G', material 'Grouped': node 'Principled BSDF': input "
+                        "'Roughness' is linked to 'Group' (a node group), which Snell cannot "
+                        "evaluate: using its unlinked value 0.5"]
+
+
+def test_linked_principled_alpha_and_normal_map_warn(bl):
+    mat = common.material("Leaf", "principled", (0.2, 0.5, 0.1))
+    link(mat, "Alpha", "ShaderNodeTexChecker")
+    link(mat, "Normal", "ShaderNodeNormalMap")
+    _, warnings = exported_material(bl, mat, "Leaf")
+    assert warnings == [
+        "object 'Leaf', material 'Leaf': node 'Principled BSDF': input 'Alpha' is linked to "
+        "'Checker Texture' (a procedural texture), which Snell cannot evaluate: using its "
+        "unlinked value 1",
+        "object 'Leaf', material 'Leaf': node 'Principled BSDF': input 'Normal' is linked to "
+        "'Normal Map' (a normal map), which Snell ignores: shaded with the mesh's normals"]
+
+
+def test_a_linked_input_snell_never_reads_warns(bl):
+    """An input no converter reads (a Principled BSDF's Subsurface Radius) is not dropped
+    unsaid when linked."""
+    mat = common.material("Skin", "principled")
+    rgb = link(mat, "Subsurface Radius", "ShaderNodeRGB")
+    _, warnings = exported_material(bl, mat, "Skin")
+    assert warnings == [f"object 'Skin', material 'Skin': node 'Principled BSDF': input "
+                        f"'Subsurface Radius' is linked to {rgb.name!r} (ShaderNodeRGB), which "
+                        f"Snell does not evaluate: ignored"]
+
+
+def test_reroutes_and_muted_nodes_are_followed(bl, tmp_path):
+    """An Image Texture reaches Base Color through a reroute and a muted Gamma node (a muted
+    node passes its internal link, as Blender and Cycles do); a muted texture passes nothing,
+    so its input's own value is used without a warning."""
+    import numpy as np_
+    image = bpy.data.images.new("Tex", 4, 4)
+    image.pixels[:] = np_.full(64, 0.5)
+    mat = common.material("Routed", "principled", (0.3, 0.3, 0.3))
+    tree = mat.node_tree
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    gamma = tree.nodes.new("ShaderNodeGamma")
+    gamma.mute = True
+    reroute = tree.nodes.new("NodeReroute")
+    tree.links.new(tex.outputs["Color"], gamma.inputs["Color"])
+    tree.links.new(gamma.outputs["Color"], reroute.inputs[0])
+    tree.links.new(reroute.outputs[0], bsdf(mat).inputs["Base Color"])
+    noise = link(mat, "Roughness")
+    noise.mute = True
+    bpy.ops.mesh.primitive_plane_add()
+    bpy.context.active_object.data.materials.append(mat)
+    s, warnings = run()
+    (m,) = s.materials
+    assert warnings == [] and "color" in m["textures"]
+    assert m["roughness"] == pytest.approx(0.5)
+    gamma.mute = False
+    s, warnings = run()
+    assert "textures" not in s.materials[0]
+    assert warnings == ["object 'Plane', material 'Routed': node 'Principled BSDF': input "
+                        "'Base Color' is linked to 'Gamma' (ShaderNodeGamma), which Snell cannot "
+                        "evaluate: using its unlinked value (0.3, 0.3, 0.3)"]
 
 
 def test_glass_on_open_mesh_warns(bl):
