@@ -63,7 +63,7 @@ def convert_material(mat):
                                   f"render", instead, input=socket)
     node = follow(out.inputs["Surface"])
     if node is None:
-        coverage.replace(out, "nothing connected", NO_SURFACE, input="Surface")
+        coverage.replace(out, "is not connected", NO_SURFACE, input="Surface")
         return black, coverage
     convert = CONVERTERS.get(node.bl_idname)
     if convert is None:
