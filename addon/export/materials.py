@@ -12,6 +12,7 @@ from __future__ import annotations
 from ...tracer import scene as scene_mod
 from .bsdfs import BLENDER_DISTRIBUTIONS, CONVERTERS, PRINCIPLED_INPUTS  # noqa: F401
 from .coverage import Coverage, node_text
+from .mixes import NotFolded, fold, mix_factor
 from .nodes import Inputs, active_output, follow, linked_socket  # noqa: F401
 
 GREY = [0.8, 0.8, 0.8]
@@ -65,11 +66,38 @@ def convert_material(mat):
     if node is None:
         coverage.replace(out, "is not connected", NO_SURFACE, input="Surface")
         return black, coverage
-    convert = CONVERTERS.get(node.bl_idname)
-    if convert is None:
-        coverage.replace(out, f"is linked to {node_text(node)}, which Snell cannot evaluate",
+    try:
+        return convert_surface(name, node, coverage), coverage
+    except NotFolded as exc:
+        coverage.replace(out, f"is linked to {exc}, which Snell cannot evaluate",
                          "using grey 0.8 diffuse", input="Surface")
         return {"name": name, "kind": "diffuse", "color": list(GREY)}, coverage
+
+
+def convert_surface(name, node, coverage):
+    """The material dict of the shader node on a Surface (None: no closure, black), its
+    entries recorded in coverage; NotFolded if Snell cannot evaluate it."""
+    if node is None:
+        return {"name": name, "kind": "diffuse", "color": list(BLACK)}
+    if node.bl_idname == "ShaderNodeMixShader":
+        # The sides' entries count only if the mix folds: else the mix is the one warning.
+        inputs, sides = Inputs(node, coverage), Coverage()
+        fac = mix_factor(node, inputs)
+        try:
+            first = convert_surface(name, follow(node.inputs[1]), sides)
+            second = convert_surface(name, follow(node.inputs[2]), sides)
+        except NotFolded as exc:
+            raise NotFolded(f"{node_text(node)} of {exc}") from None
+        mixed = fold(node, fac, first, second)
+        coverage.evaluate(node, f"constant factor {fac:g}, folded into one {mixed['kind']} "
+                                f"surface")
+        coverage.evaluated += sides.evaluated
+        for issue in sides.issues:
+            coverage.append(issue)
+        return mixed
+    convert = CONVERTERS.get(node.bl_idname)
+    if convert is None:
+        raise NotFolded(node_text(node))
     inputs = Inputs(node, coverage)
     converted = convert(name, node, inputs, coverage)
     inputs.unread_links()
@@ -82,4 +110,4 @@ def convert_material(mat):
         else:
             coverage.replace(node, f"is linked to {node_text(texture)}, which a {kind} surface "
                                    f"does not read", "using its unlinked value", input=field)
-    return converted, coverage
+    return converted
