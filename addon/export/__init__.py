@@ -7,7 +7,8 @@ reported in the returned warnings.
 - depsgraph.py: the walk. Exporter visits the rendered instances, hands each to its datablock's
   module and assembles the Scene; export_depsgraph, export_blend and export_to_file.
 - materials.py: a material's shader nodes (convert_material: the active output's Surface, and a
-  missing material as Cycles' default surface); bsdfs.py: the BSDF nodes Snell evaluates, one
+  missing material as Cycles' default surface); mixes.py: a Mix Shader of a constant factor
+  folded into one material where that is exact; bsdfs.py: the BSDF nodes Snell evaluates, one
   converter each in CONVERTERS; coverage.py: what a conversion evaluated and what it replaced
   with what (Coverage: the warnings, and `snell info`'s material lines); nodes.py: the
   node-tree readers every conversion shares (follow, through reroutes and muted nodes;
