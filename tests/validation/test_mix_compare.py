@@ -74,12 +74,13 @@ def test_mixes_export_as_one_material(mixes):
 
 
 def test_constant_mixes_match_cycles(mixes):
+    """Consistent (measured: mean ratio 1.002/0.999/0.999, z 0.9/-0.2/-0.3, no tile failed)."""
     verdict, detail = _verdict(mixes.compare())
     assert verdict == "consistent", detail
 
 
 def test_mix_factor_off_by_005_is_caught(mixes):
-    """Snell's Blend colour as if Fac were 0.35."""
+    """Snell's Blend colour as if Fac were 0.35 (measured: mean z -9.4/1.3/11.3, 6 tiles)."""
     def off(scene):
         scene = copy.copy(scene)
         scene.materials = [dict(m, color=[0.65 * r + 0.35 * b for r, b in zip(RED, BLUE)])
