@@ -80,9 +80,10 @@ def convert_surface(name, node, coverage):
     if node is None:
         return {"name": name, "kind": "diffuse", "color": list(BLACK)}
     if node.bl_idname == "ShaderNodeMixShader":
-        # The sides' entries count only if the mix folds: else the mix is the one warning.
-        inputs, sides = Inputs(node, coverage), Coverage()
-        fac = mix_factor(node, inputs)
+        # Its factor's and sides' entries count only if the mix folds: else the mix is the one
+        # warning.
+        sides = Coverage()
+        fac = mix_factor(node, Inputs(node, sides))
         try:
             first = convert_surface(name, follow(node.inputs[1]), sides)
             second = convert_surface(name, follow(node.inputs[2]), sides)

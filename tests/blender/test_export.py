@@ -560,6 +560,18 @@ def test_fallback_warnings_name_object_material_node(bl):
                         "toon surface), which Snell cannot evaluate: using grey 0.8 diffuse"]
 
 
+def test_a_fresnel_mix_of_refraction_and_glossy_is_one_warning(bl):
+    """The glass of issue 29's files, Mix(Fresnel, Refraction, Glossy): one warning, for the
+    mix, not one more for its linked factor."""
+    mat, mix, _ = _mix("FresnelGlass", 0.5, "ShaderNodeBsdfRefraction", "ShaderNodeBsdfGlossy")
+    fresnel = mat.node_tree.nodes.new("ShaderNodeFresnel")
+    mat.node_tree.links.new(fresnel.outputs[0], mix.inputs["Fac"])
+    _, warnings = exported_material(bl, mat, "Ico")
+    assert warnings == ["object 'Ico', material 'FresnelGlass': node 'Material Output': input "
+                        "'Surface' is linked to 'Mix Shader' (a shader mix) of refraction and "
+                        "glossy, which Snell cannot evaluate: using grey 0.8 diffuse"]
+
+
 def test_constant_mix_shaders_fold_where_exact(bl):
     """Fac 0 or 1 picks a side (clamped as Cycles clamps it); two diffuse surfaces mix their
     colours; an unlinked side is no closure (black); emissions mix colour x strength."""
