@@ -72,8 +72,8 @@ class Exporter:
             nodes = converted.pop("_textures", None)
             if nodes:
                 textures = {}
-                for field, node in nodes.items():
-                    spec = self.textures.convert(node, coverage)
+                for field, (node, groups) in nodes.items():
+                    spec = self.textures.convert(node, coverage, groups)
                     if spec is not None:
                         textures[field] = spec
                         coverage.evaluate(node, f"image texture as the {field}")

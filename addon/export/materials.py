@@ -13,7 +13,7 @@ from ...tracer import scene as scene_mod
 from .bsdfs import BLENDER_DISTRIBUTIONS, CONVERTERS, PRINCIPLED_INPUTS  # noqa: F401
 from .coverage import Coverage, node_text
 from .mixes import NotFolded, fold, mix_factor
-from .nodes import Inputs, active_output, follow, linked_socket  # noqa: F401
+from .nodes import Inputs, active_output, follow, linked_socket, source_in  # noqa: F401
 
 GREY = [0.8, 0.8, 0.8]
 BLACK = [0.0, 0.0, 0.0]
@@ -62,31 +62,35 @@ def convert_material(mat):
         if node is not None:
             coverage.replace(out, f"is linked to {node_text(node)}, which Snell does not "
                                   f"render", instead, input=socket)
-    node = follow(out.inputs["Surface"])
-    if node is None:
+    surface = source_in(out.inputs["Surface"])
+    if surface.node is None:
         coverage.replace(out, "is not connected", NO_SURFACE, input="Surface")
         return black, coverage
     try:
-        return convert_surface(name, node, coverage), coverage
+        return convert_surface(name, surface, coverage), coverage
     except NotFolded as exc:
         coverage.replace(out, f"is linked to {exc}, which Snell cannot evaluate",
                          "using grey 0.8 diffuse", input="Surface")
         return {"name": name, "kind": "diffuse", "color": list(GREY)}, coverage
 
 
-def convert_surface(name, node, coverage):
-    """The material dict of the shader node on a Surface (None: no closure, black), its
-    entries recorded in coverage; NotFolded if Snell cannot evaluate it."""
+def convert_surface(name, surface, coverage):
+    """The material dict of the shader node on a Surface (a nodes.Source; no node: no closure,
+    black), its entries recorded in coverage; NotFolded if Snell cannot evaluate it."""
+    node, groups = surface.node, surface.groups
     if node is None:
         return {"name": name, "kind": "diffuse", "color": list(BLACK)}
+    if groups:
+        coverage.evaluated.append(f"node {node.name!r} inside group "
+                                  + " > ".join(repr(g.name) for g in groups) + ": flattened")
     if node.bl_idname == "ShaderNodeMixShader":
         # Its factor's and sides' entries count only if the mix folds: else the mix is the one
         # warning.
         sides = Coverage()
-        fac = mix_factor(node, Inputs(node, sides))
+        fac = mix_factor(node, Inputs(node, sides, groups))
         try:
-            first = convert_surface(name, follow(node.inputs[1]), sides)
-            second = convert_surface(name, follow(node.inputs[2]), sides)
+            first = convert_surface(name, source_in(node.inputs[1], groups), sides)
+            second = convert_surface(name, source_in(node.inputs[2], groups), sides)
         except NotFolded as exc:
             raise NotFolded(f"{node_text(node)} of {exc}") from None
         mixed = fold(node, fac, first, second)
@@ -99,15 +103,15 @@ def convert_surface(name, node, coverage):
     convert = CONVERTERS.get(node.bl_idname)
     if convert is None:
         raise NotFolded(node_text(node))
-    inputs = Inputs(node, coverage)
+    inputs = Inputs(node, coverage, groups)
     converted = convert(name, node, inputs, coverage)
     inputs.unread_links()
     kind = converted["kind"]
     coverage.evaluate(node, f"{kind} surface")
     allowed = scene_mod.TEXTURABLE.get(kind, ())
-    for field, texture in inputs.textures.items():
+    for field, (texture, texture_groups) in inputs.textures.items():
         if field in allowed:
-            converted.setdefault("_textures", {})[field] = texture
+            converted.setdefault("_textures", {})[field] = (texture, texture_groups)
         else:
             coverage.replace(node, f"is linked to {node_text(texture)}, which a {kind} surface "
                                    f"does not read", "using its unlinked value", input=field)

@@ -1,6 +1,6 @@
 """The node-tree readers the material, lamp and world conversions share: a link followed back to
-the node that feeds it (source, follow, linked_socket: through reroutes and muted nodes, as
-Cycles follows them), the active output node (active_output), and a node's input values
+the node that feeds it (source_in, source, follow, linked_socket: through reroutes, muted nodes
+and node groups, as Cycles follows them), the active output node (active_output), and a node's input values
 (Inputs), which records in a Coverage what it reads and what it replaces.
 """
 from __future__ import annotations
@@ -18,30 +18,69 @@ def _muted_input(node, output):
     return None
 
 
-def source(socket):
-    """(node, output socket) feeding an input, through reroutes, muted links (which pass
-    nothing) and muted nodes (which pass their internal links); (None, None) if none."""
+def _group_output(group):
+    """The active Group Output of a group node's tree (the one Blender evaluates), or None."""
+    tree = group.node_tree
+    outputs = [n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"] if tree else []
+    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+
+
+def _socket_by_identifier(sockets, identifier):
+    return next((s for s in sockets if s.identifier == identifier), None)
+
+
+class Source:
+    """Where a link chain ends: the node and output feeding an input (None: nothing), the groups
+    it lies inside (outermost first), and the socket whose own value the input takes when
+    nothing feeds it (a group node's input, when the chain leaves a group through its Group
+    Input)."""
+
+    def __init__(self, node, output, groups, value):
+        self.node, self.output, self.groups, self.value = node, output, groups, value
+
+
+def source_in(socket, groups=()):
+    """The Source of an input inside `groups`: followed through reroutes, muted links (which
+    pass nothing), muted nodes (their internal links), and node groups (into a group's active
+    Group Output, and out of its Group Input to the group node's input), as Blender and Cycles
+    flatten them."""
+    value = socket
     while socket is not None and socket.is_linked:
         link = socket.links[0]
         if link.is_muted or not link.is_valid:
-            return None, None
+            break
         node = link.from_node
         if node.bl_idname == "NodeReroute":
             socket = node.inputs[0]
         elif node.mute:
             socket = _muted_input(node, link.from_socket)
+        elif node.bl_idname == "ShaderNodeGroup" and _group_output(node) is not None:
+            socket = _socket_by_identifier(_group_output(node).inputs,
+                                           link.from_socket.identifier)
+            groups = (*groups, node)
+        elif node.bl_idname == "NodeGroupInput" and groups:
+            socket = _socket_by_identifier(groups[-1].inputs, link.from_socket.identifier)
+            groups, value = groups[:-1], socket
+        elif node.bl_idname == "NodeGroupInput":
+            break
         else:
-            return node, link.from_socket
-    return None, None
+            return Source(node, link.from_socket, groups, value)
+    return Source(None, None, groups, value if value is not None else socket)
+
+
+def source(socket):
+    """(node, output socket) feeding an input (see source_in); (None, None) if none."""
+    found = source_in(socket)
+    return found.node, found.output
 
 
 def follow(socket):
-    """The node feeding an input socket (see source), or None."""
+    """The node feeding an input socket (see source_in), or None."""
     return source(socket)[0]
 
 
 def linked_socket(socket):
-    """The output socket feeding an input (see source), or None."""
+    """The output socket feeding an input (see source_in), or None."""
     return source(socket)[1]
 
 
@@ -67,13 +106,45 @@ IGNORED_LINKS = {"Normal": "shaded with the mesh's normals",
                  "Coat Normal": "shaded with the mesh's normals", "Tangent": "rendered isotropic"}
 
 
-class Inputs:
-    """Reads the unlinked values of one node's inputs, recording in `coverage` (a Coverage, or
-    a list of issues) what Snell ignores; `read` holds the inputs read, for unread_links."""
+class _Value:
+    """A socket's value converted to another socket's type, as Blender converts a link."""
 
-    def __init__(self, node, coverage):
-        self.node, self.coverage = node, coverage
-        self.textures = {}     # scene field -> the Image Texture node that drives it
+    def __init__(self, default_value, type):
+        self.default_value, self.type = default_value, type
+
+
+# Blender's and Cycles' colour-to-number conversion: the colour's luminance (linear Rec. 709).
+LUMINANCE = (0.2126, 0.7152, 0.0722)
+
+
+def _as_type(value, sock):
+    """The value socket `value` read as the input `sock` reads it (a group's input may have
+    another type than the socket it feeds inside)."""
+    if value.type == sock.type:
+        return value
+    v = value.default_value
+    if value.type in ("RGBA", "VECTOR"):
+        c = [float(x) for x in v[:3]]
+        if sock.type in ("RGBA", "VECTOR"):
+            return _Value((*c, 1.0), sock.type)
+        number = (sum(w * x for w, x in zip(LUMINANCE, c)) if value.type == "RGBA"
+                  else sum(c) / 3.0)
+        return _Value(number, sock.type)
+    number = float(v)
+    if sock.type in ("RGBA", "VECTOR"):
+        return _Value((number, number, number, 1.0), sock.type)
+    return _Value(number, sock.type)
+
+
+class Inputs:
+    """Reads the values of one node's inputs (the node inside `groups`, a tuple of group
+    nodes: a flattened group's inputs come from the group node), recording in `coverage` (a
+    Coverage, or a list of issues) what Snell ignores; `read` holds the inputs read, for
+    unread_links."""
+
+    def __init__(self, node, coverage, groups=()):
+        self.node, self.coverage, self.groups = node, coverage, groups
+        self.textures = {}     # scene field -> (the Image Texture node that drives it, groups)
         self.read = set()
 
     def _note(self, name, text):
@@ -82,17 +153,19 @@ class Inputs:
     def _socket(self, name, field=None):
         self.read.add(name)
         sock = self.node.inputs[name]
-        node, output = source(sock)
+        found = source_in(sock, self.groups)
+        value = _as_type(found.value or sock, sock)
+        node = found.node
         if node is not None:
             if (field in scene_mod.TEXTURE_SLOTS and node.bl_idname == "ShaderNodeTexImage"
-                    and output.name == "Color"):
-                self.textures[field] = node
-                return sock
+                    and found.output.name == "Color"):
+                self.textures[field] = (node, found.groups)
+                return value
             what = ("an Image Texture's Alpha" if node.bl_idname == "ShaderNodeTexImage"
                     else node_text(node))
             self._note(name, f"is linked to {what}, which Snell cannot evaluate: using "
-                             f"its unlinked value {_value_text(sock)}")
-        return sock
+                             f"its unlinked value {_value_text(value)}")
+        return value
 
     def color(self, name, field=None):
         """The input's RGB colour (an Image Texture on it is noted in self.textures when field
@@ -128,7 +201,7 @@ class Inputs:
             if sock is None:
                 continue
             self.read.add(name)
-            node = follow(sock)
+            node = source_in(sock, self.groups).node
             if node is not None:
                 self._note(name, f"is linked to {node_text(node)}, which Snell ignores: "
                                  f"{IGNORED_LINKS[name]}")
@@ -138,7 +211,7 @@ class Inputs:
         for sock in self.node.inputs:
             if not sock.enabled or sock.name in self.read:
                 continue
-            node = follow(sock)
+            node = source_in(sock, self.groups).node
             if node is not None:
                 self._note(sock.name, f"is linked to {node_text(node)}, which Snell does not "
                                       f"evaluate: ignored")

@@ -714,6 +714,51 @@ def test_node_group_on_the_surface_and_on_an_input_warn(bl):
                         "evaluate: using its unlinked value 0.5"]
 
 
+def diffuse_group(name="Paint"):
+    """A node group of a Diffuse BSDF (white inside) whose Color is the group's input, through
+    a nested group that passes the colour on: flattening must read the outer group node's
+    input."""
+    inner = bpy.data.node_groups.new(name + "Inner", "ShaderNodeTree")
+    inner.interface.new_socket("Color", in_out="INPUT", socket_type="NodeSocketColor")
+    inner.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    gi, go = inner.nodes.new("NodeGroupInput"), inner.nodes.new("NodeGroupOutput")
+    inner.links.new(gi.outputs[0], go.inputs[0])
+    group = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    group.interface.new_socket("Color", in_out="INPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("BSDF", in_out="OUTPUT", socket_type="NodeSocketShader")
+    gi, go = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    nested = group.nodes.new("ShaderNodeGroup")
+    nested.node_tree = inner
+    diffuse = group.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    group.links.new(gi.outputs[0], nested.inputs[0])
+    group.links.new(nested.outputs[0], diffuse.inputs["Color"])
+    group.links.new(diffuse.outputs[0], go.inputs[0])
+    return group
+
+
+def test_node_groups_are_flattened(bl):
+    """A group on Surface (with a nested group inside) renders as the BSDF inside it, its
+    inputs read from the group node, as Cycles flattens groups; a group input left
+    unlinked inside takes the group node's value."""
+    mat = bpy.data.materials.new("Grouped")
+    tree = mat.node_tree
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = diffuse_group()
+    node.inputs["Color"].default_value = (0.2, 0.5, 0.7, 1.0)
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    m, warnings = exported_material(bl, mat, "G")
+    assert warnings == []
+    assert m["kind"] == "diffuse" and m["color"] == pytest.approx([0.2, 0.5, 0.7])
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    tree.links.new(noise.outputs["Fac"], node.inputs["Color"])
+    m, warnings = exported_material(bl, mat, "G")
+    # The link outside the group is named, and the value used is the group node's.
+    assert warnings == ["object 'G', material 'Grouped': node 'Diffuse BSDF': input 'Color' is "
+                        "linked to 'Noise Texture' (a procedural texture), which Snell cannot "
+                        "evaluate: using its unlinked value (0.2, 0.5, 0.7)"]
+
+
 def test_linked_principled_alpha_and_normal_map_warn(bl):
     mat = common.material("Leaf", "principled", (0.2, 0.5, 0.1))
     link(mat, "Alpha", "ShaderNodeTexChecker")
