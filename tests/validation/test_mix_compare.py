@@ -119,7 +119,8 @@ def test_mix_factor_off_by_005_is_caught(mixes):
 
 
 def test_group_input_read_inside_the_group_is_caught(mixes):
-    """Snell's Blend colour as if the group's Color were the Diffuse's own (white) value."""
+    """Snell's Blend colour as if the group's Color were the Diffuse's own (white) value
+    (measured: every test failed, mean ratio 1.11/1.63/1.63, 35 tiles)."""
     def inside(scene):
         scene = copy.copy(scene)
         scene.materials = [dict(m, color=[(1 - FAC) + FAC * b for b in BLUE])
