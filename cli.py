@@ -309,6 +309,21 @@ def describe_world(scene) -> str:
             f"strength {env['strength']:g}")
 
 
+def describe_materials(scene) -> list[str]:
+    """`snell info`'s lines under "materials": each material with what of its nodes Snell
+    evaluates and what it replaces, with what (the exporter's coverage: known for a .blend)."""
+    lines = []
+    coverage = scene.coverage or [{"name": m.get("name", "?"), "kind": m["kind"]}
+                                  for m in scene.materials]
+    for entry in coverage:
+        lines.append(f"  {entry['name']!r}: {entry['kind']}")
+        lines += [f"    evaluated  {text}" for text in entry.get("evaluated", ())]
+        lines += [f"    replaced   {text}" for text in entry.get("replaced", ())]
+    if scene.materials and not scene.coverage:
+        lines.append("  (what each material's nodes became is known when reading a .blend)")
+    return lines
+
+
 def describe(scene) -> list[str]:
     """The lines `snell info` prints."""
     from .tracer.integrator import Renderer, describe_stages
@@ -330,6 +345,7 @@ def describe(scene) -> list[str]:
         f"source     {scene.source or '?'}",
         f"geometry   {_plural(len(scene.triangles), 'triangle')}{objects}",
         f"materials  {_counts(scene.materials, MATERIAL_KINDS)}",
+        *describe_materials(scene),
         f"lights     {_counts(scene.lights, LIGHT_KINDS)}",
         f"world      {describe_world(scene)}",
         f"camera     {cam.get('name', '?')!r}: {resolution}, "

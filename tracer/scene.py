@@ -108,6 +108,10 @@ class Scene:
     # Texture coordinates the materials' textures read: {"kind": uv or generated, "name": the UV
     # map ("" the active one), "coords": float32 (T, 3, 3), per triangle corner}.
     texcoords: list = field(default_factory=list)
+    # What the exporter made of each material's shader nodes, in the materials' order:
+    # {"name", "kind", "evaluated": [...], "replaced": [...]} (addon/export/coverage.py), for
+    # `snell info`. Empty for a scene read from a file: the file does not keep it.
+    coverage: list = field(default_factory=list)
 
     def header(self) -> dict:
         """The JSON header as written to the file."""

@@ -6,9 +6,13 @@ reported in the returned warnings.
 
 - depsgraph.py: the walk. Exporter visits the rendered instances, hands each to its datablock's
   module and assembles the Scene; export_depsgraph, export_blend and export_to_file.
-- materials.py: a material's shader nodes (convert_material, one converter per BSDF node in
-  _CONVERTERS), and the node-tree readers the other modules share (follow, active_output,
-  Inputs).
+- materials.py: a material's shader nodes (convert_material: the active output's Surface, and a
+  missing material as Cycles' default surface); mixes.py: a Mix Shader of a constant factor
+  folded into one material where that is exact; bsdfs.py: the BSDF nodes Snell evaluates, one
+  converter each in CONVERTERS; coverage.py: what a conversion evaluated and what it replaced
+  with what (Coverage: the warnings, and `snell info`'s material lines); nodes.py: the
+  node-tree readers every conversion shares (follow, through reroutes and muted nodes;
+  active_output; Inputs).
 - textures.py: Image Texture nodes (ImageTextures) and Mapping nodes (mapping_of); images.py
   reads an image's pixels for them and for the world.
 - meshes.py: an evaluated mesh's arrays (mesh_arrays, Mesh) and its instances in world space
@@ -20,7 +24,7 @@ reported in the returned warnings.
   blender_threads); cycles_settings.py: the file's Cycles settings Snell follows (FOLLOWED)
   and those it does not render (NOT_RENDERED).
 
-A new shader node: a converter in materials.py's _CONVERTERS if it is a BSDF, in textures.py if
+A new shader node: a converter in bsdfs.py's CONVERTERS if it is a BSDF, in textures.py if
 a material input reads it (a new material kind or field needs the scene format first:
 tracer/scene.py). A new datablock: a module of its own whose convert_<datablock> takes the
 Blender data and a warn callback and returns the scene file's entry, as lights.py does, called

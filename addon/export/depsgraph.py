@@ -15,7 +15,7 @@ from ...tracer import scene as scene_mod
 from ...tracer.scene import Scene, SceneError
 from .camera import convert_camera
 from .lights import convert_light
-from .materials import convert_material
+from .materials import NO_MATERIAL, NO_SURFACE, convert_material
 from .meshes import mesh_arrays, to_world
 from .settings import convert_render
 from .textures import ImageTextures, uses_image_textures
@@ -40,6 +40,7 @@ class Exporter:
         self._warned = set()
         self.materials = []
         self.material_ids = {}  # Blender material (or None) -> index
+        self.coverage = []  # per material: its Coverage.as_dict(), with "name" and "kind"
         self.meshes = {}  # evaluated geometry pointer -> Mesh
         self.parts = []  # (Mesh, world matrix, material ids per triangle, object id)
         self.objects = []
@@ -67,18 +68,21 @@ class Exporter:
         its issues are warned for the object."""
         key = mat.original if mat is not None else None
         if key not in self.material_ids:
-            converted, issues = convert_material(mat)
+            converted, coverage = convert_material(mat)
             nodes = converted.pop("_textures", None)
             if nodes:
                 textures = {}
-                for field, node in nodes.items():
-                    spec = self.textures.convert(node, issues)
+                for field, (node, groups) in nodes.items():
+                    spec = self.textures.convert(node, coverage, groups)
                     if spec is not None:
                         textures[field] = spec
+                        coverage.evaluate(node, f"image texture as the {field}")
                 if textures:
                     converted["textures"] = textures
-            self.material_ids[key] = (len(self.materials), issues)
+            self.material_ids[key] = (len(self.materials), coverage.issues)
             self.materials.append(converted)
+            self.coverage.append({"name": converted["name"], "kind": converted["kind"],
+                                  **coverage.as_dict()})
         index, issues = self.material_ids[key]
         mat_name = mat.name if mat is not None else "(none)"
         for issue in issues:
@@ -221,7 +225,7 @@ class Exporter:
             materials=self.materials, lights=self.lights, camera=camera,
             world=convert_world(bl_scene.world, self.warn, self.images),
             render=convert_render(bl_scene, self.warn), objects=self.objects, source=source,
-            images=self.images, texcoords=self.texcoords())
+            images=self.images, texcoords=self.texcoords(), coverage=self.coverage)
 
 
 def _rows(starts, length):
@@ -242,11 +246,12 @@ def _det3(m):
 NOT_RENDERED = {"CURVES": "hair curves", "POINTCLOUD": "point cloud"}
 
 # Notes whose cause Cycles renders the same way: a zero-area triangle covers no pixel in either
-# renderer, a zero-scale object none, and glass on an open mesh refracts at the same surfaces.
+# renderer, a zero-scale object none, glass on an open mesh refracts at the same surfaces, and a
+# missing material or surface is Cycles' default surface or black in both.
 DROPPED_TRIANGLES = "zero-area triangle(s)"
 ZERO_SCALE = "singular world matrix (zero scale), skipped"
 OPEN_MESH = "on a mesh that is not closed (its edges are not all shared by two triangles)"
-SAME_IN_CYCLES = (DROPPED_TRIANGLES, ZERO_SCALE, OPEN_MESH)
+SAME_IN_CYCLES = (DROPPED_TRIANGLES, ZERO_SCALE, OPEN_MESH, NO_MATERIAL, NO_SURFACE)
 
 
 def differs_from_cycles(warning: str) -> bool:

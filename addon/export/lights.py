@@ -9,7 +9,7 @@ import warnings as _pywarnings
 import numpy as np
 
 from .camera import unit_columns
-from .materials import Inputs, active_output, follow
+from .nodes import Inputs, active_output, follow
 
 
 def _light_color(light):

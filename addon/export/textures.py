@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .materials import Inputs, follow, linked_socket
+from .nodes import Inputs, source_in
 
 
 def uses_image_textures():
@@ -19,11 +19,11 @@ def uses_image_textures():
                if mat.node_tree is not None for node in mat.node_tree.nodes)
 
 
-def mapping_of(node, issues):
-    """(A, b) of a Mapping node, whose output is A v + b up to a positive factor (ValueError for
-    a type it does not know); its linked inputs are noted in issues."""
+def mapping_of(node, issues, groups=()):
+    """(A, b) of a Mapping node (inside groups), whose output is A v + b up to a positive factor
+    (ValueError for a type it does not know); its linked inputs are noted in issues."""
     from ...tracer.lights.world import mapping_transform
-    inputs = Inputs(node, issues)
+    inputs = Inputs(node, issues, groups)
     kind = node.vector_type
     location = inputs.vector("Location") if kind in ("POINT", "TEXTURE") else [0.0, 0.0, 0.0]
     return mapping_transform(kind, location, inputs.vector("Rotation"), inputs.vector("Scale"))
@@ -37,8 +37,9 @@ class ImageTextures:
         self.image_index = {}  # bpy image pointer -> index in self.images
         self.texcoord_keys = []  # (kind, UV map name) of the textures' coordinates
 
-    def convert(self, node, issues):
-        """The scene file's texture entry of an Image Texture node, its image and coordinates
+    def convert(self, node, issues, groups=()):
+        """The scene file's texture entry of an Image Texture node (inside groups, a tuple of
+        group nodes), its image and coordinates
         added to the scene's; None (with an issue: the input's unlinked value is used) if it
         cannot be read."""
         from .images import ImageUnreadable, read_image
@@ -70,19 +71,19 @@ class ImageTextures:
             issues.append(f"{where}: {node.projection.lower()} projection is not supported: "
                           f"using Flat")
         matrix, offset = np.eye(3), np.zeros(3)
-        source_node = follow(node.inputs["Vector"])
-        socket = node.inputs["Vector"]
+        found = source_in(node.inputs["Vector"], groups)
+        source_node = found.node
         if source_node is not None and source_node.bl_idname == "ShaderNodeMapping":
-            matrix, offset = mapping_of(source_node, issues)
-            socket = source_node.inputs["Vector"]
-            source_node = follow(socket)
+            matrix, offset = mapping_of(source_node, issues, found.groups)
+            found = source_in(source_node.inputs["Vector"], found.groups)
+            source_node = found.node
         coord = ("uv", "")
         if source_node is None:
             pass
         elif source_node.bl_idname == "ShaderNodeUVMap":
             coord = ("uv", source_node.uv_map)
         elif source_node.bl_idname == "ShaderNodeTexCoord":
-            output = linked_socket(socket).name
+            output = found.output.name
             if output == "Generated":
                 coord = ("generated", "")
             elif output != "UV":

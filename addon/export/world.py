@@ -9,7 +9,8 @@ import warnings as _pywarnings
 import numpy as np
 
 from ...tracer.scene import SceneError
-from .materials import Inputs, active_output, follow
+from .coverage import node_text
+from .nodes import Inputs, active_output, follow
 from .textures import mapping_of
 
 
@@ -26,12 +27,17 @@ def convert_world(world, warn, images=None):
     if tree is None:
         return {"color": [float(c) for c in world.color[:3]]}
     out = active_output(tree, "ShaderNodeOutputWorld")
+    volume = follow(out.inputs["Volume"]) if out is not None else None
+    if volume is not None:
+        warn(f"world {world.name!r}: node {out.name!r}: input 'Volume' is linked to "
+             f"{node_text(volume)}, which Snell does not render: rendered without it (clear "
+             f"air)")
     node = follow(out.inputs["Surface"]) if out is not None else None
     if node is None:
         return {"color": [0.0, 0.0, 0.0]}  # Cycles renders an unconnected world black
     if node.bl_idname != "ShaderNodeBackground":
-        warn(f"world {world.name!r}: node {node.name!r} ({node.bl_idname}) is not supported, "
-             f"using black")
+        warn(f"world {world.name!r}: node {out.name!r}: input 'Surface' is linked to "
+             f"{node_text(node)}, which Snell cannot evaluate: using black")
         return {"color": [0.0, 0.0, 0.0]}
     issues = []
     inp = Inputs(node, issues)

@@ -77,7 +77,7 @@ def test_cube_world_transform(bl):
     obj.scale = (1.0, 2.0, 0.5)
     s, warnings = run()
     assert s.triangles.shape == (12, 3)
-    assert warnings == ["object 'Cube', material '(none)': no material, using grey 0.8 diffuse"]
+    assert warnings == [f"object 'Cube', material '(none)': {materials.NO_MATERIAL}"]
     m = np.array(obj.matrix_world)
     local = np.array([v.co for v in obj.data.vertices])
     expected = local @ m[:3, :3].T + m[:3, 3]
@@ -499,7 +499,8 @@ def test_a_linked_input_uses_its_unlinked_value(bl, kind, socket, field, shown):
     m, warnings = exported_material(bl, mat, "TexObj")
     assert np.allclose(m[field], unlinked_value(bsdf(mat).inputs[socket]))
     assert warnings == [f"object 'TexObj', material 'Tex': node {bsdf(mat).name!r}: input "
-                        f"{socket!r} is linked to {noise.name!r}, which Snell cannot evaluate: "
+                        f"{socket!r} is linked to {noise.name!r} (a procedural texture), which "
+                        f"Snell cannot evaluate: "
                         f"using its unlinked value {shown}"]
     bsdf(mat).inputs[socket].links[0].is_muted = True   # a muted link passes nothing: no warning
     assert exported_material(bl, mat)[1] == []
@@ -519,25 +520,300 @@ def test_linked_normals_and_tangents_are_ignored_with_a_warning(bl, kind, socket
     mat = common.material("Bumpy", kind, (0.5, 0.5, 0.5))
     source = link(mat, socket, "ShaderNodeBump" if "Normal" in socket else "ShaderNodeTangent")
     _, warnings = exported_material(bl, mat, "BumpyObj")
+    shown = "'Bump' (a bump map)" if "Normal" in socket else "'Tangent' (ShaderNodeTangent)"
     assert warnings == [f"object 'BumpyObj', material 'Bumpy': node {bsdf(mat).name!r}: input "
-                        f"{socket!r} is linked to {source.name!r}, which Snell ignores: {rendered}"]
+                        f"{socket!r} is linked to {shown}, which Snell ignores: {rendered}"]
+
+
+def _mix(name, fac, first, second):
+    """A material of a Mix Shader (Fac `fac`) of two new shader nodes (idnames; None: unlinked),
+    and its nodes."""
+    mat = bpy.data.materials.new(name)
+    tree = mat.node_tree
+    tree.nodes.clear()
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = fac
+    tree.links.new(mix.outputs[0], out.inputs["Surface"])
+    sides = []
+    for i, idname in ((1, first), (2, second)):
+        side = tree.nodes.new(idname) if idname else None
+        if side is not None:
+            tree.links.new(side.outputs[0], mix.inputs[i])
+        sides.append(side)
+    return mat, mix, sides
 
 
 def test_fallback_warnings_name_object_material_node(bl):
-    mix = bpy.data.materials.new("Mixed")
-    mix.node_tree.nodes.clear()
-    out = mix.node_tree.nodes.new("ShaderNodeOutputMaterial")
-    node = mix.node_tree.nodes.new("ShaderNodeMixShader")
-    mix.node_tree.links.new(node.outputs[0], out.inputs["Surface"])
-    m, warnings = exported_material(bl, mix, "MixObj")
+    mat, _, _ = _mix("Mixed", 0.5, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlass")
+    m, warnings = exported_material(bl, mat, "MixObj")
     assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.8)
-    assert any("'MixObj'" in w and "'Mixed'" in w and "'Mix Shader'" in w for w in warnings)
-
-    m, warnings = exported_material(bl, None, "Bare")
-    assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.8)
-    assert any("'Bare'" in w and "no material" in w for w in warnings)
+    assert warnings == ["object 'MixObj', material 'Mixed': node 'Material Output': input "
+                        "'Surface' is linked to 'Mix Shader' (a shader mix) of diffuse and glass, "
+                        "which Snell cannot evaluate: using grey 0.8 diffuse"]
     # A material Snell replaces renders differently from Cycles: "not comparable".
-    assert all(export.differs_from_cycles(w) for w in warnings if "no material" in w)
+    assert all(export.differs_from_cycles(w) for w in warnings)
+    mat, _, _ = _mix("Toon", 0.5, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfToon")
+    _, warnings = exported_material(bl, mat, "ToonObj")
+    assert warnings == ["object 'ToonObj', material 'Toon': node 'Material Output': input "
+                        "'Surface' is linked to 'Mix Shader' (a shader mix) of 'Toon BSDF' (a "
+                        "toon surface), which Snell cannot evaluate: using grey 0.8 diffuse"]
+
+
+def test_a_fresnel_mix_of_refraction_and_glossy_is_one_warning(bl):
+    """The glass of issue 29's files, Mix(Fresnel, Refraction, Glossy): one warning, for the
+    mix, not one more for its linked factor."""
+    mat, mix, _ = _mix("FresnelGlass", 0.5, "ShaderNodeBsdfRefraction", "ShaderNodeBsdfGlossy")
+    fresnel = mat.node_tree.nodes.new("ShaderNodeFresnel")
+    mat.node_tree.links.new(fresnel.outputs[0], mix.inputs["Fac"])
+    _, warnings = exported_material(bl, mat, "Ico")
+    assert warnings == ["object 'Ico', material 'FresnelGlass': node 'Material Output': input "
+                        "'Surface' is linked to 'Mix Shader' (a shader mix) of refraction and "
+                        "glossy, which Snell cannot evaluate: using grey 0.8 diffuse"]
+
+
+def test_constant_mix_shaders_fold_where_exact(bl):
+    """Fac 0 or 1 picks a side (clamped as Cycles clamps it); two diffuse surfaces mix their
+    colours; an unlinked side is no closure (black); emissions mix colour x strength."""
+    mat, _, (a, b) = _mix("Pick", 1.7, "ShaderNodeBsdfGlass", "ShaderNodeBsdfGlossy")
+    b.distribution = "GGX"
+    m, warnings = exported_material(bl, mat)
+    assert warnings == [] and m["kind"] == "glossy" and m["distribution"] == "ggx"
+    mat, _, (a, b) = _mix("Blend", 0.25, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfDiffuse")
+    a.inputs["Color"].default_value = (1.0, 0.0, 0.0, 1.0)
+    b.inputs["Color"].default_value = (0.0, 0.0, 1.0, 1.0)
+    m, warnings = exported_material(bl, mat)
+    assert warnings == [] and m["kind"] == "diffuse"
+    assert m["color"] == pytest.approx([0.75, 0.0, 0.25])
+    mat, _, (a, _) = _mix("Half", 0.5, "ShaderNodeBsdfDiffuse", None)
+    a.inputs["Color"].default_value = (0.6, 0.6, 0.6, 1.0)
+    m, _ = exported_material(bl, mat)
+    assert m["kind"] == "diffuse" and m["color"] == pytest.approx([0.3, 0.3, 0.3])
+    mat, _, (a, b) = _mix("Glow", 0.5, "ShaderNodeEmission", "ShaderNodeEmission")
+    a.inputs["Strength"].default_value = 4.0
+    m, _ = exported_material(bl, mat)
+    assert m["kind"] == "emission" and m["strength"] == 1.0
+    assert m["color"] == pytest.approx([2.5, 2.5, 2.5])
+
+
+@pytest.mark.parametrize("first, second, why", [
+    ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfGlossy", "of two different glossy surfaces, not "
+                                                     "linear in their colour"),
+    ("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfPrincipled", "of two different principled "
+                                                             "surfaces, not linear in their colour"),
+    ("ShaderNodeBsdfRefraction", "ShaderNodeBsdfRefraction", "of two refraction surfaces that "
+                                                             "differ beyond their colour"),
+])
+def test_mixes_that_are_not_one_material_warn(bl, first, second, why):
+    """Multiscatter GGX (the Glossy BSDF's default) and the Principled BSDF are not linear in
+    their colour: a mix of two stays a warning."""
+    mat, _, (a, b) = _mix("Two", 0.5, first, second)
+    a.inputs[0].default_value = (0.2, 0.3, 0.4, 1.0)
+    if "Refraction" in second:
+        b.inputs["IOR"].default_value = 1.33
+    _, warnings = exported_material(bl, mat)
+    assert warnings == [f"object 'Obj', material 'Two': node 'Material Output': input 'Surface' "
+                        f"is linked to 'Mix Shader' (a shader mix) {why}, which Snell cannot "
+                        f"evaluate: using grey 0.8 diffuse"]
+
+
+def test_no_material_is_cycles_default_surface(bl):
+    """An object without a material, and an empty slot, render as Cycles' default surface: a
+    Principled BSDF of base colour 0.8 (Cycles' images of it and of a new material are equal),
+    with a note that does not make the validator say "not comparable"."""
+    m, warnings = exported_material(bl, None, "Bare")
+    assert m == {**scene_mod.MATERIAL_DEFAULTS["principled"], "name": "(default surface)",
+                 "kind": "principled", "color": [0.8, 0.8, 0.8]}
+    assert warnings == [f"object 'Bare', material '(none)': {materials.NO_MATERIAL}"]
+    assert not any(export.differs_from_cycles(w) for w in warnings)
+    # Equal to what a new material (Blender's default Principled BSDF) exports as.
+    new, _ = materials.convert_material(bpy.data.materials.new("New"))
+    assert set(new) == set(m)
+    for key, value in m.items():
+        if key != "name":
+            assert new[key] == (value if isinstance(value, str) else pytest.approx(value)), key
+
+
+@pytest.mark.parametrize("how", ["unlinked", "no output", "muted bsdf"])
+def test_a_material_without_surface_renders_black_as_in_cycles(bl, how):
+    """Cycles renders a material whose output has no Surface (or no output at all, or a muted
+    BSDF, which passes no shader) black: so does Snell, with a note."""
+    mat = common.material("Empty", "principled")
+    tree = mat.node_tree
+    if how == "unlinked":
+        tree.links.remove(tree.links[0])
+    elif how == "no output":
+        tree.nodes.remove(tree.nodes["Material Output"])
+    else:
+        bsdf(mat).mute = True
+    m, warnings = exported_material(bl, mat, "Dark")
+    assert m == {"name": "Empty", "kind": "diffuse", "color": [0.0, 0.0, 0.0]}
+    (warning,) = warnings
+    assert warning.startswith("object 'Dark', material 'Empty': ")
+    assert warning.endswith(materials.NO_SURFACE) and not export.differs_from_cycles(warning)
+
+
+def _glass_with(bl, output_input, idname):
+    """A glass material whose Material Output's `output_input` is fed by a new `idname` node."""
+    mat = common.material("Coffee", "glass", (1.0, 1.0, 1.0), IOR=1.33)
+    node = mat.node_tree.nodes.new(idname)
+    mat.node_tree.links.new(node.outputs[0],
+                            mat.node_tree.nodes["Material Output"].inputs[output_input])
+    return mat
+
+
+@pytest.mark.parametrize("output_input, idname, shown, rendered", [
+    ("Volume", "ShaderNodeVolumeAbsorption", "'Volume Absorption' (a volume)",
+     "rendered without it (the object's inside is clear)"),
+    ("Displacement", "ShaderNodeDisplacement", "'Displacement' (a displacement)",
+     "rendered without displacement or bump (the mesh's normals)"),
+])
+def test_material_output_volume_and_displacement_warn(bl, output_input, idname, shown, rendered):
+    """A Volume Absorption inside glass was dropped without a word: now one warning names the
+    output, the input, the node and what renders instead; the surface still converts."""
+    m, warnings = exported_material(bl, _glass_with(bl, output_input, idname), "Cup")
+    assert m["kind"] == "glass" and m["ior"] == pytest.approx(1.33)
+    assert warnings == [f"object 'Cup', material 'Coffee': node 'Material Output': input "
+                        f"{output_input!r} is linked to {shown}, which Snell does not render: "
+                        f"{rendered}"]
+    assert export.differs_from_cycles(warnings[0])
+
+
+def test_world_volume_warns(bl):
+    world = common.set_world(bl, (0.1, 0.1, 0.1))
+    fog = world.node_tree.nodes.new("ShaderNodeVolumeScatter")
+    world.node_tree.links.new(fog.outputs[0], world.node_tree.nodes["World Output"].inputs["Volume"])
+    s, warnings = run()
+    assert s.world["color"] == pytest.approx([0.1, 0.1, 0.1])
+    assert warnings == ["world 'World': node 'World Output': input 'Volume' is linked to "
+                        "'Volume Scatter' (a volume), which Snell does not render: rendered "
+                        "without it (clear air)"]
+
+
+def test_node_group_on_the_surface_and_on_an_input_warn(bl):
+    group = bpy.data.node_groups.new("Dispersion", "ShaderNodeTree")
+    group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
+    group.interface.new_socket("Value", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    mat = bpy.data.materials.new("Grouped")
+    tree = mat.node_tree
+    surface = tree.nodes.new("ShaderNodeGroup")
+    surface.node_tree = group
+    tree.links.new(surface.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    m, warnings = exported_material(bl, mat, "G")
+    assert m["kind"] == "diffuse"
+    assert warnings == ["object 'G', material 'Grouped': node 'Material Output': input 'Surface' "
+                        "is linked to 'Group' (a node group), which Snell cannot evaluate: using "
+                        "grey 0.8 diffuse"]
+    tree.links.new(tree.nodes["Principled BSDF"].outputs[0],
+                   tree.nodes["Material Output"].inputs["Surface"])
+    tree.links.new(surface.outputs[1], tree.nodes["Principled BSDF"].inputs["Roughness"])
+    m, warnings = exported_material(bl, mat, "G")
+    assert m["kind"] == "principled" and m["roughness"] == pytest.approx(0.5)
+    assert warnings == ["object 'G', material 'Grouped': node 'Principled BSDF': input "
+                        "'Roughness' is linked to 'Group' (a node group), which Snell cannot "
+                        "evaluate: using its unlinked value 0.5"]
+
+
+def diffuse_group(name="Paint"):
+    """A node group of a Diffuse BSDF (white inside) whose Color is the group's input, through
+    a nested group that passes the colour on: flattening must read the outer group node's
+    input."""
+    inner = bpy.data.node_groups.new(name + "Inner", "ShaderNodeTree")
+    inner.interface.new_socket("Color", in_out="INPUT", socket_type="NodeSocketColor")
+    inner.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    gi, go = inner.nodes.new("NodeGroupInput"), inner.nodes.new("NodeGroupOutput")
+    inner.links.new(gi.outputs[0], go.inputs[0])
+    group = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    group.interface.new_socket("Color", in_out="INPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("BSDF", in_out="OUTPUT", socket_type="NodeSocketShader")
+    gi, go = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    nested = group.nodes.new("ShaderNodeGroup")
+    nested.node_tree = inner
+    diffuse = group.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    group.links.new(gi.outputs[0], nested.inputs[0])
+    group.links.new(nested.outputs[0], diffuse.inputs["Color"])
+    group.links.new(diffuse.outputs[0], go.inputs[0])
+    return group
+
+
+def test_node_groups_are_flattened(bl):
+    """A group on Surface (with a nested group inside) renders as the BSDF inside it, its
+    inputs read from the group node, as Cycles flattens groups; a group input left
+    unlinked inside takes the group node's value."""
+    mat = bpy.data.materials.new("Grouped")
+    tree = mat.node_tree
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = diffuse_group()
+    node.inputs["Color"].default_value = (0.2, 0.5, 0.7, 1.0)
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    m, warnings = exported_material(bl, mat, "G")
+    assert warnings == []
+    assert m["kind"] == "diffuse" and m["color"] == pytest.approx([0.2, 0.5, 0.7])
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    tree.links.new(noise.outputs["Fac"], node.inputs["Color"])
+    m, warnings = exported_material(bl, mat, "G")
+    # The link outside the group is named, and the value used is the group node's.
+    assert warnings == ["object 'G', material 'Grouped': node 'Diffuse BSDF': input 'Color' is "
+                        "linked to 'Noise Texture' (a procedural texture), which Snell cannot "
+                        "evaluate: using its unlinked value (0.2, 0.5, 0.7)"]
+
+
+def test_linked_principled_alpha_and_normal_map_warn(bl):
+    mat = common.material("Leaf", "principled", (0.2, 0.5, 0.1))
+    link(mat, "Alpha", "ShaderNodeTexChecker")
+    link(mat, "Normal", "ShaderNodeNormalMap")
+    _, warnings = exported_material(bl, mat, "Leaf")
+    assert warnings == [
+        "object 'Leaf', material 'Leaf': node 'Principled BSDF': input 'Alpha' is linked to "
+        "'Checker Texture' (a procedural texture), which Snell cannot evaluate: using its "
+        "unlinked value 1",
+        "object 'Leaf', material 'Leaf': node 'Principled BSDF': input 'Normal' is linked to "
+        "'Normal Map' (a normal map), which Snell ignores: shaded with the mesh's normals"]
+
+
+def test_a_linked_input_snell_never_reads_warns(bl):
+    """An input no converter reads (a Principled BSDF's Subsurface Radius) is not dropped
+    unsaid when linked."""
+    mat = common.material("Skin", "principled")
+    rgb = link(mat, "Subsurface Radius", "ShaderNodeRGB")
+    _, warnings = exported_material(bl, mat, "Skin")
+    assert warnings == [f"object 'Skin', material 'Skin': node 'Principled BSDF': input "
+                        f"'Subsurface Radius' is linked to {rgb.name!r} (ShaderNodeRGB), which "
+                        f"Snell does not evaluate: ignored"]
+
+
+def test_reroutes_and_muted_nodes_are_followed(bl, tmp_path):
+    """An Image Texture reaches Base Color through a reroute and a muted Gamma node (a muted
+    node passes its internal link, as Blender and Cycles do); a muted texture passes nothing,
+    so its input's own value is used without a warning."""
+    import numpy as np_
+    image = bpy.data.images.new("Tex", 4, 4)
+    image.pixels[:] = np_.full(64, 0.5)
+    mat = common.material("Routed", "principled", (0.3, 0.3, 0.3))
+    tree = mat.node_tree
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    gamma = tree.nodes.new("ShaderNodeGamma")
+    gamma.mute = True
+    reroute = tree.nodes.new("NodeReroute")
+    tree.links.new(tex.outputs["Color"], gamma.inputs["Color"])
+    tree.links.new(gamma.outputs["Color"], reroute.inputs[0])
+    tree.links.new(reroute.outputs[0], bsdf(mat).inputs["Base Color"])
+    noise = link(mat, "Roughness")
+    noise.mute = True
+    bpy.ops.mesh.primitive_plane_add()
+    bpy.context.active_object.data.materials.append(mat)
+    s, warnings = run()
+    (m,) = s.materials
+    assert warnings == [] and "color" in m["textures"]
+    assert m["roughness"] == pytest.approx(0.5)
+    gamma.mute = False
+    s, warnings = run()
+    assert "textures" not in s.materials[0]
+    assert warnings == ["object 'Plane', material 'Routed': node 'Principled BSDF': input "
+                        "'Base Color' is linked to 'Gamma' (ShaderNodeGamma), which Snell cannot "
+                        "evaluate: using its unlinked value (0.3, 0.3, 0.3)"]
 
 
 def test_glass_on_open_mesh_warns(bl):

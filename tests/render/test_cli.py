@@ -171,6 +171,69 @@ def test_info(scene_file):
     assert proc.stderr == ""
 
 
+def test_info_lists_materials_of_a_scene_file(scene_file):
+    out = cli.describe(cli.load_scene(str(scene_file)))
+    at = out.index("materials  1: 1 emission")
+    assert out[at + 1:at + 3] == [
+        "  'Lamp': emission",
+        "  (what each material's nodes became is known when reading a .blend)"]
+
+
+COVERAGE_BLEND = """
+import bpy, sys
+bpy.ops.wm.read_factory_settings(use_empty=True)
+glass = bpy.data.materials.new("Coffee")
+tree = glass.node_tree
+tree.nodes.remove(tree.nodes["Principled BSDF"])
+bsdf = tree.nodes.new("ShaderNodeBsdfGlass")
+out = tree.nodes["Material Output"]
+tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+tree.links.new(tree.nodes.new("ShaderNodeVolumeAbsorption").outputs[0], out.inputs["Volume"])
+rough = bpy.data.materials.new("Rough")
+noise = rough.node_tree.nodes.new("ShaderNodeTexNoise")
+rough.node_tree.links.new(noise.outputs[0], rough.node_tree.nodes["Principled BSDF"].inputs["Roughness"])
+for x, mat in ((0, glass), (3, rough), (6, None)):
+    bpy.ops.mesh.primitive_cube_add(location=(x, 0, 0))
+    if mat:
+        bpy.context.active_object.data.materials.append(mat)
+cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+bpy.context.scene.collection.objects.link(cam)
+cam.location = (3, -20, 0)
+cam.rotation_euler = (1.5708, 0, 0)
+bpy.context.scene.camera = cam
+bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1])
+"""
+
+
+@needs_bpy
+def test_info_lists_each_materials_coverage(tmp_path):
+    """Each material: what of its nodes is evaluated, and what is replaced with what."""
+    blend = tmp_path / "coverage.blend"
+    subprocess.run([sys.executable, "-c", COVERAGE_BLEND, str(blend)], check=True,
+                   capture_output=True)
+    proc = run("info", blend)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    at = lines.index("materials  3: 1 glass, 2 principled")
+    assert lines[at + 1:at + 10] == [
+        "  'Coffee': glass",
+        "    evaluated  node 'Glass BSDF': glass surface",
+        "    replaced   node 'Material Output': input 'Volume' is linked to 'Volume Absorption' "
+        "(a volume), which Snell does not render: rendered without it (the object's inside is "
+        "clear)",
+        "  'Rough': principled",
+        "    evaluated  node 'Principled BSDF': principled surface",
+        "    replaced   node 'Principled BSDF': input 'Roughness' is linked to 'Noise Texture' "
+        "(a procedural texture), which Snell cannot evaluate: using its unlinked value 0.5",
+        "  '(default surface)': principled",
+        "    evaluated  Cycles' default surface: a Principled BSDF of base colour 0.8",
+        "    replaced   no material: rendered with Cycles' default surface (a Principled BSDF "
+        "of base colour 0.8), as Cycles renders it"]
+    assert lines[at + 10].startswith("lights ")
+    # The replaced entries are the exporter's warnings, one each.
+    assert proc.stderr.count("snell: warning: ") == 3
+
+
 @pytest.mark.parametrize("render, line", [
     ({"spp": 1024}, "adaptive, noise threshold 0.01: each pixel from 64 spp (automatic) up to 1024 spp"),
     # The tracer's minimum: whole windows of 16, at least one of each half.

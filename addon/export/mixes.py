@@ -1,0 +1,60 @@
+"""The Mix Shader with a constant factor, folded into one material where that is exact.
+
+Cycles weights the two closures by 1 - Fac and Fac (Fac clamped to [0, 1]). Snell has no mixed
+closures yet, so a mix renders only when it is one material already: Fac 0 or 1 picks one side,
+two equal surfaces are that one, and two surfaces of one kind whose BSDF is linear in its colour
+(everything but the colour equal, no textures) are that kind with the colours mixed. Any other mix is reported by the caller.
+"""
+from __future__ import annotations
+
+from .coverage import node_text
+
+# Kinds whose BSDF is its colour times a BSDF of the other fields, so that a mix of two with the
+# same other fields is one with the colours mixed. Multiscatter GGX is left out: its energy
+# compensation depends on the colour. An unconnected shader input is no closure: black diffuse.
+LINEAR_IN_COLOR = ("diffuse", "glossy", "refraction", "glass")
+COLOR_FIELDS = ("name", "color", "transmission_color")
+
+
+class NotFolded(Exception):
+    """A mix Snell cannot render as one material: the text says why."""
+
+
+def mix_factor(node, inputs):
+    """The Mix Shader's factor as Cycles uses it: clamped to [0, 1]."""
+    return min(max(inputs.value("Fac"), 0.0), 1.0)
+
+
+def fold(node, fac, first, second):
+    """The one material the mix of two converted materials is, or NotFolded."""
+    if fac == 0.0:
+        return first
+    if fac == 1.0:
+        return second
+    if first["kind"] != second["kind"]:
+        raise NotFolded(f"{node_text(node)} of {first['kind']} and {second['kind']}")
+    kind = first["kind"]
+    if "_textures" in first or "_textures" in second:
+        raise NotFolded(f"{node_text(node)} of textured surfaces")
+    if kind == "emission":
+        return {**first, "strength": 1.0,
+                "color": _lerp([c * first["strength"] for c in first["color"]],
+                               [c * second["strength"] for c in second["color"]], fac)}
+    if first == second:
+        return first
+    if kind not in LINEAR_IN_COLOR or first.get("distribution") == "multi_ggx":
+        raise NotFolded(f"{node_text(node)} of two different {kind} surfaces, not linear in "
+                        f"their colour")
+    rest = {k: v for k, v in first.items() if k not in COLOR_FIELDS}
+    if rest != {k: v for k, v in second.items() if k not in COLOR_FIELDS}:
+        raise NotFolded(f"{node_text(node)} of two {kind} surfaces that differ beyond their "
+                        f"colour")
+    mixed = {**first, "color": _lerp(first["color"], second["color"], fac)}
+    if "transmission_color" in first:
+        mixed["transmission_color"] = _lerp(first["transmission_color"],
+                                            second["transmission_color"], fac)
+    return mixed
+
+
+def _lerp(a, b, t):
+    return [(1.0 - t) * x + t * y for x, y in zip(a, b)]
