@@ -14,6 +14,7 @@ and removed when the run was the default one and passed (with pytest arguments t
 reach every test, so they are only listed). Mitsuba 3's test_renders.py pattern.
 """
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -22,10 +23,15 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 REFERENCES = os.path.join(ROOT, "tests", "references")
 
 
+# A stored Cycles reference is <key>.npz, the key 20 hex digits; other files there (images.npz,
+# test_image_regression's Snell images) are not this tool's to remove.
+KEY_FILE = re.compile(r"^[0-9a-f]{20}\.npz$")
+
+
 def stored():
     if not os.path.isdir(REFERENCES):
         return set()
-    return {f[:-4] for f in os.listdir(REFERENCES) if f.endswith(".npz")}
+    return {f[:-4] for f in os.listdir(REFERENCES) if KEY_FILE.match(f)}
 
 
 def main(argv):
