@@ -59,8 +59,21 @@ def blender_version() -> str | None:
 def machine() -> dict:
     """The machine: OS, architecture, processor and logical cores."""
     return {"os": platform.platform(terse=True), "arch": platform.machine(),
-            "processor": platform.processor() or None, "cpu_count": os.cpu_count(),
+            "processor": _processor(), "cpu_count": os.cpu_count(),
             "python": platform.python_version()}
+
+
+def _processor() -> str:
+    """The processor's model name (Linux leaves platform.processor() empty; /proc/cpuinfo has it),
+    else the architecture."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
+            for line in f:
+                if line.lower().startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
 
 
 def provenance() -> dict:

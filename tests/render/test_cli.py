@@ -447,6 +447,9 @@ def test_render_tiny_scene(scene_file, tmp_path):
     assert np.array_equal(pixels, srgb) and pixels[0, 0, 0] == 255 and pixels[-1, 0, 0] == 0
 
 
+# A whole cold compile (2-3 minutes on 2 cores): on demand, so the default run stays under 20
+# minutes (the extension test compiles cold too, inside Blender).
+@pytest.mark.slow
 def test_first_render_says_it_compiles_the_kernels(scene_file, tmp_path):
     """An empty kernel cache: the first render says it compiles (once), the next one does not."""
     env = dict(os.environ, SNELL_KERNEL_CACHE=str(tmp_path / "kernels"))

@@ -177,7 +177,7 @@ def test_quick_suite_passes_and_writes_stable_report(tmp_path, capsys):
     assert "all pass" in printed and "analytic" in printed
     data = json.loads((out / "stress.json").read_text())
     assert set(data) == {"version", "quick", "threads", "alpha", "statistical_cases", "z_critical",
-                         "rule", "cases", "passed", "failed", "total_s", "worst"}
+                         "rule", "cases", "passed", "failed", "total_s", "worst", "provenance"}
     assert data["passed"] and data["quick"] and data["failed"] == []
     assert len(data["cases"]) >= 25
     groups = {c["group"] for c in data["cases"]}

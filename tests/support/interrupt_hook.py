@@ -59,12 +59,12 @@ def install(stage, marker):
         from snell.tracer import integrator
         original = integrator.Renderer.render
 
-        def render(self, spp=None, progress=None, **options):
+        def render(self, progress=None, stop=None):
             def paused(result, done, total):
                 if done < total:
                     _pause(marker)
                 return progress(result, done, total) if progress else True
-            return original(self, spp=spp, progress=paused, **options)
+            return original(self, progress=paused, stop=stop)
         integrator.Renderer.render = render
     elif stage == "write":
         for name in ("replace", "rename"):

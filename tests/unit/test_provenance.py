@@ -47,3 +47,10 @@ def test_every_report_writer_records_it(tmp_path):
         with open(tmp_path / f"{name}.json") as f:
             assert json.load(f)["provenance"] == provenance.provenance()
     assert provenance.describe() in page("t", "<p>body</p>")
+
+
+def test_the_machine_names_its_processor():
+    """Linux's platform.processor() is empty; reports need a name (bench's missing_values)."""
+    from snell.tracer import provenance
+    name = provenance.machine()["processor"]
+    assert isinstance(name, str) and name.strip()
