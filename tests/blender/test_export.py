@@ -12,6 +12,7 @@ from snell.addon import export  # noqa: E402
 from snell.addon.export import depsgraph, materials, meshes  # noqa: E402
 from snell.tracer import scene as scene_mod  # noqa: E402
 from snell.tracer.scene import SceneError  # noqa: E402
+from support.shader_trees import mix_shader_material  # noqa: E402
 
 common = importlib.import_module("common")
 
@@ -525,27 +526,8 @@ def test_linked_normals_and_tangents_are_ignored_with_a_warning(bl, kind, socket
                         f"{socket!r} is linked to {shown}, which Snell ignores: {rendered}"]
 
 
-def _mix(name, fac, first, second):
-    """A material of a Mix Shader (Fac `fac`) of two new shader nodes (idnames; None: unlinked),
-    and its nodes."""
-    mat = bpy.data.materials.new(name)
-    tree = mat.node_tree
-    tree.nodes.clear()
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    mix = tree.nodes.new("ShaderNodeMixShader")
-    mix.inputs["Fac"].default_value = fac
-    tree.links.new(mix.outputs[0], out.inputs["Surface"])
-    sides = []
-    for i, idname in ((1, first), (2, second)):
-        side = tree.nodes.new(idname) if idname else None
-        if side is not None:
-            tree.links.new(side.outputs[0], mix.inputs[i])
-        sides.append(side)
-    return mat, mix, sides
-
-
 def test_fallback_warnings_name_object_material_node(bl):
-    mat, _, _ = _mix("Mixed", 0.5, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlass")
+    mat, _, _ = mix_shader_material("Mixed", 0.5, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlass")
     m, warnings = exported_material(bl, mat, "MixObj")
     assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.8)
     assert warnings == ["object 'MixObj', material 'Mixed': node 'Material Output': input "
@@ -553,7 +535,7 @@ def test_fallback_warnings_name_object_material_node(bl):
                         "which Snell cannot evaluate: using grey 0.8 diffuse"]
     # A material Snell replaces renders differently from Cycles: "not comparable".
     assert all(export.differs_from_cycles(w) for w in warnings)
-    mat, _, _ = _mix("Toon", 0.5, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfToon")
+    mat, _, _ = mix_shader_material("Toon", 0.5, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfToon")
     _, warnings = exported_material(bl, mat, "ToonObj")
     assert warnings == ["object 'ToonObj', material 'Toon': node 'Material Output': input "
                         "'Surface' is linked to 'Mix Shader' (a shader mix) of 'Toon BSDF' (a "
@@ -563,7 +545,7 @@ def test_fallback_warnings_name_object_material_node(bl):
 def test_a_fresnel_mix_of_refraction_and_glossy_is_one_warning(bl):
     """The glass of issue 29's files, Mix(Fresnel, Refraction, Glossy): one warning, for the
     mix, not one more for its linked factor."""
-    mat, mix, _ = _mix("FresnelGlass", 0.5, "ShaderNodeBsdfRefraction", "ShaderNodeBsdfGlossy")
+    mat, mix, _ = mix_shader_material("FresnelGlass", 0.5, "ShaderNodeBsdfRefraction", "ShaderNodeBsdfGlossy")
     fresnel = mat.node_tree.nodes.new("ShaderNodeFresnel")
     mat.node_tree.links.new(fresnel.outputs[0], mix.inputs["Fac"])
     _, warnings = exported_material(bl, mat, "Ico")
@@ -575,21 +557,21 @@ def test_a_fresnel_mix_of_refraction_and_glossy_is_one_warning(bl):
 def test_constant_mix_shaders_fold_where_exact(bl):
     """Fac 0 or 1 picks a side (clamped as Cycles clamps it); two diffuse surfaces mix their
     colours; an unlinked side is no closure (black); emissions mix colour x strength."""
-    mat, _, (a, b) = _mix("Pick", 1.7, "ShaderNodeBsdfGlass", "ShaderNodeBsdfGlossy")
+    mat, _, (a, b) = mix_shader_material("Pick", 1.7, "ShaderNodeBsdfGlass", "ShaderNodeBsdfGlossy")
     b.distribution = "GGX"
     m, warnings = exported_material(bl, mat)
     assert warnings == [] and m["kind"] == "glossy" and m["distribution"] == "ggx"
-    mat, _, (a, b) = _mix("Blend", 0.25, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfDiffuse")
+    mat, _, (a, b) = mix_shader_material("Blend", 0.25, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfDiffuse")
     a.inputs["Color"].default_value = (1.0, 0.0, 0.0, 1.0)
     b.inputs["Color"].default_value = (0.0, 0.0, 1.0, 1.0)
     m, warnings = exported_material(bl, mat)
     assert warnings == [] and m["kind"] == "diffuse"
     assert m["color"] == pytest.approx([0.75, 0.0, 0.25])
-    mat, _, (a, _) = _mix("Half", 0.5, "ShaderNodeBsdfDiffuse", None)
+    mat, _, (a, _) = mix_shader_material("Half", 0.5, "ShaderNodeBsdfDiffuse", None)
     a.inputs["Color"].default_value = (0.6, 0.6, 0.6, 1.0)
     m, _ = exported_material(bl, mat)
     assert m["kind"] == "diffuse" and m["color"] == pytest.approx([0.3, 0.3, 0.3])
-    mat, _, (a, b) = _mix("Glow", 0.5, "ShaderNodeEmission", "ShaderNodeEmission")
+    mat, _, (a, b) = mix_shader_material("Glow", 0.5, "ShaderNodeEmission", "ShaderNodeEmission")
     a.inputs["Strength"].default_value = 4.0
     m, _ = exported_material(bl, mat)
     assert m["kind"] == "emission" and m["strength"] == 1.0
@@ -607,7 +589,7 @@ def test_constant_mix_shaders_fold_where_exact(bl):
 def test_mixes_that_are_not_one_material_warn(bl, first, second, why):
     """Multiscatter GGX (the Glossy BSDF's default) and the Principled BSDF are not linear in
     their colour: a mix of two stays a warning."""
-    mat, _, (a, b) = _mix("Two", 0.5, first, second)
+    mat, _, (a, b) = mix_shader_material("Two", 0.5, first, second)
     a.inputs[0].default_value = (0.2, 0.3, 0.4, 1.0)
     if "Refraction" in second:
         b.inputs["IOR"].default_value = 1.33

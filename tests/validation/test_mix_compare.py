@@ -16,6 +16,7 @@ import pytest
 
 from support.cycles_reference import Reference
 from support.cycles_reference import verdict as _verdict
+from support.shader_trees import mix_shader_material
 
 bpy = pytest.importorskip("bpy")
 
@@ -26,24 +27,9 @@ FAC = 0.3
 RED, BLUE = (0.8, 0.15, 0.1), (0.1, 0.25, 0.8)
 
 
-def _mix(name, fac, first, second):
+def _mixed(name, fac, first, second):
     """A material of Mix(fac, first, second), each a (node idname, {input: value})."""
-    mat = bpy.data.materials.new(name)
-    tree = mat.node_tree
-    tree.nodes.clear()
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    mix = tree.nodes.new("ShaderNodeMixShader")
-    mix.inputs["Fac"].default_value = fac
-    tree.links.new(mix.outputs[0], out.inputs["Surface"])
-    for i, (idname, values) in ((1, first), (2, second)):
-        node = tree.nodes.new(idname)
-        for key, value in values.items():
-            if key == "distribution":
-                node.distribution = value
-            else:
-                node.inputs[key].default_value = value
-        tree.links.new(node.outputs[0], mix.inputs[i])
-    return mat
+    return mix_shader_material(name, fac, first, second)[0]
 
 
 def _grouped(mat, color):
@@ -76,10 +62,10 @@ def build(path):
     scene = common.reset()
     common.setup_render(scene, (48, 48))
     common.cornell_box()
-    blend = _grouped(_mix("Blend", FAC, ("ShaderNodeBsdfDiffuse", {"Color": (1, 1, 1, 1)}),
+    blend = _grouped(_mixed("Blend", FAC, ("ShaderNodeBsdfDiffuse", {"Color": (1, 1, 1, 1)}),
                           ("ShaderNodeBsdfDiffuse", {"Color": (*BLUE, 1.0)})), RED)
     common.uv_sphere("Blend", (-0.25, 0.1, 0.6), 0.6, blend, segments=48, rings=24)
-    picked = _mix("Picked", 1.0, ("ShaderNodeBsdfGlass", {"IOR": 1.5}),
+    picked = _mixed("Picked", 1.0, ("ShaderNodeBsdfGlass", {"IOR": 1.5}),
                   ("ShaderNodeBsdfGlossy", {"Color": (0.95, 0.75, 0.5, 1.0), "Roughness": 0.2,
                                             "distribution": "GGX"}))
     common.uv_sphere("Picked", (0.3, -0.5, 0.15), 0.15, picked, segments=48, rings=24)
