@@ -98,6 +98,29 @@ def mesh_object(name, verts, faces, mat=None, smooth=False, collection=None):
     return obj
 
 
+def canonical_polygons(obj):
+    """Give obj a copy of its mesh with the polygons in one fixed order, so that a scene script
+    builds the same file every time: Blender's primitive operators number the polygons of a UV
+    sphere differently from one run to the next, which renumbers the triangles, reorders the BVH
+    and the smooth-normal sums, and flips a few pixels of a render. Each polygon keeps its winding
+    and its triangulation (a quad turns by two corners at most, keeping its diagonal)."""
+    old = obj.data
+    verts = [v.co[:] for v in old.vertices]
+    faces = []
+    for polygon in old.polygons:
+        p = list(polygon.vertices)
+        step = 2 if len(p) == 4 else 1
+        start = min(range(0, len(p), step), key=lambda i: p[i])
+        faces.append(p[start:] + p[:start])
+    faces.sort(key=lambda p: sorted(p))
+    mesh = bpy.data.meshes.new(old.name)
+    mesh.from_pydata(verts, [], faces)
+    mesh.update(calc_edges=True)
+    obj.data = mesh
+    bpy.data.meshes.remove(old)
+    return obj
+
+
 def quad(name, corners, mat):
     """A one-polygon quad; corners counter-clockwise seen from the side the normal points to."""
     return mesh_object(name, corners, [[0, 1, 2, 3]], mat)
@@ -108,6 +131,7 @@ def uv_sphere(name, location, radius, mat, segments=64, rings=32):
     bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=radius,
                                          location=location)
     obj = bpy.context.active_object
+    canonical_polygons(obj)
     obj.name = obj.data.name = name
     obj.data.shade_smooth()
     obj.data.materials.append(mat)

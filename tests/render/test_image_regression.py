@@ -13,6 +13,7 @@ A change that is meant to change pixels rewrites the file:
     SNELL_IMAGE_REFERENCES=write .venv/bin/python -m pytest tests/render/test_image_regression.py
 """
 import glob
+import hashlib
 import json
 import os
 
@@ -41,13 +42,22 @@ def _machine() -> str:
     return f"{llvm.get_host_cpu_name()} {llvm.get_host_cpu_features().flatten()}"
 
 
+def _geometry(scene) -> str:
+    """A hash of the scene's geometry arrays, which a scene script must build the same every time."""
+    digest = hashlib.sha256()
+    for array in (scene.positions, scene.triangles, scene.normals, scene.material_ids):
+        digest.update(np.ascontiguousarray(array).data)
+    return digest.hexdigest()[:16]
+
+
 def _blends() -> list:
     return sorted(glob.glob(os.path.join(ROOT, "scenes", "*.blend")))
 
 
 @pytest.fixture(scope="module")
 def images() -> dict:
-    """Every (scene, mode) image rendered now, keyed "scene/mode"."""
+    """Every (scene, mode) image rendered now, keyed "scene/mode", and each scene's geometry hash
+    under "scene/geometry"."""
     pytest.importorskip("bpy")
     from snell.addon.export import export_blend
     from snell.tracer.integrator import Renderer
@@ -57,6 +67,7 @@ def images() -> dict:
     out = {}
     for blend in blends:
         scene, _ = export_blend(blend)
+        out[f"{os.path.basename(blend)[:-6]}/geometry"] = _geometry(scene)
         scene = scene.with_camera(resolution_percentage=PERCENT).with_render(seed=SEED)
         for mode, settings in MODES.items():
             result = Renderer(scene, scene.settings(threads=2, **settings)).render()
@@ -64,18 +75,26 @@ def images() -> dict:
     return out
 
 
-def _stored() -> tuple[dict, str]:
+def _stored() -> tuple[dict, dict]:
     with np.load(PATH) as f:
         meta = json.loads(str(f["meta"]))
-        return {key: f[key] for key in f.files if key != "meta"}, meta["machine"]
+        return {key: f[key] for key in f.files if key != "meta"}, meta
 
 
 def test_images_are_unchanged(images):
+    geometry = {k: v for k, v in images.items() if k.endswith("/geometry")}
+    images = {k: v for k, v in images.items() if k not in geometry}
     if os.environ.get("SNELL_IMAGE_REFERENCES") == "write":
-        np.savez_compressed(PATH, meta=json.dumps({"machine": _machine()}), **images)
+        np.savez_compressed(PATH, meta=json.dumps({"machine": _machine(), "geometry": geometry}),
+                            **images)
         pytest.skip(f"wrote {PATH}")
-    stored, machine = _stored()
+    stored, meta = _stored()
     assert sorted(stored) == sorted(images), "the default scenes or modes changed: rewrite the file"
+    # A different build of a scene renders different pixels for a reason that is not the tracer's.
+    rebuilt = sorted(k[:-9] for k, v in geometry.items() if meta["geometry"].get(k) != v)
+    assert not rebuilt, (f"scenes/{{{','.join(rebuilt)}}}.blend are not the scenes the images were "
+                         "rendered from: a scene script changed or builds differently each time")
+    machine = meta["machine"]
     exact = machine == _machine()
     changed = []
     for key, image in images.items():
