@@ -71,10 +71,12 @@ def mesh_arrays(obj, texcoords=False):
         # Smooth faces: Blender's corner normals (vertex, sharp-edge split or custom normals).
         corner_n = _read(mesh.corner_normals, "vector", nc * 3, np.float32).reshape(nc, 3)
         sharp = _attribute(mesh, "sharp_face", nf, bool)
+        coords = _mesh_texcoords(mesh, corner_verts, co) if texcoords else None
         if sharp is not None and sharp.any():
             face_n = _read(mesh.polygons, "normal", nf * 3, np.float32).reshape(nf, 3)
-            _set_flat_normals(corner_n, tri_corners, tri_faces, sharp, face_n)
-        coords = _mesh_texcoords(mesh, corner_verts, co) if texcoords else None
+            corner_verts, tri_corners, corner_n, coords = _flat_normals(
+                sharp[tri_faces], face_n[tri_faces], co, corner_verts, tri_corners, corner_n,
+                coords)
     finally:
         obj.to_mesh_clear()
     mat_index = face_mat[tri_faces] if face_mat is not None else np.zeros(nt, np.int32)
@@ -82,13 +84,39 @@ def mesh_arrays(obj, texcoords=False):
                  corner_n, coords)
 
 
-def _set_flat_normals(corner_n, tri_corners, tri_faces, sharp, face_n):
-    """Give the corners of flat (sharp) faces their face's normal, in place."""
-    # The face's normal, not the triangle's: the two halves of a flat quad share vertices.
-    # MeshPolygon.normal is computed afresh and within about 1e-7 of the exact normal; the
-    # cached face normals behind corner_normals can be 3e-6 off on a quad.
-    flat = sharp[tri_faces]
-    corner_n[tri_corners[flat].ravel()] = np.repeat(face_n[tri_faces[flat]], 3, axis=0)
+# A flat triangle whose normal is this close to its face's (1 - cos; 1e-8: 1.4e-4 radians) is
+# shaded with the face's normal: float rounding alone makes the halves of a planar quad differ.
+PLANAR = 1e-8
+
+
+def _flat_normals(flat, face_n, co, corner_verts, tri_corners, corner_n, coords):
+    """The normals of flat triangles (flat: per triangle; face_n: its face's normal), as Cycles
+    shades them: with each triangle's geometric normal, which on a non-planar quad (Suzanne's)
+    is not the face's (measured: the face's normal made flat-shaded Suzannes under suns 0.5%
+    darker than Cycles). The halves of a quad share corners: those of a non-planar face get
+    corners of their own; planar faces keep theirs, with the face's normal. Returns
+    corner_verts, tri_corners, corner_n and coords (texcoords per corner), extended."""
+    flat = np.nonzero(flat)[0]
+    p = co.reshape(-1, 3)[corner_verts[tri_corners[flat]]].astype(np.float64)   # (F, 3, 3)
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    face = face_n[flat]
+    planar = np.einsum("ij,ij->i", n, face) >= 1.0 - PLANAR
+    corner_n[tri_corners[flat[planar]].ravel()] = np.repeat(face[planar], 3, axis=0)
+    own = ~planar & (np.linalg.norm(n, axis=1) > 0.0)        # degenerate ones are dropped
+    bent = flat[own]
+    if bent.size == 0:
+        return corner_verts, tri_corners, corner_n, coords
+    old = tri_corners[bent].ravel()
+    tri_corners = tri_corners.copy()
+    tri_corners[bent] = (len(corner_verts) + np.arange(old.size)).reshape(-1, 3)
+    corner_verts = np.concatenate([corner_verts, corner_verts[old]])
+    corner_n = np.concatenate([corner_n, np.repeat(n[own].astype(np.float32), 3, axis=0)])
+    if coords is not None:
+        uvs, active, orco = coords
+        coords = ({name: np.concatenate([uv, uv[old]]) for name, uv in uvs.items()}, active,
+                  np.concatenate([orco, orco[old]]))
+    return corner_verts, tri_corners, corner_n, coords
 
 
 class Mesh:
