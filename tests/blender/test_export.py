@@ -1143,10 +1143,12 @@ def test_info_names_where_each_setting_came_from(bl, tmp_path):
     common.save(path)
     lines = cli.describe(cli.load_scene(path))
     text = "\n".join(lines)
-    assert "render     96 spp, max depth 7, seed 9" in text, text
+    assert ("render     96 spp, max depth 7, seed 9, fresnel exact, pixel filter blackman-harris "
+            "1.5 px") in text, text
     sources = next(line for line in lines if line.startswith("sources"))
     assert sources == ("sources    file's Cycles setting: spp, max_depth, seed, noise_threshold, "
-                       "min_spp, time_limit; default: fresnel, caustics, light_vertices"), sources
+                       "min_spp, time_limit, pixel_filter, filter_width; default: fresnel, "
+                       "caustics, light_vertices"), sources
     cycles = [line for line in lines if line.startswith("cycles")]
     assert "cycles     warning: Light Paths > Clamping > Direct Light 5: not rendered" \
         in "\n".join(cycles), cycles
