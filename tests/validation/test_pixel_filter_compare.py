@@ -4,6 +4,12 @@ the pixels along them. The file sets the filter in Cycles' Film panel; Snell exp
 Cycles' Settings) and the validator renders Cycles with the scene's filter, so both sides sample
 the same filter. Blackman-Harris 1.5 (Cycles' default) and Gaussian 2.5 must be consistent; Snell
 with a 1-pixel box against Cycles' Blackman-Harris, or Gaussian 2.0 against 2.5, must not.
+
+Measured (seed 0, 256 spp, 40 x 40): Blackman-Harris 1.5 consistent (every pixel within its
+bound, sharpness z -0.1), Gaussian 2.5 consistent (sharpness z 1.3). Against Cycles'
+Blackman-Harris 1.5: Snell's box 1.0 fails the pixels (94.9% pass) and sharpness (z -92),
+Blackman-Harris 2.5 sharpness z 125, Gaussian 2.0 z 42. Against Cycles' Gaussian 2.5: Gaussian
+2.0 fails sharpness (z -60), box 1.0 also the tiles (z -238).
 """
 from __future__ import annotations
 
