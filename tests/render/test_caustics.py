@@ -95,6 +95,7 @@ def test_pure_light_tracing_matches_the_path_tracer(case):
     agree(*pure(scene, PURE_SPP))
 
 
+@pytest.mark.slow        # two pure renders (about 80 s on 2 loaded cores): a one-off check of power
 def test_a_light_tracer_that_ignores_the_filter_is_caught():
     """The check above sees splats spread by another filter than the camera samples': the light
     image of a Gaussian 4 render (sigma 1 pixel) against the path tracer's with a 1-pixel box.
