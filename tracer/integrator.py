@@ -291,9 +291,11 @@ class Renderer:
         return bad
 
     def trace_light_chunk(self, pass_index: int, start: int, n: int):
-        """Trace light paths start .. start + n of a pass; returns their splats that reached the
-        camera, (pixels, contributions). The caller adds them in chunk order, so that the image
-        does not depend on which thread finished first (float sums depend on their order)."""
+        """Trace light paths start .. start + n of a pass; returns the splats of those that
+        reached the camera, (pixels, contributions, how many reached it: a pixel filter wider
+        than a pixel spreads one over several pixels). The caller adds them in chunk order, so
+        that the image does not depend on which thread finished first (float sums depend on
+        their order)."""
         if not 0 < n <= CHUNK:
             raise ValueError(f"trace_light_chunk: {n} paths do not fit a chunk of {CHUNK}")
         geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
@@ -303,7 +305,7 @@ class Renderer:
         margin = max(0.0, filt.reach - 0.5)     # how far past the image the filter reaches
         m = light_tracer.emit_light_paths(caustics, lights, mesh, self.seed, pass_index, start, n,
                                          paths)
-        pixels, contributions = [], []
+        pixels, contributions, reached = [], [], 0
         for _ in range(self.max_depth):
             if m == 0:
                 break
@@ -314,6 +316,7 @@ class Renderer:
             if n_conn:
                 visible = geom.occluded(connections.o32[:n_conn], connections.d32[:n_conn],
                                         connections.tmax[:n_conn]) != 0   # Embree: 0 if blocked
+                reached += int(visible.sum())
                 if filt.unit_box:       # the pixel the point lands in, weight 1
                     pixels.append(connections.path[:n_conn][visible])
                     contributions.append(connections.contrib[:n_conn][visible])
@@ -324,8 +327,8 @@ class Renderer:
                     contributions.append(spread[1])
             paths, out = out, paths
         if not pixels:
-            return np.zeros(0, np.int64), np.zeros((0, 3))
-        return np.concatenate(pixels), np.concatenate(contributions)
+            return np.zeros(0, np.int64), np.zeros((0, 3)), 0
+        return np.concatenate(pixels), np.concatenate(contributions), reached
 
     def object_index(self, per_side: int = 2) -> np.ndarray:
         """The object each pixel sees first, int32 (H, W, per_side^2): one camera ray through
@@ -495,12 +498,12 @@ class Renderer:
         bad = 0
         for begin, end in passes.light_segments(n_light, n_a):
             jobs = passes.jobs(begin, end, 1)
-            for (first, _), (pixels, contributions) in zip(jobs, pool.map(
+            for (first, _), (pixels, contributions, reached) in zip(jobs, pool.map(
                     lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs)):
                 bad += wavefront.splat(pixels, contributions, film)
                 if film_a is not None and first < n_a:
                     wavefront.splat(pixels, contributions, film_a)
-                counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+                counters[wavefront.CAUSTIC_SPLATS] += reached      # light paths, not splats
         return bad
 
 

@@ -156,6 +156,20 @@ def test_the_hybrid_image_depends_on_the_seed_only():
     assert not np.array_equal(a.mean(), Renderer(scene, scene.settings(seed=1)).render().mean())
 
 
+def test_filtered_splats_depend_on_the_seed_only_and_count_light_paths():
+    """With Blackman-Harris 1.5 each light path that reaches the camera spreads over up to 3 x 3
+    pixels, added in chunk order (one thread or two give the same bits); the summary counts the
+    light paths that reached the camera, not their splats: at most the light paths traced, and
+    at least the box's (the filter also keeps points just past the image)."""
+    scene = caustic_room(8, (32, 32)).with_render(spp=32)
+    filtered = scene.with_render(pixel_filter="blackman_harris", filter_width=1.5)
+    a = Renderer(filtered, filtered.settings(threads=1, batches=1)).render()
+    b = Renderer(filtered, filtered.settings(threads=2, batches=1)).render()
+    assert np.array_equal(a.light_sum, b.light_sum) and np.array_equal(a.sum, b.sum)
+    box = Renderer(scene, scene.settings(threads=2, batches=1)).render()
+    assert 0 < box.stats["caustic_splats"] <= a.stats["caustic_splats"] <= a.light_paths
+
+
 def test_light_tracing_runs_only_where_it_has_something_to_do():
     """No mirror or glass: no light tracing; a lamp that cannot be hit by BSDF rays (a point
     lamp of radius 0) has no caustics to trace either."""
