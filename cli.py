@@ -353,7 +353,8 @@ def describe(scene) -> list[str]:
            f"lens {cam['lens']:g} mm") + ", "
         f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
         f"render     {settings.spp} spp, max depth {settings.max_depth}, seed {settings.seed}, "
-        f"fresnel {settings.fresnel}",
+        f"fresnel {settings.fresnel}, pixel filter {settings.pixel_filter.replace('_', '-')} "
+        f"{settings.filter_width:g} px",
         f"sampling   {adaptive_sampling(settings)}"
         + (f", time limit {settings.time_limit:g} s" if settings.time_limit else ""),
         f"sources    {setting_sources(scene.render)}",

@@ -28,7 +28,7 @@ USE_CYCLES_SETTINGS = BoolProperty(
 
 def enum_items(setting) -> list:
     """A choice setting's Blender enum items: (VALUE, Value, what it means)."""
-    return [(value.upper(), value.title(), doc) for value, doc in setting.choices]
+    return [(value.upper(), value.replace("_", "-").title(), doc) for value, doc in setting.choices]
 
 
 def property_options(setting) -> tuple[str, dict]:

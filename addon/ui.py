@@ -150,13 +150,18 @@ class RENDER_PT_snell_film(SnellPanel, bpy.types.Panel):
     bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
-        # Cycles' Film panel would offer settings Snell does not render yet: say what it does.
+        # The pixel filter: Cycles' own properties when Snell follows them (editing them here
+        # is editing Cycles'), else Snell's. Cycles' Film panel would offer exposure and
+        # transparency, which Snell does not render yet: say what it does.
         col = self.column()
-        rd, cycles = context.scene.render, getattr(context.scene, "cycles", None)
-        col.label(text="Pixel filter: 1-pixel box"
-                  + (f" (file: {cycles.pixel_filter_type.replace('_', '-').title()} "
-                     f"{cycles.filter_width:g} px, not rendered)" if cycles is not None and
-                     (cycles.pixel_filter_type != "BOX" or cycles.filter_width != 1.0) else ""))
+        rd, following = context.scene.render, _cycles(context)
+        if following is not None:
+            col.prop(following, "pixel_filter_type", text="Pixel Filter")
+            col.prop(following, "filter_width", text="Width")
+        else:
+            col.prop(context.scene.snell, "pixel_filter")
+            col.prop(context.scene.snell, "filter_width", text="Width")
+        cycles = getattr(context.scene, "cycles", None)
         if cycles is not None and cycles.film_exposure != 1.0:
             col.label(text=f"Exposure {cycles.film_exposure:g}: not rendered", icon="ERROR")
         col.label(text="Transparent: not rendered, the film is opaque"

@@ -192,11 +192,13 @@ def camera_ray(cam, pixel, u0, u1, lens0, lens1):
 
 
 @jit_inline
-def camera_connection(cam, x, lens0, lens1):
+def camera_connection(cam, x, lens0, lens1, margin):
     """The camera ray that sees the world point x through lens sample (lens0, lens1), as
-    camera_ray makes it: (pixel, or -1 outside the image or the clip range; the ray's origin on the
-    near clip plane; its unit direction; the distance from the lens point to x; the cosine of the
-    direction to the optical axis; raster pixels per unit of image-plane area at distance 1)."""
+    camera_ray makes it: (pixel, or -1 outside the image grown by `margin` pixels on each side
+    (the pixel filter's reach past its pixel) or the clip range, else the image pixel nearest;
+    raster x and y (y from the bottom); the ray's origin on the near clip plane; its unit
+    direction; the distance from the lens point to x; the cosine of the direction to the optical
+    axis; raster pixels per unit of image-plane area at distance 1)."""
     r, t = cam.rotation, cam.position
     w = (x[0] - t[0], x[1] - t[1], x[2] - t[2])
     xc = (r[0, 0] * w[0] + r[1, 0] * w[1] + r[2, 0] * w[2],      # R^T (x - t)
@@ -207,7 +209,7 @@ def camera_connection(cam, x, lens0, lens1):
         lx, ly = lens_point(cam, lens0, lens1)
     v = (xc[0] - lx, xc[1] - ly, xc[2])
     density = (cam.width / (2.0 * cam.half_x)) * (cam.height / (2.0 * cam.half_y))
-    none = (-1, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, 0.0, density)
+    none = (-1, 0.0, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, 0.0, density)
     if cam.ortho or not v[2] < 0.0:       # the light tracer is off for orthographic cameras
         return none
     if cam.lens_radius > 0.0:
@@ -219,9 +221,10 @@ def camera_connection(cam, x, lens0, lens1):
         tx, ty = xc[0] / -xc[2], xc[1] / -xc[2]
     rx = (tx - cam.shift_x + cam.half_x) * cam.width / (2.0 * cam.half_x)
     ry = (ty - cam.shift_y + cam.half_y) * cam.height / (2.0 * cam.half_y)
-    if not (0.0 <= rx < cam.width and 0.0 <= ry < cam.height):
+    if not (-margin <= rx < cam.width + margin and -margin <= ry < cam.height + margin):
         return none
-    col, row = int(rx), cam.height - 1 - int(ry)
+    col = min(max(int(math.floor(rx)), 0), cam.width - 1)
+    row = cam.height - 1 - min(max(int(math.floor(ry)), 0), cam.height - 1)
     length = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
     d = (v[0] / length, v[1] / length, v[2] / length)
     z_inv = math.sqrt(tx * tx + ty * ty + 1.0)      # -1 / d_pinhole.z, as camera_ray uses it
@@ -230,7 +233,7 @@ def camera_connection(cam, x, lens0, lens1):
         return none
     o = madd((lx, ly, 0.0), near, d)
     world_o, world_d = to_world(cam, o, d)
-    return row * cam.width + col, world_o, world_d, length, -d[2], density
+    return row * cam.width + col, rx, ry, world_o, world_d, length, -d[2], density
 
 
 @jit

@@ -27,6 +27,7 @@ from .material_kinds import DIFFUSE, GLASS, LAYERED, REFRACTION
 from .materials import material_tables
 from .microfacet_tables import shipped_tables
 from .passes import CHUNK
+from .pixel_filter import make_filter, spread_splats
 from .result import RenderResult, Window, WindowSums
 from .scene import Scene
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
@@ -49,10 +50,12 @@ class _Buffers(threading.local):
         return self.buffers
 
     def light(self):
-        """(light paths, next light paths, camera connections) for CHUNK light paths."""
+        """(light paths, next light paths, camera connections, their raster points) for CHUNK
+        light paths."""
         if not hasattr(self, "light_buffers"):
             self.light_buffers = (light_tracer.new_light_paths(CHUNK),
-                                  light_tracer.new_light_paths(CHUNK), wavefront.new_shadows(CHUNK))
+                                  light_tracer.new_light_paths(CHUNK), wavefront.new_shadows(CHUNK),
+                                  np.empty((CHUNK, 2)))
         return self.light_buffers
 
 
@@ -97,6 +100,7 @@ class Renderer:
         self.threads = settings.render_threads
         self.next_event = settings.next_event
         self.camera = Camera(scene.camera)
+        self.pixel_filter = make_filter(settings.pixel_filter, settings.filter_width)
         self.geometry = (Geometry(scene.positions, scene.triangles, scene.normals)
                          if geometry is None else geometry)
         self.materials = material_tables(scene.materials, scene.material_ids, scene.images,
@@ -262,8 +266,8 @@ class Renderer:
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
         wavefront.clear(without, without.shape[0])
-        wavefront.generate(self.camera.params(), self.seed, start, in_pass, first_sample, pixels,
-                           bits, stratified, n, paths, stats)
+        wavefront.generate(self.camera.params(), self.pixel_filter, self.seed, start, in_pass,
+                           first_sample, pixels, bits, stratified, n, paths, stats)
         last_connection = -1
         if self.light_vertices and (vertices is None or vertices):
             # Every camera path's light vertex, before its first bounce (light_vertices.py).
@@ -312,33 +316,44 @@ class Renderer:
         return bad
 
     def trace_light_chunk(self, pass_index: int, start: int, n: int):
-        """Trace light paths start .. start + n of a pass; returns their splats that reached the
-        camera, (pixels, contributions). The caller adds them in chunk order, so that the image
-        does not depend on which thread finished first (float sums depend on their order)."""
+        """Trace light paths start .. start + n of a pass; returns the splats of those that
+        reached the camera, (pixels, contributions, how many reached it: a pixel filter wider
+        than a pixel spreads one over several pixels). The caller adds them in chunk order, so
+        that the image does not depend on which thread finished first (float sums depend on
+        their order)."""
         if not 0 < n <= CHUNK:
             raise ValueError(f"trace_light_chunk: {n} paths do not fit a chunk of {CHUNK}")
         geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
         mesh, cam = geom.mesh, self.camera.params()
-        paths, out, connections = self._buffers.light()
+        paths, out, connections, raster = self._buffers.light()
+        filt = self.pixel_filter
+        margin = max(0.0, filt.reach - 0.5)     # how far past the image the filter reaches
         m = light_tracer.emit_light_paths(caustics, lights, mesh, self.seed, pass_index, start, n,
                                          paths)
-        pixels, contributions = [], []
+        pixels, contributions, reached = [], [], 0
         for _ in range(self.max_depth):
             if m == 0:
                 break
             prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            m, n_conn = light_tracer.light_bounce(caustics, lights, mesh, mats, cam, self.fresnel,
-                                                 self.max_depth, m, paths, prim, u, v, out,
-                                                 connections)
+            m, n_conn = light_tracer.light_bounce(caustics, lights, mesh, mats, cam, margin,
+                                                 self.fresnel, self.max_depth, m, paths, prim, u,
+                                                 v, out, connections, raster)
             if n_conn:
                 visible = geom.occluded(connections.o32[:n_conn], connections.d32[:n_conn],
                                         connections.tmax[:n_conn]) != 0   # Embree: 0 if blocked
-                pixels.append(connections.path[:n_conn][visible])
-                contributions.append(connections.contrib[:n_conn][visible])
+                reached += int(visible.sum())
+                if filt.unit_box:       # the pixel the point lands in, weight 1
+                    pixels.append(connections.path[:n_conn][visible])
+                    contributions.append(connections.contrib[:n_conn][visible])
+                else:
+                    spread = spread_splats(filt, cam.width, cam.height, raster[:n_conn][visible],
+                                           connections.contrib[:n_conn][visible])
+                    pixels.append(spread[0])
+                    contributions.append(spread[1])
             paths, out = out, paths
         if not pixels:
-            return np.zeros(0, np.int64), np.zeros((0, 3))
-        return np.concatenate(pixels), np.concatenate(contributions)
+            return np.zeros(0, np.int64), np.zeros((0, 3)), 0
+        return np.concatenate(pixels), np.concatenate(contributions), reached
 
     def object_index(self, per_side: int = 2) -> np.ndarray:
         """The object each pixel sees first, int32 (H, W, per_side^2): one camera ray through
@@ -482,12 +497,12 @@ class Renderer:
         bad = 0
         for begin, end in passes.light_segments(n_light, n_a):
             jobs = passes.jobs(begin, end, 1)
-            for (first, _), (pixels, contributions) in zip(jobs, pool.map(
+            for (first, _), (pixels, contributions, reached) in zip(jobs, pool.map(
                     lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs)):
                 bad += wavefront.splat(pixels, contributions, film)
                 if film_a is not None and first < n_a:
                     wavefront.splat(pixels, contributions, film_a)
-                counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+                counters[wavefront.CAUSTIC_SPLATS] += reached      # light paths, not splats
         return bad
 
 

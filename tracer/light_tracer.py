@@ -20,8 +20,9 @@ point that sees the vertex gives the pixel, a shadow ray checks it, and the cont
 (beta the light path's weight, f = albedo / pi, wi towards the light, wo towards the lens, the
 shading-normal factor of Veach's thesis section 5.3 that makes the adjoint agree with the path
 tracer, s raster pixels per unit of image-plane area, d and theta the distance from the lens point
-and the ray's angle to the optical axis). The image's pixel j gets the sum over light paths that
-land in it divided by their number.
+and the ray's angle to the optical axis). The image's pixel j gets the sum over light paths of
+their contributions times the density pixel j's camera samples have where the path lands (1 in
+the pixel itself for a 1-pixel box; pixel_filter.spread), divided by the number of light paths.
 """
 from __future__ import annotations
 
@@ -255,11 +256,12 @@ def lamp_sees(caustics, lights, e, w, s1, kind):
 
 
 @jit
-def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m, paths, prim, u,
-                 v, out, connections):
+def light_bounce(caustics, lights, mesh, mats, cam, margin, fresnel_model, max_depth, m, paths,
+                 prim, u, v, out, connections, raster):
     """Scatter light paths at specular hits (into `out`); at the first diffuse vertex after one
-    or more specular ones, queue the connection to the camera. Returns (paths in out,
-    connections queued)."""
+    or more specular ones, queue the connection to the camera (its nearest image pixel, and in
+    `raster` its raster point for the pixel filter; margin: how far past the image the filter
+    reaches). Returns (paths in out, connections queued)."""
     n_out = 0
     n_conn = 0
     has_normals = mesh.corner_normals.shape[0] > 0
@@ -291,7 +293,8 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
             if caustics.pure and bounces + 2 <= max_depth:
                 n_out = diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, color,
                                        random_pair(key, 1 + bounces, 4))
-            pixel, o_cam, d_cam, lens_dist, cos_theta, s = camera_connection(cam, p, lens0, lens1)
+            pixel, rx, ry, o_cam, d_cam, lens_dist, cos_theta, s = camera_connection(
+                cam, p, lens0, lens1, margin)
             if pixel < 0:
                 continue
             wo = neg(d_cam)                        # towards the lens
@@ -310,6 +313,8 @@ def light_bounce(caustics, lights, mesh, mats, cam, fresnel_model, max_depth, m,
             segment = sub(o_cam, origin)
             length = math.sqrt(dot(segment, segment))
             connections.path[n_conn] = pixel
+            raster[n_conn, 0] = rx
+            raster[n_conn, 1] = ry
             for k in range(3):
                 connections.o32[n_conn, k] = origin[k]
                 connections.d32[n_conn, k] = segment[k] / length

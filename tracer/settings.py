@@ -114,6 +114,19 @@ SETTINGS = (
             "rendering (the pass under way finishes; Cycles' Time Limit); 0 has no limit",
             least=0.0, metavar="S",
             ui={"soft_max": 3600.0, "subtype": "TIME_ABSOLUTE", "unit": "TIME_ABSOLUTE"}),
+    # Cycles' Film > Pixel Filter. A scene file without them (one made in code, or written
+    # before filters) keeps the 1-pixel box it always rendered with; a Blender file's export
+    # carries its own (Cycles' default: Blackman-Harris, 1.5 pixels).
+    Setting("pixel_filter", str, "box", "Pixel filter, as Cycles' Film > Pixel Filter: each "
+            "camera sample's position is drawn from it around its pixel's centre (Blender "
+            "files: the file's, Cycles' default Blackman-Harris)",
+            choices=(("box", "Uniform over filter_width pixels (1: the pixel itself)"),
+                     ("gaussian", "Gaussian, standard deviation filter_width / 4, cut at "
+                                  "1.5 filter_width"),
+                     ("blackman_harris", "Blackman-Harris window over 2 filter_width pixels"))),
+    Setting("filter_width", float, 1.0, "Pixel filter width in pixels (Cycles' Film > Pixel "
+            "Filter > Width; Blender's default 1.5)", least=0.01, greatest=10.0, metavar="PX",
+            ui={"subtype": "PIXEL", "precision": 2}),
     Setting("threads", int, 0, "Render threads; 0: Blender's Performance > Threads in "
             "Blender, the machine's logical cores elsewhere", scope=RUN, least=0, greatest=4096,
             metavar="T", ui={"soft_max": 256}),

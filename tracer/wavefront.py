@@ -32,6 +32,7 @@ from .lights.codes import VISIBLE_CAMERA
 from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lights_at_escape,
                               triangle_hit)
 from .material_kinds import DIFFUSE, EMISSION, LAYERED
+from .pixel_filter import position as filter_position
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
 from .scatter import scatter_diffuse, scatter_layered, scatter_specular
@@ -123,9 +124,11 @@ def add_light_both(radiance, without, path, beta, light, w, w_without):
 
 
 @jit
-def generate(cam, seed, start, in_pass, first_sample, pixels, bits, stratified, n, paths, stats):
+def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, stratified, n, paths,
+             stats):
     """Camera rays for the chunk's paths start .. start + n of a pass of in_pass samples per
-    pixel (pixel = pixel_of(path // in_pass), sample = first_sample + path % in_pass)."""
+    pixel (pixel = pixel_of(path // in_pass), sample = first_sample + path % in_pass), through
+    positions in the pixel drawn from the pixel filter filt (pixel_filter.py)."""
     for i in range(n):
         g = start + i
         row = g // in_pass
@@ -133,6 +136,7 @@ def generate(cam, seed, start, in_pass, first_sample, pixels, bits, stratified, 
         sample = first_sample + g - row * in_pass
         key = pixel_key(pixel, seed)
         u0, u1 = sample_pair(key, sample, 0, bits, stratified)
+        u0, u1 = filter_position(filt, u0), filter_position(filt, u1)
         l0, l1 = 0.0, 0.0
         if cam.lens_radius > 0.0:
             l0, l1 = sample_pair(key, sample, 1, bits, stratified)

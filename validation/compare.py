@@ -106,11 +106,13 @@ def snell_estimate(result) -> metrics.Estimate:
 
 
 def cycles_render(blend_path, *, spp, max_depth, seed, n_seeds=DEFAULT_CYCLES_SEEDS, camera=None,
-                  progress=None, threads=2):
+                  progress=None, threads=2, film=None):
+    """Cycles' images of the file at spp samples in n_seeds seeds; film: the pixel filter
+    (pixel_filter, filter_width) of the Snell scene compared (None: the file's own)."""
     per_seed = max(1, math.ceil(spp / n_seeds))
     return cycles.render_seeds(blend_path, spp=per_seed, max_depth=max_depth,
                                seeds=cycles.seeds_for(n_seeds, seed), camera=camera,
-                               progress=progress, threads=threads)
+                               progress=progress, threads=threads, film=film)
 
 
 def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label="",
@@ -177,7 +179,8 @@ def snell_settings(scene):
         ("fresnel", r["fresnel"], "exact is Cycles' rule"),
         ("aperture_radius_m", round(aperture_radius(cam), 6), "lens / (2 fstop) unless overridden"),
         ("focus_distance_m", cam["dof"]["focus_distance"], ""),
-        ("pixel filter", "box (uniform in the pixel)", ""),
+        ("pixel filter", f"{r['pixel_filter']} {r['filter_width']:g} px",
+         "importance-sampled as Cycles does; Cycles renders with the same"),
     ]
 
 
@@ -217,7 +220,7 @@ def compare_blend(blend_path, *, spp=None, max_depth=None, seed=None, scale=None
     try:
         cyc = cycles_render(blend_path, spp=r["spp"], max_depth=r["max_depth"], seed=r["seed"],
                             n_seeds=n_seeds, camera=cam_over, progress=progress.cycles(),
-                            threads=threads)
+                            threads=threads, film=cycles.scene_film(scene))
     except cycles.NoCyclesEquivalent as exc:
         return snell_only(snell_result, scene, str(exc))
     out = compare_renders(snell_result, cyc, not_comparable=not_comparable,

@@ -25,8 +25,10 @@ class NoCyclesEquivalent(ValueError):
     """A Snell setting that Cycles cannot reproduce (e.g. max depth 0)."""
 
 
-def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2):
-    """[(setting, value, reason)] applied to the scene before a Cycles render."""
+def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=None):
+    """[(setting, value, reason)] applied to the scene before a Cycles render. film: the Snell
+    scene's (pixel_filter, filter_width), which Cycles then renders with; None keeps the file's
+    own filter (the exported scene's when it follows the file's Cycles settings)."""
     if max_depth < 1:
         raise NoCyclesEquivalent(f"max depth {max_depth}: Cycles has no max_bounces equivalent "
                                  "(max_bounces = max depth - 1 >= 0)")
@@ -46,8 +48,7 @@ def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2):
         ("cycles.sample_offset", 1, "skip sample 0"),
         ("cycles.sample_subset_length", spp, "spp samples per pixel"),
         ("cycles.sampling_pattern", "TABULATED_SOBOL", "no blue-noise correlation between pixels"),
-        ("cycles.pixel_filter_type", "BOX", "Snell's uniform offset in the pixel"),
-        ("cycles.filter_width", 1.0, "box one pixel wide"),
+        *_film_settings(film),
         ("cycles.use_denoising", False, "unbiased, sample-count matched"),
         ("cycles.use_adaptive_sampling", False, "same samples in every pixel"),
         ("cycles.time_limit", 0.0, "sample-count matched"),
@@ -84,6 +85,21 @@ def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2):
     ]
 
 
+def _film_settings(film) -> list:
+    """The pixel filter entries of forced_settings: none for the file's own filter."""
+    if film is None:
+        return []
+    kind, width = film
+    return [("cycles.pixel_filter_type", str(kind).upper(), "the Snell scene's pixel filter, "
+             "which Snell samples as Cycles does"),
+            ("cycles.filter_width", float(width), "the Snell scene's filter width")]
+
+
+def scene_film(scene) -> tuple:
+    """A Snell scene's (pixel_filter, filter_width), for forced_settings' film."""
+    return scene.render["pixel_filter"], float(scene.render["filter_width"])
+
+
 # The settings forced_settings uses to render exactly samples 1..spp, which adaptive_settings
 # drops: a user renders all the samples, and with a subset Cycles scales the noise threshold by
 # sqrt(subset / samples) (scene/integrator.cpp, get_adaptive_sampling).
@@ -92,10 +108,12 @@ SAMPLE_COUNT_PASS = "Debug Sample Count"
 MULTILAYER = "OPEN_EXR_MULTILAYER 32-bit, Combined and Debug Sample Count"
 
 
-def adaptive_settings(max_depth: int, threshold: float, max_spp: int, seed: int, threads: int = 2):
+def adaptive_settings(max_depth: int, threshold: float, max_spp: int, seed: int, threads: int = 2,
+                      film=None):
     """[(setting, value, reason)] for Cycles' adaptive sampling as a user renders with it: the
     forced settings, but noise threshold `threshold`, automatic minimum samples, at most
-    `max_spp` per pixel, all samples (no subset), and the per-pixel sample count pass."""
+    `max_spp` per pixel, all samples (no subset), and the per-pixel sample count pass (film: as
+    forced_settings')."""
     if threshold <= 0:
         raise ValueError(f"noise threshold {threshold}: adaptive sampling needs one above 0")
     replaced = {
@@ -105,7 +123,7 @@ def adaptive_settings(max_depth: int, threshold: float, max_spp: int, seed: int,
         "output": (MULTILAYER, "the render and each pixel's sample count, read back"),
     }
     out = []
-    for key, value, why in forced_settings(max_depth, max_spp, seed, threads):
+    for key, value, why in forced_settings(max_depth, max_spp, seed, threads, film):
         if key in _SUBSET_KEYS:
             continue
         out.append((key, *replaced[key]) if key in replaced else (key, value, why))
@@ -254,8 +272,10 @@ def _render_one(blend_path, settings, camera, workdir):
 
 
 def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), threads: int = 2,
-                 camera=None, progress=None, quiet_blender=True, overrides=None) -> CyclesResult:
+                 camera=None, progress=None, quiet_blender=True, overrides=None,
+                 film=None) -> CyclesResult:
     """Render the file once per seed with `spp` samples each; mean and variance of the mean.
+    film: the pixel filter (forced_settings').
 
     progress(done, total, elapsed_s) is called after each seed.
     """
@@ -265,7 +285,7 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     images, total, extra = [], 0.0, []
     with tempfile.TemporaryDirectory(prefix="snell-cycles-") as workdir:
         for k, seed in enumerate(seeds):
-            settings = forced_settings(max_depth, spp, seed, threads)
+            settings = forced_settings(max_depth, spp, seed, threads, film)
             if overrides:  # experiments only: replace forced values
                 settings = [(k, overrides.get(k, v), why) for k, v, why in settings]
             with stdout_silenced(quiet_blender):
@@ -277,7 +297,7 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     stack = np.stack(images)
     mean = stack.mean(axis=0)
     var = stack.var(axis=0, ddof=1) / len(seeds)
-    settings = forced_settings(max_depth, spp, seeds[0], threads)
+    settings = forced_settings(max_depth, spp, seeds[0], threads, film)
     settings = [s for s in settings if s[0] != "cycles.seed"]
     settings.append(("cycles.seed", ", ".join(map(str, seeds)),
                      f"{len(seeds)} independent renders; variance of the mean from their spread"))
@@ -289,5 +309,5 @@ def seeds_for(k: int, base: int = 0):
     return [base * 1000 + i + 1 for i in range(k)]
 
 
-__all__ = ["forced_settings", "adaptive_settings", "read_sample_count", "render_seeds", "CyclesResult", "NoCyclesEquivalent",
+__all__ = ["forced_settings", "scene_film", "adaptive_settings", "read_sample_count", "render_seeds", "CyclesResult", "NoCyclesEquivalent",
            "fstop_for_radius", "seeds_for"]

@@ -24,7 +24,8 @@ from .compare import BATCHES, load_snell_scene, snell_render
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SNELL, EXACT = "snell", "cycles"     # what takes the tested image's place
-TESTED = np.array("snell: independent sampler, batches, no light vertices; seeds per config")
+TESTED = np.array("snell: independent sampler, batches, no light vertices; seeds per config; "
+                  "both renderers with the scene's pixel filter")
 SEED_BLOCKS = 2000   # Cycles seeds (base * 1000 + k, cycles.seeds_for) stay below 2^31
 
 
@@ -192,7 +193,8 @@ class NullRuns:
         return np.stack(cycles.render_seeds(
             self.blend, spp=max(1, c.spp // count), max_depth=scene.render["max_depth"],
             seeds=cycles.seeds_for(count, base_seed), threads=self.threads,
-            camera={**dict(c.camera), "resolution_percentage": c.scale}).images).astype(np.float32)
+            camera={**dict(c.camera), "resolution_percentage": c.scale},
+            film=cycles.scene_film(scene)).images).astype(np.float32)
 
     def _snell(self, run: int, error=()):
         """Snell's batch images and light tracer share, rendered as `snell compare` does."""

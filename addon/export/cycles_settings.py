@@ -55,6 +55,12 @@ FOLLOWED = (
     # Cycles' max_bounces N allows N + 1 scattering events; Snell's max depth counts emission
     # plus up to M bounces, so M = N + 1 (validation/cycles.py forces the same; checked there).
     Followed("max_depth", "Light Paths > Max Bounces > Total", lambda c, f: int(c.max_bounces) + 1),
+    # Snell samples Cycles' filters as Cycles does (tracer/pixel_filter.py); its values are
+    # Cycles' identifiers in lower case.
+    Followed("pixel_filter", "Film > Pixel Filter > Type",
+             lambda c, f: str(c.pixel_filter_type).lower()),
+    Followed("filter_width", "Film > Pixel Filter > Width",
+             lambda c, f: float(f"{c.filter_width:.7g}")),
 )
 
 
@@ -133,11 +139,6 @@ def not_rendered(cycles, film_transparent: bool = False) -> list[dict]:
         status = ("same" if entry.same(value, cycles) else
                   "noise" if entry.noise_only else "differs")
         out.append(_entry(entry.label, _shown(value), entry.snell, status, value != default))
-    kind, width = cycles.pixel_filter_type, float(f"{cycles.filter_width:.7g}")
-    box = kind == "BOX" and width == 1.0
-    out.append(_entry("Film > Pixel Filter", f"{_shown(kind)} {width:g} px", "a 1-pixel box: "
-                      "sharper edges than Cycles' Blackman-Harris or Gaussian",
-                      "same" if box else "differs", kind != "BLACKMAN_HARRIS" or width != 1.5))
     out.append(_entry("Film > Transparent", _shown(film_transparent), "an opaque film: alpha 1 "
                       "everywhere, the world visible", "differs" if film_transparent else "same",
                       film_transparent))

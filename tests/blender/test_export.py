@@ -977,13 +977,15 @@ def test_world(bl):
 
 def test_render_settings_default(bl):
     """A new file follows Cycles' defaults: 4096 samples, noise threshold 0.01, max bounces 12
-    (max depth 13); Snell's own settings at theirs; each value's source saved with it."""
+    (max depth 13), Blackman-Harris 1.5 px; Snell's own settings at theirs; each value's source
+    saved with it."""
     s, warnings = run()
     saved = {k: s.render[k] for k in scene_mod.DEFAULT_RENDER}
-    assert saved == {**scene_mod.DEFAULT_RENDER, "spp": 4096, "max_depth": 13}
+    assert saved == {**scene_mod.DEFAULT_RENDER, "spp": 4096, "max_depth": 13,
+                     "pixel_filter": "blackman_harris", "filter_width": 1.5}
     assert s.render["sources"] == {
-        **dict.fromkeys(["spp", "noise_threshold", "min_spp", "time_limit", "seed", "max_depth"],
-                        "file's Cycles setting"),
+        **dict.fromkeys(["spp", "noise_threshold", "min_spp", "time_limit", "seed", "max_depth",
+                         "pixel_filter", "filter_width"], "file's Cycles setting"),
         **dict.fromkeys(["fresnel", "caustics", "light_vertices"], "default")}
     labels = {e["label"]: e for e in s.render["cycles_not_rendered"]}
     assert labels["Light Paths > Diffuse bounces"]["value"] == "4"
@@ -992,12 +994,13 @@ def test_render_settings_default(bl):
 
 
 def test_the_files_cycles_settings_are_followed(bl):
-    """Samples, noise threshold, min samples, time limit, seed (animated too) and max bounces
-    from Cycles' panels; the Cycles settings Snell does not render, when set to something Snell
-    renders differently, are warnings."""
+    """Samples, noise threshold, min samples, time limit, seed (animated too), max bounces and
+    the pixel filter from Cycles' panels; the Cycles settings Snell does not render, when set to
+    something Snell renders differently, are warnings."""
     c = bl.cycles
     c.samples, c.adaptive_threshold, c.adaptive_min_samples, c.time_limit = 300, 0.03, 40, 12.5
     c.seed, c.max_bounces = 17, 3
+    c.pixel_filter_type, c.filter_width = "GAUSSIAN", 2.25
     c.sample_clamp_indirect, c.diffuse_bounces = 0.0, 2     # Snell's / a limit Snell ignores
     bl.render.film_transparent = True
     s, warnings = run()
@@ -1005,6 +1008,8 @@ def test_the_files_cycles_settings_are_followed(bl):
                                      "max_depth")} == {"spp": 300, "noise_threshold": 0.03,
                                                        "min_spp": 40, "time_limit": 12.5,
                                                        "seed": 17, "max_depth": 4}
+    assert (s.render["pixel_filter"], s.render["filter_width"]) == ("gaussian", 2.25)
+    assert not any("Pixel Filter" in w for w in warnings)
     assert any("Diffuse bounces 2 is not rendered" in w for w in warnings), warnings
     assert any("Film > Transparent on is not rendered" in w for w in warnings), warnings
     assert not any("Clamping" in w for w in warnings)       # 0: what Snell renders
@@ -1025,12 +1030,15 @@ def test_snells_own_settings_override_cycles_only_when_asked(bl):
     registration.ensure_registered()
     bl.cycles.samples, bl.cycles.max_bounces = 300, 3
     bl.snell.spp, bl.snell.max_depth, bl.snell.fresnel = 20, 2, "SCHLICK"
+    bl.snell.pixel_filter, bl.snell.filter_width = "GAUSSIAN", 2.0
     s, _ = run()
     assert (s.render["spp"], s.render["max_depth"], s.render["fresnel"]) == (300, 4, "schlick")
+    assert (s.render["pixel_filter"], s.render["filter_width"]) == ("blackman_harris", 1.5)
     assert s.render["sources"]["fresnel"] == "Snell setting"
     bl.snell.use_cycles_settings = False
     s, _ = run()
     assert (s.render["spp"], s.render["max_depth"]) == (20, 2)
+    assert (s.render["pixel_filter"], s.render["filter_width"]) == ("gaussian", 2.0)
     assert s.render["sources"]["spp"] == s.render["sources"]["max_depth"] == "Snell override"
 
 
@@ -1135,10 +1143,12 @@ def test_info_names_where_each_setting_came_from(bl, tmp_path):
     common.save(path)
     lines = cli.describe(cli.load_scene(path))
     text = "\n".join(lines)
-    assert "render     96 spp, max depth 7, seed 9" in text, text
+    assert ("render     96 spp, max depth 7, seed 9, fresnel exact, pixel filter blackman-harris "
+            "1.5 px") in text, text
     sources = next(line for line in lines if line.startswith("sources"))
     assert sources == ("sources    file's Cycles setting: spp, max_depth, seed, noise_threshold, "
-                       "min_spp, time_limit; default: fresnel, caustics, light_vertices"), sources
+                       "min_spp, time_limit, pixel_filter, filter_width; default: fresnel, "
+                       "caustics, light_vertices"), sources
     cycles = [line for line in lines if line.startswith("cycles")]
     assert "cycles     warning: Light Paths > Clamping > Direct Light 5: not rendered" \
         in "\n".join(cycles), cycles

@@ -3,8 +3,10 @@ import numpy as np
 import pytest
 
 from support.builders import camera, make_scene, quad
+from support.stats import z_bound
 from snell.tracer.camera import Camera
 from snell.tracer.integrator import render
+from snell.tracer.pixel_filter import make_filter
 
 
 def test_auto_fit_uses_sensor_width_on_the_larger_dimension():
@@ -86,3 +88,53 @@ def test_polygonal_aperture_and_ratio():
     assert np.abs(p[:, 0]).max() == pytest.approx(0.5 * np.cos(np.pi / 6), abs=0.01)
     assert np.abs(p[:, 0]).max() <= 0.5 * np.cos(np.pi / 6) + 1e-12
     assert np.abs(p[:, 1]).max() == pytest.approx(1.0, abs=0.01)
+
+
+# -- pixel filters (tracer/pixel_filter.py) ---------------------------------------------------------
+
+EDGE = 8.3      # raster x of the lamp's edge: the lamp covers x < EDGE of the 16 x 8 image
+
+
+def edge_scene(**render):
+    """An emissive quad (radiance 1) behind the left of a 16 x 8 pinhole view, its edge at raster
+    x = EDGE, seen directly (max depth 1): a pixel's value is the share of its samples' positions
+    left of the edge."""
+    cam = camera(resolution=(16, 8), lens=50.0)
+    pixel = 2 * 5.0 * 18.0 / 50.0 / 16           # the view's width at distance 5 over 16 pixels
+    edge = (EDGE - 8.0) * pixel
+    lamp = [{"name": "Lamp", "kind": "emission", "color": [1.0, 1.0, 1.0], "strength": 1.0}]
+    return make_scene([(*quad((edge - 2.0, 0.0, 0.0), 2.0, 2.0), 0)], lamp, cam, max_depth=1,
+                      **render)
+
+
+def filter_cdf(kind, width, p):
+    """The probability that a sample's position in its pixel (offset from its corner) is below p,
+    from the table's piecewise-linear inverse (the distribution the samples have)."""
+    filt = make_filter(kind, width)
+    t = filt.table
+    return np.interp(p, t, np.linspace(0.0, 1.0, len(t)), left=0.0, right=1.0)
+
+
+@pytest.mark.parametrize("kind,width", [("box", 1.0), ("blackman_harris", 1.5),
+                                        ("gaussian", 2.0), ("box", 2.5)])
+def test_a_lamp_edge_is_blurred_by_the_filter(kind, width):
+    """Across a sharp edge each pixel is the filter's CDF at the edge (z-tests per pixel,
+    Bernoulli variances, Sidak over the pixels), and a wrong filter fails the same test."""
+    spp = 1024
+    scene = edge_scene(spp=spp, pixel_filter=kind, filter_width=width)
+    img = render(scene, scene.settings(sampler="independent", noise_threshold=0.0)).mean()[..., 0]
+    cols = np.arange(16)
+
+    def worst_z(k, w):
+        expected = filter_cdf(k, w, EDGE - cols)
+        var = np.maximum(expected * (1 - expected), 0.25 / spp) / (8 * spp)   # row means
+        return np.max(np.abs(img.mean(axis=0) - expected) / np.sqrt(var))
+
+    assert np.allclose(img, img[0:1], atol=0.2)          # every row sees the same edge
+    assert worst_z(kind, width) < z_bound(16)
+    wrong = {"box": ("blackman_harris", 1.5), "blackman_harris": ("blackman_harris", 1.7),
+             "gaussian": ("gaussian", 2.3)}[kind]
+    if (kind, width) != ("box", 2.5):
+        assert worst_z(*wrong) > z_bound(16)
+    else:
+        assert worst_z("box", 2.0) > z_bound(16)

@@ -75,16 +75,37 @@ def pure_room(cam=None):
                 cam or room_camera((16, 16)), max_depth=3, lamp_half=0.4)
 
 
-@pytest.mark.parametrize("case", ["pinhole", "dof", "region"])
+FILTERS = {"blackman_harris": ("blackman_harris", 1.5), "gaussian": ("gaussian", 2.0)}
+
+
+@pytest.mark.parametrize("case", ["pinhole", "dof", "region", "blackman_harris", "gaussian"])
 def test_pure_light_tracing_matches_the_path_tracer(case):
     """The light tracer's image (all of it but emitters seen directly) equals the path tracer's,
-    with smooth shading normals (the adjoint correction), depth of field and a render region."""
+    with smooth shading normals (the adjoint correction), depth of field, a render region and
+    pixel filters (the light tracer's splats spread by the filter's density, the camera's samples
+    drawn from it; Gaussian 2 reaches 2.5 pixels past the image)."""
     dof = {"use_dof": True, "focus_distance": 1.2, "fstop": 0.5} if case == "dof" else None
     scene = pure_room(room_camera((16, 16), dof=dof))
     if case == "region":
         x0, y0, w, h = window.border_pixels(16, 16, (0.25, 0.75, 0.1, 0.6))
         scene = scene.with_camera(**window.window_camera(scene.camera, x0, y0, w, h))
+    if case in FILTERS:
+        kind, width = FILTERS[case]
+        scene = scene.with_render(pixel_filter=kind, filter_width=width)
     agree(*pure(scene, PURE_SPP))
+
+
+@pytest.mark.slow        # two pure renders (about 80 s on 2 loaded cores): a one-off check of power
+def test_a_light_tracer_that_ignores_the_filter_is_caught():
+    """The check above sees splats spread by another filter than the camera samples': the light
+    image of a Gaussian 4 render (sigma 1 pixel) against the path tracer's with a 1-pixel box.
+    (Box against Blackman-Harris 1.5 is within this smooth 16 x 16 room's noise at 2048 spp:
+    the filters' own tests are tests/unit/test_pixel_filter.py and test_camera's lamp edge.)"""
+    scene = pure_room()
+    box = pure(scene, PURE_SPP)
+    blurred = pure(scene.with_render(pixel_filter="gaussian", filter_width=4.0), PURE_SPP)
+    with pytest.raises(AssertionError):
+        agree(*box[:3], *blurred[3:])
 
 
 def test_the_comparison_sees_a_two_percent_error():
@@ -133,6 +154,20 @@ def test_the_hybrid_image_depends_on_the_seed_only():
     # The float64 sums, not only the float32 image (which would round most differences away).
     assert np.array_equal(a.light_sum, b.light_sum) and np.array_equal(a.sum, b.sum)
     assert not np.array_equal(a.mean(), Renderer(scene, scene.settings(seed=1)).render().mean())
+
+
+def test_filtered_splats_depend_on_the_seed_only_and_count_light_paths():
+    """With Blackman-Harris 1.5 each light path that reaches the camera spreads over up to 3 x 3
+    pixels, added in chunk order (one thread or two give the same bits); the summary counts the
+    light paths that reached the camera, not their splats: at most the light paths traced, and
+    at least the box's (the filter also keeps points just past the image)."""
+    scene = caustic_room(8, (32, 32)).with_render(spp=32)
+    filtered = scene.with_render(pixel_filter="blackman_harris", filter_width=1.5)
+    a = Renderer(filtered, filtered.settings(threads=1, batches=1)).render()
+    b = Renderer(filtered, filtered.settings(threads=2, batches=1)).render()
+    assert np.array_equal(a.light_sum, b.light_sum) and np.array_equal(a.sum, b.sum)
+    box = Renderer(scene, scene.settings(threads=2, batches=1)).render()
+    assert 0 < box.stats["caustic_splats"] <= a.stats["caustic_splats"] <= a.light_paths
 
 
 def test_light_tracing_runs_only_where_it_has_something_to_do():

@@ -11,6 +11,7 @@ import pytest
 from support.builders import camera, tiny_scene
 from snell.tracer import light_tracer, passes, sampler, wavefront
 from snell.tracer.camera import Camera
+from snell.tracer.pixel_filter import make_filter
 from snell.tracer.integrator import CHUNK, Renderer
 from snell.tracer.passes import (LIGHT_SEGMENT, PASS_PATHS, Pass, jobs, light_segments,
                                  samples_per_pass, sub_passes)
@@ -100,7 +101,7 @@ def test_generate_at_the_far_end_of_the_largest_render(stratified):
     assert start + n == NPIX * last.samples and n <= CHUNK
     paths, stats = wavefront.new_paths(CHUNK), np.zeros(len(wavefront.STATS), np.int64)
     seed = 2 ** 31 - 1
-    wavefront.generate(cam, seed, start, last.samples, last.first, passes.ALL_PIXELS, bits,
+    wavefront.generate(cam, make_filter(), seed, start, last.samples, last.first, passes.ALL_PIXELS, bits,
                        stratified, n, paths, stats)
     g = start + np.arange(n, dtype=np.int64)
     pixel = g // last.samples
@@ -113,7 +114,7 @@ def test_generate_at_the_far_end_of_the_largest_render(stratified):
     assert np.isfinite(paths.o[:n]).all() and np.isfinite(paths.d[:n]).all()
     # The adaptive pixels' list at the far end: int64 indices, the same keys.
     far = np.arange(NPIX - 4, NPIX, dtype=np.int64)
-    wavefront.generate(cam, seed, 0, 1, SPP - 1, far, bits, stratified, 4, paths, stats)
+    wavefront.generate(cam, make_filter(), seed, 0, 1, SPP - 1, far, bits, stratified, 4, paths, stats)
     assert np.array_equal(paths.key[:4], keys[-4:]) and (paths.sample[:4] == SPP - 1).all()
 
 

@@ -42,7 +42,7 @@ class Reference:
     """A Cycles reference plus the exported Snell scene at the test resolution."""
 
     def __init__(self, blend, dof=None, framing=None, max_depth=None, spp=SPP, cycles_seeds=8):
-        from snell.validation import compare
+        from snell.validation import compare, cycles
         self.blend, self.spp = blend, spp
         scene, self.warnings = compare.load_snell_scene(blend)
         dof, framing = dict(dof or {}), dict(framing or {})
@@ -53,7 +53,8 @@ class Reference:
             scene = scene.with_camera(dof={"use_dof": True, **dof})
         self.scene = scene
         settings = {"spp": spp, "max_depth": scene.render["max_depth"], "seed": SEED,
-                    "camera": {**dof, **framing}, "n_seeds": cycles_seeds}
+                    "camera": {**dof, **framing}, "n_seeds": cycles_seeds,
+                    "film": list(cycles.scene_film(scene))}
         self.key = reference_key(scene, settings, cycles_only_settings())
         self.path = os.path.join(REFERENCES, self.key + ".npz")
         mode = os.environ.get("SNELL_CYCLES_REFERENCES", "read")
@@ -111,7 +112,9 @@ def reference_key(scene, settings, cycles_only=None):
     for image in header["images"]:
         image.pop("source", None)
     per_seed = max(1, -(-settings["spp"] // settings["n_seeds"]))
-    forced = [(k, v) for k, v, _ in cycles.forced_settings(settings["max_depth"], per_seed, 0)
+    film = settings.get("film")
+    forced = [(k, v) for k, v, _ in cycles.forced_settings(settings["max_depth"], per_seed, 0,
+                                                           film=film and tuple(film))
               if k not in ("cycles.seed", "render.threads")]
     h = hashlib.sha256(json.dumps([blender_version(), header, settings, forced, cycles_only],
                                   sort_keys=True, default=str).encode())

@@ -362,6 +362,11 @@ def test_cli_compare_writes_report(blends, tmp_path):
     data = json.loads((out / "metrics.json").read_text())
     assert data["verdict"] in ("consistent", "inconsistent")
     assert (out / "report.html").exists() and (out / "snell.png").exists()
+    # The file's own pixel filter (Cycles' default) on both sides.
+    cycles_filter = {k: v for k, v, _ in data["cycles_settings"]}
+    assert (cycles_filter["cycles.pixel_filter_type"], cycles_filter["cycles.filter_width"]) == (
+        "BLACKMAN_HARRIS", 1.5)
+    assert {k: v for k, v, _ in data["snell_settings"]}["pixel filter"] == "blackman_harris 1.5 px"
 
 
 def test_cli_study_depth_marks_depth_0_not_comparable(blends, tmp_path, monkeypatch):
