@@ -170,7 +170,8 @@ class Renderer:
         elif self.camera.ortho:
             why_no_light = "orthographic camera"
         else:
-            why_no_light = "no smooth mirror or glass, or no lamp that rays can hit sees one"
+            why_no_light = ("no smooth mirror or glass, no diffuse surface, or no lamp that "
+                            "lights one")
         return {
             "lens sampling": (self.camera.has_lens, "depth of field" if self.camera.has_lens
                               else "no depth of field"),
@@ -182,8 +183,9 @@ class Renderer:
             "world": (world, "world light" if world else "black world"),
             "environment": (env, "an environment map" if env else "no environment map"),
             "light tracing": (self.caustics is not None,
-                              "lamps through mirrors and glass" if self.caustics is not None
-                              else why_no_light),
+                              "from " + ", ".join(light_tracer.emitter_names(self.scene,
+                                                                              self.caustics))
+                              if self.caustics is not None else why_no_light),
             "light vertices": (self.light_vertices, self._why_vertices),
         }
 

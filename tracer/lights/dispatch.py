@@ -178,16 +178,20 @@ def triangle_density(lights, prim):
 
 def starts_light_paths(t, kind, i, centers, radii, pure) -> bool:
     """Whether the light tracer starts paths on light i of this kind (t: the Lights tables): a
-    light of some size that camera paths find by BSDF sampling (Cycles' MIS option), and for an
-    area lamp one facing a specular object's bounding sphere (centers, radii) unless pure."""
+    light whose light reaches mirrors and glass for the path tracer's BSDF-sampled rays (Cycles'
+    MIS option), and for an area lamp one facing a specular object's bounding sphere (centers,
+    radii) unless pure. Delta lamps (point and spot lamps of radius 0, suns of angle 0) start
+    them too: no ray finds them, so the light tracer is the only technique that renders their
+    light through mirrors and glass (with the MIS option off a lamp is not seen by glossy and
+    transmission rays at all, delta or not, so it starts none)."""
     if kind == AREA:
         flags, ok = t.area_flags[i], t.area_spread_tan[i] > 0.0
         # A one-sided lamp with every specular object behind its plane lights none of them.
         ok &= pure or bool(np.any((centers - t.area_center[i]) @ t.area_emit[i] > -radii))
     elif kind == POINT:
-        flags, ok = t.point_flags[i], t.point_radius[i] > 0.0
+        flags, ok = t.point_flags[i], True
     elif kind == SUN:
-        flags, ok = t.sun_flags[i], t.sun_one_minus_cos[i] > 0.0
+        flags, ok = t.sun_flags[i], True
     elif kind == EMISSIVE_TRIANGLE:
         flags, ok = USES_MIS, True
     else:                          # the world: the path tracer keeps it
@@ -207,6 +211,8 @@ def light_seen(lights, kind, i, s1, w, ray_kind):
     if kind == POINT:
         if not lights.point_flags[i] & ray_kind:
             return False
+        if lights.point_radius[i] == 0.0:
+            return True            # a delta lamp: no shape; the light tracer alone renders it
         return intersect_point_lamp(lights, i, s1, neg(w)) > 0.0
     return True
 
@@ -216,7 +222,7 @@ def light_seen(lights, kind, i, s1, w, ray_kind):
 @jit_inline
 def emission_anchor(lights, kind, i, u0, u1):
     """Where the light tracer aims a path of light i (an emissive triangle, area lamp, or point
-    or spot lamp of radius > 0) from, and the margin its aim needs: (a point uniform on the
+    or spot lamp) from, and the margin its aim needs: (a point uniform on the
     triangle or area lamp, 0), or (the point lamp's centre, its radius: emit_point_lamp then
     picks the line across the direction)."""
     if kind == EMISSIVE_TRIANGLE:
