@@ -18,8 +18,10 @@ vertex (diffuse_bounce) and connects to the camera at each diffuse vertex (L S+ 
 since the path tracer renders none of them. It is aimed at the specular
 objects: from a lamp, its direction is drawn in the cone that bounds one of them, seen from the
 light point (a mixture over objects; the density of a direction sums every cone that holds it);
-from a sun, the direction is the sun's and the line crosses a disk across one of them
-(aimed_line). Specular bounces use the path tracer's own sample_specular. At
+from a sun or the world, the direction is the sun's or drawn from the world's distribution, and
+the line crosses a disk across one of them (aimed_line). The world starts light paths where its
+light is concentrated (an HDRI with a sun: lights.dispatch.WORLD_PEAK), and the path tracer then
+leaves it the world-lit L S+ D E paths too (wavefront.emitters' world_caustics). Specular bounces use the path tracer's own sample_specular. At
 the first diffuse vertex the path connects to a lens point: the camera ray through that lens
 point that sees the vertex gives the pixel, a shadow ray checks it, and the contribution is
 
@@ -44,9 +46,10 @@ from .camera import camera_connection
 from .geometry import hit_point, offset_origin
 from .jit import jit, jit_inline
 from .lights.codes import (AREA, EMISSIVE_TRIANGLE, POINT, SUN, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
-                           VISIBLE_TRANSMISSION)
+                           VISIBLE_TRANSMISSION, WORLD, ZERO)
 from .lights.dispatch import emission_anchor, emit_along, light_seen, starts_light_paths
 from .lights.sun import sun_emission
+from .lights.world import world_emission
 from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, REFRACTION
 from .sampler import mix, random_pair
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
@@ -127,7 +130,8 @@ def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caust
             indices.append(i)
             power.append(t.pmf[k])
             delta.append((kind == POINT and t.point_radius[i] == 0.0)
-                         or (kind == SUN and t.sun_one_minus_cos[i] == 0.0))
+                         or (kind == SUN and t.sun_one_minus_cos[i] == 0.0)
+                         or (kind == AREA and t.area_spread_tan[i] == 0.0))
     if not kinds:
         return None
     pmf = np.array(power) / np.sum(power)
@@ -143,14 +147,13 @@ def emitter_names(scene, caustics: Caustics) -> list[str]:
     named so), the emissive triangles' count, the world."""
     by_kind = {AREA: ("area",), POINT: ("point", "spot"), SUN: ("sun",)}
     names, triangles = [], 0
-    for kind, i in zip(caustics.emitter_kind, caustics.emitter_index):
+    for e, (kind, i) in enumerate(zip(caustics.emitter_kind, caustics.emitter_index)):
         if kind == EMISSIVE_TRIANGLE:
             triangles += 1
         elif kind in by_kind:
             light = [x for x in scene.lights if x["kind"] in by_kind[kind]][i]
-            delta = (kind == POINT and not light.get("radius", 0.0) > 0.0) or \
-                (kind == SUN and not light.get("angle", 0.0) > 0.0)
-            names.append(f"{light.get('name', '?')!r} ({light['kind']}{', delta' if delta else ''})")
+            delta = ", delta" if caustics.emitter_delta[e] else ""
+            names.append(f"{light.get('name', '?')!r} ({light['kind']}{delta})")
         else:
             names.append("the world")
     if triangles:
@@ -254,15 +257,32 @@ def emit(caustics, lights, mesh, u_pick, u_point, u_dir, emitter):
     weight = emitted radiance x measure / density, excluding the emitter's pick). The direction
     is aimed at the specular objects from the light's anchor (lights.dispatch.emission_anchor);
     a point lamp's line is then drawn across it, where the path tracer's own test of the lamp
-    is made at the line's first specular vertex (light_bounce). A sun's direction is its own
-    (sun_emission) and its line is aimed_line's: the weight is radiance / (direction density x
-    area density across the direction), E / area density for a sun of angle 0."""
+    is made at the line's first specular vertex (light_bounce). A sun's or the world's
+    direction is its own (sun_emission, world_emission) and its line is aimed_line's: the
+    weight is radiance / (direction density x area density across the direction), E / area
+    density for a sun of angle 0. That is pbrt-v4's Le |cos| / (pdfDir pdfPos) of an infinite
+    light's SampleLe with the disk perpendicular to the direction (|cos| = 1): the density in
+    area x solid angle measure that the hybrid's split needs, since the path tracer's camera
+    path finds the same light with weight 1 (after a specular vertex no light sample
+    competes)."""
     kind, i = caustics.emitter_kind[emitter], caustics.emitter_index[emitter]
-    if kind == SUN:
-        w, radiance, dir_density = sun_emission(lights, i, u_dir[0], u_dir[1])
+    if kind == SUN or kind == WORLD:
+        if kind == SUN:
+            w, radiance, dir_density = sun_emission(lights, i, u_dir[0], u_dir[1])
+        else:
+            w, radiance, dir_density = world_emission(lights, u_dir[0], u_dir[1])
         origin, area_density = aimed_line(caustics, w, u_pick, u_point)
+        if not dir_density > 0.0:           # a map's pole: never drawn
+            return origin, w, ZERO
         return origin, w, mul(radiance, 1.0 / (dir_density * area_density))
     y, margin = emission_anchor(lights, kind, i, u_point[0], u_point[1])
+    if kind == AREA and lights.area_spread_tan[i] == 0.0:
+        # A collimated (spread 0) area lamp emits along its normal only, radiance L pi delta(w -
+        # n) (irradiance pi L at normal incidence): the direction is drawn with probability one
+        # (density 1 stands for the delta) and the path carries pi L A, the lamp's power.
+        w = row(lights.area_emit, i)
+        origin, weight = emit_along(lights, mesh, kind, i, y, w, 1.0, u_point[0], u_point[1])
+        return origin, w, weight
     w, density = emission_direction(caustics, y, margin, u_pick, u_dir[0], u_dir[1])
     origin, weight = emit_along(lights, mesh, kind, i, y, w, density, u_point[0], u_point[1])
     return origin, w, weight

@@ -11,6 +11,9 @@ its caustic region (where Snell's light tracer carries at least 10%) has 0.30 of
 its 8 brightest pixels (the focus) 0.13, the rest 0.94, while Cycles' plain path tracer with a
 lamp of radius 5 mm at 4096 spp agrees with Snell there (ratio 1.001); Snell's delta caustics
 are validated against Snell's own pure light tracing instead (tests/render/test_caustics_delta.py).
+
+The world: the same sphere and floor under the test HDRI (a sky with a small bright sun spot),
+whose caustic Snell's light tracer renders from the world, against Cycles' path tracer.
 """
 from __future__ import annotations
 
@@ -19,6 +22,7 @@ import importlib
 import numpy as np
 import pytest
 
+from support import hdri
 from support.cycles_reference import Reference
 from support.cycles_reference import verdict as _verdict
 
@@ -93,3 +97,51 @@ def test_cycles_mnee_misses_most_of_the_focused_caustic(delta_scenes):
     cycles = np.mean(mnee.cycles.images, axis=0)
     ratio = cycles[region].mean() / mean[region].mean()
     assert region.sum() > 100 and ratio < 0.5, (region.sum(), ratio)
+
+
+# -- the world ----------------------------------------------------------------------------------
+
+# The test HDRI's sun spot at azimuth pi / 2 + 0.3 (tests/render/test_caustics_world.py's): the
+# glass sphere's caustic of it falls on the floor beside the sphere's foot, towards the camera.
+SUN_PHI = 0.5 * np.pi + 0.3
+
+
+def build_hdri_caustic(path, exr):
+    """The glass sphere over the floor under the test HDRI (a sky with a sun spot)."""
+    scene = common.reset()
+    common.setup_render(scene, (48, 48), max_bounces=5)
+    hdri.set_hdri_world(scene, exr)
+    glass_over_floor(scene)
+    return common.save(path)
+
+
+@pytest.fixture(scope="module")
+def hdri_caustic(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("hdri_caustic")
+    exr = hdri.write_exr(tmp / "sky.exr", hdri.sky(sun_phi=SUN_PHI, sun_peak=200.0))
+    return Reference(build_hdri_caustic(str(tmp / "hdri_caustic.blend"), exr), framing=FULL,
+                     spp=SPP)
+
+
+def without_light_tracer(result):
+    """A deliberate error: the render's light-traced part taken out of its batches, while its
+    path tracer still skips those paths (the world's caustic then rendered by nothing)."""
+    result.batch_images = [b - l for b, l in zip(result.batch_images, result.light_batch_images)]
+    result.light_batch_images = [np.zeros_like(l) for l in result.light_batch_images]
+    return result
+
+
+def test_hdri_caustic_is_consistent_with_cycles(hdri_caustic):
+    """The world's caustic by light paths from the HDRI, the rest path traced, against Cycles'
+    path tracer (measured: consistent, mean ratio 0.999-1.0); the same render without its light
+    paths is caught."""
+    from snell.validation import compare
+    assert not hdri_caustic.warnings
+    renderer_stage = compare.snell_render(hdri_caustic.scene, SPP).stages["light tracing"]
+    assert renderer_stage == (True, "from the world"), renderer_stage
+    verdict, detail = _verdict(hdri_caustic.compare())
+    assert verdict == "consistent", detail
+    result = without_light_tracer(compare.snell_render(hdri_caustic.scene, SPP))
+    wrong = compare.compare_renders(result, hdri_caustic.cycles, scene=hdri_caustic.scene)
+    verdict, detail = _verdict(wrong)
+    assert verdict == "inconsistent", detail
