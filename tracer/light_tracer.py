@@ -104,7 +104,7 @@ def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caust
     glass, or no emitter that camera paths could reach through them)."""
     specular = np.isin(material_kind, (MIRROR, GLASS, REFRACTION))
     tri_specular = specular[scene.material_ids] if len(scene.material_ids) else np.zeros(0, bool)
-    if pure:                       # aim at the whole scene (used by suns only)
+    if pure:                       # aim at the whole scene (used by suns and the world only)
         tri_specular = np.ones(len(scene.material_ids), bool)
         scene = copy.copy(scene)
         scene.object_ids = np.zeros(len(scene.material_ids), np.int32)

@@ -170,3 +170,24 @@ def test_a_missing_or_doubled_caustic_is_caught(case, error):
     stats, z = case.compare(wrong)
     assert stats["verdict"] == metrics.INCONSISTENT, (case.name, error)
     assert abs(z) > 3 * REGION_Z, (case.name, error, z)
+
+
+def test_info_and_the_render_summary_name_the_delta_lamp(tmp_path):
+    """`snell info`'s caustics line and `snell render`'s summary say which lamps light paths
+    start on, delta lamps named so."""
+    import subprocess
+    import sys
+
+    from snell import cli
+    from snell.tracer.scene import save
+
+    scene = point_scene().with_render(spp=1)
+    info = {line.split()[0]: line for line in cli.describe(scene)}["caustics"]
+    assert "light tracing from 'Point' (point, delta) through mirrors and glass" in info, info
+    path = tmp_path / "point.snell"
+    save(scene, str(path))
+    proc = subprocess.run([sys.executable, "-m", "snell.cli", "render", str(path), "-o",
+                           str(tmp_path / "out.exr"), "--threads", "1"],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "light paths from 'Point' (point, delta) (" in proc.stdout, proc.stdout
