@@ -245,8 +245,10 @@ def _summary(args, rgb, result, bad_pixels) -> str:
     if bad_pixels:
         nans += f", {bad_pixels} NaN/Inf pixels written as 0"
     written = args.output + (f" + {args.png}" if args.png else "")
-    light = (f", {result.light_paths} light paths ({result.stats.get('caustic_splats', 0)} reached "
-             f"the camera)" if result.light_paths else ", no light tracing")
+    stages = getattr(result, "stages", None) or {}
+    source = f" {stages['light tracing'][1]}" if stages.get("light tracing", (False,))[0] else ""
+    light = (f", {result.light_paths} light paths{source} ({result.stats.get('caustic_splats', 0)} "
+             f"reached the camera)" if result.light_paths else ", no light tracing")
     skipped = ""
     if getattr(result, "stages", None):
         from .tracer.integrator import describe_stages
@@ -420,7 +422,7 @@ def light_tracing(stages) -> str:
     runs, why = stages["light tracing"]
     if not runs:
         return f"path tracer only ({why})"
-    return "light tracing from the lamps through mirrors and glass, path tracing for the rest"
+    return f"light tracing {why} through mirrors and glass, path tracing for the rest"
 
 
 def cmd_info(args) -> int:

@@ -22,6 +22,7 @@ from . import adaptive, jit, light_tracer, lobes, passes, wavefront
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
+from .lights.codes import WORLD
 from .lights.tables import LightSampler
 from .material_kinds import DIFFUSE, GLASS, LAYERED, REFRACTION
 from .materials import material_tables
@@ -158,8 +159,10 @@ class Renderer:
         the light tracer connects to a pinhole or a thin lens, so an orthographic camera leaves
         every path to the path tracer (the same image, noisier caustics)."""
         self.caustics = None if self.camera.ortho else self._caustic_tables
-        # The path tracer leaves the light tracer's paths to it (not in the pure test mode).
+        # The path tracer leaves the light tracer's paths to it (not in the pure test mode),
+        # those lit by the world too where the light tracer starts paths on it.
         self.split = self.caustics is not None and not self.caustics.pure
+        self.world_split = self.split and bool(np.any(self.caustics.emitter_kind == WORLD))
 
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
@@ -174,7 +177,8 @@ class Renderer:
         elif self.camera.ortho:
             why_no_light = "orthographic camera"
         else:
-            why_no_light = "no smooth mirror or glass, or no lamp that rays can hit sees one"
+            why_no_light = ("no smooth mirror or glass, no diffuse surface, or no lamp that "
+                            "lights one")
         return {
             "lens sampling": (self.camera.has_lens, "depth of field" if self.camera.has_lens
                               else "no depth of field"),
@@ -186,8 +190,9 @@ class Renderer:
             "world": (world, "world light" if world else "black world"),
             "environment": (env, "an environment map" if env else "no environment map"),
             "light tracing": (self.caustics is not None,
-                              "lamps through mirrors and glass" if self.caustics is not None
-                              else why_no_light),
+                              "from " + ", ".join(light_tracer.emitter_names(self.scene,
+                                                                              self.caustics))
+                              if self.caustics is not None else why_no_light),
             "light vertices": (self.light_vertices, self._why_vertices),
         }
 
@@ -282,8 +287,8 @@ class Renderer:
         for depth in range(self.max_depth + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
             kept = wavefront.emitters(lights, mats, self.next_event, self.split,
-                                      depth, self.max_depth, m, paths, prim, t, radiance,
-                                      without, active, stats)
+                                      self.world_split, depth, self.max_depth, m, paths, prim, t,
+                                      radiance, without, active, stats)
             if kept == 0:
                 break
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.tables, self.fresnel,

@@ -7,11 +7,21 @@ specular vertices, one diffuse vertex, camera" (L S+ D E) and the path tracer sk
 (wavefront.emitters, the `caustic` state of a path). Both count a path of k bounces alike, so the
 hybrid renders the path tracer's image, with far less noise where glass and mirrors focus light.
 
-A light path starts on an emitter that camera paths can find by BSDF sampling (emissive
-triangles, and lamps with Cycles' MIS option: area lamps with a spread, point and spot lamps with
-a radius, sun discs) and is aimed at the specular objects: its direction is drawn in the cone that
-bounds one of them, seen from the light point (a mixture over objects; the density of a direction
-sums every cone that holds it). Specular bounces use the path tracer's own sample_specular. At
+A light path starts on an emitter whose light camera paths find through mirrors and glass by
+BSDF sampling (emissive triangles, and lamps with Cycles' MIS option: area lamps with a spread,
+point and spot lamps with a radius, sun discs), or on a delta lamp (a point or spot lamp of
+radius 0, a sun of angle 0), whose light through mirrors and glass no camera path can find: the
+light tracer is the only technique that renders it, and the path tracer's light samples of it
+at diffuse vertices (direct light, L D) stay the path tracer's. The light tracer owns every path
+from a delta lamp whose first vertex is specular: such a path goes on past its first diffuse
+vertex (diffuse_bounce) and connects to the camera at each diffuse vertex (L S+ D (S|D)* D E),
+since the path tracer renders none of them. It is aimed at the specular
+objects: from a lamp, its direction is drawn in the cone that bounds one of them, seen from the
+light point (a mixture over objects; the density of a direction sums every cone that holds it);
+from a sun or the world, the direction is the sun's or drawn from the world's distribution, and
+the line crosses a disk across one of them (aimed_line). The world starts light paths where its
+light is concentrated (an HDRI with a sun: lights.dispatch.WORLD_PEAK), and the path tracer then
+leaves it the world-lit L S+ D E paths too (wavefront.emitters' world_caustics). Specular bounces use the path tracer's own sample_specular. At
 the first diffuse vertex the path connects to a lens point: the camera ray through that lens
 point that sees the vertex gives the pixel, a shadow ray checks it, and the contribution is
 
@@ -36,14 +46,17 @@ from . import specular
 from .camera import camera_connection
 from .geometry import hit_point, offset_origin
 from .jit import jit, jit_inline
-from .lights.codes import SUN, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
+from .lights.codes import (AREA, EMISSIVE_TRIANGLE, POINT, SUN, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
+                           VISIBLE_TRANSMISSION, WORLD, ZERO)
 from .lights.dispatch import emission_anchor, emit_along, light_seen, starts_light_paths
-from .lights.sun import emit_sun
+from .lights.sun import sun_emission
+from .lights.world import world_emission
 from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, REFRACTION
 from .sampler import mix, random_pair
-from .sampling import sample_cosine_hemisphere, sample_uniform_cone, sample_uniform_sphere
+from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
+                       sample_uniform_disk, sample_uniform_sphere)
 from .textures import surface_colors
-from .vec import dot, mul, neg, row, store, sub
+from .vec import add, dot, madd, mul, neg, row, store, sub
 
 LIGHT_DOMAIN = np.uint64(0x11C7_A0C5)   # keys light paths' random numbers apart from camera paths'
 # A camera path's place in the split of path space with the light tracer (wavefront.Paths.caustic):
@@ -58,6 +71,7 @@ class Caustics(NamedTuple):
     emitter_index: np.ndarray    # (E,) its row in its kind's tables
     emitter_pmf: np.ndarray      # (E,)
     emitter_cdf: np.ndarray      # (E,)
+    emitter_delta: np.ndarray    # (E,) bool: a delta lamp (no ray finds it; see light_bounce)
     aim_center: np.ndarray       # (K, 3) bounding spheres of the specular objects
     aim_radius: np.ndarray       # (K,)
     scene_center: np.ndarray     # (3,) a sphere around all geometry (sun paths start outside)
@@ -75,7 +89,7 @@ class LightPaths(NamedTuple):
     d32: np.ndarray          # (n, 3) float32 unit direction (the light's travel direction)
     tmax: np.ndarray         # (n,) float32
     beta: np.ndarray         # (n, 3) radiance x measure / density carried
-    bounces: np.ndarray      # (n,) int64 vertices so far (all specular unless pure)
+    bounces: np.ndarray      # (n,) int64 vertices so far (all specular unless pure or delta)
     lamp: np.ndarray         # (n,) int64 the emitter's row in Caustics (for its flags)
 
 
@@ -91,12 +105,14 @@ def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caust
     glass, or no emitter that camera paths could reach through them)."""
     specular = np.isin(material_kind, (MIRROR, GLASS, REFRACTION))
     tri_specular = specular[scene.material_ids] if len(scene.material_ids) else np.zeros(0, bool)
-    if pure:                       # aim at the whole scene (used by suns only)
+    if pure:                       # aim at the whole scene (used by suns and the world only)
         tri_specular = np.ones(len(scene.material_ids), bool)
         scene = copy.copy(scene)
         scene.object_ids = np.zeros(len(scene.material_ids), np.int32)
     if not tri_specular.any():
         return None
+    if not np.any(material_kind[scene.material_ids] == DIFFUSE):
+        return None                # light paths connect to the camera at diffuse vertices only
     centers, radii = [], []
     for obj in np.unique(scene.object_ids[tri_specular]):
         corners = geometry.corners[tri_specular & (scene.object_ids == obj)].reshape(-1, 3)
@@ -107,21 +123,43 @@ def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caust
         radii.append(np.linalg.norm(corners - center, axis=1).max() * (1 + 1e-6) + 1e-6)
     centers, radii = np.array(centers), np.array(radii)
     t = lights.tables
-    kinds, indices, power = [], [], []
+    kinds, indices, power, delta = [], [], [], []
     for k in np.flatnonzero(t.pmf > 0):
         kind, i = int(t.kind[k]), int(t.index[k])
         if starts_light_paths(t, kind, i, centers, radii, pure):
             kinds.append(kind)
             indices.append(i)
             power.append(t.pmf[k])
+            delta.append((kind == POINT and t.point_radius[i] == 0.0)
+                         or (kind == SUN and t.sun_one_minus_cos[i] == 0.0)
+                         or (kind == AREA and t.area_spread_tan[i] == 0.0))
     if not kinds:
         return None
     pmf = np.array(power) / np.sum(power)
     extent = geometry.corners.reshape(-1, 3)
     lo, hi = extent.min(axis=0), extent.max(axis=0)
     return Caustics(np.array(kinds, np.int64), np.array(indices, np.int64), pmf, np.cumsum(pmf),
-                    np.ascontiguousarray(centers), radii, 0.5 * (lo + hi),
+                    np.array(delta, bool), np.ascontiguousarray(centers), radii, 0.5 * (lo + hi),
                     float(0.5 * np.linalg.norm(hi - lo)) + 1.0, bool(pure))
+
+
+def emitter_names(scene, caustics: Caustics) -> list[str]:
+    """The emitters light paths start on, in words: each lamp by name and kind (delta lamps
+    named so), the emissive triangles' count, the world."""
+    by_kind = {AREA: ("area",), POINT: ("point", "spot"), SUN: ("sun",)}
+    names, triangles = [], 0
+    for e, (kind, i) in enumerate(zip(caustics.emitter_kind, caustics.emitter_index)):
+        if kind == EMISSIVE_TRIANGLE:
+            triangles += 1
+        elif kind in by_kind:
+            light = [x for x in scene.lights if x["kind"] in by_kind[kind]][i]
+            delta = ", delta" if caustics.emitter_delta[e] else ""
+            names.append(f"{light.get('name', '?')!r} ({light['kind']}{delta})")
+        else:
+            names.append("the world")
+    if triangles:
+        names.insert(0, f"{triangles} emissive triangle{'s' if triangles != 1 else ''}")
+    return names
 
 
 # -- aiming -------------------------------------------------------------------------------------
@@ -161,6 +199,39 @@ def aimed_direction(caustics, y, margin, u_pick, u0, u1):
 
 
 @jit_inline
+def aimed_line(caustics, w, u_pick, u_point):
+    """A line of direction w through the specular objects, for light from infinitely far (suns,
+    the world): a sphere picked in proportion to its area pi r^2, a point uniform on the disk
+    across w through it, moved back along w to outside the scene's bounding sphere (pbrt-v4's
+    infinite lights' SampleLe, with a disk per specular object instead of one across the scene).
+    Returns (origin, density of the line per unit area across w: the sum over every disk it
+    crosses of 1 / the disks' total area)."""
+    total = 0.0
+    for k in range(caustics.aim_radius.shape[0]):
+        total += caustics.aim_radius[k] ** 2
+    target = u_pick * total
+    chosen = caustics.aim_radius.shape[0] - 1
+    for k in range(caustics.aim_radius.shape[0]):
+        if target < caustics.aim_radius[k] ** 2:
+            chosen = k
+            break
+        target -= caustics.aim_radius[k] ** 2
+    x, y2 = sample_uniform_disk(u_point[0], u_point[1])
+    t_axis, s_axis = orthonormal_basis(w)
+    r = caustics.aim_radius[chosen]
+    q = add(row(caustics.aim_center, chosen), add(mul(t_axis, x * r), mul(s_axis, y2 * r)))
+    area_density = 0.0
+    for k in range(caustics.aim_radius.shape[0]):
+        off = sub(q, row(caustics.aim_center, k))
+        along = dot(off, w)
+        miss2 = dot(off, off) - along * along
+        if miss2 <= caustics.aim_radius[k] ** 2:
+            area_density += 1.0 / (math.pi * total)
+    far = dot(sub(q, caustics.scene_center), w) + caustics.scene_radius
+    return madd(q, -far, w), area_density
+
+
+@jit_inline
 def emission_direction(caustics, y, margin, u_pick, u0, u1):
     """aimed_direction, or uniform over the sphere of directions for pure light tracing."""
     if caustics.pure:
@@ -187,12 +258,32 @@ def emit(caustics, lights, mesh, u_pick, u_point, u_dir, emitter):
     weight = emitted radiance x measure / density, excluding the emitter's pick). The direction
     is aimed at the specular objects from the light's anchor (lights.dispatch.emission_anchor);
     a point lamp's line is then drawn across it, where the path tracer's own test of the lamp
-    is made at the line's first specular vertex (light_bounce)."""
+    is made at the line's first specular vertex (light_bounce). A sun's or the world's
+    direction is its own (sun_emission, world_emission) and its line is aimed_line's: the
+    weight is radiance / (direction density x area density across the direction), E / area
+    density for a sun of angle 0. That is pbrt-v4's Le |cos| / (pdfDir pdfPos) of an infinite
+    light's SampleLe with the disk perpendicular to the direction (|cos| = 1): the density in
+    area x solid angle measure that the hybrid's split needs, since the path tracer's camera
+    path finds the same light with weight 1 (after a specular vertex no light sample
+    competes)."""
     kind, i = caustics.emitter_kind[emitter], caustics.emitter_index[emitter]
-    if kind == SUN:
-        return emit_sun(lights, i, caustics.aim_center, caustics.aim_radius,
-                        caustics.scene_center, caustics.scene_radius, u_pick, u_point, u_dir)
+    if kind == SUN or kind == WORLD:
+        if kind == SUN:
+            w, radiance, dir_density = sun_emission(lights, i, u_dir[0], u_dir[1])
+        else:
+            w, radiance, dir_density = world_emission(lights, u_dir[0], u_dir[1])
+        origin, area_density = aimed_line(caustics, w, u_pick, u_point)
+        if not dir_density > 0.0:           # a map's pole: never drawn
+            return origin, w, ZERO
+        return origin, w, mul(radiance, 1.0 / (dir_density * area_density))
     y, margin = emission_anchor(lights, kind, i, u_point[0], u_point[1])
+    if kind == AREA and lights.area_spread_tan[i] == 0.0:
+        # A collimated (spread 0) area lamp emits along its normal only, radiance L pi delta(w -
+        # n) (irradiance pi L at normal incidence): the direction is drawn with probability one
+        # (density 1 stands for the delta) and the path carries pi L A, the lamp's power.
+        w = row(lights.area_emit, i)
+        origin, weight = emit_along(lights, mesh, kind, i, y, w, 1.0, u_point[0], u_point[1])
+        return origin, w, weight
     w, density = emission_direction(caustics, y, margin, u_pick, u_dir[0], u_dir[1])
     origin, weight = emit_along(lights, mesh, kind, i, y, w, density, u_point[0], u_point[1])
     return origin, w, weight
@@ -290,7 +381,13 @@ def light_bounce(caustics, lights, mesh, mats, cam, margin, fresnel_model, max_d
                                               VISIBLE_DIFFUSE):
                 continue
             lens0, lens1 = random_pair(key, 1 + bounces, 3)
-            if caustics.pure and bounces + 2 <= max_depth:
+            # A delta lamp's path goes on from here: no camera path renders light that left a
+            # delta lamp towards a specular vertex, diffusely reflected or not (the path
+            # tracer reaches a delta lamp only by light samples at diffuse and layered
+            # vertices), so the light tracer renders every such path, connecting at each
+            # diffuse vertex.
+            if (caustics.pure or caustics.emitter_delta[paths.lamp[i]]) \
+                    and bounces + 2 <= max_depth:
                 n_out = diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, color,
                                        random_pair(key, 1 + bounces, 4))
             pixel, rx, ry, o_cam, d_cam, lens_dist, cos_theta, s = camera_connection(
@@ -347,7 +444,7 @@ def light_bounce(caustics, lights, mesh, mats, cam, margin, fresnel_model, max_d
 
 @jit_inline
 def diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, albedo, u):
-    """Pure light tracing: continue light path i from diffuse vertex p in a cosine-weighted
+    """Pure light tracing, or a delta lamp's path: continue light path i from diffuse vertex p in a cosine-weighted
     direction, with the adjoint's shading-normal factor; returns the new count in `out`."""
     wi = neg(d)                                   # towards where the light came from
     side = 1.0 if dot(wi, ng) > 0.0 else -1.0

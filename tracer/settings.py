@@ -92,9 +92,10 @@ SETTINGS = (
             choices=(("exact", "The exact unpolarised dielectric Fresnel equations, as Cycles"),
                      ("schlick", "Schlick's approximation, as the seed project (not Cycles)"))),
     Setting("caustics", bool, True, "Trace light paths from the lamps through mirrors and glass "
-            "to the surfaces they light (the same image as the path tracer alone, with far less "
-            "noise in caustics); runs only in scenes with mirrors or glass and a lamp that rays "
-            "can hit"),
+            "to the surfaces they light (the path tracer's image with far less noise in "
+            "caustics; the caustics of point and spot lamps of radius 0 and suns of angle 0, "
+            "which no camera path finds, only with it); runs only in scenes with mirrors or "
+            "glass, a diffuse surface and a lamp that lights them"),
     Setting("light_vertices", bool, True, "Connect every diffuse vertex of a camera path to a "
             "point that light from a lamp reaches first (the same image, with far less noise "
             "where surfaces next to lamps light the scene); runs only with mesh lights or area "

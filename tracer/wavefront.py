@@ -155,8 +155,8 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 
 
 @jit
-def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, prim, t, radiance,
-             without, active, stats):
+def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_depth, m, paths, prim,
+             t, radiance, without, active, stats):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
@@ -168,7 +168,8 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
     hit (or escape) and goes on as if the lamp were not there. What a ray gets from each kind of
     light is lights.dispatch's (lamp_crossed, light_at_escape, triangle_hit); the MIS weights
     are this stage's. With `caustics` (the light tracer runs), paths in the CAUSTIC state get no
-    light from lamps, emissive triangles or suns: those paths are the light tracer's to count.
+    light from lamps, emissive triangles or suns, and with `world_caustics` (it starts paths on
+    the world) none from the world: those paths are the light tracer's to count.
     """
     kept = 0
     for i in range(m):
@@ -176,7 +177,8 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
         beta, path, kind = row(paths.beta, i), paths.path[i], paths.ray_kind[i]
         pdf_prev, connect = paths.pdf_prev[i], paths.connect[i]
         t_surface = np.float64(t[i])     # Embree leaves a miss's t at the ray's length
-        emitters_count = not (caustics and paths.caustic[i] == CAUSTIC)
+        light_tracers = caustics and paths.caustic[i] == CAUSTIC
+        emitters_count = not light_tracers
         for lamp in range(lamps_to_cross(lights) if emitters_count else 0):
             crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
                                                                  kind, pdf_prev, connect)
@@ -185,7 +187,9 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
                                mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
                                mis_weight(next_event, pdf_prev, pdf_light, 0.0))
         if prim[i] < 0:
-            for k in range(lights_at_escape(lights, emitters_count)):
+            first, end = lights_at_escape(lights, not (light_tracers and world_caustics),
+                                          emitters_count)
+            for k in range(first, end):
                 found, light, pdf_light = light_at_escape(lights, k, d, kind)
                 if found:
                     w = mis_weight(next_event, pdf_prev, pdf_light, 0.0)

@@ -7,6 +7,7 @@ position, lens, importance, render region) and the shading-normal correction. Th
 tracer for L S+ D E, path tracer for the rest) must render the path tracer's image at every max
 depth. Renders use independent samples and K independent batches, so every variance is honest.
 """
+import copy
 import math
 
 import numpy as np
@@ -171,17 +172,23 @@ def test_filtered_splats_depend_on_the_seed_only_and_count_light_paths():
 
 
 def test_light_tracing_runs_only_where_it_has_something_to_do():
-    """No mirror or glass: no light tracing; a lamp that cannot be hit by BSDF rays (a point
-    lamp of radius 0) has no caustics to trace either."""
+    """No mirror or glass: no light tracing; no diffuse surface for light paths to end on, or
+    a lamp whose MIS option is off (glass does not see it), neither. A point lamp of radius 0
+    (a delta lamp, which no ray can hit) does start light paths (test_caustics_delta.py)."""
     diffuse = room([smooth_sphere(WHITE, (0.3, 0.3, 0.5), 0.4)])
     assert Renderer(diffuse).caustics is None
     specular = caustic_room(8)
     assert Renderer(specular).caustics is not None
     assert Renderer(specular, specular.settings(caustics=False)).caustics is None
+    no_diffuse = copy.copy(specular)
+    no_diffuse.materials = [dict(m, kind="mirror") if m["kind"] == "diffuse" else m
+                            for m in specular.materials]
+    assert Renderer(no_diffuse).caustics is None
     point = {"name": "Point", "kind": "point", "position": [0.0, 0.0, 1.9],
              "intensity": [5.0, 5.0, 5.0], "radius": 0.0}
-    no_emitter = room([(*icosphere(2, 0.3, (0, 0, 0.5))[:2], GLASS)], lights=[point])
-    assert Renderer(no_emitter).caustics is None
+    glass = [(*icosphere(2, 0.3, (0, 0, 0.5))[:2], GLASS)]
+    assert Renderer(room(glass, lights=[point])).caustics is not None
+    assert Renderer(room(glass, lights=[dict(point, use_mis=False)])).caustics is None
     result = Renderer(diffuse, diffuse.settings(spp=2)).render()
     assert result.light_paths == 0 and not result.light_in_image
 

@@ -192,6 +192,7 @@ def moments_match(stored, current):
 OBJECT_VISIBILITY = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_transmission",
                      "visible_volume_scatter", "visible_shadow", "is_shadow_catcher", "is_holdout",
                      "hide_render")
+OBJECT_CAUSTICS = ("is_caustics_caster", "is_caustics_receiver")
 
 
 def cycles_only_settings():
@@ -205,6 +206,10 @@ def cycles_only_settings():
             out[f"{kind}/{block.name}"] = _rna_values(getattr(block, "cycles", None))
     for ob in scene.objects:
         out[f"objects/{ob.name}"] = {k: getattr(ob, k) for k in OBJECT_VISIBILITY if hasattr(ob, k)}
+        # Shadow caustics' caster and receiver flags, only where set (older keys stay valid).
+        flags = {k: True for k in OBJECT_CAUSTICS if getattr(getattr(ob, "cycles", None), k, False)}
+        if flags:
+            out[f"objects/{ob.name}"].update(flags)
     return out
 
 

@@ -2,7 +2,8 @@
 
 With radius r > 0 a point lamp is a sphere of radius r (soft falloff off) or, by default, a disk
 of radius r that faces the shading point (or the ray's origin), of radiance I / (pi r^2); radius
-0 is a point of intensity I. A spot multiplies by smoothstep((z - cos(size / 2)) / ((1 -
+0 is a point of intensity I (a delta lamp: no ray finds it, and only the light tracer renders its
+light through mirrors and glass). A spot multiplies by smoothstep((z - cos(size / 2)) / ((1 -
 cos(size / 2)) blend)), z the cosine to its axis in the light's own (scaled) frame, so
 non-uniform scale makes the cone elliptical; rays hit a spot only on their way towards its
 centre. Like every lamp it has no surface: rays that cross it add its light and go on. The
@@ -146,11 +147,19 @@ def point_lamp_hit(lights, lamp, o, d, t, pdf_bsdf):
 @jit_inline
 def emit_point_lamp(lights, lamp, w, density, u0, u1):
     """A light path of direction w (drawn from the centre with solid-angle density `density`)
-    leaving point or spot lamp `lamp` of radius > 0 on a line through the disk of radius r
-    across w ((u0, u1) picks the point): (origin, radiance x area / density). It starts where
-    the light leaves: the disk's centre plane, or the sphere's far side."""
+    leaving point or spot lamp `lamp` on a line through the disk of radius r across w ((u0, u1)
+    picks the point): (origin, radiance x area / density). It starts where the light leaves: the
+    disk's centre plane, or the sphere's far side.
+
+    Radius 0 is a delta lamp: its radiance is I(w) delta(y - c) (delta in area, I(w) = I x the
+    spot factor), so the point is c with probability one and the path carries I(w) / density,
+    the limit of the disk's (I(w) / (pi r^2)) pi r^2 / density; over directions it carries the
+    lamp's power, the integral of I(w)."""
     c = row(lights.point_pos, lamp)
     r = lights.point_radius[lamp]
+    if r == 0.0:
+        att = spot_attenuation(lights, lamp, w)
+        return c, mul(row(lights.point_intensity, lamp), att / density)
     x, y2 = sample_uniform_disk(u0, u1)
     t_axis, s_axis = orthonormal_basis(w)
     q = add(c, add(mul(t_axis, x * r), mul(s_axis, y2 * r)))

@@ -2,7 +2,8 @@
 
 A sun with angle > 0 is a disc of half-angle alpha = angle / 2 and radiance E / (pi sin^2 alpha),
 sampled uniformly in its cone; angle 0 is a direction, whose samplers return density 0 and the
-irradiance E at normal incidence. The functions read the suns' rows of the light tables
+irradiance E at normal incidence (a delta light: no ray finds it, and only the light tracer renders
+its light through mirrors and glass). The functions read the suns' rows of the light tables
 (tables.Lights).
 """
 from __future__ import annotations
@@ -10,8 +11,8 @@ from __future__ import annotations
 import math
 
 from ..jit import jit_inline
-from ..sampling import orthonormal_basis, sample_uniform_cone, sample_uniform_disk
-from ..vec import add, dot, madd, mul, row, sub
+from ..sampling import sample_uniform_cone
+from ..vec import dot, mul, row
 from .codes import ZERO
 
 
@@ -40,36 +41,16 @@ def sun_hit(lights, sun, d):
 # -- emission (the light tracer) ----------------------------------------------------------------
 
 @jit_inline
-def emit_sun(lights, sun, aim_center, aim_radius, scene_center, scene_radius, u_pick, u_point,
-             u_dir):
-    """A light path from sun `sun` (angle > 0) through one of the spheres (aim_center,
-    aim_radius), starting outside the scene's bounding sphere: a direction in the sun's cone,
-    then a line through a disk across one sphere (u_pick picks it in proportion to its area).
-    Returns (origin, direction, radiance / (density of the direction x density of the line in
-    area across it: every disk it crosses))."""
+def sun_emission(lights, sun, u0, u1):
+    """The direction a light path from sun `sun` travels: (direction, radiance, its density in
+    solid angle). A disc (angle > 0): uniform in its cone, with the disc's radiance. A sun of
+    angle 0 emits along one direction: its radiance is E delta(w - w_sun) (E the irradiance at
+    normal incidence, delta in solid angle) and the direction is drawn with probability one, so
+    the pair (E, 1) stands for radiance / density, as the disc's L / (1 / (2 pi (1 - cos a)))
+    tends to L pi sin^2 a = E when the angle a goes to 0."""
     travel = row(lights.sun_dir, sun)
-    w, cone_density = sample_uniform_cone(travel, lights.sun_one_minus_cos[sun], u_dir[0], u_dir[1])
-    total = 0.0
-    for k in range(aim_radius.shape[0]):
-        total += aim_radius[k] ** 2
-    target = u_pick * total
-    chosen = aim_radius.shape[0] - 1
-    for k in range(aim_radius.shape[0]):
-        if target < aim_radius[k] ** 2:
-            chosen = k
-            break
-        target -= aim_radius[k] ** 2
-    x, y2 = sample_uniform_disk(u_point[0], u_point[1])
-    t_axis, s_axis = orthonormal_basis(w)
-    r = aim_radius[chosen]
-    q = add(row(aim_center, chosen), add(mul(t_axis, x * r), mul(s_axis, y2 * r)))
-    area_density = 0.0
-    for k in range(aim_radius.shape[0]):
-        off = sub(q, row(aim_center, k))
-        along = dot(off, w)
-        miss2 = dot(off, off) - along * along
-        if miss2 <= aim_radius[k] ** 2:
-            area_density += 1.0 / (math.pi * total)
-    far = dot(sub(q, scene_center), w) + scene_radius
-    radiance = row(lights.sun_radiance, sun)
-    return madd(q, -far, w), w, mul(radiance, 1.0 / (cone_density * area_density))
+    one_minus_cos = lights.sun_one_minus_cos[sun]
+    if one_minus_cos == 0.0:
+        return travel, row(lights.sun_irradiance, sun), 1.0
+    w, cone_density = sample_uniform_cone(travel, one_minus_cos, u0, u1)
+    return w, row(lights.sun_radiance, sun), cone_density

@@ -161,6 +161,19 @@ def build_environment(image, strength=1.0, rotation=0.0, matrix=None, offset=Non
                           image.reshape(-1, 3))
 
 
+def environment_peak(env: EnvironmentMap) -> float:
+    """The map's second moment of luminance over the sphere of directions over its squared mean
+    (1 for a constant map; large for a small bright sun): how rarely BSDF samples find its
+    light."""
+    h = env.image.shape[0]
+    sin_row = np.sin(np.pi * (np.arange(h) + 0.5) / h)[:, None]
+    lum = np.maximum(env.image.astype(np.float64) @ np.array(REC709), 0.0)
+    mean = (lum * sin_row).sum()
+    if not mean > 0.0:
+        return 1.0
+    return float((lum * lum * sin_row).sum() * (sin_row.sum() * env.image.shape[1]) / mean ** 2)
+
+
 def empty_environment() -> EnvironmentMap:
     """A 1 x 1 black map: the tables' placeholder when the world has no image."""
     return build_environment(np.zeros((1, 1, 3), np.float32), strength=0.0)
@@ -308,6 +321,16 @@ def sample_world(lights, u0, u1):
         return sample_env(lights.env, u0, u1)
     value = (lights.world[0], lights.world[1], lights.world[2])
     return sample_uniform_sphere(u0, u1), value, 1.0 / (4.0 * math.pi)
+
+
+@jit_inline
+def world_emission(lights, u0, u1):
+    """The direction a light path from the world travels: (direction, radiance, its density in
+    solid angle), drawn as next-event estimation draws the world (sample_world: the map's
+    importance distribution, uniform for a colour) and reversed: light from direction d travels
+    along -d, with the same density."""
+    d, value, density = sample_world(lights, u0, u1)
+    return (-d[0], -d[1], -d[2]), value, density
 
 
 @jit_inline
