@@ -38,14 +38,16 @@ class _Buffers(threading.local):
     def get(self):
         """(paths, next paths, shadow rays (a light sample and a light-vertex connection per
         path), radiance, radiance without light vertices (a pilot's), active rows, counters,
-        lobe scratch, Principled parameter scratch, light vertices) for CHUNK paths."""
+        lobe scratch, Principled parameter scratch, light vertices, the paths' denoising albedo
+        and normal) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
                             wavefront.new_shadows(2 * CHUNK), np.empty((CHUNK, 3)),
                             np.empty((CHUNK, 3)),
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64),
                             np.empty((lobes.MAX_LOBES, lobes.FIELDS)), np.empty(lobes.P_FIELDS),
-                            light_vertices_module.new_light_vertices(CHUNK))
+                            light_vertices_module.new_light_vertices(CHUNK),
+                            (np.zeros((CHUNK, 3)), np.zeros((CHUNK, 3))))
         return self.buffers
 
     def light(self):
@@ -118,6 +120,7 @@ class Renderer:
         self.light_vertices, self._why_vertices = self._choose_light_vertices(
             settings.light_vertices)
         self.light_vertex_pilot = settings.light_vertex_pilot
+        self.features = settings.wants_features
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
@@ -207,14 +210,16 @@ class Renderer:
     def trace_chunk(self, start: int, n: int, in_pass: int, first_sample: int, pixels: np.ndarray,
                     bits: int, total: np.ndarray, total_sq: np.ndarray, class_a: np.ndarray,
                     vertices: bool | None = None, pilot: tuple | None = None,
-                    merge: bool = False):
+                    merge: bool = False, features: tuple | None = None):
         """Trace paths start .. start + n of a pass (in_pass samples per pixel of `pixels`, or of
         every pixel when it is empty; the first sample being first_sample) and add them to the
         (pixels, 3) sums, class-A samples also to `class_a` if it has rows (adaptive.py), with
         light vertices if `vertices` (default: where they run). pilot: (sums, sums of squares)
         that get the same samples without light vertices (wavefront.emitters). merge: add the
         chunk's pixels' sums of the pass, from zero, to total and total_sq (a window merged into
-        a render, RenderResult.add). Returns (NaN/Inf samples, event counters)."""
+        a render, RenderResult.add). features: (albedo sums, normal sums, NaN/Inf count) rows
+        of (pixels, 3) that get the Denoising Albedo and Normal passes' samples (features.py).
+        Returns (NaN/Inf samples, event counters)."""
         if not 0 < n <= CHUNK or n % in_pass or in_pass > CHUNK:
             # The compiled stages write n paths into buffers of CHUNK, unchecked.
             raise ValueError(f"trace_chunk: {n} paths of {in_pass} samples per pixel do not fit "
@@ -222,14 +227,18 @@ class Renderer:
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
         (paths, out, shadows, radiance, without, active, stats, scratch, params,
-         lv) = self._buffers.get()
+         lv, (feature_albedo, feature_normal)) = self._buffers.get()
+        with_features = features is not None
         without = without[:n] if pilot is not None else without[:0]
         stats[:] = 0
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
         wavefront.clear(without, without.shape[0])
+        if with_features:
+            wavefront.clear(feature_albedo, n)
+            wavefront.clear(feature_normal, n)
         wavefront.generate(self.camera.params(), self.seed, start, in_pass, first_sample, pixels,
-                           bits, stratified, n, paths, stats)
+                           bits, stratified, n, paths, stats, with_features)
         last_connection = -1
         if self.light_vertices and (vertices is None or vertices):
             # Every camera path's light vertex, before its first bounce (light_vertices.py).
@@ -252,7 +261,8 @@ class Renderer:
                                               self.next_event, bits, stratified, depth, kept,
                                               active, paths, prim, u, v, out, shadows, radiance,
                                               without, scratch, params, stats, lv,
-                                              last_connection)
+                                              last_connection, with_features, feature_albedo,
+                                              feature_normal)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])
@@ -260,6 +270,11 @@ class Renderer:
             paths, out = out, paths
             if m == 0:
                 break
+        if with_features:
+            with self._film_lock:
+                features[2][0] += wavefront.film_features(feature_albedo, feature_normal, n, start,
+                                                          in_pass, pixels, features[0],
+                                                          features[1])
         if merge:
             return self._merge_chunk(radiance, n, start, in_pass, first_sample, pixels, total,
                                      total_sq), stats.copy()
@@ -358,6 +373,8 @@ class Renderer:
                               build_s=self.build_s, light_in_image=self.split,
                               stages=self.stages(), spp_budget=spp,
                               noise_threshold=threshold if adapt else 0.0)
+        if self.features:
+            result.start_features(self.camera.rotation)
         if batches:
             scheduler = passes.BatchPasses(self, result, batches)
         elif adapt:
@@ -422,12 +439,13 @@ class Renderer:
             return self._trace_window(pool, window, bits, pixels, film, False, light, stop)
 
     def _trace_window(self, pool, window: Window, bits: int, pixels: np.ndarray, film,
-                      merge: bool, light: np.ndarray | None, stop) -> WindowSums | None:
+                      merge: bool, light: np.ndarray | None, stop,
+                      features: tuple | None = None) -> WindowSums | None:
         """Trace a window: its camera samples in progressive passes into film (sums, sums of
         squares; with `merge` each pass's sums from zero, added as RenderResult.add adds a
         window's, which takes a window of one pass), then its light paths into `light` (cleared
         first). Returns the window's sums (its camera sums None when merged), None if `stop`
-        was set."""
+        was set. features: as trace_chunk's."""
         sums = WindowSums(window, None if merge else film[0], None if merge else film[1], light,
                           counters=np.zeros(len(wavefront.STATS), np.int64))
         rows = pixels.shape[0] or self.camera.width * self.camera.height
@@ -435,7 +453,7 @@ class Renderer:
         for first in range(window.first, window.end, step):
             sums.nan_count += self._camera_pass(
                 pool, passes.Pass(first, min(step, window.end - first)), pixels, bits,
-                (*film, passes.NO_ROWS), sums.counters, stop, merge=merge)
+                (*film, passes.NO_ROWS), sums.counters, stop, merge=merge, features=features)
             if stop is not None and stop.is_set():
                 return None
         if light is not None:
@@ -447,10 +465,10 @@ class Renderer:
     # -- one pass --------------------------------------------------------------------------
 
     def _camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
-                     pilot=None, merge=False) -> int:
+                     pilot=None, merge=False, features=None) -> int:
         """Trace a pass's camera samples (step: passes.Pass) of `pixels` into film (sums, sums
-        of squares, class-A sums; trace_chunk's merge) and count their events; returns the NaN
-        or Inf samples."""
+        of squares, class-A sums; trace_chunk's merge and features) and count their events;
+        returns the NaN or Inf samples."""
         rows = pixels.shape[0] or self.camera.width * self.camera.height
         # Chunks hold whole pixels' samples, so that each pixel's sum is added in the same
         # order with any number of threads (float addition is not associative); a pass of more
@@ -460,7 +478,7 @@ class Renderer:
             for chunk_bad, stats in pool.map(
                     lambda job, sub=sub: (0, 0) if stop is not None and stop.is_set() else
                     self.trace_chunk(job[0], job[1], sub.samples, sub.first, pixels, bits, *film,
-                                     vertices, pilot, merge),
+                                     vertices, pilot, merge, features),
                     passes.jobs(0, rows * sub.samples, sub.samples)):
                 bad += chunk_bad
                 counters += stats

@@ -16,7 +16,11 @@ def test_the_defaults_are_the_scene_files_defaults():
     # The scene file's defaults before the schema: files written then render as they did.
     assert DEFAULT_RENDER == {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact",
                               "caustics": True, "light_vertices": True, "noise_threshold": 0.01,
-                              "min_spp": 0, "time_limit": 0.0}   # time_limit 0: no limit, as before
+                              "min_spp": 0, "time_limit": 0.0,   # time_limit 0: no limit, as before
+                              # no denoising and no denoising passes, as before
+                              "denoise": False, "denoising_input_passes": "albedo_normal",
+                              "denoising_prefilter": "accurate", "denoising_quality": "high",
+                              "denoising_passes": False}
     assert RenderSettings().to_render() == DEFAULT_RENDER
     assert all(getattr(RenderSettings(), s.name) == s.default for s in SETTINGS)
 
