@@ -11,7 +11,13 @@ the lobes' normals averaged by sample weight (world space here; Cycles writes ca
 RenderResult.denoising_normal applies). Otherwise the weight is multiplied by the specular lobes'
 albedos and the path looks again at its next surface: through a mirror or clear glass the passes
 show what is seen in it. A path that ends first (escapes, hits an emitter, is absorbed, the
-depth limit, Russian roulette) writes nothing, as in Cycles.
+depth limit, Russian roulette) writes no albedo or normal of a surface, as in Cycles.
+
+Cycles also adds to the Denoising Albedo the light such a path finds on its way (a lamp, the
+world or an emitter seen directly or through the mirror or glass): the features' weight x the
+light as the image counts it (throughput x emission x its MIS weight; film/write.h,
+film_write_emission_or_background_pass). Snell adds it the same way, with the MIS weight of
+Cycles' strategies (light vertices left out): add_feature_light.
 """
 from __future__ import annotations
 
@@ -67,16 +73,26 @@ def surface_features(lobes, count, tables, wi):
 
 
 @jit
+def add_feature_light(albedo, paths, i, beta, light, w):
+    """Add light found by path i (throughput beta, emission `light`, MIS weight w) times its
+    features' weight to row paths.path[i] of the albedo."""
+    row = paths.path[i]
+    for k in range(3):
+        albedo[row, k] += paths.feature[i, k] * beta[k] * light[k] * w
+
+
+@jit
 def record_features(lobes, count, tables, wi, paths, i, albedo, normal):
-    """Apply a hit's lobes to path i's features: write them into row paths.path[i] of `albedo`
-    and `normal` and stop, or carry the weight on through the specular lobes."""
+    """Apply a hit's lobes to path i's features: add them to row paths.path[i] of `albedo`
+    (which may hold light it found on the way) and `normal` and stop, or carry the weight on
+    through the specular lobes."""
     writes, rough_albedo, n, specular_albedo = surface_features(lobes, count, tables, wi)
     weight = (paths.feature[i, 0], paths.feature[i, 1], paths.feature[i, 2])
     if writes:
         row = paths.path[i]
         a = vmul(weight, rough_albedo)
         for k in range(3):
-            albedo[row, k] = a[k]
+            albedo[row, k] += a[k]
             normal[row, k] = n[k]
         paths.feature_on[i] = 0
     else:

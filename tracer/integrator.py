@@ -254,7 +254,7 @@ class Renderer:
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
             kept = wavefront.emitters(lights, mats, self.next_event, self.split,
                                       depth, self.max_depth, m, paths, prim, t, radiance,
-                                      without, active, stats)
+                                      without, active, stats, with_features, feature_albedo)
             if kept == 0:
                 break
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.tables, self.fresnel,

@@ -25,7 +25,7 @@ from .camera import camera_ray
 from .counters import (CAUSTIC_SPLATS, CONNECTIONS, DEPTH_LIMITED, LENS_SAMPLES,  # noqa: F401
                        RR_KILLED, STATS, VERTEX_RAYS)
 from .direct_light import add_light
-from .features import record_features, smooth_lobes
+from .features import add_feature_light, record_features, smooth_lobes
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
 from .light_tracer import CAUSTIC, NO_CAUSTIC
@@ -163,7 +163,7 @@ def generate(cam, seed, start, in_pass, first_sample, pixels, bits, stratified, 
 
 @jit
 def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, prim, t, radiance,
-             without, active, stats):
+             without, active, stats, features, feature_albedo):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
@@ -176,6 +176,9 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
     light is lights.dispatch's (lamp_crossed, light_at_escape, triangle_hit); the MIS weights
     are this stage's. With `caustics` (the light tracer runs), paths in the CAUSTIC state get no
     light from lamps, emissive triangles or suns: those paths are the light tracer's to count.
+    With `features`, paths that still carry the denoising features add what they find to the
+    Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
+    written its features at its first, diffuse, hit).
     """
     kept = 0
     for i in range(m):
@@ -188,23 +191,29 @@ def emitters(lights, mats, next_event, caustics, depth, max_depth, m, paths, pri
             crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
                                                                  kind, pdf_prev, connect)
             if crossed:
+                w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
                 add_light_both(radiance, without, path, beta, light,
-                               mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
-                               mis_weight(next_event, pdf_prev, pdf_light, 0.0))
+                               mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex), w_without)
+                if features and paths.feature_on[i] != 0:
+                    add_feature_light(feature_albedo, paths, i, beta, light, w_without)
         if prim[i] < 0:
             for k in range(lights_at_escape(lights, emitters_count)):
                 found, light, pdf_light = light_at_escape(lights, k, d, kind)
                 if found:
                     w = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
                     add_light_both(radiance, without, path, beta, light, w, w)
+                    if features and paths.feature_on[i] != 0:
+                        add_feature_light(feature_albedo, paths, i, beta, light, w)
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
         if emitters_count and max3(emission) > 0.0:     # Emission, or a Principled BSDF's
             pdf_light, pdf_vertex = triangle_hit(lights, prim[i], o, d, t_surface, connect)
+            w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
             add_light_both(radiance, without, path, beta, emission,
-                           mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
-                           mis_weight(next_event, pdf_prev, pdf_light, 0.0))
+                           mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex), w_without)
+            if features and paths.feature_on[i] != 0:
+                add_feature_light(feature_albedo, paths, i, beta, emission, w_without)
         if mats.kind[mat] == EMISSION:
             continue
         if depth == max_depth:

@@ -58,17 +58,17 @@ def test_film_features_leaves_out_and_counts_nan_samples():
     assert np.array_equal(a_sum[0], albedo[0]) and not a_sum[1:].any() and not n_sum[1:].any()
 
 
-def _mirror_scene(mirror_color, **render):
+def _mirror_scene(mirror_color, wall=True, world=(1.0, 1.0, 1.0), **render):
     """Camera looking down -z at a 45-degree mirror that turns every ray to +x, towards a diffuse
-    wall at x = 3 facing -x."""
+    wall at x = 3 facing -x (or the world)."""
     mirror = (np.array([[-1, -1, 1], [1, -1, -1], [1, 1, -1], [-1, 1, 1]], np.float32),
               np.array([[0, 1, 2], [0, 2, 3]], np.int32), 0)
-    wall = (np.array([[3, -5, -5], [3, -5, 5], [3, 5, 5], [3, 5, -5]], np.float32),
-            np.array([[0, 1, 2], [0, 2, 3]], np.int32), 1)
+    quad_x = (np.array([[3, -5, -5], [3, -5, 5], [3, 5, 5], [3, 5, -5]], np.float32),
+              np.array([[0, 1, 2], [0, 2, 3]], np.int32), 1)
     mats = [{"name": "Mirror", "kind": "mirror", "color": list(mirror_color)},
             {"name": "Wall", "kind": "diffuse", "color": list(WALL)}]
-    return make_scene([mirror, wall], mats, camera(resolution=(8, 8), lens=150.0),
-                      world=(1.0, 1.0, 1.0), **render)
+    return make_scene([mirror, quad_x] if wall else [mirror], mats,
+                      camera(resolution=(8, 8), lens=150.0), world=world, **render)
 
 
 def _render(scene, **settings):
@@ -91,6 +91,16 @@ def test_through_a_mirror_the_passes_show_the_wall_tinted_by_the_mirror():
     result = _render(_mirror_scene(tint, spp=4), denoising_passes=True)
     assert np.allclose(result.denoising_albedo(), np.multiply(tint, WALL), atol=1e-6)
     assert np.allclose(result.denoising_normal(), (-1.0, 0.0, 0.0), atol=1e-6)
+
+
+def test_light_found_on_the_way_is_added_to_the_albedo_as_cycles_does():
+    """Cycles adds the world (and lamps, emitters) a path finds while it still carries the
+    features, times their weight: the world seen in the mirror is the image's light (tint x
+    world colour) times the features' weight (tint again), and the normal nothing."""
+    tint, world = (0.5, 0.75, 1.0), (0.2, 0.4, 0.6)
+    result = _render(_mirror_scene(tint, wall=False, world=world, spp=4), denoising_passes=True)
+    assert np.allclose(result.denoising_albedo(), np.square(tint) * world, atol=1e-6)
+    assert not result.denoising_normal().any()
 
 
 def test_through_glass_of_index_one_the_passes_show_the_wall_tinted_by_the_glass():
