@@ -12,6 +12,7 @@ and nothing in the package imports it; the helpers they share live in errors.py.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time
@@ -139,13 +140,12 @@ def _setup_render(p):
 
 
 def _add_farm_options(p):
-    """--workers N and --cluster ADDRESS: render on Dask (farm/), fixed samples."""
+    """--workers N and --cluster ADDRESS: render on Dask (farm/)."""
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int_at_least(1), metavar="N",
-                       help="render on N local worker processes (Dask; fixed samples)")
+                       help="render on N local worker processes (Dask)")
     where.add_argument("--cluster", metavar="ADDRESS",
-                       help="render on the Dask scheduler at ADDRESS, e.g. tcp://host:8786 "
-                            "(fixed samples)")
+                       help="render on the Dask scheduler at ADDRESS, e.g. tcp://host:8786")
 
 
 ON_OFF = ("on", "off")
@@ -203,8 +203,8 @@ def cmd_render(args) -> int:
     settings = scene.settings(**setting_overrides(args))
     farm = args.workers is not None or args.cluster is not None
     if farm:
-        from .farm.render import check_fixed
-        check_fixed(settings, args.scene)
+        from .farm.render import check_settings
+        check_settings(settings, args.scene)
     from .tracer import image
     from .tracer.integrator import kernels_compiled, render, warm_up
 
@@ -484,6 +484,7 @@ def _setup_batch(p):
                         "transform) (default: the file's Output Properties)")
     _add_setting_options(p)
     _add_scale_option(p)
+    _add_farm_options(p)
 
 
 def _frames(text):
@@ -503,14 +504,33 @@ def cmd_batch(args) -> int:
         check_writable_directory(args.output, "-o")
     try:
         from .addon import batch
-        return batch.run(args.scene, frames=args.frames, output=args.output,
-                         settings=setting_overrides(args), scale=args.scale)
+        with _batch_farm(args) as remote_render:
+            return batch.run(args.scene, frames=args.frames, output=args.output,
+                             settings=setting_overrides(args), scale=args.scale,
+                             remote_render=remote_render)
     except ModuleNotFoundError as exc:
         if exc.name != "bpy":
             raise
         raise CliError("snell batch needs Blender's bpy module (pip install 'snell[blender]')") from None
     except batch.BatchError as exc:
         raise CliError(str(exc)) from None
+
+
+@contextlib.contextmanager
+def _batch_farm(args):
+    """With --workers or --cluster: a Dask session the frames render on, one after the other,
+    each frame's windows or passes spread over the workers; otherwise None."""
+    if args.workers is None and args.cluster is None:
+        yield None
+        return
+    from .farm.render import session
+    from .tracer.integrator import kernels_compiled, warm_up
+    if not kernels_compiled() and args.cluster is None:
+        # Local workers load the kernels this compiles from the disk cache.
+        print("snell: compiling kernels (first run only)", file=sys.stderr, flush=True)
+        warm_up()
+    with session(args.cluster, args.workers) as render:
+        yield render
 
 
 # ---------------------------------------------------------------------------------------------

@@ -73,10 +73,12 @@ def _add_sample_counts(path, counts):
 
 
 def run(blend_path: str, frames: str | None = None, output: str | None = None,
-        stream=sys.stderr, settings: dict | None = None, scale: int | None = None) -> int:
+        stream=sys.stderr, settings: dict | None = None, scale: int | None = None,
+        remote_render=None) -> int:
     """Render the frames of blend_path; returns the exit status (0, or 1 if a frame failed).
     settings: render settings over the file's (tracer/settings.py names), for every frame;
-    scale: the resolution percentage over the file's."""
+    scale: the resolution percentage over the file's; remote_render: what renders each frame
+    instead of this process (final.remote_render: a Dask cluster's)."""
     import bpy
 
     from . import final, registration
@@ -105,7 +107,7 @@ def run(blend_path: str, frames: str | None = None, output: str | None = None,
                              "for the frame number (e.g. frame_####.exr)")
         exact = os.path.abspath(output)
     with _ctrl_c_stops_the_render(final.stop_requested) as interrupted, \
-            _overriding(final.overrides, settings or {}):
+            _overriding(final.overrides, settings or {}), _rendering_with(final, remote_render):
         return _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, stream,
                               exact)
 
@@ -118,6 +120,16 @@ def _overriding(overrides: dict, settings: dict):
         yield
     finally:
         overrides.clear()
+
+
+@contextlib.contextmanager
+def _rendering_with(final, remote_render):
+    """The engine renders through remote_render (None: in this process) while the frames render."""
+    final.remote_render = remote_render
+    try:
+        yield
+    finally:
+        final.remote_render = None
 
 
 @contextlib.contextmanager

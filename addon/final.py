@@ -18,6 +18,7 @@ import traceback
 
 import numpy as np
 
+from ..errors import CliError
 from ..tracer.progress import describe_adaptive, fraction_done, pixels_sampling, time_left
 from ..tracer.scene import SceneError, has_world_light
 from . import window
@@ -29,11 +30,12 @@ NOISY_PASS = ("Noisy Image", 4, "RGBA")
 FEATURE_PASSES = (("Denoising Albedo", 3, "RGB"), ("Denoising Normal", 3, "XYZ"))
 
 
-def denoising_passes(settings) -> tuple:
+def denoising_passes(settings, remote: bool = False) -> tuple:
     """The denoising passes a render with these settings fills: the noisy image when it
-    denoises, the albedo and normal when it renders them."""
+    denoises, the albedo and normal when it renders them (not on a cluster, remote, which does
+    not trace them yet: no empty layer is presented as real)."""
     return (((NOISY_PASS,) if settings.denoise else ())
-            + (FEATURE_PASSES if settings.wants_features else ()))
+            + (FEATURE_PASSES if settings.wants_features and not remote else ()))
 
 
 def oidn_dirs() -> list:
@@ -55,6 +57,10 @@ stop_requested = threading.Event()
 # Settings `snell batch` gives on its command line, over the scene's (tracer/settings.py names):
 # they reach the render without being written into the file's properties.
 overrides: dict = {}
+# Set by `snell batch --workers/--cluster`: the frames render through it instead of this
+# process's Renderer: render(scene, settings, name, frame, progress) -> RenderResult (the
+# command line passes farm/'s; the add-on itself does not import Dask).
+remote_render = None
 
 
 def _should_stop(engine) -> bool:
@@ -80,11 +86,16 @@ def _border(render, full_w, full_h):
                                                  render.border_min_y, render.border_max_y))
 
 
-def _export(engine, depsgraph, record):
+def _source_name() -> str:
+    """The .blend's file name, which names the scene in messages."""
     import bpy
+    return os.path.basename(bpy.data.filepath) or "(unsaved)"
+
+
+def _export(engine, depsgraph, record):
     from .export import export_depsgraph
 
-    source = os.path.basename(bpy.data.filepath) or "(unsaved)"
+    source = _source_name()
     try:
         scene, warnings = export_depsgraph(depsgraph, source=source)
     except SceneError as exc:
@@ -195,19 +206,24 @@ def render(engine, depsgraph):
         spp = settings.spp
         record["target_spp"] = spp
         _compile_kernels(engine, record)
-        engine.update_stats("", f"Snell: building the BVH of {len(scene.triangles)} triangles")
-        renderer = _integrator().Renderer(scene, settings)
-        if _should_stop(engine):
-            _stop_without_image(engine, record)
-            return
+        if remote_render is None:
+            engine.update_stats("", f"Snell: building the BVH of {len(scene.triangles)} triangles")
+            renderer = _integrator().Renderer(scene, settings)
+            if _should_stop(engine):
+                _stop_without_image(engine, record)
+                return
         # Before begin_result, so that the result has the pass (as Cycles adds its passes).
         engine.add_pass(SAMPLE_COUNT_PASS, 1, "X", layer=depsgraph.view_layer.name)
-        for name, channels, ids in denoising_passes(settings):
+        for name, channels, ids in denoising_passes(settings, remote=remote_render is not None):
             engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
         result = engine.begin_result(0, 0, w, h)
         progress = _Progress(engine, result, w, h, spp, record, t_start)
         engine.update_stats("", f"Snell: rendering, sample 0/{spp}")
-        rendered = renderer.render(progress=progress)
+        if remote_render is None:
+            rendered = renderer.render(progress=progress)
+        else:
+            rendered = remote_render(scene, settings, _source_name(),
+                                     bl_scene.frame_current, progress)
         adaptive = describe_adaptive(rendered)
         record.update(spp=rendered.spp, cancelled=rendered.cancelled, time_s=rendered.time_s,
                       rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count,
@@ -226,7 +242,7 @@ def render(engine, depsgraph):
                                 + (f" | {adaptive}" if adaptive else ""))
         engine.end_result(result)
         result = None
-    except RenderFailed as exc:
+    except (RenderFailed, CliError) as exc:    # CliError: a cluster's (remote_render)
         _fail(engine, str(exc), record)
     except Exception as exc:  # a bug: keep the traceback in the console, a message in the UI
         traceback.print_exc()

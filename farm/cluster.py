@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import logging
 
-from ..errors import CliError
+from ..errors import CliError, one_line
 from ..tracer import jit
 from . import worker
 
@@ -88,3 +88,10 @@ def dashboard(client) -> str:
         return client.dashboard_link or ""
     except Exception:  # noqa: BLE001  (no dashboard: bokeh missing, or disabled)
         return ""
+
+
+def failure(name: str, what: str, exc: BaseException) -> CliError:
+    """The error of a task that failed on the cluster (after Dask's retries): the scene, the
+    task and the failure, on one line."""
+    return CliError(f"{name}: {what} failed on the cluster: {type(exc).__name__}: "
+                    f"{one_line(exc)[:300]}")

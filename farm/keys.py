@@ -43,6 +43,12 @@ def window_key(render: str, frame: int, window: int, seed: int) -> str:
     return f"snell-window-{render[:20]}-frame{frame}-window{window}-seed{seed}"
 
 
+def pass_key(render: str, frame: int, kind: str, first: int, row: int, seed: int) -> str:
+    """The Dask key of one task of a pass (adaptive sampling, batches): its kind ("camera", or
+    "light" and the pass), its first sample or light path, and its first pixel row."""
+    return f"snell-pass-{render[:20]}-frame{frame}-{kind}-first{first}-row{row}-seed{seed}"
+
+
 def scene_key(render: str) -> str:
     """The Dask key of a render's scattered scene."""
     return f"snell-scene-{render[:20]}"

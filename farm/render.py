@@ -1,18 +1,20 @@
-"""A fixed-sample frame on a Dask cluster: its windows (Renderer.windows, fixed by the image size
-and spp, not by the workers) traced as tasks, and added in window order as they arrive, which
-makes the local render's float sums bit for bit (RenderResult.add)."""
+"""A frame on a Dask cluster. Fixed samples: its windows (Renderer.windows, fixed by the image
+size and spp, not by the workers) traced as tasks, and added in window order as they arrive,
+which makes the local render's float sums bit for bit (RenderResult.add). Adaptive sampling and
+batches: their passes, scheduled here and traced on the workers (remote.py)."""
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
 
 import numpy as np
 
-from ..errors import CliError, one_line
+from ..errors import CliError
 from ..tracer import passes
 from ..tracer.camera import Camera
 from ..tracer.result import RenderResult
-from . import cluster, keys, worker
+from . import cluster, keys, remote, worker
 
 AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait for the client
 # ...but no more than about this many bytes of window sums (a 3840x2160 window is 600 MB): the
@@ -20,20 +22,19 @@ AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait
 AHEAD_BYTES = 4 << 30
 
 
-def check_fixed(settings, where: str) -> None:
-    """CliError unless the settings render fixed samples (what is distributed so far)."""
-    if settings.noise_threshold > 0.0 or settings.batches:
-        raise CliError(f"{where}: renders fixed samples only: add --noise-threshold 0 "
-                       "(adaptive sampling and batches are not distributed yet)")
+def check_settings(settings, where: str) -> None:
+    """CliError unless a cluster can render the settings' image."""
     if getattr(settings, "time_limit", 0):
         # The local render's samples would depend on its clock: no image to be equal to.
-        raise CliError(f"{where}: renders fixed samples only: add --time-limit 0")
+        raise CliError(f"{where}: a time limit is not distributed (its samples would depend on "
+                       "the clock): add --time-limit 0")
 
 
-def render_on(address: str | None, workers: int | None, scene, settings, name: str,
-              progress=None, quiet: bool = False) -> RenderResult:
-    """Render a scene on the scheduler at `address`, or on a LocalCluster of `workers`
-    processes started and stopped here; says where on stderr unless quiet."""
+@contextlib.contextmanager
+def session(address: str | None, workers: int | None, quiet: bool = False):
+    """Render with the scheduler at `address`, or a LocalCluster of `workers` processes started
+    and stopped here: yields render(scene, settings, name, frame=0, progress=None) ->
+    RenderResult (with .workers); says where on stderr unless quiet."""
     with cluster.connect(address, workers) as client:
         threads = cluster.check_workers(client)
         processes = len(client.nthreads())
@@ -42,16 +43,36 @@ def render_on(address: str | None, workers: int | None, scene, settings, name: s
             print(f"snell: rendering on {processes} Dask worker{'s' if processes != 1 else ''} "
                   f"({threads} threads){', dashboard ' + board if board else ''}",
                   file=sys.stderr, flush=True)
-        result = render_frame(client, scene, settings, name, progress=progress, threads=threads)
-        result.workers = processes
-        return result
+
+        def render(scene, settings, name: str, frame: int = 0, progress=None) -> RenderResult:
+            result = render_frame(client, scene, settings, name, frame, progress, threads)
+            result.workers = processes
+            return result
+        yield render
+
+
+def render_on(address: str | None, workers: int | None, scene, settings, name: str,
+              progress=None, quiet: bool = False) -> RenderResult:
+    """Render a scene on the scheduler at `address`, or on a LocalCluster of `workers`
+    processes started and stopped here; says where on stderr unless quiet."""
+    with session(address, workers, quiet) as render:
+        return render(scene, settings, name, progress=progress)
 
 
 def render_frame(client, scene, settings, name: str, frame: int = 0, progress=None,
                  threads: int | None = None) -> RenderResult:
     """Render a scene's frame on the client's workers; `name` (the scene file) names it in
-    errors. progress(result, windows done, windows) as Renderer.render's."""
-    check_fixed(settings, name)
+    errors. progress(result, passes done, passes) as Renderer.render's."""
+    check_settings(settings, name)
+    threshold, _ = passes.adaptive_settings(settings)
+    if threshold > 0.0 or settings.batches:
+        return remote.render_passes(client, scene, settings, name, frame, progress, threads)
+    return _render_windows(client, scene, settings, name, frame, progress, threads)
+
+
+def _render_windows(client, scene, settings, name: str, frame: int, progress,
+                    threads: int | None) -> RenderResult:
+    """A fixed-sample frame's windows traced as tasks and added in window order."""
     key = keys.render_key(scene, settings)
     camera = Camera(scene.camera)
     w, h, spp = camera.width, camera.height, settings.spp
@@ -90,8 +111,9 @@ def render_frame(client, scene, settings, name: str, frame: int = 0, progress=No
                 result.time_s = time.perf_counter() - start
                 if merged + ahead - 1 < len(windows):
                     submit(merged + ahead - 1)
-                if progress is not None:
-                    progress(result, merged, len(windows))
+                if progress is not None and progress(result, merged, len(windows)) is False:
+                    result.cancelled = merged < len(windows)
+                    return result
     finally:
         client.cancel(list(futures.values()) + [scene_future])
     result.time_s = time.perf_counter() - start
@@ -108,9 +130,8 @@ def _reply(future, name: str, window) -> worker.WindowReply:
     try:
         return future.result()
     except Exception as exc:  # noqa: BLE001  (whatever the worker raised, or KilledWorker)
-        raise CliError(f"{name}: window {window.index} (samples {window.first}-{window.end}) "
-                       f"failed on the cluster: {type(exc).__name__}: "
-                       f"{one_line(exc)[:300]}") from None
+        raise cluster.failure(name, f"window {window.index} (samples {window.first}-"
+                                    f"{window.end})", exc) from None
 
 
 def _add(result: RenderResult, reply: worker.WindowReply) -> None:

@@ -8,6 +8,8 @@ import time
 from collections import OrderedDict
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..tracer.result import Window, WindowSums
 
 KEEP = 2      # renderers kept per process: a batch's next frame builds while the last finishes
@@ -54,6 +56,62 @@ def trace_window(scene, key: str, window: Window, spp: int, settings) -> WindowR
     return WindowReply(sums, geometry.ray_count - rays, geometry.embree_time - embree,
                        time.perf_counter() - start, os.getpid(), renderer.build_s,
                        renderer.stages(), renderer.split)
+
+
+@dataclass
+class PassReply:
+    """A task's share of a pass: its pixels' rows of the film and of the pilot's sums, traced
+    into (camera pass), or its light chunks' splats in chunk order (light pass); with the NaN/Inf
+    samples, event counters, rays and Embree seconds."""
+    film: tuple | None
+    pilot: tuple | None
+    splats: list | None
+    bad: int
+    counters: np.ndarray
+    rays: int
+    embree_s: float
+
+
+def renderer_facts(scene, key: str, settings) -> dict:
+    """What the schedulers of tracer/passes.py read of a Renderer, from this process's."""
+    renderer = renderer_for(key, scene, settings)
+    return {"traces_light": renderer.caustics is not None, "split": renderer.split,
+            "light_vertices": renderer.light_vertices,
+            "light_vertex_pilot": renderer.light_vertex_pilot,
+            "light_paths_per_camera_path": renderer.light_paths_per_camera_path,
+            "stages": renderer.stages(), "build_s": renderer.build_s}
+
+
+def trace_rows(scene, key: str, settings, in_pass: int, first_sample: int, bits: int,
+               pixels: np.ndarray, film: tuple, pilot: tuple | None, jobs: list,
+               vertices: bool | None) -> PassReply:
+    """The task of a camera pass: its jobs' pixels (rows r0 .. r1 of `pixels` each, in order)
+    traced into their rows of film and pilot (Renderer.trace_rows), which come back."""
+    from ..tracer import wavefront
+    renderer = renderer_for(key, scene, settings)
+    geometry = renderer.geometry
+    rays, embree = geometry.ray_count, geometry.embree_time
+    counters, bad = np.zeros(len(wavefront.STATS), np.int64), 0
+    for r0, r1 in jobs:
+        rows = tuple(a[r0:r1] if a.shape[0] else a for a in film)
+        pilot_rows = None if pilot is None else tuple(a[r0:r1] for a in pilot)
+        chunk_bad, stats = renderer.trace_rows(in_pass, first_sample, pixels[r0:r1], bits, rows,
+                                               vertices, pilot_rows)
+        bad += chunk_bad
+        counters += stats
+    return PassReply(film, pilot, None, bad, counters, geometry.ray_count - rays,
+                     geometry.embree_time - embree)
+
+
+def trace_light(scene, key: str, settings, pass_index: int, jobs: list) -> PassReply:
+    """The task of a light pass: its jobs' light paths (start, count), their splats in order."""
+    from ..tracer import wavefront
+    renderer = renderer_for(key, scene, settings)
+    geometry = renderer.geometry
+    rays, embree = geometry.ray_count, geometry.embree_time
+    splats = [renderer.trace_light_chunk(pass_index, start, n) for start, n in jobs]
+    return PassReply(None, None, splats, 0, np.zeros(len(wavefront.STATS), np.int64),
+                     geometry.ray_count - rays, geometry.embree_time - embree)
 
 
 def describe() -> dict:

@@ -220,6 +220,42 @@ class Renderer:
         a render, RenderResult.add). features: (albedo sums, normal sums, NaN/Inf count) rows
         of (pixels, 3) that get the Denoising Albedo and Normal passes' samples (features.py).
         Returns (NaN/Inf samples, event counters)."""
+        radiance, without, stats = self._trace_paths(start, n, in_pass, first_sample, pixels,
+                                                     bits, vertices, pilot is not None, features)
+        if merge:
+            return self._merge_chunk(radiance, n, start, in_pass, first_sample, pixels, total,
+                                     total_sq), stats.copy()
+        with self._film_lock:
+            bad = wavefront.film(radiance, n, start, in_pass, first_sample, pixels, total,
+                                 total_sq, class_a)
+            if pilot is not None:
+                wavefront.film(without, n, start, in_pass, first_sample, pixels, *pilot,
+                               passes.NO_ROWS)
+        return bad, stats.copy()
+
+    def trace_rows(self, in_pass: int, first_sample: int, pixels: np.ndarray, bits: int,
+                   film: tuple, vertices: bool | None = None, pilot: tuple | None = None):
+        """Trace in_pass samples from first_sample of each of `pixels` (image indices, at most a
+        chunk of paths) and add them to film: their rows of (sums, sums of squares, class-A sums
+        or NO_ROWS), which hold the pixels' sums so far, in the order trace_chunk adds them to
+        the whole image's, so that the rows come back as that image's (a pass traced on a
+        cluster, farm/remote.py). pilot: its two sums' rows likewise. Returns (NaN/Inf samples,
+        event counters)."""
+        n = pixels.shape[0] * in_pass
+        radiance, without, stats = self._trace_paths(0, n, in_pass, first_sample, pixels, bits,
+                                                     vertices, pilot is not None)
+        bad = wavefront.film(radiance, n, 0, in_pass, first_sample, passes.ALL_PIXELS, *film)
+        if pilot is not None:
+            wavefront.film(without, n, 0, in_pass, first_sample, passes.ALL_PIXELS, *pilot,
+                           passes.NO_ROWS)
+        return bad, stats.copy()
+
+    def _trace_paths(self, start: int, n: int, in_pass: int, first_sample: int,
+                     pixels: np.ndarray, bits: int, vertices: bool | None, pilot: bool,
+                     features: tuple | None = None):
+        """Trace a chunk's paths (trace_chunk's), adding their denoising features to `features`
+        (trace_chunk's) if given; returns this thread's buffers of their radiance, of their
+        radiance without light vertices (rows when pilot) and counters."""
         if not 0 < n <= CHUNK or n % in_pass or in_pass > CHUNK:
             # The compiled stages write n paths into buffers of CHUNK, unchecked.
             raise ValueError(f"trace_chunk: {n} paths of {in_pass} samples per pixel do not fit "
@@ -229,7 +265,7 @@ class Renderer:
         (paths, out, shadows, radiance, without, active, stats, scratch, params,
          lv, (feature_albedo, feature_normal)) = self._buffers.get()
         with_features = features is not None
-        without = without[:n] if pilot is not None else without[:0]
+        without = without[:n] if pilot else without[:0]
         stats[:] = 0
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
@@ -275,16 +311,7 @@ class Renderer:
                 features[2][0] += wavefront.film_features(feature_albedo, feature_normal, n, start,
                                                           in_pass, pixels, features[0],
                                                           features[1])
-        if merge:
-            return self._merge_chunk(radiance, n, start, in_pass, first_sample, pixels, total,
-                                     total_sq), stats.copy()
-        with self._film_lock:
-            bad = wavefront.film(radiance, n, start, in_pass, first_sample, pixels, total,
-                                 total_sq, class_a)
-            if pilot is not None:
-                wavefront.film(without, n, start, in_pass, first_sample, pixels, *pilot,
-                               passes.NO_ROWS)
-        return bad, stats.copy()
+        return radiance, without, stats
 
     def _merge_chunk(self, radiance, n, start, in_pass, first_sample, pixels, total,
                      total_sq) -> int:
@@ -365,53 +392,27 @@ class Renderer:
         without counting its unfinished pass: the result is then no image (the viewport drops
         it for the next one's). Waits one chunk at most.
         """
-        spp, batches = self.settings.spp, self.settings.batches
-        threshold, least = self._adaptive()
-        adapt = threshold > 0.0 and adaptive.first_check(least) < spp
+        threshold, _ = passes.adaptive_settings(self.settings)
         w, h = self.camera.width, self.camera.height
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
                               build_s=self.build_s, light_in_image=self.split,
-                              stages=self.stages(), spp_budget=spp,
-                              noise_threshold=threshold if adapt else 0.0)
+                              stages=self.stages(), spp_budget=self.settings.spp,
+                              noise_threshold=threshold)
         if self.features:
             result.start_features(self.camera.rotation)
-        if batches:
-            scheduler = passes.BatchPasses(self, result, batches)
-        elif adapt:
-            scheduler = passes.AdaptivePasses(self, result, threshold, least)
-        else:
-            scheduler = passes.FixedPasses(self, result)
-        embree_before, rays_before = self.geometry.embree_time, self.geometry.ray_count
-        start = time.perf_counter()
+        scheduler = passes.scheduler(self, result, self.settings)
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
-            while (step := scheduler.next()) is not None:
-                if not scheduler.trace(pool, step, stop):
-                    result.cancelled = True
-                    break
-                result.time_s = time.perf_counter() - start
-                result.embree_time_s = self.geometry.embree_time - embree_before
-                result.rays = self.geometry.ray_count - rays_before
-                if progress is not None and progress(result, scheduler.k,
-                                                     scheduler.estimate()) is False:
-                    result.cancelled = scheduler.unfinished()
-                    break
-                if scheduler.converged:
-                    break                 # every pixel has converged
-                limit = self.settings.time_limit
-                if limit > 0.0 and time.perf_counter() - start >= limit:
-                    result.time_limited = True    # a whole image of the passes done
-                    break
-        result.time_s = time.perf_counter() - start
-        return result
+            return passes.drive(self, scheduler, pool, progress, stop, self.settings.time_limit)
 
-    def _adaptive(self) -> tuple[float, int]:
-        """(noise threshold (0: off, as with batches), least samples) of a render."""
-        settings = self.settings
-        threshold = 0.0 if settings.batches else settings.noise_threshold
-        least = settings.min_spp
-        if threshold > 0.0 and least <= 0:
-            least = adaptive.auto_min_spp(threshold)
-        return threshold, least
+    @property
+    def ray_count(self) -> int:
+        """Rays traced by this renderer so far (the pass interface's, as embree_time)."""
+        return self.geometry.ray_count
+
+    @property
+    def embree_time(self) -> float:
+        """Seconds spent in Embree so far."""
+        return self.geometry.embree_time
 
     # -- windows ---------------------------------------------------------------------------
 
@@ -436,11 +437,11 @@ class Renderer:
         film = (np.zeros((npix, 3)), np.zeros((npix, 3)))
         bits = max(1, (int(spp) - 1).bit_length())
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
-            return self._trace_window(pool, window, bits, pixels, film, False, light, stop)
+            return self.trace_window(pool, window, bits, pixels, film, False, light, stop)
 
-    def _trace_window(self, pool, window: Window, bits: int, pixels: np.ndarray, film,
-                      merge: bool, light: np.ndarray | None, stop,
-                      features: tuple | None = None) -> WindowSums | None:
+    def trace_window(self, pool, window: Window, bits: int, pixels: np.ndarray, film,
+                     merge: bool, light: np.ndarray | None, stop,
+                     features: tuple | None = None) -> WindowSums | None:
         """Trace a window: its camera samples in progressive passes into film (sums, sums of
         squares; with `merge` each pass's sums from zero, added as RenderResult.add adds a
         window's, which takes a window of one pass), then its light paths into `light` (cleared
@@ -451,21 +452,21 @@ class Renderer:
         rows = pixels.shape[0] or self.camera.width * self.camera.height
         step = passes.samples_per_pass(rows)
         for first in range(window.first, window.end, step):
-            sums.nan_count += self._camera_pass(
+            sums.nan_count += self.camera_pass(
                 pool, passes.Pass(first, min(step, window.end - first)), pixels, bits,
                 (*film, passes.NO_ROWS), sums.counters, stop, merge=merge, features=features)
             if stop is not None and stop.is_set():
                 return None
         if light is not None:
-            sums.light_paths = self._light_count(rows, window.end - window.first)
-            sums.nan_count += self._light_pass(pool, window.index, sums.light_paths,
+            sums.light_paths = self.light_count(rows, window.end - window.first)
+            sums.nan_count += self.light_pass(pool, window.index, sums.light_paths,
                                                sums.light_paths, light, None, sums.counters)
         return sums
 
     # -- one pass --------------------------------------------------------------------------
 
-    def _camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
-                     pilot=None, merge=False, features=None) -> int:
+    def camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
+                    pilot=None, merge=False, features=None) -> int:
         """Trace a pass's camera samples (step: passes.Pass) of `pixels` into film (sums, sums
         of squares, class-A sums; trace_chunk's merge and features) and count their events;
         returns the NaN or Inf samples."""
@@ -484,12 +485,12 @@ class Renderer:
                 counters += stats
         return bad
 
-    def _light_count(self, rows: int, samples: int, share: float = 1.0) -> int:
+    def light_count(self, rows: int, samples: int, share: float = 1.0) -> int:
         """The light paths of a pass of `samples` camera samples in `rows` pixels, `share` the
         light tracer's energy on the pixels still sampling (adaptive sampling)."""
         return max(2, int(round(self.light_paths_per_camera_path * rows * samples * share)))
 
-    def _light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters) -> int:
+    def light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters) -> int:
         """Trace a pass's n_light light paths into film (rows of (pixels, 3)); film_a (if not
         None) gets those of the first n_a, adaptive sampling's half A of the light tracer.
         Returns how many splats were NaN or Inf (left out)."""

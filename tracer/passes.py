@@ -10,6 +10,7 @@ seed and the sample count only, never on the threads.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -113,6 +114,55 @@ def fixed_windows(pixels: int, spp: int) -> FixedWindows:
     return FixedWindows(pixels, spp)
 
 
+def adaptive_settings(settings) -> tuple[float, int]:
+    """(noise threshold, 0 when adaptive sampling is off (as with batches), least samples) of a
+    render's settings."""
+    threshold = 0.0 if settings.batches else settings.noise_threshold
+    least = settings.min_spp
+    if threshold > 0.0 and least <= 0:
+        least = adaptive.auto_min_spp(threshold)
+    if threshold > 0.0 and adaptive.first_check(least) >= settings.spp:
+        threshold = 0.0                  # no error estimate before the last sample
+    return threshold, least
+
+
+def scheduler(renderer, result: RenderResult, settings):
+    """The scheduler of a render's settings: batches, adaptive sampling or fixed samples.
+    renderer: a Renderer, or anything with its pass interface (camera_pass, light_pass,
+    light_count, trace_window, ray_count and the flags the schedulers read: farm/remote.py)."""
+    threshold, least = adaptive_settings(settings)
+    if settings.batches:
+        return BatchPasses(renderer, result, settings.batches)
+    if threshold > 0.0:
+        return AdaptivePasses(renderer, result, threshold, least)
+    return FixedPasses(renderer, result)
+
+
+def drive(renderer, scheduler, pool, progress, stop, time_limit: float) -> RenderResult:
+    """Trace the scheduler's passes until it has none left, the render converged, `stop` was set,
+    progress returned False or time_limit seconds (0: none) passed; returns its result."""
+    result = scheduler.result
+    embree_before, rays_before = renderer.embree_time, renderer.ray_count
+    start = time.perf_counter()
+    while (step := scheduler.next()) is not None:
+        if not scheduler.trace(pool, step, stop):
+            result.cancelled = True
+            break
+        result.time_s = time.perf_counter() - start
+        result.embree_time_s = renderer.embree_time - embree_before
+        result.rays = renderer.ray_count - rays_before
+        if progress is not None and progress(result, scheduler.k, scheduler.estimate()) is False:
+            result.cancelled = scheduler.unfinished()
+            break
+        if scheduler.converged:
+            break                 # every pixel has converged
+        if time_limit > 0.0 and time.perf_counter() - start >= time_limit:
+            result.time_limited = True    # a whole image of the passes done
+            break
+    result.time_s = time.perf_counter() - start
+    return result
+
+
 class _Passes:
     """What every scheduler shares: the renderer, the result, the sampler's resolution, the
     event counters, and the passes traced so far (k, which keys each pass's light paths)."""
@@ -164,8 +214,8 @@ class FixedPasses(_Passes):
     def trace(self, pool, window: Window, stop) -> bool:
         # Each window's camera sums are merged into the result chunk by chunk (a window is one
         # pass), not kept whole: a render holds no third and fourth image of sums.
-        sums = self.renderer._trace_window(pool, window, self.bits, ALL_PIXELS, self.film, True,
-                                           self.pass_light, stop, self.features)
+        sums = self.renderer.trace_window(pool, window, self.bits, ALL_PIXELS, self.film, True,
+                                          self.pass_light, stop, self.features)
         if sums is None:
             return False
         self.result.add(sums)
@@ -200,15 +250,15 @@ class BatchPasses(_Passes):
         renderer, result = self.renderer, self.result
         h, w = result.height, result.width
         self.pass_sum[:] = 0.0
-        result.nan_count += renderer._camera_pass(
+        result.nan_count += renderer.camera_pass(
             pool, step, ALL_PIXELS, self.bits, (self.pass_sum, result.sum_sq.reshape(-1, 3), NO_ROWS),
             self.counters, stop, features=self.features)
         if stop is not None and stop.is_set():
             return False
         image = self.pass_sum / step.samples
         if self.traces_light:
-            n_light = renderer._light_count(self.npix, step.samples)
-            result.nan_count += renderer._light_pass(pool, self.k, n_light, n_light,
+            n_light = renderer.light_count(self.npix, step.samples)
+            result.nan_count += renderer.light_pass(pool, self.k, n_light, n_light,
                                                      self.pass_light, None, self.counters)
             result.light_sum.reshape(-1, 3)[:] += self.pass_light
             result.light_paths += n_light
@@ -269,12 +319,12 @@ class AdaptivePasses(_Passes):
     def trace(self, pool, step: Pass, stop) -> bool:
         renderer, result, halves = self.renderer, self.result, self.halves
         pilot = self.pilot
-        rays_then = renderer.geometry.ray_count
-        result.nan_count += renderer._camera_pass(
+        rays_then = renderer.ray_count
+        result.nan_count += renderer.camera_pass(
             pool, step, self.sampling, self.bits, halves.film(step.first), self.counters, stop,
             self.vertices, None if pilot is None else pilot.sums, features=self.features)
         if pilot is not None:
-            pilot.rays += renderer.geometry.ray_count - rays_then
+            pilot.rays += renderer.ray_count - rays_then
         if stop is not None and stop.is_set():
             return False
         if self.traces_light:
@@ -302,9 +352,9 @@ class AdaptivePasses(_Passes):
     def _trace_light(self, pool, step: Pass):
         """The light tracer's pass: its paths' first half is half A of its error estimate."""
         renderer, result = self.renderer, self.result
-        n_light = renderer._light_count(self.npix, step.samples, self.light_share)
+        n_light = renderer.light_count(self.npix, step.samples, self.light_share)
         n_a = n_light // 2
-        result.nan_count += renderer._light_pass(pool, self.k, n_light, n_a, self.pass_light,
+        result.nan_count += renderer.light_pass(pool, self.k, n_light, n_a, self.pass_light,
                                                  self.pass_light_a, self.counters)
         result.light_sum.reshape(-1, 3)[:] += self.pass_light
         result.light_paths += n_light

@@ -434,6 +434,24 @@ def test_batch_renders_one_image_per_frame(blends, tmp_path):
     assert proc.stdout == ""  # Blender's chatter stays out of stdout
 
 
+def test_batch_on_dask_workers_writes_the_local_images(blends, tmp_path):
+    """`snell batch --workers 2`: each frame rendered adaptively on two Dask worker processes,
+    the same EXRs (and sample counts) as without them, bit for bit."""
+    pytest.importorskip("distributed")
+    args = ("batch", blends / "animated.blend", "--frames", "1-2", "--spp", "32",
+            "--noise-threshold", "0.1", "--min-spp", "4")
+    local = snell_cli(*args, "-o", tmp_path / "local_####.exr")
+    farm = snell_cli(*args, "-o", tmp_path / "farm_####.exr", "--workers", "2")
+    assert local.returncode == 0 and farm.returncode == 0, farm.stderr
+    assert "snell: rendering on 2 Dask workers" in farm.stderr
+    assert "Traceback" not in farm.stderr
+    for frame in (1, 2):
+        a, b = (read_exr(tmp_path / f"{name}_{frame:04d}.exr") for name in ("local", "farm"))
+        assert np.array_equal(a, b), f"frame {frame} differs"
+    assert not np.array_equal(read_exr(tmp_path / "farm_0001.exr"),
+                              read_exr(tmp_path / "farm_0002.exr"))
+
+
 def test_batch_png_goes_through_colour_management(blends, tmp_path):
     proc = snell_cli("batch", blends / "cornell.blend", "-o", tmp_path / "still_####.png")
     assert proc.returncode == 0, proc.stderr

@@ -1,0 +1,156 @@
+"""Adaptive sampling and batches on a Dask cluster: the coordinator runs tracer/passes.py's
+schedulers itself (the stopping rule, the light-vertex pilot, the batches) and has each pass
+traced by the workers, through RemoteTracer, which offers the schedulers a Renderer's pass
+interface.
+
+A camera pass is cut into the jobs a local render would run (passes.jobs: whole pixels' samples,
+at most a chunk of paths); a task takes consecutive jobs with their pixels' sums so far and
+sends them back with the pass's samples added, in the order a local render adds them
+(Renderer.trace_rows). A pixel belongs to one job of a pass, so the tasks may finish in any
+order. A light pass's tasks return their chunks' splats, which are added here in chunk order.
+Either way the image is the local render's bit for bit.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..tracer import passes, wavefront
+from ..tracer.camera import Camera
+from ..tracer.result import RenderResult
+from . import cluster, keys, worker
+
+TASKS_PER_THREAD = 2   # tasks per worker thread in a pass: a slow task delays a pass the less
+
+
+class RemoteTracer:
+    """A render's passes traced on the client's workers, with a Renderer's pass interface
+    (camera_pass, light_pass, light_count, ray_count, embree_time and the schedulers' flags)."""
+
+    def __init__(self, client, scene, settings, name: str, frame: int = 0,
+                 threads: int | None = None):
+        self.client, self.settings, self.name, self.frame = client, settings, name, frame
+        self.key = keys.render_key(scene, settings)
+        camera = Camera(scene.camera)
+        self.npix = camera.width * camera.height
+        self.threads = threads or sum(client.nthreads().values())
+        # Sent once to every worker (a worker that joins later copies it from another).
+        [self.scene] = client.scatter([scene], broadcast=True, hash=False)
+        facts = self._wait(client.submit(worker.renderer_facts, self.scene, self.key, settings,
+                                         key=f"snell-facts-{self.key[:20]}", retries=2),
+                           "building the renderer")
+        self.caustics = True if facts["traces_light"] else None   # passes test `is not None`
+        self.split = facts["split"]
+        self.light_vertices = facts["light_vertices"]
+        self.light_vertex_pilot = facts["light_vertex_pilot"]
+        self.light_paths_per_camera_path = facts["light_paths_per_camera_path"]
+        self.facts = facts
+        self.ray_count, self.embree_time = 0, 0.0
+
+    def close(self) -> None:
+        """Release the scattered scene."""
+        self.client.cancel([self.scene])
+
+    def light_count(self, rows: int, samples: int, share: float = 1.0) -> int:
+        """As Renderer.light_count."""
+        return max(2, int(round(self.light_paths_per_camera_path * rows * samples * share)))
+
+    def camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
+                    pilot=None, merge=False, features=None) -> int:
+        """As Renderer.camera_pass (no merge: the schedulers that use it add in place; no
+        denoising passes, which a cluster does not trace yet: its results have none, so
+        `features` is None)."""
+        rows = pixels.shape[0] or self.npix
+        bad = 0
+        for sub in passes.sub_passes(step, rows):
+            jobs = passes.jobs(0, rows * sub.samples, sub.samples)
+            tasks = []
+            for group in _groups(jobs, TASKS_PER_THREAD * self.threads):
+                r0 = group[0][0] // sub.samples
+                r1 = (group[-1][0] + group[-1][1]) // sub.samples
+                index = pixels[r0:r1] if pixels.shape[0] else np.arange(r0, r1, dtype=np.int64)
+                block = tuple(a[index] if a.shape[0] else a for a in film)
+                block_pilot = None if pilot is None else tuple(a[index] for a in pilot)
+                local = [(start // sub.samples - r0, (start + n) // sub.samples - r0)
+                         for start, n in group]
+                future = self.client.submit(
+                    worker.trace_rows, self.scene, self.key, self.settings, sub.samples,
+                    sub.first, bits, index, block, block_pilot, local, vertices,
+                    key=keys.pass_key(self.key, self.frame, "camera", sub.first, r0,
+                                      self.settings.seed), retries=2)
+                tasks.append((index, future))
+            for index, future in tasks:
+                reply = self._wait(future, f"samples {sub.first}-{sub.first + sub.samples}")
+                for whole, part in zip(film, reply.film):
+                    if whole.shape[0]:
+                        whole[index] = part
+                if pilot is not None:
+                    for whole, part in zip(pilot, reply.pilot):
+                        whole[index] = part
+                bad += reply.bad
+                counters += reply.counters
+                self._count(reply)
+            if stop is not None and stop.is_set():
+                break
+        return bad
+
+    def light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters) -> int:
+        """As Renderer.light_pass: the splats added here in chunk order."""
+        film[:] = 0.0
+        if film_a is not None:
+            film_a[:] = 0.0
+        bad = 0
+        for begin, end in passes.light_segments(n_light, n_a):
+            jobs = passes.jobs(begin, end, 1)
+            tasks = [(group, self.client.submit(
+                worker.trace_light, self.scene, self.key, self.settings, pass_index, group,
+                key=keys.pass_key(self.key, self.frame, f"light{pass_index}", group[0][0], 0,
+                                  self.settings.seed), retries=2))
+                for group in _groups(jobs, TASKS_PER_THREAD * self.threads)]
+            for group, future in tasks:
+                reply = self._wait(future, f"light paths of pass {pass_index}")
+                for (first, _), (pixels, contributions) in zip(group, reply.splats):
+                    bad += wavefront.splat(pixels, contributions, film)
+                    if film_a is not None and first < n_a:
+                        wavefront.splat(pixels, contributions, film_a)
+                    counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+                self._count(reply)
+        return bad
+
+    def _count(self, reply: worker.PassReply) -> None:
+        self.ray_count += reply.rays
+        self.embree_time += reply.embree_s
+
+    def _wait(self, future, what: str):
+        """A task's reply, or a CliError naming the scene and the failure."""
+        try:
+            return future.result()
+        except Exception as exc:  # noqa: BLE001  (whatever the worker raised, or KilledWorker)
+            raise cluster.failure(self.name, what, exc) from None
+        finally:
+            future.release()
+
+
+def _groups(jobs: list, most: int) -> list[list]:
+    """Consecutive jobs in at most `most` groups of near-equal count."""
+    count = max(1, min(most, len(jobs)))
+    bounds = [i * len(jobs) // count for i in range(count + 1)]
+    return [jobs[a:b] for a, b in zip(bounds, bounds[1:]) if b > a]
+
+
+def render_passes(client, scene, settings, name: str, frame: int = 0, progress=None,
+                  threads: int | None = None, stop=None) -> RenderResult:
+    """Render a scene's frame with adaptive sampling or batches on the client's workers, the
+    schedulers run here; the local render's image bit for bit."""
+    tracer = RemoteTracer(client, scene, settings, name, frame, threads)
+    try:
+        threshold, _ = passes.adaptive_settings(settings)
+        camera = Camera(scene.camera)
+        w, h = camera.width, camera.height
+        result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)),
+                              threads=tracer.threads, build_s=tracer.facts["build_s"],
+                              light_in_image=tracer.split, stages=tracer.facts["stages"],
+                              spp_budget=settings.spp, noise_threshold=threshold)
+        scheduler = passes.scheduler(tracer, result, settings)
+        return passes.drive(tracer, scheduler, None, progress, stop, 0.0)
+    finally:
+        tracer.close()
