@@ -166,9 +166,10 @@ def _add_scale_option(p):
 
 
 def _option_values(setting) -> dict:
-    """argparse's choices or type of a setting's option: on/off, its choices, or its range."""
+    """argparse's choices or type of a setting's option: on/off (alone: on, as `--denoise`), its
+    choices, or its range."""
     if setting.type is bool:
-        return {"choices": ON_OFF}
+        return {"choices": ON_OFF, "nargs": "?", "const": "on"}
     if setting.type is str:
         return {"choices": setting.values}
     at_least = int_at_least if setting.type is int else number_at_least
@@ -226,17 +227,54 @@ def cmd_render(args) -> int:
             bar.close()
     if result.cancelled:
         raise KeyboardInterrupt
-    rgb = result.mean()
     # Each pixel's samples as an extra channel: where adaptive sampling stopped early.
-    bad_pixels = image.write_exr(args.output, rgb, channels={"samples": result.samples()})
+    channels = {"samples": result.samples()}
+    denoised = None
+    if settings.denoise:
+        from .tracer.denoise import denoise_result
+        denoised = denoise_result(result, settings)
+        rgb = denoised.image
+        if denoised.warning:
+            print(f"snell: warning: {args.scene}: {denoised.warning}", file=sys.stderr)
+        channels.update(pass_channels(denoised))
+    else:
+        rgb = result.mean()
+        if getattr(result, "has_features", False):
+            channels.update(pass_channels(None, result))
+    bad_pixels = image.write_exr(args.output, rgb, channels=channels)
     if args.png:
         image.write_png(args.png, rgb)
     if not args.quiet:
-        print(_summary(args, rgb, result, bad_pixels))
+        print(_summary(args, rgb, result, bad_pixels, denoised))
     return 0
 
 
-def _summary(args, rgb, result, bad_pixels) -> str:
+# Blender's names of the passes a denoised render writes beside its image (its EXR layers).
+NOISY, ALBEDO, NORMAL = "Noisy Image", "Denoising Albedo", "Denoising Normal"
+
+
+def pass_channels(denoised, result=None) -> dict:
+    """{"<layer>.R": (H, W) values, ...} of the passes written beside the image: the noisy image
+    (when the image is denoised) and the Denoising Albedo and Normal passes (when rendered), as
+    Blender names them."""
+    from .tracer import image
+    layers = {}
+    if denoised is not None:
+        layers[NOISY] = denoised.noisy
+        albedo, normal = denoised.albedo, denoised.normal
+    else:
+        albedo, normal = result.denoising_albedo(), result.denoising_normal()
+    if albedo is not None:
+        layers[ALBEDO], layers[NORMAL] = albedo, normal
+    channels = {}
+    for layer, values in layers.items():
+        clean, _ = image.sanitize(values)
+        for k, c in enumerate("RGB"):
+            channels[f"{layer}.{c}"] = clean[..., k]
+    return channels
+
+
+def _summary(args, rgb, result, bad_pixels, denoised=None) -> str:
     wall = result.time_s
     rays = f"{result.rays / wall / 1e6:.2f} Mrays/s" if wall > 0 else "? Mrays/s"
     # The same definition as the bench's: Embree query time over (wall time x threads).
@@ -258,8 +296,14 @@ def _summary(args, rgb, result, bad_pixels) -> str:
         samples += " (time limit reached)"
     workers = getattr(result, "workers", 0)     # Dask workers (farm/); 0: this process
     on = f" on {_plural(workers, 'worker')}" if workers else ""
+    if getattr(result, "has_features", False) and result.feature_nan_count:
+        nans += f", {result.feature_nan_count} NaN/Inf denoising-pass samples left out"
+    denoising = ""
+    if denoised is not None:
+        denoising = (f", denoised in {_duration(denoised.seconds)}" if denoised.denoised
+                     else ", not denoised")
     return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {samples} in {_duration(wall)}{on} "
-            f"({rays}, {embree}){light}, {nans}{skipped}")
+            f"({rays}, {embree}){light}{denoising}, {nans}{skipped}")
 
 
 # ---------------------------------------------------------------------------------------------

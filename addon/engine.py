@@ -2,6 +2,7 @@
 viewport's in viewport.py."""
 import bpy
 
+from ..tracer.scene import SceneError
 from . import final, viewport
 
 
@@ -35,3 +36,13 @@ class SnellRenderEngine(bpy.types.RenderEngine):
         """The passes a render fills, for the compositor's Render Layers node."""
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
         self.register_pass(scene, renderlayer, final.SAMPLE_COUNT_PASS, 1, "X", "VALUE")
+        if scene is None:
+            return
+        from .export import blender_settings
+        try:
+            settings = blender_settings(scene)
+        except SceneError:   # a broken setting is reported by the render, not here
+            return
+        for name, channels, ids in final.denoising_passes(settings):
+            self.register_pass(scene, renderlayer, name, channels, ids,
+                               "VECTOR" if ids == "XYZ" else "COLOR")

@@ -25,6 +25,29 @@ from . import window
 
 MAX_REPORTED_WARNINGS = 20
 SAMPLE_COUNT_PASS = "Sample Count"   # Cycles' name for its pass of each pixel's samples
+# Blender's names of the denoising passes: (name, channels, channel ids), as Cycles adds them.
+NOISY_PASS = ("Noisy Image", 4, "RGBA")
+FEATURE_PASSES = (("Denoising Albedo", 3, "RGB"), ("Denoising Normal", 3, "XYZ"))
+
+
+def denoising_passes(settings, remote: bool = False) -> tuple:
+    """The denoising passes a render with these settings fills: the noisy image when it
+    denoises, the albedo and normal when it renders them (not on a cluster, remote, which does
+    not trace them yet: no empty layer is presented as real)."""
+    return (((NOISY_PASS,) if settings.denoise else ())
+            + (FEATURE_PASSES if settings.wants_features and not remote else ()))
+
+
+def oidn_dirs() -> list:
+    """The folders where Blender keeps its Open Image Denoise library: lib/ beside the
+    executable (Linux), blender.shared (Windows), Contents/Resources/lib (macOS)."""
+    import bpy
+    binary = getattr(bpy.app, "binary_path", "") or ""
+    if not binary:
+        return []
+    here = os.path.dirname(binary)
+    return [os.path.join(here, "lib"), os.path.join(here, "blender.shared"), here,
+            os.path.join(here, os.pardir, "Resources", "lib")]
 
 last_render: dict = {}
 
@@ -191,6 +214,8 @@ def render(engine, depsgraph):
                 return
         # Before begin_result, so that the result has the pass (as Cycles adds its passes).
         engine.add_pass(SAMPLE_COUNT_PASS, 1, "X", layer=depsgraph.view_layer.name)
+        for name, channels, ids in denoising_passes(settings, remote=remote_render is not None):
+            engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
         result = engine.begin_result(0, 0, w, h)
         progress = _Progress(engine, result, w, h, spp, record, t_start)
         engine.update_stats("", f"Snell: rendering, sample 0/{spp}")
@@ -208,6 +233,7 @@ def render(engine, depsgraph):
                       sample_counts=rendered.samples())
         if rendered.nan_count:
             engine.report({"WARNING"}, f"Snell: {rendered.nan_count} NaN/Inf samples counted as 0")
+        _write_denoised(engine, result, progress, rendered, settings, record)
         state = ("Cancelled after" if rendered.cancelled else
                  "Time limit reached after" if rendered.time_limited else "Done:")
         engine.update_stats("", f"Snell: {state} {rendered.spp}/{spp} samples in "
@@ -225,6 +251,46 @@ def render(engine, depsgraph):
         if result is not None:
             engine.end_result(result, cancel=True)
         record["total_s"] = time.perf_counter() - t_start
+
+
+def _write_denoised(engine, result, progress, rendered, settings, record):
+    """The denoising passes of a finished render into the result and, with denoising on, the
+    denoised image as its Combined pass (the noisy one kept as Noisy Image); a missing or
+    failing OIDN leaves the noisy image and says why."""
+    record["denoised"] = False
+    if not (rendered.has_features or settings.denoise):
+        return
+    passes = result.layers[0].passes
+
+    def put(name, rgb, channels):
+        target = passes.get(name)
+        if target is None or rgb is None:
+            return
+        pixels = np.ones((rgb.shape[0], rgb.shape[1], channels), np.float32)
+        pixels[..., :3] = rgb[::-1]          # Blender's row 0 is the bottom
+        target.rect.foreach_set(pixels.ravel())
+
+    if rendered.has_features:
+        put(FEATURE_PASSES[0][0], rendered.denoising_albedo(), 3)
+        put(FEATURE_PASSES[1][0], rendered.denoising_normal(), 3)
+        if rendered.feature_nan_count:
+            engine.report({"WARNING"}, f"Snell: {rendered.feature_nan_count} NaN/Inf "
+                                       "denoising-pass samples left out")
+    if not settings.denoise or rendered.cancelled or rendered.spp == 0:
+        engine.update_result(result)
+        return
+    from ..tracer.denoise import denoise_result
+    engine.update_stats("", "Snell: denoising")
+    outcome = denoise_result(rendered, settings, oidn_dirs())
+    put(NOISY_PASS[0], outcome.noisy, 4)
+    if outcome.denoised:
+        progress.rgba[:, :, :3] = outcome.image[::-1]
+        progress.combined.rect.foreach_set(progress.rgba.ravel())
+    record.update(denoised=outcome.denoised, denoise_s=outcome.seconds)
+    if outcome.warning:
+        record["warnings"].append(outcome.warning)
+        engine.report({"WARNING"}, f"Snell: {outcome.warning}")
+    engine.update_result(result)
 
 
 def _settings(bl_scene, scene):

@@ -99,7 +99,7 @@ class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
             row = self.column().row(align=True)
             row.prop(cycles, "seed")
             row.prop(cycles, "use_animated_seed", text="", icon="TIME")
-            self.layout.label(text="Not rendered by Snell: denoising, light tree, path guiding",
+            self.layout.label(text="Not rendered by Snell: light tree, path guiding",
                               icon="INFO")
             return
         _draw_sampling(self, props, "use_adaptive_sampling", "noise_threshold", "spp", "min_spp",
@@ -115,6 +115,36 @@ class RENDER_PT_snell_sampling_viewport(SnellPanel, bpy.types.Panel):
         col = self.column(align=True)
         col.prop(context.scene.snell, "viewport_spp", text="Max Samples")
         col.prop(context.scene.snell, "viewport_time_limit", text="Time Limit")
+
+
+class RENDER_PT_snell_denoise(SnellPanel, bpy.types.Panel):
+    bl_label = "Denoise"
+    bl_parent_id = "RENDER_PT_snell_sampling"
+
+    def draw_header(self, context):
+        cycles = _cycles(context)
+        owner, prop = (cycles, "use_denoising") if cycles is not None else \
+            (context.scene.snell, "denoise")
+        self.layout.prop(owner, prop, text="")
+
+    def draw(self, context):
+        cycles = _cycles(context)
+        col = self.column()
+        if cycles is not None:
+            # Cycles' own properties: Snell denoises with Open Image Denoise whatever the
+            # denoiser (snell info lists another as not rendered).
+            col.active = cycles.use_denoising
+            col.prop(cycles, "denoiser", text="Denoiser")
+            col.prop(cycles, "denoising_input_passes", text="Passes")
+            col.prop(cycles, "denoising_prefilter", text="Prefilter")
+            col.prop(cycles, "denoising_quality", text="Quality")
+            return
+        props = context.scene.snell
+        col.active = props.denoise
+        col.prop(props, "denoising_input_passes", text="Passes")
+        col.prop(props, "denoising_prefilter", text="Prefilter")
+        col.prop(props, "denoising_quality", text="Quality")
+        col.prop(props, "denoising_passes")
 
 
 class RENDER_PT_snell_light_paths(SnellPanel, bpy.types.Panel):
@@ -273,7 +303,8 @@ class OBJECT_PT_snell_visibility(SnellPanel, bpy.types.Panel):
             col.label(text="Not rendered for meshes: every ray sees them")
 
 
-classes = (RENDER_PT_snell_sampling, RENDER_PT_snell_sampling_viewport, RENDER_PT_snell_light_paths,
+classes = (RENDER_PT_snell_sampling, RENDER_PT_snell_sampling_viewport, RENDER_PT_snell_denoise,
+           RENDER_PT_snell_light_paths,
            RENDER_PT_snell_film, RENDER_PT_snell_performance, DATA_PT_snell_light,
            DATA_PT_snell_light_beam, DATA_PT_snell_light_settings, OBJECT_PT_snell_visibility)
 

@@ -199,8 +199,10 @@ class ViewSession:
         t0 = time.perf_counter()
         # Every pixel to the budget: the viewport refines the whole image, never adaptively.
         # The final render's time limit is not the viewport's (viewport_time_limit, per session).
+        # The viewport does not denoise (yet): no denoising passes either.
         settings = job.scene.settings(spp=job.spp, noise_threshold=0.0, time_limit=0.0,
-                                      threads=self.threads)
+                                      threads=self.threads, denoise=False,
+                                      denoising_passes=False)
         renderer = integrator.Renderer(job.scene, settings,
                                        geometry=self._geometry if reuse else None)
         self._geometry, self._geometry_version = renderer.geometry, job.geometry_version

@@ -55,8 +55,10 @@ class RemoteTracer:
         return max(2, int(round(self.light_paths_per_camera_path * rows * samples * share)))
 
     def camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
-                    pilot=None, merge=False) -> int:
-        """As Renderer.camera_pass (no merge: the schedulers that use it add in place)."""
+                    pilot=None, merge=False, features=None) -> int:
+        """As Renderer.camera_pass (no merge: the schedulers that use it add in place; no
+        denoising passes, which a cluster does not trace yet: its results have none, so
+        `features` is None)."""
         rows = pixels.shape[0] or self.npix
         bad = 0
         for sub in passes.sub_passes(step, rows):

@@ -40,14 +40,16 @@ class _Buffers(threading.local):
     def get(self):
         """(paths, next paths, shadow rays (a light sample and a light-vertex connection per
         path), radiance, radiance without light vertices (a pilot's), active rows, counters,
-        lobe scratch, Principled parameter scratch, light vertices) for CHUNK paths."""
+        lobe scratch, Principled parameter scratch, light vertices, the paths' denoising albedo
+        and normal) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
                             wavefront.new_shadows(2 * CHUNK), np.empty((CHUNK, 3)),
                             np.empty((CHUNK, 3)),
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64),
                             np.empty((lobes.MAX_LOBES, lobes.FIELDS)), np.empty(lobes.P_FIELDS),
-                            light_vertices_module.new_light_vertices(CHUNK))
+                            light_vertices_module.new_light_vertices(CHUNK),
+                            (np.zeros((CHUNK, 3)), np.zeros((CHUNK, 3))))
         return self.buffers
 
     def light(self):
@@ -123,6 +125,7 @@ class Renderer:
         self.light_vertices, self._why_vertices = self._choose_light_vertices(
             settings.light_vertices)
         self.light_vertex_pilot = settings.light_vertex_pilot
+        self.features = settings.wants_features
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
@@ -216,16 +219,18 @@ class Renderer:
     def trace_chunk(self, start: int, n: int, in_pass: int, first_sample: int, pixels: np.ndarray,
                     bits: int, total: np.ndarray, total_sq: np.ndarray, class_a: np.ndarray,
                     vertices: bool | None = None, pilot: tuple | None = None,
-                    merge: bool = False):
+                    merge: bool = False, features: tuple | None = None):
         """Trace paths start .. start + n of a pass (in_pass samples per pixel of `pixels`, or of
         every pixel when it is empty; the first sample being first_sample) and add them to the
         (pixels, 3) sums, class-A samples also to `class_a` if it has rows (adaptive.py), with
         light vertices if `vertices` (default: where they run). pilot: (sums, sums of squares)
         that get the same samples without light vertices (wavefront.emitters). merge: add the
         chunk's pixels' sums of the pass, from zero, to total and total_sq (a window merged into
-        a render, RenderResult.add). Returns (NaN/Inf samples, event counters)."""
+        a render, RenderResult.add). features: (albedo sums, normal sums, NaN/Inf count) rows
+        of (pixels, 3) that get the Denoising Albedo and Normal passes' samples (features.py).
+        Returns (NaN/Inf samples, event counters)."""
         radiance, without, stats = self._trace_paths(start, n, in_pass, first_sample, pixels,
-                                                     bits, vertices, pilot is not None)
+                                                     bits, vertices, pilot is not None, features)
         if merge:
             return self._merge_chunk(radiance, n, start, in_pass, first_sample, pixels, total,
                                      total_sq), stats.copy()
@@ -255,9 +260,11 @@ class Renderer:
         return bad, stats.copy()
 
     def _trace_paths(self, start: int, n: int, in_pass: int, first_sample: int,
-                     pixels: np.ndarray, bits: int, vertices: bool | None, pilot: bool):
-        """Trace a chunk's paths (trace_chunk's); returns this thread's buffers of their
-        radiance, of their radiance without light vertices (rows when pilot) and counters."""
+                     pixels: np.ndarray, bits: int, vertices: bool | None, pilot: bool,
+                     features: tuple | None = None):
+        """Trace a chunk's paths (trace_chunk's), adding their denoising features to `features`
+        (trace_chunk's) if given; returns this thread's buffers of their radiance, of their
+        radiance without light vertices (rows when pilot) and counters."""
         if not 0 < n <= CHUNK or n % in_pass or in_pass > CHUNK:
             # The compiled stages write n paths into buffers of CHUNK, unchecked.
             raise ValueError(f"trace_chunk: {n} paths of {in_pass} samples per pixel do not fit "
@@ -265,14 +272,18 @@ class Renderer:
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
         (paths, out, shadows, radiance, without, active, stats, scratch, params,
-         lv) = self._buffers.get()
+         lv, (feature_albedo, feature_normal)) = self._buffers.get()
+        with_features = features is not None
         without = without[:n] if pilot else without[:0]
         stats[:] = 0
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
         wavefront.clear(without, without.shape[0])
+        if with_features:
+            wavefront.clear(feature_albedo, n)
+            wavefront.clear(feature_normal, n)
         wavefront.generate(self.camera.params(), self.pixel_filter, self.seed, start, in_pass,
-                           first_sample, pixels, bits, stratified, n, paths, stats)
+                           first_sample, pixels, bits, stratified, n, paths, stats, with_features)
         last_connection = -1
         if self.light_vertices and (vertices is None or vertices):
             # Every camera path's light vertex, before its first bounce (light_vertices.py).
@@ -288,14 +299,16 @@ class Renderer:
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
             kept = wavefront.emitters(lights, mats, self.next_event, self.split,
                                       self.world_split, depth, self.max_depth, m, paths, prim, t,
-                                      radiance, without, active, stats)
+                                      radiance, without, active, stats, with_features,
+                                      feature_albedo)
             if kept == 0:
                 break
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.tables, self.fresnel,
                                               self.next_event, bits, stratified, depth, kept,
                                               active, paths, prim, u, v, out, shadows, radiance,
                                               without, scratch, params, stats, lv,
-                                              last_connection)
+                                              last_connection, with_features, feature_albedo,
+                                              feature_normal)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])
@@ -303,6 +316,11 @@ class Renderer:
             paths, out = out, paths
             if m == 0:
                 break
+        if with_features:
+            with self._film_lock:
+                features[2][0] += wavefront.film_features(feature_albedo, feature_normal, n, start,
+                                                          in_pass, pixels, features[0],
+                                                          features[1])
         return radiance, without, stats
 
     def _merge_chunk(self, radiance, n, start, in_pass, first_sample, pixels, total,
@@ -401,6 +419,8 @@ class Renderer:
                               build_s=self.build_s, light_in_image=self.split,
                               stages=self.stages(), spp_budget=self.settings.spp,
                               noise_threshold=threshold)
+        if self.features:
+            result.start_features(self.camera.rotation)
         scheduler = passes.scheduler(self, result, self.settings)
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             return passes.drive(self, scheduler, pool, progress, stop, self.settings.time_limit)
@@ -441,12 +461,13 @@ class Renderer:
             return self.trace_window(pool, window, bits, pixels, film, False, light, stop)
 
     def trace_window(self, pool, window: Window, bits: int, pixels: np.ndarray, film,
-                      merge: bool, light: np.ndarray | None, stop) -> WindowSums | None:
+                     merge: bool, light: np.ndarray | None, stop,
+                     features: tuple | None = None) -> WindowSums | None:
         """Trace a window: its camera samples in progressive passes into film (sums, sums of
         squares; with `merge` each pass's sums from zero, added as RenderResult.add adds a
         window's, which takes a window of one pass), then its light paths into `light` (cleared
         first). Returns the window's sums (its camera sums None when merged), None if `stop`
-        was set."""
+        was set. features: as trace_chunk's."""
         sums = WindowSums(window, None if merge else film[0], None if merge else film[1], light,
                           counters=np.zeros(len(wavefront.STATS), np.int64))
         rows = pixels.shape[0] or self.camera.width * self.camera.height
@@ -454,7 +475,7 @@ class Renderer:
         for first in range(window.first, window.end, step):
             sums.nan_count += self.camera_pass(
                 pool, passes.Pass(first, min(step, window.end - first)), pixels, bits,
-                (*film, passes.NO_ROWS), sums.counters, stop, merge=merge)
+                (*film, passes.NO_ROWS), sums.counters, stop, merge=merge, features=features)
             if stop is not None and stop.is_set():
                 return None
         if light is not None:
@@ -466,10 +487,10 @@ class Renderer:
     # -- one pass --------------------------------------------------------------------------
 
     def camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
-                     pilot=None, merge=False) -> int:
+                    pilot=None, merge=False, features=None) -> int:
         """Trace a pass's camera samples (step: passes.Pass) of `pixels` into film (sums, sums
-        of squares, class-A sums; trace_chunk's merge) and count their events; returns the NaN
-        or Inf samples."""
+        of squares, class-A sums; trace_chunk's merge and features) and count their events;
+        returns the NaN or Inf samples."""
         rows = pixels.shape[0] or self.camera.width * self.camera.height
         # Chunks hold whole pixels' samples, so that each pixel's sum is added in the same
         # order with any number of threads (float addition is not associative); a pass of more
@@ -479,7 +500,7 @@ class Renderer:
             for chunk_bad, stats in pool.map(
                     lambda job, sub=sub: (0, 0) if stop is not None and stop.is_set() else
                     self.trace_chunk(job[0], job[1], sub.samples, sub.first, pixels, bits, *film,
-                                     vertices, pilot, merge),
+                                     vertices, pilot, merge, features),
                     passes.jobs(0, rows * sub.samples, sub.samples)):
                 bad += chunk_bad
                 counters += stats

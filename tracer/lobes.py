@@ -288,6 +288,31 @@ def bsdf_sample(lobes, count, ng, wi, u_pick, u0, u1):
     return wo, mul(f, 1.0 / pdf), pdf, event, True
 
 
+
+@jit
+def lobe_albedo(lobe, tables, wi):
+    """A lobe's albedo seen from wi, weight included, as Cycles estimates it for the Denoising
+    Albedo pass (bsdf_albedo, bsdf_microfacet_estimate_albedo): a Lambert lobe's weight; a
+    microfacet lobe's weight x (reflectance + transmittance) of its Fresnel at the lobe's normal,
+    the reflectance of a remapped or dielectric (index above 1) Fresnel read from the albedo
+    table for its roughness instead. F82 keeps the smooth reflectance: Snell has no table of
+    Cycles' exponent-5 Schlick albedo."""
+    weight = vec_at(lobe, WEIGHT)
+    if lobe[KIND] == LAMBERT:
+        return weight
+    cos_i = dot(wi, vec_at(lobe, NORMAL))
+    r, t, _ = lobe_fresnel(lobe, cos_i)
+    model, eta = lobe[FRESNEL], lobe[ETA]
+    if max(r[0], r[1], r[2]) > 0.0:
+        rough = math.sqrt(lobe[ALPHA])
+        if model == REMAPPED:
+            s = remap_albedo(tables, rough, cos_i, eta)
+            r = vmul(mix_to_one3(vec_at(lobe, F0), s), vec_at(lobe, R_TINT))
+        elif model == DIELECTRIC and eta > 1.0:
+            f = mix_to_one(f0_from_ior(eta), remap_albedo(tables, rough, cos_i, eta))
+            r = (f, f, f)
+    return vmul(weight, add(r, t))
+
 # ---------------------------------------------------------------------------------------------
 # Shaders: the lobes of one hit
 

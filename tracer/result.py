@@ -79,6 +79,54 @@ class RenderResult:
     light_paths_a: int = 0
     light_pass_sq: np.ndarray | None = None
     light_passes: int = 0
+    # The Denoising Albedo and Normal passes' sums (features.py; None: not rendered), world-space
+    # normals; the camera's world-to-camera rotation (Cycles' camera space: x right, y up, z into
+    # the scene); the samples whose features held a NaN or Inf (left out, as the image's).
+    albedo_sum: np.ndarray | None = None
+    normal_sum: np.ndarray | None = None
+    world_to_camera: np.ndarray | None = None
+    feature_nans: np.ndarray | None = None
+
+    def start_features(self, camera_rotation: np.ndarray):
+        """Keep the denoising passes' sums; camera_rotation: the camera's columns (Blender's:
+        x right, y up, looking down -z) in world space."""
+        self.albedo_sum = np.zeros_like(self.sum)
+        self.normal_sum = np.zeros_like(self.sum)
+        self.world_to_camera = (np.asarray(camera_rotation, np.float64)
+                                * np.array([1.0, 1.0, -1.0])).T
+        self.feature_nans = np.zeros(1, np.int64)
+
+    def feature_rows(self):
+        """(albedo sums, normal sums, NaN/Inf count) as rows of (pixels, 3), what the stages
+        add to (Renderer.trace_chunk), or None without the passes."""
+        if self.albedo_sum is None:
+            return None
+        return self.albedo_sum.reshape(-1, 3), self.normal_sum.reshape(-1, 3), self.feature_nans
+
+    @property
+    def has_features(self) -> bool:
+        """Whether the render made the Denoising Albedo and Normal passes."""
+        return self.albedo_sum is not None
+
+    @property
+    def feature_nan_count(self) -> int:
+        """Samples whose denoising features were NaN or Inf (left out of the passes)."""
+        return 0 if self.feature_nans is None else int(self.feature_nans[0])
+
+    def denoising_albedo(self) -> np.ndarray:
+        """The Denoising Albedo pass: each pixel's mean feature albedo, float32 (H, W, 3)."""
+        return self._feature_mean(self.albedo_sum)
+
+    def denoising_normal(self) -> np.ndarray:
+        """The Denoising Normal pass in Cycles' camera space, each pixel's mean, float32
+        (H, W, 3) (not normalised: a pixel's mean of unit normals, as Cycles)."""
+        return self._feature_mean(self.normal_sum @ self.world_to_camera.T)
+
+    def _feature_mean(self, total) -> np.ndarray:
+        if total is None:
+            raise ValueError("the render has no denoising passes (settings: denoising_passes)")
+        count = self.samples().astype(np.float64)[..., None]
+        return as_float32(total / np.maximum(count, 1.0))
 
     def add(self, sums: WindowSums):
         """Add a window of every pixel's samples (Renderer.render_window) to the sums: windows

@@ -69,7 +69,8 @@ def scatter_layered(lights, mesh, mats, tables, can_sample_lights, has_normals, 
                     lobes, params, shadows, n_shadow, radiance, without, stats):
     """A rough or Principled vertex: its lobes (lobes.setup_shader), a light sample and the
     light-vertex connection evaluated on them, then a sample of one lobe. `surface`: the
-    material, triangle and barycentrics (for textures)."""
+    material, triangle and barycentrics (for textures). Returns the lobe count too (the lobes
+    stay in `lobes` for the denoising features)."""
     key, sample, bits, strat = rng
     u_pick, u0, u1 = u
     p, _, ng_f, ns_f, eps = hit
@@ -97,7 +98,7 @@ def scatter_layered(lights, mesh, mats, tables, can_sample_lights, has_normals, 
         VISIBLE_TRANSMISSION if event == TRANSMIT_EVENT else VISIBLE_GLOSSY
     # The light tracer ends its paths on layered surfaces, so the path tracer counts every path
     # through them.
-    return new_d, beta, ray_kind, pdf_prev, NO_CAUSTIC, 0.0, n_shadow
+    return new_d, beta, ray_kind, pdf_prev, NO_CAUSTIC, 0.0, n_shadow, count
 
 
 @jit_inline

@@ -128,6 +128,28 @@ SETTINGS = (
     Setting("filter_width", float, 1.0, "Pixel filter width in pixels (Cycles' Film > Pixel "
             "Filter > Width; Blender's default 1.5)", least=0.01, greatest=10.0, metavar="PX",
             ui={"subtype": "PIXEL", "precision": 2}),
+    # Denoising as Cycles' Render > Denoise panel has it: names, values and defaults (but off by
+    # default: Snell's images are the unbiased estimate unless asked).
+    Setting("denoise", bool, False, "Denoise the final image with Open Image Denoise (the noisy "
+            "image and the guiding passes are kept beside it)"),
+    Setting("denoising_input_passes", str, "albedo_normal", "The passes that guide the "
+            "denoiser",
+            choices=(("color", "The image alone"),
+                     ("albedo", "The image and the Denoising Albedo pass"),
+                     ("albedo_normal", "The image, the Denoising Albedo and the Denoising "
+                                           "Normal passes")), label="Passes"),
+    Setting("denoising_prefilter", str, "accurate", "How the guiding passes are prefiltered",
+            choices=(("none", "None: the passes are taken as noise-free"),
+                     ("fast", "Fast: the passes are denoised with the image"),
+                     ("accurate", "Accurate: the passes are denoised first, on their own")),
+            label="Prefilter"),
+    Setting("denoising_quality", str, "high", "Open Image Denoise's quality",
+            choices=(("high", "High: the best quality"),
+                     ("balanced", "Balanced: between quality and speed"),
+                     ("fast", "Fast: the fastest")), label="Quality"),
+    Setting("denoising_passes", bool, False, "Render the Denoising Albedo and Denoising Normal "
+            "passes (Blender's Denoising Data) even without denoising; denoising renders them "
+            "when its input passes need them", label="Denoising Data"),
     Setting("threads", int, 0, "Render threads; 0: Blender's Performance > Threads in "
             "Blender, the machine's logical cores elsewhere", scope=RUN, least=0, greatest=4096,
             metavar="T", ui={"soft_max": 256}),
@@ -195,6 +217,11 @@ class _Settings:
     def to_render(self) -> dict:
         """The scene file's "render" object: the SCENE settings."""
         return {s.name: getattr(self, s.name) for s in of_scope(SCENE)}
+
+    @property
+    def wants_features(self) -> bool:
+        """Whether a render makes the Denoising Albedo and Normal passes."""
+        return self.denoising_passes or (self.denoise and self.denoising_input_passes != "color")
 
     @property
     def render_threads(self) -> int:

@@ -25,6 +25,7 @@ from .camera import camera_ray
 from .counters import (CAUSTIC_SPLATS, CONNECTIONS, DEPTH_LIMITED, LENS_SAMPLES,  # noqa: F401
                        RR_KILLED, STATS, VERTEX_RAYS)
 from .direct_light import add_light
+from .features import add_feature_light, record_features, smooth_lobes
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit
 from .light_tracer import CAUSTIC, NO_CAUSTIC
@@ -37,7 +38,7 @@ from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
 from .scatter import scatter_diffuse, scatter_layered, scatter_specular
 from .textures import surface_colors
-from .vec import dot, finite_row, max3, mul, row, store
+from .vec import dot, finite_row, max3, mul, neg, row, store
 
 STRATIFIED_BOUNCES = 2    # bounces whose light and BSDF samples are stratified (then random)
 RR_START = 3              # Russian roulette from this bounce on ...
@@ -66,6 +67,9 @@ class Paths(NamedTuple):
     connect: np.ndarray      # (n,) after a diffuse vertex y1 that a light vertex could stand in
     #                          for: cos_g(y1, ray) / the density of the camera's step to y1 (the
     #                          light vertex's MIS density per unit of light_vertex_density), else 0
+    feature: np.ndarray      # (n, 3) the denoising features' weight (features.py), when a render
+    #                          makes the Denoising Albedo and Normal passes
+    feature_on: np.ndarray   # (n,) int64: 1 while the path has not written its features
 
 
 class Shadows(NamedTuple):
@@ -83,7 +87,8 @@ def new_paths(n: int) -> Paths:
     return Paths(np.empty(n, np.int64), np.empty(n, np.uint64), np.empty(n, np.int64),
                  np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3), np.float32),
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
-                 np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n))
+                 np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n),
+                 np.empty((n, 3)), np.zeros(n, np.int64))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -125,10 +130,11 @@ def add_light_both(radiance, without, path, beta, light, w, w_without):
 
 @jit
 def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, stratified, n, paths,
-             stats):
+             stats, features):
     """Camera rays for the chunk's paths start .. start + n of a pass of in_pass samples per
     pixel (pixel = pixel_of(path // in_pass), sample = first_sample + path % in_pass), through
-    positions in the pixel drawn from the pixel filter filt (pixel_filter.py)."""
+    positions in the pixel drawn from the pixel filter filt (pixel_filter.py); with `features`,
+    each path carries the denoising features from weight 1."""
     for i in range(n):
         g = start + i
         row = g // in_pass
@@ -152,11 +158,15 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
         paths.pdf_prev[i] = 0.0      # what the camera sees directly gets no MIS weight
         paths.caustic[i] = NO_CAUSTIC
         paths.connect[i] = 0.0
+        if features:
+            for k in range(3):
+                paths.feature[i, k] = 1.0
+            paths.feature_on[i] = 1
 
 
 @jit
 def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_depth, m, paths, prim,
-             t, radiance, without, active, stats):
+             t, radiance, without, active, stats, features, feature_albedo):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
@@ -170,6 +180,9 @@ def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_dept
     are this stage's. With `caustics` (the light tracer runs), paths in the CAUSTIC state get no
     light from lamps, emissive triangles or suns, and with `world_caustics` (it starts paths on
     the world) none from the world: those paths are the light tracer's to count.
+    With `features`, paths that still carry the denoising features add what they find to the
+    Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
+    written its features at its first, diffuse, hit).
     """
     kept = 0
     for i in range(m):
@@ -183,9 +196,11 @@ def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_dept
             crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
                                                                  kind, pdf_prev, connect)
             if crossed:
+                w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
                 add_light_both(radiance, without, path, beta, light,
-                               mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
-                               mis_weight(next_event, pdf_prev, pdf_light, 0.0))
+                               mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex), w_without)
+                if features and paths.feature_on[i] != 0:
+                    add_feature_light(feature_albedo, paths, i, beta, light, w_without)
         if prim[i] < 0:
             first, end = lights_at_escape(lights, not (light_tracers and world_caustics),
                                           emitters_count)
@@ -194,14 +209,18 @@ def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_dept
                 if found:
                     w = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
                     add_light_both(radiance, without, path, beta, light, w, w)
+                    if features and paths.feature_on[i] != 0:
+                        add_feature_light(feature_albedo, paths, i, beta, light, w)
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
         if emitters_count and max3(emission) > 0.0:     # Emission, or a Principled BSDF's
             pdf_light, pdf_vertex = triangle_hit(lights, prim[i], o, d, t_surface, connect)
+            w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
             add_light_both(radiance, without, path, beta, emission,
-                           mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
-                           mis_weight(next_event, pdf_prev, pdf_light, 0.0))
+                           mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex), w_without)
+            if features and paths.feature_on[i] != 0:
+                add_feature_light(feature_albedo, paths, i, beta, emission, w_without)
         if mats.kind[mat] == EMISSION:
             continue
         if depth == max_depth:
@@ -215,14 +234,16 @@ def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_dept
 @jit
 def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, stratified, depth,
               n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes, params,
-              stats, lv, last_connection):
+              stats, lv, last_connection, features, feature_albedo, feature_normal):
     """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
     layered vertices sample a light (a shadow ray, or direct light for lamps that cast no
     shadow) and, up to bounce last_connection (-1: never), connect to the path's light vertex
     in `lv` (light_vertices.py; another shadow ray); every kind samples its BSDF. After Russian
     roulette the surviving paths' next rays go into `out`. `lobes` is scratch for a layered
     hit's lobes (lobes.py), `tables` its albedo tables, `params` for a textured Principled
-    BSDF's parameters; `without` as for emitters.
+    BSDF's parameters; `without` as for emitters. With `features`, paths that still carry the
+    denoising features apply this hit to them (features.py), writing into the rows of
+    feature_albedo and feature_normal.
 
     Returns (paths in out, shadow rays queued).
     """
@@ -253,13 +274,14 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         # Passed as tuples: a call of more than 30 arguments compiles to a *args call, which
         # Numba cannot inline.
         rng, u_bounce, hit = (key, sample, bits, strat), (u_pick, u0, u1), (p, ng, ng_f, ns_f, eps)
+        count = 0
         if kind == DIFFUSE:
             new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow = scatter_diffuse(
                 lights, mesh, can_sample_lights, rng, depth, u_bounce, beta, path, row(paths.o, i),
                 d, paths.pdf_prev[i], hit, color, last_connection, connects, lv, lobes, shadows,
                 n_shadow, radiance, without, stats)
         elif kind == LAYERED:
-            new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow = scatter_layered(
+            new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count = scatter_layered(
                 lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u_bounce,
                 beta, path, d, hit, entering, (mat, tri, b1, b2), color, trans_color, connects,
                 lv, lobes, params, shadows, n_shadow, radiance, without, stats)
@@ -267,6 +289,13 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
             new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
                 kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,
                 entering, color, trans_color, mats.ior[mat], stats)
+        if features and paths.feature_on[i] != 0:
+            # The layered kinds' lobes are still in `lobes` from their scatter.
+            if kind != LAYERED:
+                count = smooth_lobes(kind, lobes, tables, neg(d), ns_f, entering, color,
+                                     trans_color, mats.ior[mat])
+            record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
+                            feature_normal)
         peak = max3(beta)
         if not peak > 0.0:
             continue
@@ -288,6 +317,10 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         out.caustic[n_out] = caustic
         out.pdf_prev[n_out] = pdf_prev
         out.connect[n_out] = connect
+        if features:
+            out.feature_on[n_out] = paths.feature_on[i]
+            for k in range(3):
+                out.feature[n_out, k] = paths.feature[i, k]
         n_out += 1
     return n_out, n_shadow
 
@@ -347,6 +380,22 @@ def film(radiance, n, start, in_pass, first_sample, pixels, total, total_sq, hal
             total_sq[pixel, k] += value * value
             if class_a:
                 half[pixel, k] += value
+    return bad
+
+
+@jit
+def film_features(albedo, normal, n, start, in_pass, pixels, albedo_sum, normal_sum):
+    """Add the chunk's n paths' denoising features (rows of albedo and normal) to their pixels'
+    sums; a path whose features hold a NaN or Inf adds nothing. Returns how many did."""
+    bad = 0
+    for i in range(n):
+        if not (finite_row(albedo, i) and finite_row(normal, i)):
+            bad += 1
+            continue
+        pixel = pixel_of(pixels, (start + i) // in_pass)
+        for k in range(3):
+            albedo_sum[pixel, k] += albedo[i, k]
+            normal_sum[pixel, k] += normal[i, k]
     return bad
 
 

@@ -88,7 +88,8 @@ def _snell_point(spec):
     # points use Cycles' automatic minimum (min_spp 0), as Cycles does beside them.
     renderer = Renderer(scene, scene.settings(threads=spec["threads"], caustics=spec["caustics"],
                                               noise_threshold=spec["threshold"] or 0.0, min_spp=0,
-                                              time_limit=0.0))
+                                              time_limit=0.0, denoise=False,
+                                              denoising_passes=False))
     build_s = time.perf_counter() - t
     result = renderer.render()
     wall = time.perf_counter() - start

@@ -87,8 +87,11 @@ def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_thre
     the image without them."""
     from ..tracer.integrator import Renderer
     # No time limit (a file's Cycles Time Limit): the comparison is at matched sample counts.
+    # Never denoised: a denoised image is biased and its pixels are not independent, so the
+    # statistics hold the render's own estimate against Cycles' (and skip the guiding passes).
     settings = scene.settings(threads=threads, sampler="independent", spp=spp,
-                              noise_threshold=noise_threshold, time_limit=0.0,
+                              noise_threshold=noise_threshold, time_limit=0.0, denoise=False,
+                              denoising_passes=False,
                               **({} if caustics is None else {"caustics": caustics}))
     if noise_threshold <= 0.0:
         settings = settings.replace(light_vertices=False, spp=batch_spp(spp), batches=BATCHES)

@@ -195,7 +195,8 @@ def _apply(scene, settings):
         owner = {"render": scene.render, "cycles": scene.cycles,
                  "view_settings": scene.view_settings}[owner_name]
         setattr(owner, attr, value)
-    multilayer = any(k == "output" and v == MULTILAYER for k, v, _ in settings)
+    multilayer = any(k == "output" and v in (MULTILAYER, DENOISING_OUTPUT)
+                     for k, v, _ in settings)
     img = scene.render.image_settings
     if hasattr(img, "media_type"):  # Blender 5: the multilayer format is a media type
         img.media_type = "MULTI_LAYER_IMAGE" if multilayer else "IMAGE"
@@ -304,10 +305,80 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     return CyclesResult(mean, var, spp * len(seeds), seeds, total, settings + extra, images)
 
 
+# Cycles' Denoising Data passes (View Layer > Passes > Data), read from a multilayer EXR.
+DENOISING_PASSES = ("Denoising Albedo", "Denoising Normal")
+DENOISING_OUTPUT = "OPEN_EXR_MULTILAYER 32-bit, Combined and the Denoising Data passes"
+
+
+def read_pass(path, name: str) -> np.ndarray:
+    """A pass's three channels (R, G, B or X, Y, Z, in the file's order), float64 (H, W, 3),
+    row 0 = top, from a multilayer EXR ("<view layer>.<pass>.<channel>")."""
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        raise OSError(f"{path}: cannot read image ({oiio.geterror()})")
+    try:
+        part = 0
+        while inp.seek_subimage(part, 0):
+            spec = inp.spec()
+            found = [k for k, channel in enumerate(spec.channelnames)
+                     if f".{name}." in f".{channel}"]
+            if len(found) == 3:
+                pixels = [np.asarray(inp.read_image(part, 0, k, k + 1, "float"), np.float64)
+                          for k in found]
+                return np.stack(pixels, axis=-1).reshape(spec.height, spec.width, 3)
+            part += 1
+    finally:
+        inp.close()
+    raise OSError(f"{path}: no {name} pass")
+
+
+def render_denoising_passes(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4),
+                            threads: int = 2, camera=None, quiet_blender=True) -> dict:
+    """{pass name: CyclesResult} of Cycles' Denoising Albedo and Denoising Normal passes, each
+    rendered once per seed with `spp` samples and the validator's forced settings (no
+    denoising: the passes are the path tracer's own estimates)."""
+    import bpy
+
+    from ..addon.blendfile import open_blend, render_still
+    seeds = list(seeds)
+    if len(seeds) < 2:
+        raise ValueError("need at least two seeds for a variance")
+    images = {name: [] for name in DENOISING_PASSES}
+    total, extra = 0.0, []
+    with tempfile.TemporaryDirectory(prefix="snell-cycles-") as workdir:
+        for seed in seeds:
+            settings = forced_settings(max_depth, spp, seed, threads) + [
+                ("view_layers.cycles.denoising_store_passes", True, "the Denoising Data passes"),
+                ("output", DENOISING_OUTPUT, "the passes, read back")]
+            with stdout_silenced(quiet_blender):
+                open_blend(blend_path)
+                scene = bpy.context.scene
+                _apply(scene, settings)
+                extra = _apply_camera(scene, camera)
+                out = os.path.join(workdir, "passes.exr")
+                scene.render.filepath = out
+                start = time.perf_counter()
+                render_still(blend_path)
+                total += time.perf_counter() - start
+            for name in DENOISING_PASSES:
+                images[name].append(read_pass(out, name))
+            os.remove(out)
+    results = {}
+    for name, stack in images.items():
+        stack = np.stack(stack)
+        results[name] = CyclesResult(stack.mean(axis=0), stack.var(axis=0, ddof=1) / len(seeds),
+                                     spp * len(seeds), seeds, total,
+                                     forced_settings(max_depth, spp, seeds[0], threads) + extra,
+                                     list(stack))
+    return results
+
+
 def seeds_for(k: int, base: int = 0):
     """K distinct Cycles seeds derived from a base seed."""
     return [base * 1000 + i + 1 for i in range(k)]
 
 
 __all__ = ["forced_settings", "scene_film", "adaptive_settings", "read_sample_count", "render_seeds", "CyclesResult", "NoCyclesEquivalent",
+           "read_pass", "render_denoising_passes", "DENOISING_PASSES",
            "fstop_for_radius", "seeds_for"]

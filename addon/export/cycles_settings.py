@@ -44,6 +44,18 @@ def _seed(c, frame):
     return c.seed
 
 
+# Cycles' denoising input passes and Snell's values of denoising_input_passes.
+INPUT_PASSES = {"RGB": "color", "RGB_ALBEDO": "albedo", "RGB_ALBEDO_NORMAL": "albedo_normal"}
+
+
+def _denoising_data(c, frame):
+    """Blender's View Layer > Passes > Data > Denoising Data, on any view layer."""
+    scene = getattr(c, "id_data", None)
+    layers = getattr(scene, "view_layers", ())
+    return any(bool(getattr(getattr(layer, "cycles", None), "denoising_store_passes", False))
+               for layer in layers)
+
+
 FOLLOWED = (
     Followed("spp", "Sampling > Render > Max Samples", lambda c, f: int(c.samples)),
     Followed("noise_threshold", "Sampling > Render > Noise Threshold", _noise_threshold),
@@ -61,6 +73,15 @@ FOLLOWED = (
              lambda c, f: str(c.pixel_filter_type).lower()),
     Followed("filter_width", "Film > Pixel Filter > Width",
              lambda c, f: float(f"{c.filter_width:.7g}")),
+    # Snell denoises with Open Image Denoise whatever Cycles' denoiser (OptiX: NOT_RENDERED).
+    Followed("denoise", "Sampling > Render > Denoise", lambda c, f: bool(c.use_denoising)),
+    Followed("denoising_input_passes", "Sampling > Render > Denoise > Passes",
+             lambda c, f: INPUT_PASSES.get(c.denoising_input_passes, "albedo_normal")),
+    Followed("denoising_prefilter", "Sampling > Render > Denoise > Prefilter",
+             lambda c, f: c.denoising_prefilter.lower()),
+    Followed("denoising_quality", "Sampling > Render > Denoise > Quality",
+             lambda c, f: c.denoising_quality.lower()),
+    Followed("denoising_passes", "View Layer > Passes > Data > Denoising Data", _denoising_data),
 )
 
 
@@ -117,8 +138,9 @@ NOT_RENDERED = (
                 "light sampling", _zero, noise_only=True),
     NotRendered("use_guiding", "Sampling > Path Guiding", "no path guiding",
                 lambda v, c: not v, noise_only=True),
-    NotRendered("use_denoising", "Sampling > Render > Denoise", "no denoising: the image keeps "
-                "its noise", lambda v, c: not v),
+    NotRendered("denoiser", "Sampling > Render > Denoise > Denoiser", "Snell denoises with "
+                "Open Image Denoise on the CPU", lambda v, c: v == "OPENIMAGEDENOISE" or
+                not c.use_denoising),
     NotRendered("film_exposure", "Film > Exposure", "exposure 1", lambda v, c: v == 1.0),
 )
 

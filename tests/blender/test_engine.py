@@ -212,7 +212,7 @@ CYCLES_SAMPLING = dict(samples=64, adaptive_threshold=0.01, adaptive_min_samples
                   ("adaptive_min_samples", "Min Samples"),
                   ("label", "Automatic minimum 64: no adaptive saving"), ("time_limit", None),
                   ("seed", None), ("use_animated_seed", ""),
-                  ("label", "Not rendered by Snell: denoising, light tree, path guiding")]),
+                  ("label", "Not rendered by Snell: light tree, path guiding")]),
 ])
 def test_sampling_panel_is_laid_out_as_cycles(follow, adaptive, drawn):
     """Follow Cycles' Settings, then Noise Threshold's checkbox and value, Max and Min Samples
@@ -521,6 +521,37 @@ def test_f12_snell_render_and_batch_follow_the_files_cycles_settings(blends, tmp
     channels = [oiio.ImageInput.open(str(p)).spec().channelnames
                 for p in (tmp_path / "cli.exr", batch_exr)]
     assert channels[0] == channels[1] == ("R", "G", "B", "samples"), channels
+
+
+def test_f12_follows_cycles_denoise_and_keeps_the_noisy_image_as_a_pass(blends, tmp_path):
+    """Cycles' Denoise on: F12 writes the denoised image as Combined (and the still), the
+    tracer's own image as the Noisy Image pass, and the Denoising Albedo and Normal passes."""
+    scene, _ = cycles_configured(blends, tmp_path)
+    c = scene.cycles
+    c.use_denoising, c.denoising_prefilter, c.denoising_quality = True, "FAST", "FAST"
+    exported, _ = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert (exported.render["denoise"], exported.render["denoising_prefilter"],
+            exported.render["denoising_quality"]) == (True, "fast", "fast")
+    layers = {}
+
+    def grab(result):
+        for name in ("Combined", "Noisy Image", "Denoising Albedo", "Denoising Normal"):
+            rpass = result.layers[0].passes.get(name)
+            if rpass is not None:
+                rect = np.empty(SIZE * SIZE * rpass.channels, np.float32)
+                rpass.rect.foreach_get(rect)
+                layers[name] = rect.reshape(SIZE, SIZE, rpass.channels)[::-1, :, :3]
+
+    with spying(recording([], grab)):
+        bpy.ops.render.render(write_still=True)
+    record = final.last_render
+    assert record["error"] is None and record["denoised"], record
+    noisy = tracer_image()
+    np.testing.assert_allclose(layers["Noisy Image"], noisy, rtol=1e-6, atol=1e-7)
+    f12 = read_exr(tmp_path / "f12.exr")
+    np.testing.assert_allclose(f12, layers["Combined"], rtol=1e-6, atol=1e-6)
+    assert np.abs(f12 - noisy).max() > 1e-3          # the still is the denoised image
+    assert layers["Denoising Albedo"].max() > 0.1 and np.abs(layers["Denoising Normal"]).max() > 0.5
 
 
 def test_batch_spp_threads_and_scale_options(blends, tmp_path):

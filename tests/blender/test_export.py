@@ -977,15 +977,17 @@ def test_world(bl):
 
 def test_render_settings_default(bl):
     """A new file follows Cycles' defaults: 4096 samples, noise threshold 0.01, max bounces 12
-    (max depth 13), Blackman-Harris 1.5 px; Snell's own settings at theirs; each value's source
-    saved with it."""
+    (max depth 13), Blackman-Harris 1.5 px, denoised (OIDN, albedo and normal, accurate
+    prefilter, high quality); Snell's own settings at theirs; each value's source saved with it."""
     s, warnings = run()
     saved = {k: s.render[k] for k in scene_mod.DEFAULT_RENDER}
     assert saved == {**scene_mod.DEFAULT_RENDER, "spp": 4096, "max_depth": 13,
-                     "pixel_filter": "blackman_harris", "filter_width": 1.5}
+                     "pixel_filter": "blackman_harris", "filter_width": 1.5, "denoise": True}
     assert s.render["sources"] == {
         **dict.fromkeys(["spp", "noise_threshold", "min_spp", "time_limit", "seed", "max_depth",
-                         "pixel_filter", "filter_width"], "file's Cycles setting"),
+                         "pixel_filter", "filter_width", "denoise", "denoising_input_passes",
+                         "denoising_prefilter", "denoising_quality", "denoising_passes"],
+                        "file's Cycles setting"),
         **dict.fromkeys(["fresnel", "caustics", "light_vertices"], "default")}
     labels = {e["label"]: e for e in s.render["cycles_not_rendered"]}
     assert labels["Light Paths > Diffuse bounces"]["value"] == "4"
@@ -1017,6 +1019,17 @@ def test_the_files_cycles_settings_are_followed(bl):
     assert run()[0].render["noise_threshold"] == 0.0
     c.use_adaptive_sampling, c.adaptive_threshold = True, 0.0    # Cycles' automatic threshold
     assert run()[0].render["noise_threshold"] == pytest.approx(1 / 300)
+    c.use_denoising, c.denoising_input_passes = False, "RGB_ALBEDO"
+    c.denoising_prefilter, c.denoising_quality = "FAST", "BALANCED"
+    bl.view_layers[0].cycles.denoising_store_passes = True
+    render = run()[0].render
+    assert {k: render[k] for k in ("denoise", "denoising_input_passes", "denoising_prefilter",
+                                   "denoising_quality", "denoising_passes")} == {
+        "denoise": False, "denoising_input_passes": "albedo", "denoising_prefilter": "fast",
+        "denoising_quality": "balanced", "denoising_passes": True}
+    if "OPTIX" in {item.identifier for item in c.bl_rna.properties["denoiser"].enum_items}:
+        c.use_denoising, c.denoiser = True, "OPTIX"
+        assert any("Denoiser" in w and "Open Image Denoise" in w for w in run()[1])
     c.use_animated_seed = True
     seeds = set()
     for frame in (1, 2, 3):

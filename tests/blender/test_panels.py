@@ -16,6 +16,7 @@ COUNTERPARTS = {
     "CYCLES_RENDER_PT_sampling_render": "RENDER_PT_snell_sampling",
     "CYCLES_RENDER_PT_sampling_viewport": "RENDER_PT_snell_sampling_viewport",
     "CYCLES_RENDER_PT_sampling_advanced": "RENDER_PT_snell_sampling",    # seed, animated seed
+    "CYCLES_RENDER_PT_sampling_render_denoise": "RENDER_PT_snell_denoise",
     "CYCLES_RENDER_PT_light_paths": "RENDER_PT_snell_light_paths",
     "CYCLES_RENDER_PT_light_paths_max_bounces": "RENDER_PT_snell_light_paths",
     "CYCLES_RENDER_PT_film": "RENDER_PT_snell_film",
@@ -40,7 +41,6 @@ ABSENT = {
                                         "way (snell info lists them as not rendered)",
     "CYCLES_RENDER_PT_sampling_path_guiding": "no path guiding",
     "CYCLES_RENDER_PT_sampling_path_guiding_debug": "no path guiding",
-    "CYCLES_RENDER_PT_sampling_render_denoise": "no denoising",
     "CYCLES_RENDER_PT_sampling_viewport_denoise": "no denoising",
     "CYCLES_RENDER_PT_light_paths_caustics": "Snell always renders caustics, unfiltered "
                                              "(snell info says so when the file differs)",

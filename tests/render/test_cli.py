@@ -305,13 +305,17 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
     out, png = tmp_path / "a.exr", tmp_path / "a.png"
     code = cli.main(["render", str(scene_file), "-o", str(out), "--png", str(png), "--spp", "9",
                      "--max-depth", "0", "--seed", "5", "--fresnel", "schlick", "--threads", "3",
-                     "--noise-threshold", "0.05", "--min-spp", "3", "--light-vertices", "off"])
+                     "--noise-threshold", "0.05", "--min-spp", "3", "--light-vertices", "off",
+                     "--denoising-passes", "--denoising-prefilter", "fast"])
     assert code == 0
     settings = stub_integrator.calls[0]["settings"]
     assert settings.threads == 3
     assert settings.to_render() == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick",
                                     "caustics": True, "light_vertices": False,
-                                    "noise_threshold": 0.05, "min_spp": 3, "time_limit": 0.0}
+                                    "noise_threshold": 0.05, "min_spp": 3, "time_limit": 0.0,
+                                    "denoise": False, "denoising_input_passes": "albedo_normal",
+                                    "denoising_prefilter": "fast", "denoising_quality": "high",
+                                    "denoising_passes": True}   # a bare on/off option is on
     rgb = image.read_exr(out)
     assert rgb[0].min() == 1.0 and rgb[1:].max() == 0.0  # top row first, NaN written as 0
     assert np.all(image.read_channel(out, "samples") == 9)

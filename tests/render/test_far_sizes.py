@@ -102,7 +102,7 @@ def test_generate_at_the_far_end_of_the_largest_render(stratified):
     paths, stats = wavefront.new_paths(CHUNK), np.zeros(len(wavefront.STATS), np.int64)
     seed = 2 ** 31 - 1
     wavefront.generate(cam, make_filter(), seed, start, last.samples, last.first, passes.ALL_PIXELS, bits,
-                       stratified, n, paths, stats)
+                       stratified, n, paths, stats, False)
     g = start + np.arange(n, dtype=np.int64)
     pixel = g // last.samples
     sample = last.first + g % last.samples
@@ -114,7 +114,8 @@ def test_generate_at_the_far_end_of_the_largest_render(stratified):
     assert np.isfinite(paths.o[:n]).all() and np.isfinite(paths.d[:n]).all()
     # The adaptive pixels' list at the far end: int64 indices, the same keys.
     far = np.arange(NPIX - 4, NPIX, dtype=np.int64)
-    wavefront.generate(cam, make_filter(), seed, 0, 1, SPP - 1, far, bits, stratified, 4, paths, stats)
+    wavefront.generate(cam, make_filter(), seed, 0, 1, SPP - 1, far, bits, stratified, 4, paths, stats,
+                       False)
     assert np.array_equal(paths.key[:4], keys[-4:]) and (paths.sample[:4] == SPP - 1).all()
 
 

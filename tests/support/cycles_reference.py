@@ -87,6 +87,79 @@ class Reference:
                                        scene=scene)
 
 
+class PassesReference:
+    """Cycles' Denoising Albedo and Denoising Normal passes of a .blend (8 seeds), stored as a
+    Reference's images are (one file per pass), and Snell's passes compared against them: both
+    are Monte Carlo estimates, so the validator's statistics apply unchanged."""
+
+    def __init__(self, blend, framing=None, max_depth=None, spp=SPP, cycles_seeds=8):
+        from snell.validation import compare, cycles
+        self.blend, self.spp, self.n_seeds = blend, spp, cycles_seeds
+        scene, self.warnings = compare.load_snell_scene(blend)
+        framing = {"resolution_percentage": SCALE, **dict(framing or {})}
+        self.scene = scene.with_camera(**framing).with_render(spp=spp, seed=SEED,
+                                                              max_depth=max_depth)
+        max_depth = self.scene.render["max_depth"]
+        settings = {"spp": spp, "max_depth": max_depth, "seed": SEED, "camera": framing,
+                    "n_seeds": cycles_seeds, "passes": list(cycles.DENOISING_PASSES)}
+        base = reference_key(self.scene, settings, cycles_only_settings())
+        self.keys = {name: hashlib.sha256(f"{base} {name}".encode()).hexdigest()[:20]
+                     for name in cycles.DENOISING_PASSES}
+        mode = os.environ.get("SNELL_CYCLES_REFERENCES", "read")
+        log = os.environ.get("SNELL_CYCLES_REFERENCES_LOG")
+        if log:
+            with open(log, "a") as f:
+                f.write("".join(key + "\n" for key in self.keys.values()))
+        normals = normal_moments(self.scene)
+        paths = {name: os.path.join(REFERENCES, key + ".npz") for name, key in self.keys.items()}
+        self.cycles = {}
+        if mode in ("read", "require", "update"):
+            for name, path in paths.items():
+                self.cycles[name] = load_cycles(path, normals)
+        self.stored = all(v is not None for v in self.cycles.values()) and bool(self.cycles)
+        if not self.stored:
+            if mode == "require":
+                import pytest
+                pytest.fail(f"no stored Cycles denoising passes for {os.path.basename(blend)} "
+                            "(SNELL_CYCLES_REFERENCES=require); tools/make_cycles_references.py "
+                            "renders them", pytrace=False)
+            per_seed = max(1, -(-spp // cycles_seeds))
+            self.cycles = cycles.render_denoising_passes(
+                blend, spp=per_seed, max_depth=max_depth,
+                seeds=cycles.seeds_for(cycles_seeds, SEED), camera=framing)
+            if mode in ("write", "update"):
+                for name, path in paths.items():
+                    save_cycles(path, self.cycles[name], normals)
+
+    def snell_images(self, modify=lambda s: s) -> dict:
+        """{pass name: (seeds, H, W, 3)} of Snell's passes: as many independent renders as
+        Cycles' seeds, each of the same samples per pixel as one of Cycles'."""
+        from snell.tracer.integrator import Renderer
+        from snell.validation import cycles
+        scene = modify(self.scene)
+        per_seed = max(1, -(-self.spp // self.n_seeds))
+        images = {name: [] for name in cycles.DENOISING_PASSES}
+        for k in range(self.n_seeds):
+            settings = scene.settings(threads=2, sampler="independent", spp=per_seed,
+                                      seed=1000 + k, noise_threshold=0.0, time_limit=0.0,
+                                      caustics=False, light_vertices=False,
+                                      denoising_passes=True)
+            result = Renderer(scene, settings).render()
+            images["Denoising Albedo"].append(result.denoising_albedo())
+            images["Denoising Normal"].append(result.denoising_normal())
+        return {name: np.stack(stack).astype(np.float64) for name, stack in images.items()}
+
+    def compare(self, modify=lambda s: s) -> dict:
+        """{pass name: the validator's statistics} of Snell's passes against Cycles'."""
+        from snell.validation import metrics
+        out = {}
+        for name, images in self.snell_images(modify).items():
+            a = metrics.Estimate.from_images(images)
+            b = metrics.Estimate.from_images(np.stack(self.cycles[name].images))
+            out[name] = metrics.compare_estimates(a, b, error_metrics=False)
+        return out
+
+
 def verdict(result):
     """(verdict, the numbers an assertion message should show)."""
     detail = {k: result[k] for k in ("tests", "z_pass_fraction", "tiles_failed", "mean_z",

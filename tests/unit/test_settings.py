@@ -17,8 +17,12 @@ def test_the_defaults_are_the_scene_files_defaults():
     # (time_limit 0: no limit; a 1-pixel box, the only filter before pixel filters).
     assert DEFAULT_RENDER == {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact",
                               "caustics": True, "light_vertices": True, "noise_threshold": 0.01,
-                              "min_spp": 0, "time_limit": 0.0, "pixel_filter": "box",
-                              "filter_width": 1.0}
+                              "min_spp": 0, "time_limit": 0.0,   # time_limit 0: no limit, as before
+                              "pixel_filter": "box", "filter_width": 1.0,
+                              # no denoising and no denoising passes, as before
+                              "denoise": False, "denoising_input_passes": "albedo_normal",
+                              "denoising_prefilter": "accurate", "denoising_quality": "high",
+                              "denoising_passes": False}
     assert RenderSettings().to_render() == DEFAULT_RENDER
     assert all(getattr(RenderSettings(), s.name) == s.default for s in SETTINGS)
 
