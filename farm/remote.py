@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..tracer import passes, wavefront
+from ..tracer import passes
 from ..tracer.camera import Camera
 from ..tracer.result import RenderResult
 from . import cluster, keys, worker
@@ -108,11 +108,7 @@ class RemoteTracer:
                 for group in _groups(jobs, TASKS_PER_THREAD * self.threads)]
             for group, future in tasks:
                 reply = self._wait(future, f"light paths of pass {pass_index}")
-                for (first, _), (pixels, contributions) in zip(group, reply.splats):
-                    bad += wavefront.splat(pixels, contributions, film)
-                    if film_a is not None and first < n_a:
-                        wavefront.splat(pixels, contributions, film_a)
-                    counters[wavefront.CAUSTIC_SPLATS] += len(pixels)
+                bad += passes.add_splats(group, reply.splats, n_a, film, film_a, counters)
                 self._count(reply)
         return bad
 

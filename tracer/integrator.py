@@ -18,7 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import adaptive, jit, light_tracer, lobes, passes, wavefront
+from . import jit, light_tracer, lobes, passes, wavefront
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
@@ -523,12 +523,9 @@ class Renderer:
         bad = 0
         for begin, end in passes.light_segments(n_light, n_a):
             jobs = passes.jobs(begin, end, 1)
-            for (first, _), (pixels, contributions, reached) in zip(jobs, pool.map(
-                    lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs)):
-                bad += wavefront.splat(pixels, contributions, film)
-                if film_a is not None and first < n_a:
-                    wavefront.splat(pixels, contributions, film_a)
-                counters[wavefront.CAUSTIC_SPLATS] += reached      # light paths, not splats
+            bad += passes.add_splats(jobs, pool.map(
+                lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs),
+                n_a, film, film_a, counters)
         return bad
 
 

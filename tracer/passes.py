@@ -85,6 +85,19 @@ def light_segments(n_light: int, n_a: int):
             yield a, min(a + LIGHT_SEGMENT, end)
 
 
+def add_splats(jobs: list, splats, n_a: int, film, film_a, counters) -> int:
+    """Add light chunks' splats (Renderer.trace_light_chunk's, one per job, in job order) to
+    film, and those of half A's jobs (starting before n_a) to film_a if not None; count the
+    light paths that reached the camera. Returns how many splats were NaN or Inf (left out)."""
+    bad = 0
+    for (first, _), (pixels, contributions, reached) in zip(jobs, splats):
+        bad += wavefront.splat(pixels, contributions, film)
+        if film_a is not None and first < n_a:
+            wavefront.splat(pixels, contributions, film_a)
+        counters[wavefront.CAUSTIC_SPLATS] += reached      # light paths, not splats
+    return bad
+
+
 class FixedWindows(Sequence):
     """The windows of a fixed-sample render of `pixels` pixels and `spp` samples: one progressive
     pass each, made on demand (an 8192 x 8192 render of 2^24 spp has 2^24 windows of one sample:

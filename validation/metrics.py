@@ -29,7 +29,7 @@ light tracer carries (caustics from small lamps) on rare paths, so its mean ther
 runs and its variance estimate too small. Where the tested Estimate has such light, "too bright"
 is tested on (a - light) - b, which a path tracer's estimate cannot push up, and "too dark" on
 a - b as usual; the sharpness test leaves out the pixels where the light tracer carries more
-than CAUSTIC_SHARE of the template.
+than CAUSTIC_SHARE of the template, and their neighbours where a pixel filter spreads it.
 Consistent when all tests pass, inconsistent otherwise. "Not comparable" is decided by the caller
 (settings that Cycles cannot match).
 """
@@ -258,6 +258,7 @@ def _image_mean_test(a, b, alpha):
 
 
 CAUSTIC_SHARE = 0.05   # sharpness: pixels where a light tracer carries more are left out
+SPREAD_PIXELS = 4      # ...and their neighbours this far where it carries a tenth as much
 
 
 def _grey(x):
@@ -290,9 +291,15 @@ def sharpness_test(a: Estimate, b: Estimate):
     # comes from the template's data, independent of the sums below.
     left_out = 0.0
     if light is not None:
+        from scipy.ndimage import binary_dilation
         with np.errstate(divide="ignore", invalid="ignore"):
             share = np.where(_grey(template) > 0, _grey(light) / _grey(template), 0.0)
         caustic = share > CAUSTIC_SHARE
+        # A pixel filter wider than a pixel spreads the light tracer's splats into the pixels
+        # around (Blackman-Harris 1.5: one pixel), whose share is small but all of one sign, and
+        # the template's edges ring there: the mask grows into them, as far as the light reaches.
+        caustic = binary_dilation(caustic, np.ones((3, 3), bool), iterations=SPREAD_PIXELS,
+                                  mask=share > CAUSTIC_SHARE / 10)
         w = np.where(caustic, 0.0, w)
         left_out = float(caustic.mean())
 

@@ -1160,7 +1160,9 @@ def test_info_names_where_each_setting_came_from(bl, tmp_path):
             "1.5 px") in text, text
     sources = next(line for line in lines if line.startswith("sources"))
     assert sources == ("sources    file's Cycles setting: spp, max_depth, seed, noise_threshold, "
-                       "min_spp, time_limit, pixel_filter, filter_width; default: fresnel, "
+                       "min_spp, time_limit, pixel_filter, filter_width, denoise, "
+                       "denoising_input_passes, denoising_prefilter, denoising_quality, "
+                       "denoising_passes; default: fresnel, "
                        "caustics, light_vertices"), sources
     cycles = [line for line in lines if line.startswith("cycles")]
     assert "cycles     warning: Light Paths > Clamping > Direct Light 5: not rendered" \

@@ -313,6 +313,7 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
     assert settings.to_render() == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick",
                                     "caustics": True, "light_vertices": False,
                                     "noise_threshold": 0.05, "min_spp": 3, "time_limit": 0.0,
+                                    "pixel_filter": "box", "filter_width": 1.0,
                                     "denoise": False, "denoising_input_passes": "albedo_normal",
                                     "denoising_prefilter": "fast", "denoising_quality": "high",
                                     "denoising_passes": True}   # a bare on/off option is on
