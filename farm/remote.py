@@ -52,7 +52,7 @@ class RemoteTracer:
 
     def light_count(self, rows: int, samples: int, share: float = 1.0) -> int:
         """As Renderer.light_count."""
-        return max(2, int(round(self.light_paths_per_camera_path * rows * samples * share)))
+        return passes.light_count(self.light_paths_per_camera_path, rows, samples, share)
 
     def camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
                     pilot=None, merge=False, features=None) -> int:

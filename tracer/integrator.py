@@ -507,9 +507,8 @@ class Renderer:
         return bad
 
     def light_count(self, rows: int, samples: int, share: float = 1.0) -> int:
-        """The light paths of a pass of `samples` camera samples in `rows` pixels, `share` the
-        light tracer's energy on the pixels still sampling (adaptive sampling)."""
-        return max(2, int(round(self.light_paths_per_camera_path * rows * samples * share)))
+        """passes.light_count of this renderer's light paths per camera path."""
+        return passes.light_count(self.light_paths_per_camera_path, rows, samples, share)
 
     def light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters) -> int:
         """Trace a pass's n_light light paths into film (rows of (pixels, 3)); film_a (if not

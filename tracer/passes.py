@@ -85,6 +85,12 @@ def light_segments(n_light: int, n_a: int):
             yield a, min(a + LIGHT_SEGMENT, end)
 
 
+def light_count(per_camera_path: float, rows: int, samples: int, share: float = 1.0) -> int:
+    """The light paths of a pass of `samples` camera samples in `rows` pixels, `share` the
+    light tracer's energy on the pixels still sampling (adaptive sampling)."""
+    return max(2, int(round(per_camera_path * rows * samples * share)))
+
+
 def add_splats(jobs: list, splats, n_a: int, film, film_a, counters) -> int:
     """Add light chunks' splats (Renderer.trace_light_chunk's, one per job, in job order) to
     film, and those of half A's jobs (starting before n_a) to film_a if not None; count the
