@@ -1,0 +1,1 @@
+"""Shader programs: node families the interpreter runs (see docs/architecture.md)."""
