@@ -346,3 +346,383 @@ def test_separate_and_combine_xyz_match_cycles(probe):
                                  got[:, ch]), f"channel {ch}")
     _assert_caught(nc.match(lambda x, y, z: through_rows(x, y, z, 1), (a, b, c), got[:, 0]),
                    "swapped channels")
+
+
+# --- colour nodes -------------------------------------------------------------------------------
+
+def _colour_sockets(tree, a, b, c):
+    """The colour tests' inputs: colours A = 0.15 (a, b, c) + 0.5 and B = (0.13 b + 0.45,
+    0.25 c + 0.5, 0.12 a + 0.55) (zero on the int set), the wide colour W = 0.3 (a, b, c) + 0.5,
+    and factors F = 0.2 (a, b, c) + 0.5 (F[0] the factor, all three the non-uniform one)."""
+    return {
+        "A": _vec(tree, *[_madd(tree, s, 0.15, 0.5) for s in (a, b, c)]),
+        "B": _vec(tree, _madd(tree, b, 0.13, 0.45), _madd(tree, c, 0.25, 0.5),
+                  _madd(tree, a, 0.12, 0.55)),
+        "W": _vec(tree, *[_madd(tree, s, 0.3, 0.5) for s in (a, b, c)]),
+        "F": _vec(tree, *[_madd(tree, s, 0.2, 0.5) for s in (a, b, c)]),
+    }
+
+
+def _colour_inputs(probe, kind):
+    """Cycles' values of A, B, W and F, each (N, 3)."""
+    return {name: probe.render(("colour input", name),
+                               lambda tree, a, b, c, name=name: _colour_sockets(tree, a, b, c)[name],
+                               kind)
+            for name in ("A", "B", "W", "F")}
+
+
+def _colour_render(probe, kind, key, make):
+    """Cycles' (N, 3) output of make(tree, sockets, a, b, c) -> a socket."""
+    def build(tree, a, b, c):
+        return make(tree, _colour_sockets(tree, a, b, c), a, b, c)
+    return probe.render(key, build, kind)
+
+
+def _check_channels(formula, args, got, what, max_jumps=0.03):
+    for ch in range(3):
+        _assert_matches(nc.match(lambda *x, ch=ch: formula(*x)[ch], args, got[:, ch]),
+                        f"{what} channel {ch}", max_jumps)
+
+
+def _mix_node(tree, s, blend, clamp_factor=False, clamp_result=False):
+    n = _node(tree, "ShaderNodeMix", data_type="RGBA", blend_type=blend,
+              clamp_factor=clamp_factor, clamp_result=clamp_result)
+    tree.links.new(_channels(tree, s["F"])[0], n.inputs[0])
+    tree.links.new(s["A"], n.inputs[6])  # A_Color
+    tree.links.new(s["B"], n.inputs[7])  # B_Color
+    return n.outputs[2]  # Result_Color
+
+
+@pytest.mark.parametrize("kind", nc.KINDS)
+def test_mix_color_blend_modes_match_cycles(probe, kind):
+    """The Mix node (Color), every blend mode, factor in [-0.25, 1.25] unclamped; Clamp Factor
+    and Clamp Result on three modes; the legacy MixRGB (factor always clamped) with and without
+    Clamp. Teeth: the factor off by 0.05 on Overlay, Screen's formula for Soft Light, and MixRGB
+    without its factor clamp: caught."""
+    col = _colour_inputs(probe, kind)
+    args = (col["F"][:, 0], col["A"], col["B"])
+    for k, blend in enumerate(cn.BLEND_TYPES):
+        got = _colour_render(probe, kind, ("mix", blend),
+                             lambda tree, s, *_, blend=blend: _mix_node(tree, s, blend))
+        _check_channels(lambda f, A, B, k=k: cn.mix_color(k, False, False, f, A, B), args, got,
+                        f"{kind} {blend}")
+    for blend in ("LINEAR_LIGHT", "DODGE", "ADD"):
+        k = cn.BLEND_TYPES.index(blend)
+        got = _colour_render(probe, kind, ("mix clamped", blend),
+                             lambda tree, s, *_, blend=blend: _mix_node(tree, s, blend, True, True))
+        _check_channels(lambda f, A, B, k=k: cn.mix_color(k, True, True, f, A, B), args, got,
+                        f"{kind} {blend} clamped")
+    for blend, use_clamp in (("LINEAR_LIGHT", False), ("SUBTRACT", True)):
+        k = cn.BLEND_TYPES.index(blend)
+
+        def make(tree, s, *_, blend=blend, use_clamp=use_clamp):
+            n = _node(tree, "ShaderNodeMixRGB", blend_type=blend, use_clamp=use_clamp)
+            tree.links.new(_channels(tree, s["F"])[0], n.inputs[0])
+            tree.links.new(s["A"], n.inputs[1])
+            tree.links.new(s["B"], n.inputs[2])
+            return n.outputs[0]
+        got = _colour_render(probe, kind, ("mixrgb", blend, use_clamp), make)
+        _check_channels(lambda f, A, B, k=k, u=use_clamp: cn.mix_color(k, True, u, f, A, B),
+                        args, got, f"{kind} MixRGB {blend} clamp={use_clamp}")
+        if not use_clamp:
+            _assert_caught(nc.match(lambda f, A, B, k=k: cn.mix_color(k, False, False, f, A, B)[0],
+                                    args, got[:, 0]), "MixRGB without its factor clamp")
+    overlay = cn.BLEND_TYPES.index("OVERLAY")
+    got = _colour_render(probe, kind, ("mix", "OVERLAY"), None)
+    _assert_caught(nc.match(lambda f, A, B: cn.mix_color(overlay, False, False, f + 0.05, A, B)[1],
+                            args, got[:, 1]), "Overlay's factor off by 0.05")
+    got = _colour_render(probe, kind, ("mix", "SOFT_LIGHT"), None)
+    screen = cn.BLEND_TYPES.index("SCREEN")
+    _assert_caught(nc.match(lambda f, A, B: cn.mix_color(screen, False, False, f, A, B)[0],
+                            args, got[:, 0]), "Screen for Soft Light")
+
+
+@pytest.mark.parametrize("kind", nc.KINDS)
+def test_mix_float_and_vector_match_cycles(probe, kind):
+    """The Mix node's Float (factor clamped and not), Vector with a uniform factor and with a
+    factor per component (clamped and not). Teeth: the unclamped formula where Cycles clamps,
+    caught."""
+    col = _colour_inputs(probe, kind)
+    F, A, B = col["F"], col["A"], col["B"]
+
+    def make_float(tree, s, *_):
+        out = []
+        for clamp in (False, True):
+            n = _node(tree, "ShaderNodeMix", data_type="FLOAT", clamp_factor=clamp)
+            tree.links.new(_channels(tree, s["F"])[0], n.inputs[0])
+            tree.links.new(_channels(tree, s["A"])[1], n.inputs[2])
+            tree.links.new(_channels(tree, s["B"])[2], n.inputs[3])
+            out.append(n.outputs[0])
+        return _vec(tree, *out, out[0])
+    got = _colour_render(probe, kind, "mix float", make_float)
+    for j, clamp in enumerate((False, True)):
+        _assert_matches(nc.match(lambda f, a, b, clamp=clamp: cn.mix_float(clamp, f, a, b),
+                                 (F[:, 0], A[:, 1], B[:, 2]), got[:, j]), f"float clamp={clamp}")
+    _assert_caught(nc.match(lambda f, a, b: cn.mix_float(False, f, a, b),
+                            (F[:, 0], A[:, 1], B[:, 2]), got[:, 1]), "unclamped float factor")
+    for mode in ("UNIFORM", "NON_UNIFORM"):
+        for clamp in (False, True):
+            def make(tree, s, *_, mode=mode, clamp=clamp):
+                n = _node(tree, "ShaderNodeMix", data_type="VECTOR", factor_mode=mode,
+                          clamp_factor=clamp)
+                if mode == "UNIFORM":
+                    tree.links.new(_channels(tree, s["F"])[0], n.inputs[0])
+                else:
+                    tree.links.new(s["F"], n.inputs[1])
+                tree.links.new(s["A"], n.inputs[4])
+                tree.links.new(s["B"], n.inputs[5])
+                return n.outputs[1]
+            got = _colour_render(probe, kind, ("mix vector", mode, clamp), make)
+            if mode == "UNIFORM":
+                def formula(f, a, b, clamp=clamp):
+                    return cn.mix_vector(clamp, f[0], a, b)
+            else:
+                def formula(f, a, b, clamp=clamp):
+                    return cn.mix_vector_nonuniform(clamp, f, a, b)
+            _check_channels(formula, (F, A, B), got, f"{kind} vector {mode} clamp={clamp}")
+
+
+@pytest.mark.parametrize("kind", nc.KINDS)
+def test_colour_adjustments_match_cycles(probe, kind):
+    """Invert (factor F), Hue/Saturation/Value (hue 0.15 (F1 - 0.5) / 0.2, saturation and value
+    about 1), Gamma (0.5 b: zero and negative on the int set), Bright/Contrast, RGB to BW.
+    Teeth: HSV's hue off by 0.05, Gamma 1.05 times, contrast's offset halved, and RGB to BW with
+    Rec.601's weights: caught."""
+    col = _colour_inputs(probe, kind)
+    F, A, W = col["F"], col["A"], col["W"]
+    a, b, c = probe.inputs(kind)
+
+    def make_invert(tree, s, *_):
+        n = _node(tree, "ShaderNodeInvert")
+        tree.links.new(_channels(tree, s["F"])[0], n.inputs[0])
+        tree.links.new(s["W"], n.inputs[1])
+        return n.outputs[0]
+    got = _colour_render(probe, kind, "invert", make_invert)
+    _check_channels(lambda f, w: cn.invert(f[0], w), (F, W), got, f"{kind} invert")
+
+    def make_hsv(tree, s, *_):
+        f = _channels(tree, s["F"])
+        n = _node(tree, "ShaderNodeHueSaturation")
+        tree.links.new(_madd(tree, f[1], 0.75, -0.375), n.inputs[0])  # hue
+        tree.links.new(_madd(tree, f[2], 2.0, 0.0), n.inputs[1])  # saturation
+        tree.links.new(_madd(tree, f[0], 1.0, 0.5), n.inputs[2])  # value
+        tree.links.new(f[0], n.inputs[3])
+        tree.links.new(s["W"], n.inputs[4])
+        return n.outputs[0]
+    hsv_got = _colour_render(probe, kind, "hsv", make_hsv)
+    hsv_params = probe.render("hsv params", lambda tree, a_, b_, c_: [
+        _madd(tree, f, m, o) for f, (m, o) in
+        zip(_channels(tree, _colour_sockets(tree, a_, b_, c_)["F"]),
+            ((1.0, 0.5), (0.75, -0.375), (2.0, 0.0)))], kind)
+    # hsv_params: value, hue, saturation (the first F channel also the factor)
+
+    def hsv(p, f, w, hue_error=0.0):
+        return cn.hue_saturation_value(p[1] + hue_error, p[2], p[0], f[0], w)
+    _check_channels(hsv, (hsv_params, F, W), hsv_got, f"{kind} hsv")
+    _assert_caught(nc.match(lambda p, f, w: hsv(p, f, w, 0.05)[0], (hsv_params, F, W),
+                            hsv_got[:, 0]), "hue off by 0.05")
+
+    def make_gamma(tree, s, a_, b_, c_):
+        n = _node(tree, "ShaderNodeGamma")
+        tree.links.new(s["W"], n.inputs[0])
+        tree.links.new(_madd(tree, b_, 0.5, 0.0), n.inputs[1])
+        return n.outputs[0]
+    got = _colour_render(probe, kind, "gamma", make_gamma)
+    _check_channels(lambda w, b: cn.gamma(w, 0.5 * b), (W, b), got, f"{kind} gamma")
+    _assert_caught(nc.match(lambda w, b: cn.gamma(w, 0.525 * b)[0], (W, b), got[:, 0]),
+                   "gamma 1.05 times")
+
+    def make_bc(tree, s, a_, b_, c_):
+        n = _node(tree, "ShaderNodeBrightContrast")
+        tree.links.new(s["W"], n.inputs[0])
+        tree.links.new(_madd(tree, b_, 0.1, 0.0), n.inputs[1])
+        tree.links.new(_madd(tree, c_, 0.2, 0.0), n.inputs[2])
+        return n.outputs[0]
+    got = _colour_render(probe, kind, "bright contrast", make_bc)
+    _check_channels(lambda w, b, c: cn.bright_contrast(w, 0.1 * b, 0.2 * c), (W, b, c), got,
+                    f"{kind} bright/contrast")
+    _assert_caught(nc.match(lambda w, b, c: cn.bright_contrast(w, 0.1 * b + 0.05 * c, 0.2 * c)[0],
+                            (W, b, c), got[:, 0]), "contrast's offset halved")
+
+    def make_bw(tree, s, *_):
+        return [_node(tree, "ShaderNodeRGBToBW", [(0, s["W"])]).outputs[0]]
+    got = _colour_render(probe, kind, "rgb to bw", make_bw)
+    _assert_matches(nc.match(cn.rgb_to_bw, (W,), got[:, 0]), f"{kind} rgb to bw")
+    _assert_caught(nc.match(lambda w: 0.299 * w[0] + 0.587 * w[1] + 0.114 * w[2], (W,),
+                            got[:, 0]), "Rec.601 weights")
+
+
+@pytest.mark.parametrize("mode", cn.COLOR_MODES)
+def test_separate_and_combine_color_match_cycles(probe, mode):
+    """Separate Color of W and Combine Color of W's channels, in RGB, HSV and HSL (W reaches
+    below 0 and above 1). Teeth: HSV's formula for HSL, caught."""
+    col = _colour_inputs(probe, "smooth")
+    W = col["W"]
+    m = cn.COLOR_MODES.index(mode)
+
+    def make_sep(tree, s, *_):
+        n = _node(tree, "ShaderNodeSeparateColor", [(0, s["W"])], mode=mode)
+        return [n.outputs[0], n.outputs[1], n.outputs[2]]
+    got = _colour_render(probe, "smooth", ("separate", mode), make_sep)
+    _check_channels(lambda w: cn.separate_color(m, w), (W,), got, f"separate {mode}")
+
+    def make_comb(tree, s, *_):
+        n = _node(tree, "ShaderNodeCombineColor", mode=mode)
+        for i, ch in enumerate(_channels(tree, s["W"])):
+            tree.links.new(ch, n.inputs[i])
+        return n.outputs[0]
+    got = _colour_render(probe, "smooth", ("combine", mode), make_comb)
+    _check_channels(lambda w: cn.combine_color(m, w), (W,), got, f"combine {mode}")
+    if mode == "HSL":
+        _assert_caught(nc.match(lambda w: cn.combine_color(cn.MODE_HSV, w)[0], (W,), got[:, 0]),
+                       "HSV for HSL")
+
+
+def test_blackbody_and_wavelength_match_cycles(probe):
+    """Blackbody over 500-15500 K (all seven fitted ranges, below 800 K and above 12000 K) and
+    Wavelength over 360-810 nm (both ends of the table and past them). Teeth: a temperature
+    off by 5% and the wavelength off by 5 nm: caught."""
+    a, b, c = probe.inputs("smooth")
+    t = 2000.0 * (a + 3.75) + 133.0 * (b + 3.75) + 500.0  # what the graphs below compute
+    lam = 60.0 * (a + 3.75) + 360.0
+
+    def make_bb(tree, a_, b_, c_):
+        temp = _node(tree, "ShaderNodeMath", [(0, _madd(tree, a_, 2000.0, 8000.0)),
+                                              (1, _madd(tree, b_, 133.0, 498.75))],
+                     operation="ADD").outputs[0]
+        return _node(tree, "ShaderNodeBlackbody", [(0, temp)]).outputs[0]
+    got_bb = probe.render("blackbody", make_bb, "smooth")
+    temps = probe.render("blackbody t", lambda tree, a_, b_, c_: [_node(
+        tree, "ShaderNodeMath", [(0, _madd(tree, a_, 2000.0, 8000.0)),
+                                 (1, _madd(tree, b_, 133.0, 498.75))],
+        operation="ADD").outputs[0]], "smooth")[:, 0]
+    assert abs(temps - t).max() < 0.5 and temps.min() < 800 and temps.max() > 12000
+    _check_channels(cn.blackbody, (temps,), got_bb, "blackbody")
+    _assert_caught(nc.match(lambda t: cn.blackbody(t * 1.05)[2], (temps,), got_bb[:, 2]),
+                   "temperature off by 5%")
+
+    def wl(tree, a_):
+        return _madd(tree, a_, 60.0, 585.0)
+    got_wl = probe.render("wavelength", lambda tree, a_, b_, c_: _node(
+        tree, "ShaderNodeWavelength", [(0, wl(tree, a_))]).outputs[0], "smooth")
+    lams = probe.render("wavelength nm", lambda tree, a_, b_, c_: [wl(tree, a_)], "smooth")[:, 0]
+    assert abs(lams - lam).max() < 0.1 and lams.min() < 380 and lams.max() > 780
+    _check_channels(cn.wavelength, (lams,), got_wl, "wavelength")
+    _assert_caught(nc.match(lambda x: cn.wavelength(x + 5.0)[1], (lams,), got_wl[:, 1]),
+                   "wavelength off by 5 nm")
+
+
+# --- Color Ramp, RGB Curves, Float Curve: tables baked by the exporter ------------------------------
+
+RAMP_STOPS = ((0.1, (0.9, 0.2, 0.1, 1.0)), (0.35, (0.2, 0.9, 0.3, 0.8)),
+              (0.6, (1.0, 1.0, 0.0, 0.2)), (0.9, (0.1, 0.4, 0.8, 0.5)))
+
+
+def _ramp_render(probe, interpolation, color_mode="RGB", hue="NEAR", size=None):
+    """Cycles' Color Ramp of factor F[0] (colour in channels 0-2, and alpha through a second
+    render), and the table the exporter baked from the same node."""
+    tables = {}
+
+    def make(tree, s, *_, output=0):
+        n = _node(tree, "ShaderNodeValToRGB")
+        ramp = n.color_ramp
+        ramp.color_mode = color_mode
+        ramp.hue_interpolation = hue
+        ramp.interpolation = interpolation
+        ramp.elements[0].position, ramp.elements[0].color = RAMP_STOPS[0]
+        ramp.elements[1].position, ramp.elements[1].color = RAMP_STOPS[-1]
+        for pos, colour in RAMP_STOPS[1:-1]:
+            ramp.elements.new(pos).color = colour
+        tables["ramp"] = color_export.ramp_table(ramp)
+        tree.links.new(_channels(tree, s["F"])[0], n.inputs[0])
+        return n.outputs[0] if output == 0 else [n.outputs[1]]
+    key = ("ramp", interpolation, color_mode, hue)
+    colour = _colour_render(probe, "smooth", key, make)
+    alpha = _colour_render(probe, "smooth", key + ("alpha",),
+                           lambda *args: make(*args, output=1))[:, 0]
+    return colour, alpha, np.array(tables["ramp"])  # each key's renders are made in one test
+
+
+@pytest.mark.parametrize("interpolation,color_mode,hue", [
+    ("LINEAR", "RGB", "NEAR"), ("CONSTANT", "RGB", "NEAR"), ("EASE", "RGB", "NEAR"),
+    ("CARDINAL", "RGB", "NEAR"), ("B_SPLINE", "RGB", "NEAR"), ("LINEAR", "HSV", "FAR"),
+    ("LINEAR", "HSL", "CW")])
+def test_color_ramp_matches_cycles(probe, interpolation, color_mode, hue):
+    """Color Ramp (four stops, factor in [-0.25, 1.25]) for every interpolation and the HSV and
+    HSL colour modes: the exporter's table (RAMP_TABLE_SIZE + 1 entries evaluated by Blender)
+    looked up as Cycles does, colour and alpha. Teeth: a table of 256 entries at i / 255, and
+    Linear looked up without interpolation: caught."""
+    colour, alpha, table = _ramp_render(probe, interpolation, color_mode, hue)
+    F = _colour_inputs(probe, "smooth")["F"]
+    size = cn.RAMP_TABLE_SIZE + 1
+    interpolate = interpolation != "CONSTANT"
+    what = f"{interpolation} {color_mode} {hue}"
+    _check_channels(lambda f: cn.color_ramp(table, 0, size, interpolate, f[0])[0], (F,), colour,
+                    what)
+    _assert_matches(nc.match(lambda f: cn.color_ramp(table, 0, size, interpolate, f[0])[1], (F,),
+                             alpha), what + " alpha")
+    if interpolation == "LINEAR" and color_mode == "RGB":
+        short = table[:-4]  # entries 0..255 read as if at i / 255
+        _assert_caught(nc.match(lambda f: cn.color_ramp(short, 0, size - 1, True, f[0])[0][0],
+                                (F,), colour[:, 0]), "256 entries")
+        _assert_caught(nc.match(lambda f: cn.color_ramp(table, 0, size, False, f[0])[0][0],
+                                (F,), colour[:, 0]), "no interpolation")
+
+
+@pytest.mark.parametrize("extend", ("EXTRAPOLATED", "HORIZONTAL"))
+def test_curves_match_cycles(probe, extend):
+    """RGB Curves (the combined curve and each channel's, over a colour in [-0.6, 1.6], factor in
+    [-0.25, 1.25]) and Float Curve (end points moved in to x = 0.2 and 0.8), extrapolated and
+    horizontal. Teeth: the other extension mode, and a Float Curve table without its min_x:
+    caught."""
+    tables = {}
+
+    def make_rgb(tree, s, *_):
+        n = _node(tree, "ShaderNodeRGBCurve")
+        m = n.mapping
+        m.extend = extend
+        m.curves[3].points.new(0.3, 0.5)
+        m.curves[0].points.new(0.5, 0.8)
+        m.curves[1].points[-1].location = (1.0, 0.6)
+        m.curves[2].points.new(0.25, 0.1)
+        m.curves[2].points.new(0.75, 0.9)
+        m.update()
+        tables["rgb"] = color_export.rgb_curves_table(m)
+        tree.links.new(_channels(tree, s["F"])[0], n.inputs[0])
+        tree.links.new(s["W"], n.inputs[1])
+        return n.outputs[0]
+
+    def make_float(tree, s, *_):
+        n = _node(tree, "ShaderNodeFloatCurve")
+        m = n.mapping
+        m.extend = extend
+        curve = m.curves[0]
+        curve.points[0].location = (0.2, 0.1)
+        curve.points[-1].location = (0.8, 0.9)
+        curve.points.new(0.5, 0.7)
+        m.update()
+        tables["float"] = color_export.float_curve_table(m)
+        w = _channels(tree, s["W"])
+        tree.links.new(_channels(tree, s["F"])[0], n.inputs[0])
+        tree.links.new(w[0], n.inputs[1])
+        return [n.outputs[0]]
+    rgb = _colour_render(probe, "smooth", ("rgb curves", extend), make_rgb)
+    flt = _colour_render(probe, "smooth", ("float curve", extend), make_float)[:, 0]
+    col = _colour_inputs(probe, "smooth")
+    F, W = col["F"], col["W"]
+    size = cn.RAMP_TABLE_SIZE + 1
+    extrapolate = extend == "EXTRAPOLATED"
+    t_rgb, t_float = np.array(tables["rgb"]), np.array(tables["float"])
+    assert t_float[0] == pytest.approx(0.2) and t_float[1] == pytest.approx(0.8)
+    _check_channels(lambda f, w: cn.rgb_curves(t_rgb, 0, size, extrapolate, f[0], w), (F, W),
+                    rgb, f"rgb curves {extend}")
+    _assert_matches(nc.match(lambda f, w: cn.float_curve(t_float, 0, size, extrapolate, f[0],
+                                                         w[0]), (F, W), flt),
+                    f"float curve {extend}")
+    _assert_caught(nc.match(lambda f, w: cn.rgb_curves(t_rgb, 0, size, not extrapolate, f[0],
+                                                       w)[2], (F, W), rgb[:, 2]),
+                   "the other extension")
+    no_min = t_float.copy()
+    no_min[0] = 0.0
+    _assert_caught(nc.match(lambda f, w: cn.float_curve(no_min, 0, size, extrapolate, f[0], w[0]),
+                            (F, W), flt), "min_x left out")
