@@ -726,3 +726,179 @@ def test_curves_match_cycles(probe, extend):
     no_min[0] = 0.0
     _assert_caught(nc.match(lambda f, w: cn.float_curve(no_min, 0, size, extrapolate, f[0], w[0]),
                             (F, W), flt), "min_x left out")
+
+
+# --- the exporter's compile functions, run through the families' execute ----------------------------
+
+from snell.addon.export.shader import math_nodes as math_export  # noqa: E402
+
+COMPILERS = {**math_export.COMPILERS, **color_export.COMPILERS}
+KINDS = {"VALUE": "float", "VECTOR": "vector", "RGBA": "color"}
+
+
+class StandIn:
+    """As much of the shader-program Compiler's contract as these tests need, until the core's
+    Compiler is on this branch: links followed directly (no reroutes or groups), converted as
+    Cycles converts links (colour to float: RGB to BW's luminance; vector to float: the mean;
+    float to vector or colour: splat), a Texture Coordinate's Object output read from registers
+    0-2. Rows run through the two families' execute."""
+
+    def __init__(self):
+        self.rows, self.constants, self.table, self.warnings = [], [], [], []
+        self.size = 3
+        self.done = {}
+
+    def alloc(self, kind):
+        r = self.size
+        self.size += 1 if kind == "float" else 3
+        return r
+
+    def constant(self, value):
+        r = self.alloc("float" if np.ndim(value) == 0 else "vector")
+        self.constants.append((r, value))
+        return r
+
+    def emit(self, opcode, *slots):
+        self.rows.append([opcode, *slots] + [0] * (7 - len(slots)))
+
+    def data(self, values):
+        self.table.extend(values)
+        return len(self.table) - len(values)
+
+    def warn(self, node, what, instead, input=None):
+        self.warnings.append((node.name, what, instead, input))
+
+    def value(self, node, name):
+        return self._socket(node, name).default_value
+
+    def is_linked(self, node, name):
+        return self._socket(node, name).is_linked
+
+    @staticmethod
+    def _socket(node, name):
+        for s in node.inputs:
+            if s.identifier == name:
+                return s
+        return node.inputs[name]
+
+    def input(self, node, name, kind):
+        socket = self._socket(node, name)
+        if not socket.is_linked:
+            v = socket.default_value
+            return self.constant(float(v) if kind == "float" and np.ndim(v) == 0 else
+                                 (tuple(v)[:3] if np.ndim(v) else (float(v),) * 3))
+        link = socket.links[0]
+        reg = self.outputs(link.from_node)[link.from_socket.identifier]
+        have = KINDS[link.from_socket.type]
+        if (have == "float") == (kind == "float"):
+            return reg
+        if kind == "float":
+            out = self.alloc("float")
+            if have == "color":
+                self.emit(cn.RGB_TO_BW, reg, out)
+            else:
+                third = self.constant((1.0 / 3.0,) * 3)
+                self.emit(mn.VECTOR_MATH, mn.V_DOT, reg, third, third, third, out,
+                          self.alloc("vector"))
+            return out
+        out = self.alloc("vector")
+        self.emit(mn.COMBINE_XYZ, reg, reg, reg, out)
+        return out
+
+    def outputs(self, node):
+        if node.name not in self.done:
+            if node.bl_idname == "ShaderNodeTexCoord":
+                self.done[node.name] = {"Object": 0}
+            else:
+                self.done[node.name] = COMPILERS[node.bl_idname](self, node)
+        return self.done[node.name]
+
+    def run(self, point, out, width):
+        """The output register's value(s) at a point (the Object coordinates)."""
+        regs = np.zeros(self.size)
+        regs[0:3] = point
+        for r, v in self.constants:
+            regs[r:r + np.size(v)] = v
+        data = np.array(self.table + [0.0])
+        for row in self.rows:
+            ins = np.array(row, np.int64)
+            (mn if row[0] < 200 else cn).execute(ins, regs, data)
+        return tuple(regs[out:out + width])
+
+
+def _chain_value(tree, x, y):
+    """x, y through Math, Clamp, Map Range (stepped, clamped) and Mix (Float)."""
+    s = _node(tree, "ShaderNodeMath", [(0, x), (1, y)], operation="ARCTAN2").outputs[0]
+    p = _node(tree, "ShaderNodeMath", [(0, x), (1, 1.7)], operation="PINGPONG").outputs[0]
+    cl = _node(tree, "ShaderNodeClamp", [(0, s), (1, -1.0), (2, p)], clamp_type="RANGE")
+    mr = _node(tree, "ShaderNodeMapRange", [(0, cl.outputs[0]), (1, -2.0), (2, 2.5), (3, 0.2),
+                                            (4, 1.1), (5, 6.0)],
+               interpolation_type="STEPPED", clamp=True)
+    mix = _node(tree, "ShaderNodeMix", [(0, y), (2, mr.outputs[0]), (3, p)], data_type="FLOAT")
+    return mix.outputs[0]
+
+
+def _chain_colour(tree, x, y, position):
+    """A Color Ramp (B-Spline) of the value chain, mixed (Overlay) with a Mapping of the point
+    through Vector Math and Map Range (vector), Hue/Saturation and RGB Curves after it."""
+    ramp = _node(tree, "ShaderNodeValToRGB", [(0, _chain_value(tree, x, y))])
+    ramp.color_ramp.interpolation = "B_SPLINE"
+    ramp.color_ramp.elements.new(0.4).color = (0.1, 0.8, 0.3, 1.0)
+    mapping = _node(tree, "ShaderNodeMapping", [(0, position), (2, (0.3, -0.2, 0.9)),
+                                                (3, (0.5, 0.25, 1.0))], vector_type="TEXTURE")
+    vm = _node(tree, "ShaderNodeVectorMath", [(0, mapping.outputs[0]), (1, (0.7, 1.3, 0.4))],
+               operation="WRAP")
+    tree.links.new(position, vm.inputs[2])
+    vmr = _node(tree, "ShaderNodeMapRange", data_type="FLOAT_VECTOR",
+                interpolation_type="SMOOTHERSTEP")
+    tree.links.new(vm.outputs[0], vmr.inputs[6])
+    mix = _node(tree, "ShaderNodeMix", [(0, x), (6, ramp.outputs[0]), (7, vmr.outputs[1])],
+                data_type="RGBA", blend_type="OVERLAY", clamp_factor=False)
+    hsv = _node(tree, "ShaderNodeHueSaturation", [(0, 0.6), (1, 1.4), (4, mix.outputs[2])])
+    curves = _node(tree, "ShaderNodeRGBCurve", [(0, 0.8), (1, hsv.outputs[0])])
+    curves.mapping.curves[3].points.new(0.4, 0.6)
+    curves.mapping.update()
+    return curves.outputs[0]
+
+
+def test_compiled_graphs_match_cycles(probe, monkeypatch):
+    """Two node graphs, compiled by the exporter's compile functions (through a stand-in for the
+    Compiler) and run through the families' execute at Cycles' own points, match Cycles: a
+    value chain (Math, Clamp, Map Range, Mix Float, with links converted) and a colour chain
+    (Color Ramp, Mapping, Vector Math, vector Map Range, Mix Overlay, Hue/Saturation, RGB
+    Curves). Teeth: the Color Ramp baked at i / 255 instead of i / 256, caught."""
+    points = probe.render("object coordinates", lambda tree, a, b, c: _node(
+        tree, "ShaderNodeTexCoord").outputs["Object"], "smooth")
+    compiled = {}
+
+    def build(which):
+        def make(tree, a, b, c):
+            tc = _node(tree, "ShaderNodeTexCoord")
+            xy = _channels(tree, tc.outputs["Object"])
+            socket = (_chain_value(tree, xy[0], xy[1]) if which == "value" else
+                      _chain_colour(tree, xy[0], xy[1], tc.outputs["Object"]))
+            standin = StandIn()
+            out_node = socket.node
+            regs = standin.outputs(out_node)
+            compiled[which] = (standin, regs[socket.identifier],
+                               1 if socket.type == "VALUE" else 3)
+            return socket if socket.type != "VALUE" else [socket]
+        return make
+    for which in ("value", "colour"):
+        got = probe.render(("compiled", which), build(which), "smooth")
+        standin, out, width = compiled[which]
+        assert standin.warnings == []
+        for ch in range(width):
+            _assert_matches(nc.match(lambda p, ch=ch: standin.run(p, out, width)[ch], (points,),
+                                     got[:, ch]), f"{which} channel {ch}")
+    n = cn.RAMP_TABLE_SIZE
+    monkeypatch.setattr(color_export, "ramp_table", lambda ramp: [
+        float(v) for i in range(n + 1) for v in ramp.evaluate(min(i / (n - 1), 1.0))])
+    compiled.clear()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    make = build("colour")
+    make(bpy.data.materials.new("Again").node_tree, None, None, None)
+    standin, out, width = compiled["colour"]
+    got = probe.render(("compiled", "colour"), None, "smooth")
+    _assert_caught(nc.match(lambda p: standin.run(p, out, width)[0], (points,), got[:, 0]),
+                   "ramp baked at i / 255")
