@@ -672,7 +672,7 @@ def test_color_ramp_matches_cycles(probe, interpolation, color_mode, hue):
 @pytest.mark.parametrize("extend", ("EXTRAPOLATED", "HORIZONTAL"))
 def test_curves_match_cycles(probe, extend):
     """RGB Curves (the combined curve and each channel's, over a colour in [-0.6, 1.6], factor in
-    [-0.25, 1.25]) and Float Curve (end points moved in to x = 0.2 and 0.8), extrapolated and
+    [-0.25, 1.25]), Vector Curves (over [-1, 1]) and Float Curve (end points moved in to x = 0.2 and 0.8), extrapolated and
     horizontal. Teeth: the other extension mode, and a Float Curve table without its min_x:
     caught."""
     tables = {}
@@ -706,16 +706,33 @@ def test_curves_match_cycles(probe, extend):
         tree.links.new(_channels(tree, s["F"])[0], n.inputs[0])
         tree.links.new(w[0], n.inputs[1])
         return [n.outputs[0]]
+    def make_vector(tree, s, *_):
+        n = _node(tree, "ShaderNodeVectorCurve")
+        m = n.mapping
+        m.extend = extend
+        m.curves[0].points.new(0.2, 0.7)
+        m.curves[1].points[0].location = (-0.8, 0.3)
+        m.curves[2].points.new(-0.3, -0.6)
+        m.update()
+        tables["vector"] = color_export.rgb_curves_table(m, combined=False)
+        tree.links.new(_channels(tree, s["F"])[0], n.inputs[0])
+        tree.links.new(s["W"], n.inputs[1])
+        return n.outputs[0]
     rgb = _colour_render(probe, "smooth", ("rgb curves", extend), make_rgb)
+    vec = _colour_render(probe, "smooth", ("vector curves", extend), make_vector)
     flt = _colour_render(probe, "smooth", ("float curve", extend), make_float)[:, 0]
     col = _colour_inputs(probe, "smooth")
     F, W = col["F"], col["W"]
     size = cn.RAMP_TABLE_SIZE + 1
     extrapolate = extend == "EXTRAPOLATED"
     t_rgb, t_float = np.array(tables["rgb"]), np.array(tables["float"])
+    t_vec = np.array(tables["vector"])
+    assert t_vec[0] == pytest.approx(-1.0) and t_vec[1] == pytest.approx(1.0)
     assert t_float[0] == pytest.approx(0.2) and t_float[1] == pytest.approx(0.8)
     _check_channels(lambda f, w: cn.rgb_curves(t_rgb, 0, size, extrapolate, f[0], w), (F, W),
                     rgb, f"rgb curves {extend}")
+    _check_channels(lambda f, w: cn.rgb_curves(t_vec, 0, size, extrapolate, f[0], w), (F, W),
+                    vec, f"vector curves {extend}")
     _assert_matches(nc.match(lambda f, w: cn.float_curve(t_float, 0, size, extrapolate, f[0],
                                                          w[0]), (F, W), flt),
                     f"float curve {extend}")
@@ -827,9 +844,12 @@ class StandIn:
 
 
 def _chain_value(tree, x, y):
-    """x, y through Math, Clamp, Map Range (stepped, clamped) and Mix (Float)."""
+    """x, y through Value, Math, Clamp, Map Range (stepped, clamped) and Mix (Float)."""
     s = _node(tree, "ShaderNodeMath", [(0, x), (1, y)], operation="ARCTAN2").outputs[0]
-    p = _node(tree, "ShaderNodeMath", [(0, x), (1, 1.7)], operation="PINGPONG").outputs[0]
+    value = _node(tree, "ShaderNodeValue")
+    value.outputs[0].default_value = 1.7
+    p = _node(tree, "ShaderNodeMath", [(0, x), (1, value.outputs[0])],
+              operation="PINGPONG").outputs[0]
     cl = _node(tree, "ShaderNodeClamp", [(0, s), (1, -1.0), (2, p)], clamp_type="RANGE")
     mr = _node(tree, "ShaderNodeMapRange", [(0, cl.outputs[0]), (1, -2.0), (2, 2.5), (3, 0.2),
                                             (4, 1.1), (5, 6.0)],
@@ -840,13 +860,16 @@ def _chain_value(tree, x, y):
 
 def _chain_colour(tree, x, y, position):
     """A Color Ramp (B-Spline) of the value chain, mixed (Overlay) with a Mapping of the point
-    through Vector Math and Map Range (vector), Hue/Saturation and RGB Curves after it."""
+    through Vector Math (wrapped by an RGB node's colour) and Map Range (vector),
+    Hue/Saturation and RGB Curves after it."""
     ramp = _node(tree, "ShaderNodeValToRGB", [(0, _chain_value(tree, x, y))])
     ramp.color_ramp.interpolation = "B_SPLINE"
     ramp.color_ramp.elements.new(0.4).color = (0.1, 0.8, 0.3, 1.0)
     mapping = _node(tree, "ShaderNodeMapping", [(0, position), (2, (0.3, -0.2, 0.9)),
                                                 (3, (0.5, 0.25, 1.0))], vector_type="TEXTURE")
-    vm = _node(tree, "ShaderNodeVectorMath", [(0, mapping.outputs[0]), (1, (0.7, 1.3, 0.4))],
+    rgb = _node(tree, "ShaderNodeRGB")
+    rgb.outputs[0].default_value = (0.7, 1.3, 0.4, 1.0)
+    vm = _node(tree, "ShaderNodeVectorMath", [(0, mapping.outputs[0]), (1, rgb.outputs[0])],
                operation="WRAP")
     tree.links.new(position, vm.inputs[2])
     vmr = _node(tree, "ShaderNodeMapRange", data_type="FLOAT_VECTOR",
@@ -864,9 +887,9 @@ def _chain_colour(tree, x, y, position):
 def test_compiled_graphs_match_cycles(probe, monkeypatch):
     """Two node graphs, compiled by the exporter's compile functions (through a stand-in for the
     Compiler) and run through the families' execute at Cycles' own points, match Cycles: a
-    value chain (Math, Clamp, Map Range, Mix Float, with links converted) and a colour chain
-    (Color Ramp, Mapping, Vector Math, vector Map Range, Mix Overlay, Hue/Saturation, RGB
-    Curves). Teeth: the Color Ramp baked at i / 255 instead of i / 256, caught."""
+    value chain (Value, Math, Clamp, Map Range, Mix Float, with links converted) and a colour
+    chain (Color Ramp, Mapping, RGB, Vector Math, vector Map Range, Mix Overlay,
+    Hue/Saturation, RGB Curves). Teeth: the Color Ramp baked at i / 255 instead of i / 256, caught."""
     points = probe.render("object coordinates", lambda tree, a, b, c: _node(
         tree, "ShaderNodeTexCoord").outputs["Object"], "smooth")
     compiled = {}

@@ -1,6 +1,7 @@
-"""The colour nodes' compile functions for shader programs: Mix and MixRGB, Invert,
+"""The colour nodes' compile functions for shader programs: RGB, Mix and MixRGB, Invert,
 Hue/Saturation/Value, Gamma, Bright/Contrast, Separate/Combine Color, RGB to BW, Blackbody,
-Wavelength, Color Ramp, RGB Curves, Float Curve (rows of tracer/shader/color_nodes.py).
+Wavelength, Color Ramp, RGB Curves, Vector Curves, Float Curve (rows of
+tracer/shader/color_nodes.py).
 
 Ramps and curves are baked into tables as Blender's Cycles sync bakes them
 (intern/cycles/blender/util.h: colorramp_to_array, curvemapping_color_to_array,
@@ -40,16 +41,19 @@ def curves_range(mapping, count):
     return float(lo), float(hi)
 
 
-def rgb_curves_table(mapping):
-    """RGB Curves' data: min_x, max_x, then RAMP_TABLE_SIZE + 1 RGB entries, each channel's
-    curve applied after the combined (C) curve, at min_x + i / RAMP_TABLE_SIZE (max_x - min_x)."""
+def rgb_curves_table(mapping, combined=True):
+    """RGB Curves' data (Vector Curves' with combined=False): min_x, max_x, then
+    RAMP_TABLE_SIZE + 1 RGB entries at min_x + i / RAMP_TABLE_SIZE (max_x - min_x), each
+    channel's curve applied after the combined (C) curve of RGB Curves."""
     mapping.initialize()
-    lo, hi = curves_range(mapping, 4)
-    r, g, b, combined = mapping.curves[0], mapping.curves[1], mapping.curves[2], mapping.curves[3]
+    lo, hi = curves_range(mapping, 4 if combined else 3)
+    r, g, b = mapping.curves[0], mapping.curves[1], mapping.curves[2]
     n = ops.RAMP_TABLE_SIZE
     table = [lo, hi]
     for i in range(n + 1):
-        t = mapping.evaluate(combined, lo + i / n * (hi - lo))
+        t = lo + i / n * (hi - lo)
+        if combined:
+            t = mapping.evaluate(mapping.curves[3], t)
         table += [mapping.evaluate(r, t), mapping.evaluate(g, t), mapping.evaluate(b, t)]
     return table
 
@@ -188,6 +192,15 @@ def compile_rgb_curves(c, node):
     return {"Color": out}
 
 
+def compile_vector_curves(c, node):
+    """Vector Curves: Cycles runs it as RGB Curves without the combined curve."""
+    out = c.alloc("vector")
+    c.emit(ops.RGB_CURVES, int(node.mapping.extend == "EXTRAPOLATED"), ops.RAMP_TABLE_SIZE + 1,
+           c.data(rgb_curves_table(node.mapping, combined=False)), c.input(node, "Fac", "float"),
+           c.input(node, "Vector", "vector"), out)
+    return {"Vector": out}
+
+
 def compile_float_curve(c, node):
     """Float Curve: its table in data and one FLOAT_CURVE row."""
     out = c.alloc("float")
@@ -197,7 +210,13 @@ def compile_float_curve(c, node):
     return {"Value": out}
 
 
+def compile_rgb(c, node):
+    """RGB: a constant colour (Cycles' ColorNode; alpha dropped)."""
+    return {"Color": c.constant(tuple(float(v) for v in node.outputs[0].default_value[:3]))}
+
+
 COMPILERS = {
+    "ShaderNodeRGB": compile_rgb,
     "ShaderNodeMix": compile_mix,
     "ShaderNodeMixRGB": compile_mix_rgb,
     "ShaderNodeInvert": compile_invert,
@@ -211,5 +230,6 @@ COMPILERS = {
     "ShaderNodeWavelength": compile_wavelength,
     "ShaderNodeValToRGB": compile_color_ramp,
     "ShaderNodeRGBCurve": compile_rgb_curves,
+    "ShaderNodeVectorCurve": compile_vector_curves,
     "ShaderNodeFloatCurve": compile_float_curve,
 }

@@ -1,5 +1,5 @@
-"""The value nodes' compile functions for shader programs: Math, Vector Math, Clamp, Map Range,
-Mapping, Separate/Combine XYZ (rows of tracer/shader/math_nodes.py). Cycles' own compile steps
+"""The value nodes' compile functions for shader programs: Value, Math, Vector Math, Clamp, Map
+Range, Mapping, Separate/Combine XYZ (rows of tracer/shader/math_nodes.py). Cycles' own compile steps
 are in scene/shader_nodes.cpp (MathNode, VectorMathNode, ClampNode, MapRangeNode,
 VectorMapRangeNode, MappingNode, SeparateXYZNode, CombineXYZNode)."""
 from __future__ import annotations
@@ -101,7 +101,13 @@ def compile_combine_xyz(c, node):
     return {"Vector": out}
 
 
+def compile_value(c, node):
+    """Value: a constant (Cycles' ValueNode)."""
+    return {"Value": c.constant(float(node.outputs[0].default_value))}
+
+
 COMPILERS = {
+    "ShaderNodeValue": compile_value,
     "ShaderNodeMath": compile_math,
     "ShaderNodeVectorMath": compile_vector_math,
     "ShaderNodeClamp": compile_clamp,
