@@ -1,6 +1,6 @@
 """The value nodes' compile functions for shader programs: Value, Math, Vector Math, Clamp, Map
-Range, Mapping, Separate/Combine XYZ (rows of tracer/shader/math_nodes.py). Cycles' own compile steps
-are in scene/shader_nodes.cpp (MathNode, VectorMathNode, ClampNode, MapRangeNode,
+Range, Mapping, Separate/Combine XYZ (rows of tracer/shader/math_nodes.py). Cycles' own compile
+steps are in scene/shader_nodes.cpp (MathNode, VectorMathNode, ClampNode, MapRangeNode,
 VectorMapRangeNode, MappingNode, SeparateXYZNode, CombineXYZNode)."""
 from __future__ import annotations
 
