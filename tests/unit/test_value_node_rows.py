@@ -131,3 +131,51 @@ def test_execute_wires_every_opcode_to_its_formula(family, codes):
                 for e, g in zip(expected, got):
                     assert np.allclose(e, g, rtol=1e-12, atol=1e-12, equal_nan=True), \
                         (name, literals, e, g)
+
+
+class _Recorder:
+    """A stand-in Compiler that records rows and warnings (inputs are fresh registers)."""
+
+    def __init__(self):
+        self.rows, self.warnings, self.size = [], [], 0
+
+    def alloc(self, kind):
+        self.size += 1 if kind == "float" else 3
+        return self.size - (1 if kind == "float" else 3)
+
+    def input(self, node, name, kind):
+        return self.alloc(kind)
+
+    def constant(self, value):
+        return self.alloc("float" if np.ndim(value) == 0 else "vector")
+
+    def emit(self, opcode, *slots):
+        self.rows.append((opcode, *slots))
+
+    def warn(self, node, what, instead, input=None):
+        self.warnings.append((node.name, what, instead))
+
+
+class _Node:
+    def __init__(self, **props):
+        self.name, self.inputs = "Node", []
+        self.__dict__.update(props)
+
+
+def test_unknown_modes_compile_with_a_warning():
+    """A Math operation or blend mode from a newer Blender compiles as the first one (Add, Mix)
+    with one warning naming it; a Mix of rotations warns and gives no output."""
+    from snell.addon.export.shader import color_nodes as ce
+    from snell.addon.export.shader import math_nodes as me
+    c = _Recorder()
+    out = me.compile_math(c, _Node(operation="CUBE_ROOT", use_clamp=False))
+    assert set(out) == {"Value"} and c.rows[-1][:3] == (mn.MATH, mn.M_ADD, 0)
+    assert c.warnings == [("Node", "operation CUBE_ROOT is not evaluated", "Add")]
+    c = _Recorder()
+    out = ce.compile_mix(c, _Node(data_type="RGBA", blend_type="PIN_LIGHT", clamp_factor=True,
+                                  clamp_result=False))
+    assert set(out) == {"Result_Color"} and c.rows[-1][:4] == (cn.MIX_COLOR, cn.B_MIX, 1, 0)
+    assert c.warnings == [("Node", "blend mode PIN_LIGHT is not evaluated", "Mix")]
+    c = _Recorder()
+    assert ce.compile_mix(c, _Node(data_type="ROTATION", clamp_factor=True)) == {}
+    assert len(c.warnings) == 1 and c.rows == []
