@@ -17,19 +17,25 @@ WIDTH = {"f": 1, "v": 3}
 
 @pytest.mark.parametrize("family,codes", FAMILIES)
 def test_specs_are_well_formed(family, codes):
-    """Each opcode is in its family's range, named, with 7 slots of 'fvid-'; execute leaves a
-    row of an unknown opcode alone."""
-    for code, (name, slots) in family.SPECS.items():
+    """Each opcode is in its family's range, named, with 7 slots of 'fvid-' (a 'd' followed by
+    its count, an 'i'), every enum's literal bounded; execute leaves a row of an unknown opcode
+    alone."""
+    for code, spec in family.SPECS.items():
+        name, slots = spec[:2]
+        limits = spec[2] if len(spec) > 2 else {}
         assert code in codes
         assert ":" in name and len(slots) == 7 and set(slots) <= set("fvid-"), (code, slots)
+        counts = {k + 2 for k, s in enumerate(slots) if s == "d"}
+        assert all(slots[k - 1] == "i" for k in counts)
+        assert {k + 1 for k, s in enumerate(slots) if s == "i"} - counts == set(limits), name
     regs = np.arange(8.0)
     family.execute(np.array([codes[-1], 0, 1, 2, 3, 4, 5, 6], np.int64), regs, regs)
     assert np.array_equal(regs, np.arange(8.0))
 
 
 def _row(rng, code, slots, literals, data_offset=0):
-    """A row of opcode code: literal ints from `literals` in the 'i' slots, the data offset in
-    'd', and registers for 'f'/'v' slots laid out without overlap."""
+    """A row of opcode code: literal ints from `literals` in the 'i' slots (a data count too),
+    the data offset in 'd', and registers for 'f'/'v' slots laid out without overlap."""
     row = np.zeros(8, np.int64)
     row[0] = code
     nxt, lit = 0, iter(literals)
@@ -97,11 +103,11 @@ CASES = {
     cn.RGB_TO_BW: ([()], 1, lambda L, c: [cn.rgb_to_bw(c)]),
     cn.BLACKBODY: ([()], 1, lambda L, t: [cn.blackbody(t)]),
     cn.WAVELENGTH: ([()], 1, lambda L, w: [cn.wavelength(w)]),
-    cn.COLOR_RAMP: ([(i, 257) for i in (0, 1)], 2, lambda L, f: list(
+    cn.COLOR_RAMP: ([(i, 4 * 257) for i in (0, 1)], 2, lambda L, f: list(
         cn.color_ramp(DATA, 2, 257, L[0] != 0, f))),
-    cn.RGB_CURVES: ([(e, 257) for e in (0, 1)], 1, lambda L, f, c: [
+    cn.RGB_CURVES: ([(e, 2 + 3 * 257) for e in (0, 1)], 1, lambda L, f, c: [
         cn.rgb_curves(DATA, 0, 257, L[0] != 0, f, c)]),
-    cn.FLOAT_CURVE: ([(e, 257) for e in (0, 1)], 1, lambda L, f, v: [
+    cn.FLOAT_CURVE: ([(e, 2 + 257) for e in (0, 1)], 1, lambda L, f, v: [
         cn.float_curve(DATA, 0, 257, L[0] != 0, f, v)]),
 }
 
@@ -112,7 +118,8 @@ def test_execute_wires_every_opcode_to_its_formula(family, codes):
     the formula's. Teeth: execute writing Vector Math's Value 1e-9 off, or reading MIX_COLOR's
     clamp-result flag from its clamp-factor slot, fails this test (tried, both caught)."""
     rng = np.random.default_rng(7)
-    for code, (name, slots) in family.SPECS.items():
+    for code, spec in family.SPECS.items():
+        name, slots = spec[:2]
         literal_sets, n_out, formula = CASES[code]
         data_offset = 2 if code == cn.COLOR_RAMP else 0
         for literals in literal_sets:

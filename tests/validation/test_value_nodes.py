@@ -755,102 +755,48 @@ def test_curves_match_cycles(probe, extend):
                             (F, W), flt), "min_x left out")
 
 
-# --- the exporter's compile functions, run through the families' execute ----------------------
+# --- whole materials: exported, compiled and run by the shader-program interpreter -------------
 
-from snell.addon.export.shader import math_nodes as math_export  # noqa: E402
+from snell.addon import export  # noqa: E402
+from snell.tracer import lobes  # noqa: E402
+from snell.tracer.materials import material_tables  # noqa: E402
+from snell.tracer.microfacet_tables import shipped_tables  # noqa: E402
+from snell.tracer.shader import closures, inputs as shader_inputs, program  # noqa: E402
+from support.node_probe import probe_scene  # noqa: E402
 
-COMPILERS = {**math_export.COMPILERS, **color_export.COMPILERS}
-KINDS = {"VALUE": "float", "VECTOR": "vector", "RGBA": "color"}
 
+class SnellProgram:
+    """The probe plane's material as Snell exports and runs it: the Emission its program gives
+    at points of the plane (program.run at a camera hit there, facing +z)."""
 
-class StandIn:
-    """As much of the shader-program Compiler's contract as these tests need, until the core's
-    Compiler is on this branch: links followed directly (no reroutes or groups), converted as
-    Cycles converts links (colour to float: RGB to BW's luminance; vector to float: the mean;
-    float to vector or colour: splat), a Texture Coordinate's Object output read from registers
-    0-2. Rows run through the two families' execute."""
+    def __init__(self, build):
+        probe_scene(build, size=nc.SIZE, extent=nc.EXTENT)
+        scene, self.warnings = export.export_depsgraph(bpy.context.evaluated_depsgraph_get())
+        (self.material,) = scene.materials
+        self.mats = material_tables(scene.materials, scene.material_ids, scene.images,
+                                    scene.texcoords)
+        self.positions, self.triangles = scene.positions, scene.triangles
+        self.regs = program.new_registers()
+        self.scratch = np.zeros((lobes.MAX_LOBES, lobes.FIELDS))
+        self.tables = shipped_tables()
 
-    def __init__(self):
-        self.rows, self.constants, self.table, self.warnings = [], [], [], []
-        self.size = 3
-        self.done = {}
+    def _triangle(self, p):
+        """(triangle, b1, b2) of the plane's triangle holding point p."""
+        for t, tri in enumerate(self.triangles):
+            v0, v1, v2 = (self.positions[i][:2] for i in tri)
+            m = np.array([v1 - v0, v2 - v0]).T
+            b1, b2 = np.linalg.solve(m, np.asarray(p[:2]) - v0)
+            if b1 >= -1e-9 and b2 >= -1e-9 and b1 + b2 <= 1 + 1e-9:
+                return t, float(b1), float(b2)
+        raise AssertionError(f"{p} is off the plane")
 
-    def alloc(self, kind):
-        r = self.size
-        self.size += 1 if kind == "float" else 3
-        return r
-
-    def constant(self, value):
-        r = self.alloc("float" if np.ndim(value) == 0 else "vector")
-        self.constants.append((r, value))
-        return r
-
-    def emit(self, opcode, *slots):
-        self.rows.append([opcode, *slots] + [0] * (7 - len(slots)))
-
-    def data(self, values):
-        self.table.extend(values)
-        return len(self.table) - len(values)
-
-    def warn(self, node, what, instead, input=None):
-        self.warnings.append((node.name, what, instead, input))
-
-    def value(self, node, name):
-        return self._socket(node, name).default_value
-
-    def is_linked(self, node, name):
-        return self._socket(node, name).is_linked
-
-    @staticmethod
-    def _socket(node, name):
-        for s in node.inputs:
-            if s.identifier == name:
-                return s
-        return node.inputs[name]
-
-    def input(self, node, name, kind):
-        socket = self._socket(node, name)
-        if not socket.is_linked:
-            v = socket.default_value
-            return self.constant(float(v) if kind == "float" and np.ndim(v) == 0 else
-                                 (tuple(v)[:3] if np.ndim(v) else (float(v),) * 3))
-        link = socket.links[0]
-        reg = self.outputs(link.from_node)[link.from_socket.identifier]
-        have = KINDS[link.from_socket.type]
-        if (have == "float") == (kind == "float"):
-            return reg
-        if kind == "float":
-            out = self.alloc("float")
-            if have == "color":
-                self.emit(cn.RGB_TO_BW, reg, out)
-            else:
-                third = self.constant((1.0 / 3.0,) * 3)
-                self.emit(mn.VECTOR_MATH, mn.V_DOT, reg, third, third, third, out,
-                          self.alloc("vector"))
-            return out
-        out = self.alloc("vector")
-        self.emit(mn.COMBINE_XYZ, reg, reg, reg, out)
-        return out
-
-    def outputs(self, node):
-        if node.name not in self.done:
-            if node.bl_idname == "ShaderNodeTexCoord":
-                self.done[node.name] = {"Object": 0}
-            else:
-                self.done[node.name] = COMPILERS[node.bl_idname](self, node)
-        return self.done[node.name]
-
-    def run(self, point, out, width):
-        """The output register's value(s) at a point (the Object coordinates)."""
-        regs = np.zeros(self.size)
-        regs[0:3] = point
-        for r, v in self.constants:
-            regs[r:r + np.size(v)] = v
-        data = np.array(self.table + [0.0])
-        for row in self.rows:
-            ins = np.array(row, np.int64)
-            (mn if row[0] < 200 else cn).execute(ins, regs, data)
-        return tuple(regs[out:out + width])
+    def emission(self, p):
+        t, b1, b2 = self._triangle(p)
+        n = (0.0, 0.0, 1.0)
+        hit = ((float(p[0]), float(p[1]), 0.0), n, n, n, True, t, b1, b2,
+               1 << shader_inputs.LP_CAMERA, 0, 1.0)
+        program.run(self.mats, 0, self.regs, hit, self.scratch, self.tables, False)
+        return program.total(self.regs, closures.TOTAL_EMISSION)
 
 
 def _chain_value(tree, x, y):
@@ -894,45 +840,38 @@ def _chain_colour(tree, x, y, position):
     return curves.outputs[0]
 
 
-def test_compiled_graphs_match_cycles(probe, monkeypatch):
-    """Two node graphs, compiled by the exporter's compile functions (through a stand-in for the
-    Compiler) and run through the families' execute at Cycles' own points, match Cycles: a
-    value chain (Value, Math, Clamp, Map Range, Mix Float, with links converted) and a colour
-    chain (Color Ramp, Mapping, RGB, Vector Math, vector Map Range, Mix Overlay,
-    Hue/Saturation, RGB Curves). Teeth: the Color Ramp baked at i / 255 instead of i / 256,
-    caught (180 pixels wrong)."""
+def test_compiled_materials_match_cycles(probe, monkeypatch):
+    """Two node graphs into the probe plane's Emission, exported by Snell's exporter (its
+    Compiler and these families' compile functions) and run by the shader-program interpreter
+    at Cycles' own points, match Cycles: a value chain (Value, Math, Clamp, Map Range, Mix
+    Float, with links converted) and a colour chain (Color Ramp, Mapping, RGB, Vector Math,
+    vector Map Range, Mix Overlay, Hue/Saturation, RGB Curves). Teeth: the Color Ramp baked at
+    i / 255 instead of i / 256, caught."""
     points = probe.render("object coordinates", lambda tree, a, b, c: _node(
         tree, "ShaderNodeTexCoord").outputs["Object"], "smooth")
-    compiled = {}
 
     def build(which):
-        def make(tree, a, b, c):
+        def make(tree):
             tc = _node(tree, "ShaderNodeTexCoord")
             xy = _channels(tree, tc.outputs["Object"])
-            socket = (_chain_value(tree, xy[0], xy[1]) if which == "value" else
-                      _chain_colour(tree, xy[0], xy[1], tc.outputs["Object"]))
-            standin = StandIn()
-            out_node = socket.node
-            regs = standin.outputs(out_node)
-            compiled[which] = (standin, regs[socket.identifier],
-                               1 if socket.type == "VALUE" else 3)
-            return socket if socket.type != "VALUE" else [socket]
+            return (_chain_value(tree, xy[0], xy[1]) if which == "value" else
+                    _chain_colour(tree, xy[0], xy[1], tc.outputs["Object"]))
         return make
     for which in ("value", "colour"):
-        got = probe.render(("compiled", which), build(which), "smooth")
-        standin, out, width = compiled[which]
-        assert standin.warnings == []
-        for ch in range(width):
-            _assert_matches(nc.match(lambda p, ch=ch: standin.run(p, out, width)[ch], (points,),
+        got = probe.render(("compiled", which), lambda tree, a, b, c: build(which)(tree),
+                           "smooth")
+        snell = SnellProgram(build(which))
+        assert snell.warnings == [] and snell.material["kind"] == "program"
+        ops = {row[0] for row in snell.material["program"]["code"]}
+        assert any(100 <= op < 200 for op in ops) and (which == "value" or
+                                                       any(op >= 200 for op in ops))
+        for ch in range(3):
+            _assert_matches(nc.match(lambda p, ch=ch: snell.emission(p)[ch], (points,),
                                      got[:, ch]), f"{which} channel {ch}")
     n = cn.RAMP_TABLE_SIZE
     monkeypatch.setattr(color_export, "ramp_table", lambda ramp: [
         float(v) for i in range(n + 1) for v in ramp.evaluate(min(i / (n - 1), 1.0))])
-    compiled.clear()
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    make = build("colour")
-    make(bpy.data.materials.new("Again").node_tree, None, None, None)
-    standin, out, width = compiled["colour"]
+    snell = SnellProgram(build("colour"))
     got = probe.render(("compiled", "colour"), None, "smooth")
-    _assert_caught(nc.match(lambda p: standin.run(p, out, width)[0], (points,), got[:, 0]),
+    _assert_caught(nc.match(lambda p: snell.emission(p)[0], (points,), got[:, 0]),
                    "ramp baked at i / 255")

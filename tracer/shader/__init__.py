@@ -1,1 +1,2 @@
-"""Shader programs: node families the interpreter runs (see docs/architecture.md)."""
+"""Shader programs: the node trees of materials compiled to instructions the tracer runs per hit
+(program.py), in families of instructions (closures.py, inputs.py)."""

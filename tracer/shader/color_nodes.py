@@ -37,29 +37,6 @@ COLOR_RAMP = 213       # Color Ramp: a table of RGBA entries
 RGB_CURVES = 214       # RGB Curves: min_x, max_x and a table of RGB entries
 FLOAT_CURVE = 215      # Float Curve: min_x, max_x and a table of values
 
-SPECS = {
-    MIX_COLOR: ("Mix (Color) / MixRGB: blend(factor, A, B), factor and result clamped if asked",
-                "iiifvvv"),
-    MIX_FLOAT: ("Mix (Float): A (1 - factor) + B factor", "iffff--"),
-    MIX_VECTOR: ("Mix (Vector): A (1 - factor) + B factor", "ifvvv--"),
-    MIX_VECTOR_NONUNIFORM: ("Mix (Vector, non-uniform): per component", "ivvvv--"),
-    INVERT: ("Invert: factor (1 - colour) + (1 - factor) colour", "fvv----"),
-    HUE_SAT: ("Hue/Saturation/Value: hue, saturation, value, factor, colour", "ffffvv-"),
-    GAMMA: ("Gamma: colour^gamma", "fvv----"),
-    BRIGHT_CONTRAST: ("Bright/Contrast: brightness, contrast, colour", "ffvv---"),
-    SEPARATE_COLOR: ("Separate Color: mode, colour to three values", "ivfff--"),
-    COMBINE_COLOR: ("Combine Color: mode, three values to a colour", "ifffv--"),
-    RGB_TO_BW: ("RGB to BW: the luminance of a colour", "vf-----"),
-    BLACKBODY: ("Blackbody: the colour of a temperature in kelvin", "fv-----"),
-    WAVELENGTH: ("Wavelength: the colour of a wavelength in nm", "fv-----"),
-    COLOR_RAMP: ("Color Ramp: interpolate, table size, RGBA table; factor to colour, alpha",
-                 "iidfvf-"),
-    RGB_CURVES: ("RGB Curves: extrapolate, table size, (min_x, max_x, RGB table); factor, "
-                 "colour", "iidfvv-"),
-    FLOAT_CURVE: ("Float Curve: extrapolate, table size, (min_x, max_x, table); factor, value",
-                  "iidfff-"),
-}
-
 # Blender's identifiers, in the order of the literal int in a row.
 BLEND_TYPES = ("MIX", "DARKEN", "MULTIPLY", "BURN", "LIGHTEN", "SCREEN", "DODGE", "ADD",
                "OVERLAY", "SOFT_LIGHT", "LINEAR_LIGHT", "DIFFERENCE", "EXCLUSION", "SUBTRACT",
@@ -69,6 +46,31 @@ BLEND_TYPES = ("MIX", "DARKEN", "MULTIPLY", "BURN", "LIGHTEN", "SCREEN", "DODGE"
  B_VALUE) = range(len(BLEND_TYPES))
 COLOR_MODES = ("RGB", "HSV", "HSL")
 MODE_RGB, MODE_HSV, MODE_HSL = 0, 1, 2
+
+SPECS = {
+    MIX_COLOR: ("Mix (Color) / MixRGB: blend i of A and B at factor f; factor, result clamped "
+                "if asked", "iiifvvv", {1: len(BLEND_TYPES), 2: 2, 3: 2}),
+    MIX_FLOAT: ("Mix (Float): A (1 - factor) + B factor", "iffff--", {1: 2}),
+    MIX_VECTOR: ("Mix (Vector): A (1 - factor) + B factor", "ifvvv--", {1: 2}),
+    MIX_VECTOR_NONUNIFORM: ("Mix (Vector, non-uniform): per component", "ivvvv--", {1: 2}),
+    INVERT: ("Invert: factor (1 - colour) + (1 - factor) colour", "fvv----"),
+    HUE_SAT: ("Hue/Saturation/Value: hue, saturation, value, factor, colour", "ffffvv-"),
+    GAMMA: ("Gamma: colour^gamma", "fvv----"),
+    BRIGHT_CONTRAST: ("Bright/Contrast: brightness, contrast, colour", "ffvv---"),
+    SEPARATE_COLOR: ("Separate Color: mode i, colour to three values", "ivfff--",
+                     {1: len(COLOR_MODES)}),
+    COMBINE_COLOR: ("Combine Color: mode i, three values to a colour", "ifffv--",
+                    {1: len(COLOR_MODES)}),
+    RGB_TO_BW: ("RGB to BW: the luminance of a colour", "vf-----"),
+    BLACKBODY: ("Blackbody: the colour of a temperature in kelvin", "fv-----"),
+    WAVELENGTH: ("Wavelength: the colour of a wavelength in nm", "fv-----"),
+    COLOR_RAMP: ("Color Ramp: interpolate i, a table of RGBA entries; factor to colour, alpha",
+                 "idifvf-", {1: 2}),
+    RGB_CURVES: ("RGB Curves: extrapolate i, (min_x, max_x, a table of RGB entries); factor, "
+                 "colour", "idifvv-", {1: 2}),
+    FLOAT_CURVE: ("Float Curve: extrapolate i, (min_x, max_x, a table of values); factor, "
+                  "value", "idifff-", {1: 2}),
+}
 
 # Cycles' ramp and curve tables have RAMP_TABLE_SIZE + 1 entries (kernel/types.h; blender/util.h
 # colorramp_to_array and curvemapping_*_to_array evaluate at i / RAMP_TABLE_SIZE).
@@ -620,12 +622,19 @@ def execute(ins, regs, data):
     elif op == WAVELENGTH:
         _store3(regs, ins[2], wavelength(regs[ins[1]]))
     elif op == COLOR_RAMP:
-        color, alpha = color_ramp(data, ins[3], ins[2], ins[1] != 0, regs[ins[4]])
+        # the data holds 4 values an entry; a table needs two entries
+        size = ins[3] // 4
+        color, alpha = ((0.0, 0.0, 0.0), 0.0) if size < 2 else \
+            color_ramp(data, ins[2], size, ins[1] != 0, regs[ins[4]])
         _store3(regs, ins[5], color)
         regs[ins[6]] = alpha
     elif op == RGB_CURVES:
-        _store3(regs, ins[6], rgb_curves(data, ins[3], ins[2], ins[1] != 0, regs[ins[4]],
-                                         _load3(regs, ins[5])))
+        size = (ins[3] - 2) // 3
+        c = _load3(regs, ins[5])
+        _store3(regs, ins[6], c if size < 2 else
+                rgb_curves(data, ins[2], size, ins[1] != 0, regs[ins[4]], c))
     elif op == FLOAT_CURVE:
-        regs[ins[6]] = float_curve(data, ins[3], ins[2], ins[1] != 0, regs[ins[4]],
-                                   regs[ins[5]])
+        size = ins[3] - 2
+        v = regs[ins[5]]
+        regs[ins[6]] = v if size < 2 else float_curve(data, ins[2], size, ins[1] != 0,
+                                                      regs[ins[4]], v)

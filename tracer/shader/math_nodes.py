@@ -28,21 +28,6 @@ MAPPING = 106           # Mapping: Point, Texture, Vector or Normal
 SEPARATE_XYZ = 107      # Separate XYZ
 COMBINE_XYZ = 108       # Combine XYZ
 
-SPECS = {
-    MATH: ("Math: op(a, b, c), clamped to [0, 1] if asked", "iiffff-"),
-    VECTOR_MATH: ("Vector Math: op(a, b, c, scale) to a value and a vector", "ivvvffv"),
-    CLAMP: ("Clamp: value between min and max (Range: either order)", "iffff--"),
-    MAP_RANGE: ("Map Range (float): (value, from_min, from_max), (to_min, to_max, steps)",
-                "iivvf--"),
-    VECTOR_MAP_RANGE: ("Map Range (vector): the factor of value in [from_min, from_max]",
-                       "ivvvvv-"),
-    VECTOR_MAP_APPLY: ("Map Range (vector): to_min + factor (to_max - to_min), clamped",
-                       "ivvvv--"),
-    MAPPING: ("Mapping: vector transformed by location, rotation, scale", "ivvvvv-"),
-    SEPARATE_XYZ: ("Separate XYZ: a vector's components", "vfff---"),
-    COMBINE_XYZ: ("Combine XYZ: a vector of three values", "fffv---"),
-}
-
 # Blender's identifiers, in the order of the literal int in a row.
 MATH_OPERATIONS = (
     "ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM", "SQRT",
@@ -60,11 +45,26 @@ CLAMP_TYPES = ("MINMAX", "RANGE")
 MAP_RANGE_TYPES = ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
 MAPPING_TYPES = ("POINT", "TEXTURE", "VECTOR", "NORMAL")
 
+SPECS = {
+    MATH: ("Math: operation i of a, b, c, clamped to [0, 1] if i", "iiffff-",
+           {1: len(MATH_OPERATIONS), 2: 2}),
+    VECTOR_MATH: ("Vector Math: operation i of a, b, c, scale to a value and a vector",
+                  "ivvvffv", {1: len(VECTOR_MATH_OPERATIONS)}),
+    CLAMP: ("Clamp: value between min and max (Range: either order)", "iffff--",
+            {1: len(CLAMP_TYPES)}),
+    MAP_RANGE: ("Map Range (float): (value, from_min, from_max), (to_min, to_max, steps)",
+                "iivvf--", {1: len(MAP_RANGE_TYPES), 2: 2}),
+    VECTOR_MAP_RANGE: ("Map Range (vector): the factor of value in [from_min, from_max]",
+                       "ivvvvv-", {1: len(MAP_RANGE_TYPES)}),
+    VECTOR_MAP_APPLY: ("Map Range (vector): to_min + factor (to_max - to_min), clamped",
+                       "ivvvv--", {1: 2}),
+    MAPPING: ("Mapping: vector transformed by location, rotation, scale", "ivvvvv-",
+              {1: len(MAPPING_TYPES)}),
+    SEPARATE_XYZ: ("Separate XYZ: a vector's components", "vfff---"),
+    COMBINE_XYZ: ("Combine XYZ: a vector of three values", "fffv---"),
+}
+
 FLT_EPSILON = 1.1920928955078125e-07
-
-
-def _op(table, name):
-    return table.index(name)
 
 
 # Operation numbers, for the formulas below (numba reads these module globals as constants).

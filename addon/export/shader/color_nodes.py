@@ -178,35 +178,36 @@ def compile_color_ramp(c, node):
     """Color Ramp: its table in data and one COLOR_RAMP row (Constant does not interpolate)."""
     ramp = node.color_ramp
     color, alpha = c.alloc("color"), c.alloc("float")
-    c.emit(ops.COLOR_RAMP, int(ramp.interpolation != "CONSTANT"), ops.RAMP_TABLE_SIZE + 1,
-           c.data(ramp_table(ramp)), c.input(node, "Fac", "float"), color, alpha)
+    table = ramp_table(ramp)
+    c.emit(ops.COLOR_RAMP, int(ramp.interpolation != "CONSTANT"), c.data(table), len(table),
+           c.input(node, "Fac", "float"), color, alpha)
     return {"Color": color, "Alpha": alpha}
 
 
 def compile_rgb_curves(c, node):
     """RGB Curves: its table in data and one RGB_CURVES row."""
     out = c.alloc("color")
-    c.emit(ops.RGB_CURVES, int(node.mapping.extend == "EXTRAPOLATED"), ops.RAMP_TABLE_SIZE + 1,
-           c.data(rgb_curves_table(node.mapping)), c.input(node, "Fac", "float"),
-           c.input(node, "Color", "color"), out)
+    table = rgb_curves_table(node.mapping)
+    c.emit(ops.RGB_CURVES, int(node.mapping.extend == "EXTRAPOLATED"), c.data(table), len(table),
+           c.input(node, "Fac", "float"), c.input(node, "Color", "color"), out)
     return {"Color": out}
 
 
 def compile_vector_curves(c, node):
     """Vector Curves: Cycles runs it as RGB Curves without the combined curve."""
     out = c.alloc("vector")
-    c.emit(ops.RGB_CURVES, int(node.mapping.extend == "EXTRAPOLATED"), ops.RAMP_TABLE_SIZE + 1,
-           c.data(rgb_curves_table(node.mapping, combined=False)), c.input(node, "Fac", "float"),
-           c.input(node, "Vector", "vector"), out)
+    table = rgb_curves_table(node.mapping, combined=False)
+    c.emit(ops.RGB_CURVES, int(node.mapping.extend == "EXTRAPOLATED"), c.data(table), len(table),
+           c.input(node, "Fac", "float"), c.input(node, "Vector", "vector"), out)
     return {"Vector": out}
 
 
 def compile_float_curve(c, node):
     """Float Curve: its table in data and one FLOAT_CURVE row."""
     out = c.alloc("float")
-    c.emit(ops.FLOAT_CURVE, int(node.mapping.extend == "EXTRAPOLATED"), ops.RAMP_TABLE_SIZE + 1,
-           c.data(float_curve_table(node.mapping)), c.input(node, "Factor", "float"),
-           c.input(node, "Value", "float"), out)
+    table = float_curve_table(node.mapping)
+    c.emit(ops.FLOAT_CURVE, int(node.mapping.extend == "EXTRAPOLATED"), c.data(table), len(table),
+           c.input(node, "Factor", "float"), c.input(node, "Value", "float"), out)
     return {"Value": out}
 
 
