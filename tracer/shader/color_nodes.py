@@ -19,6 +19,8 @@ import math
 import numpy as np
 
 from ..jit import jit
+from .closures import vector as _load3
+from .inputs import store3 as _store3
 
 MIX_COLOR = 200        # Mix (Color) and the legacy MixRGB: a blend mode of A and B
 MIX_FLOAT = 201        # Mix (Float)
@@ -569,18 +571,6 @@ def float_curve(data, base, size, extrapolate, fac, value):
 
 
 # --- the interpreter's side ---------------------------------------------------------------------
-
-@jit
-def _load3(regs, i):
-    return (regs[i], regs[i + 1], regs[i + 2])
-
-
-@jit
-def _store3(regs, i, v):
-    regs[i] = v[0]
-    regs[i + 1] = v[1]
-    regs[i + 2] = v[2]
-
 
 @jit
 def execute(ins, regs, data):

@@ -17,6 +17,9 @@ import math
 import numpy as np
 
 from ..jit import jit
+from ..vec import add, cross, dot, mul, neg, normalize, sub, vmul  # normalize: safe_normalize
+from .closures import vector as _load3
+from .inputs import store3 as _store3
 
 MATH = 100              # Math: one operation of Value, Value_001, Value_002 (clamped to [0, 1])
 VECTOR_MATH = 101       # Vector Math: one operation, a Value and a Vector output
@@ -295,23 +298,6 @@ def math_node(op, use_clamp, a, b, c):
 # --- Vector Math (math_util.h svm_vector_math, util/math_float3.h) -----------------------------
 
 @jit
-def _dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-@jit
-def _scale(a, s):
-    return (a[0] * s, a[1] * s, a[2] * s)
-
-
-@jit
-def safe_normalize(a):
-    """a / |a|, a itself where |a| is 0."""
-    t = math.sqrt(_dot(a, a))
-    return _scale(a, 1.0 / t) if t != 0.0 else a
-
-
-@jit
 def _fmod_trunc(a, b):
     # Cycles' SSE4.2 fmod: a - trunc(a / b) b, 0 where b is 0 (safe_fmod).
     return a - np.trunc(a / b) * b if b != 0.0 else 0.0
@@ -331,46 +317,45 @@ def vector_math(op, a, b, c, scale):
     vector); the output an operation does not write is 0."""
     zero = (0.0, 0.0, 0.0)
     if op == V_ADD:
-        return 0.0, (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+        return 0.0, add(a, b)
     elif op == V_SUB:
-        return 0.0, (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+        return 0.0, sub(a, b)
     elif op == V_MUL:
-        return 0.0, (a[0] * b[0], a[1] * b[1], a[2] * b[2])
+        return 0.0, vmul(a, b)
     elif op == V_DIV:
         return 0.0, (safe_divide(a[0], b[0]), safe_divide(a[1], b[1]), safe_divide(a[2], b[2]))
     elif op == V_MADD:
         return 0.0, (a[0] * b[0] + c[0], a[1] * b[1] + c[1], a[2] * b[2] + c[2])
     elif op == V_CROSS:
-        return 0.0, (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0])
+        return 0.0, cross(a, b)
     elif op == V_PROJECT:
-        l2 = _dot(b, b)
-        return 0.0, (_scale(b, _dot(a, b) / l2) if l2 != 0.0 else zero)
+        l2 = dot(b, b)
+        return 0.0, (mul(b, dot(a, b) / l2) if l2 != 0.0 else zero)
     elif op == V_REFLECT:
-        n = safe_normalize(b)
-        d = 2.0 * _dot(a, n)
+        n = normalize(b)
+        d = 2.0 * dot(a, n)
         return 0.0, (a[0] - d * n[0], a[1] - d * n[1], a[2] - d * n[2])
     elif op == V_REFRACT:
-        n = safe_normalize(b)
-        d = _dot(n, a)
+        n = normalize(b)
+        d = dot(n, a)
         k = 1.0 - scale * scale * (1.0 - d * d)
         if k < 0.0:
             return 0.0, zero
         f = scale * d + math.sqrt(k)
         return 0.0, (scale * a[0] - f * n[0], scale * a[1] - f * n[1], scale * a[2] - f * n[2])
     elif op == V_FACEFORWARD:
-        return 0.0, (a if _dot(c, b) < 0.0 else (-a[0], -a[1], -a[2]))
+        return 0.0, (a if dot(c, b) < 0.0 else neg(a))
     elif op == V_DOT:
-        return _dot(a, b), zero
+        return dot(a, b), zero
     elif op == V_DISTANCE:
-        d = (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-        return math.sqrt(_dot(d, d)), zero
+        d = sub(a, b)
+        return math.sqrt(dot(d, d)), zero
     elif op == V_LENGTH:
-        return math.sqrt(_dot(a, a)), zero
+        return math.sqrt(dot(a, a)), zero
     elif op == V_SCALE:
-        return 0.0, _scale(a, scale)
+        return 0.0, mul(a, scale)
     elif op == V_NORMALIZE:
-        return 0.0, safe_normalize(a)
+        return 0.0, normalize(a)
     elif op == V_ABS:
         return 0.0, (abs(a[0]), abs(a[1]), abs(a[2]))
     elif op == V_POW:
@@ -483,8 +468,8 @@ def mapping(kind, v, location, rotation, scale):
     m = euler_rows(rotation)
     if kind == MAPPING_POINT:
         s = (v[0] * scale[0], v[1] * scale[1], v[2] * scale[2])
-        return (_dot(m[0], s) + location[0], _dot(m[1], s) + location[1],
-                _dot(m[2], s) + location[2])
+        return (dot(m[0], s) + location[0], dot(m[1], s) + location[1],
+                dot(m[2], s) + location[2])
     elif kind == MAPPING_TEXTURE:
         d = (v[0] - location[0], v[1] - location[1], v[2] - location[2])
         # transform_direction_transposed: the columns of m
@@ -495,27 +480,15 @@ def mapping(kind, v, location, rotation, scale):
                 safe_divide(t[2], scale[2]))
     elif kind == MAPPING_VECTOR:
         s = (v[0] * scale[0], v[1] * scale[1], v[2] * scale[2])
-        return (_dot(m[0], s), _dot(m[1], s), _dot(m[2], s))
+        return (dot(m[0], s), dot(m[1], s), dot(m[2], s))
     elif kind == MAPPING_NORMAL:
         s = (safe_divide(v[0], scale[0]), safe_divide(v[1], scale[1]),
              safe_divide(v[2], scale[2]))
-        return safe_normalize((_dot(m[0], s), _dot(m[1], s), _dot(m[2], s)))
+        return normalize((dot(m[0], s), dot(m[1], s), dot(m[2], s)))
     return (0.0, 0.0, 0.0)
 
 
 # --- the interpreter's side ---------------------------------------------------------------------
-
-@jit
-def _load3(regs, i):
-    return (regs[i], regs[i + 1], regs[i + 2])
-
-
-@jit
-def _store3(regs, i, v):
-    regs[i] = v[0]
-    regs[i + 1] = v[1]
-    regs[i + 2] = v[2]
-
 
 @jit
 def execute(ins, regs, data):
