@@ -1,0 +1,1 @@
+"""Shader node families compiled into shader program rows."""
