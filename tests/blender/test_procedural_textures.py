@@ -2,25 +2,28 @@
 held against Cycles point by point: each node drives the emission of the probe plane
 (support/node_probe.py) and the jitted function is evaluated where Cycles' sample 0 landed.
 
-Where that is: a first probe renders the coordinates themselves (the plane's Object
-coordinates turned and moved by a Mapping node, so that z varies too), so each pixel holds the
-float32 point Cycles shaded (sample 0 lands 6.6e-5 off the pixel's centre on this 16 px probe,
-the same in every render). 1D and 4D nodes take W from the point's x. Evaluating there, Snell and Cycles differ by float32 rounding only (Cycles
-computes in float32, Snell in float64), measured: at most 1.8e-4 for Noise (which adds offsets
-of 100-200 to the coordinates, where float32's spacing is 1.5e-5), 3.8e-5 for Magic, 1.1e-5 for
-Brick, 2.7e-6 for Wave, 5.1e-7 for Voronoi, 8.6e-8 for Gradient and 0 for White Noise and
-Checker. Each family's tolerance is a few times its measured difference. Pixels within 2e-4 of a
-discontinuity (a cell's or a brick's edge) are left out explicitly: Snell's value there changes
-within that distance of the point; each test bounds how many it leaves out.
+Where that is: a first probe renders the coordinates themselves (the plane's Object coordinates
+turned and moved by a Mapping node, so that z varies too), so each pixel holds the float32 point
+Cycles shaded (sample 0 lands 6.6e-5 off the pixel's centre on this 16 px probe, the same in
+every render). 1D and 4D nodes take W from the point's x. Evaluating there, Snell and Cycles
+differ by float32 rounding only (Cycles computes in float32, Snell in float64), measured: at most
+1.8e-4 for Noise (which adds offsets of 100-200 to the coordinates, where float32's spacing is
+1.5e-5), 3.8e-5 for Magic, 1.1e-5 for Brick, 2.7e-6 for Wave, 5.1e-7 for Voronoi, 8.6e-8 for
+Gradient and 0 for White Noise and Checker. Each family's tolerance is a few times its measured
+difference. Pixels within 2e-4 of a discontinuity (a cell's or a brick's edge) are left out
+explicitly: Snell's value there changes within that distance of the point; each test bounds how
+many it leaves out.
 
 Each node's Cycles images are rendered once per module (about 1 s each; the module runs in
 about 20 s). Each test shows its teeth on its own images: the same comparison with a scale off by
 1% (10% for Checker and Brick, whose values are piecewise constant) must fail by more than ten
 times the tolerance. Errors put into the code on purpose, one at a time, were caught (measured):
-- lookup3's seed 0xdeadbeef + 14 instead of + 13 (hashes.py): 21 tests fail (every Noise case,
+- lookup3's seed 0xdeadbeef + 14 instead of + 13 (hashes.py): 26 tests fail (every Noise case,
   1D Voronoi, White Noise, the hash values, Wave with distortion);
 - PCG 2D's increment 1013904224 instead of 1013904223: the six 2D Voronoi cases fail;
-- noise_scale3 0.980 instead of 0.982: the 3D Noise cases and Wave with distortion fail;
+- noise_scale3 0.980 instead of 0.982: the five 3D Noise cases and Wave with distortion fail;
+- grad3's z negated (a z term, invisible on the plane z = 0 without the Mapping node): the same
+  seven fail;
 - brick_noise's 60494 instead of 60493: the Brick Color case fails;
 - Smooth F1's colour correction 1 + 3.05 s instead of 1 + 3 s: the 1D, 3D and 4D Smooth F1 cases
   fail;

@@ -41,8 +41,19 @@ def _enum(c, node, prop, table, default):
     return default
 
 
+def _identity_mapping(tm):
+    """Whether a node's texture_mapping (set from Python only) leaves points as they are."""
+    return (tuple(tm.translation) == (0.0, 0.0, 0.0) and tuple(tm.rotation) == (0.0, 0.0, 0.0)
+            and tuple(tm.scale) == (1.0, 1.0, 1.0) and not tm.use_min and not tm.use_max
+            and (tm.mapping_x, tm.mapping_y, tm.mapping_z) == ("X", "Y", "Z"))
+
+
 def _vector(c, node):
     """The Vector input, or Generated coordinates where it is unlinked (as Cycles reads it)."""
+    tm = getattr(node, "texture_mapping", None)
+    if tm is not None and not _identity_mapping(tm):
+        c.warn(node, "has a texture mapping (set from Python), which Snell does not apply",
+               "the points unmapped", input="Vector")
     if c.is_linked(node, "Vector"):
         return c.input(node, "Vector", "vector")
     return c.texcoord(node, "generated")
