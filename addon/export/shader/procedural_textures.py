@@ -7,10 +7,10 @@ excepted: Cycles reads its unlinked Vector's value).
 """
 from __future__ import annotations
 
-from ...tracer.shader import noise as nz
-from ...tracer.shader import patterns as pt
-from ...tracer.shader import procedural_textures as op
-from ...tracer.shader import voronoi as vr
+from ....tracer.shader import noise as nz
+from ....tracer.shader import patterns as pt
+from ....tracer.shader import procedural_textures as op
+from ....tracer.shader import voronoi as vr
 
 DIMENSIONS = {"1D": 1, "2D": 2, "3D": 3, "4D": 4}
 NOISE_TYPES = {"MULTIFRACTAL": nz.MULTIFRACTAL, "FBM": nz.FBM,
@@ -54,6 +54,10 @@ def _vector(c, node):
     if tm is not None and not _identity_mapping(tm):
         c.warn(node, "has a texture mapping (set from Python), which Snell does not apply",
                "the points unmapped", input="Vector")
+    vector = next(s for s in node.inputs if s.identifier == "Vector")
+    if not vector.enabled:
+        # a 1D texture reads W only
+        return c.constant((0.0, 0.0, 0.0))
     if c.is_linked(node, "Vector"):
         return c.input(node, "Vector", "vector")
     return c.texcoord(node, "generated")
@@ -75,8 +79,10 @@ def _params(c, node, *names):
 
 
 def _linked(node, identifier):
-    """Whether an output is used (a link leaves it)."""
-    return any(s.identifier == identifier and s.is_linked for s in node.outputs)
+    """Whether an output is used (a link leaves it; read from the tree's links, since a socket's
+    is_linked waits for the tree's next update)."""
+    return any(link.from_node.name == node.name and link.from_socket.identifier == identifier
+               and not link.is_muted for link in node.id_data.links)
 
 
 def _grey(c, fac):
