@@ -183,6 +183,7 @@ NOISE_CASES = [
     ("2D", "RIDGED_MULTIFRACTAL", False, dict(Scale=2.0, Detail=2.0, Offset=0.9, Gain=1.7)),
     ("4D", "RIDGED_MULTIFRACTAL", False, dict(Scale=2.0, Detail=1.5, Offset=1.1, Gain=2.2)),
     ("3D", "HETERO_TERRAIN", False, dict(Scale=2.5, Detail=0.0, Offset=0.5)),
+    ("3D", "FBM", True, dict(Scale=2.5, Detail=3.0, Roughness=0.0)),
 ]
 _NOISE_DEFAULTS = dict(W=0.0, Scale=5.0, Detail=2.0, Roughness=0.5, Lacunarity=2.0, Offset=0.0,
                        Gain=1.0, Distortion=0.0)
@@ -258,6 +259,10 @@ VORONOI_CASES = [
     ("3D", "DISTANCE_TO_EDGE", "EUCLIDEAN", True, "Distance", dict(Scale=2.0, Detail=2.7,
                                                                    Roughness=0.6)),
     ("4D", "F2", "EUCLIDEAN", False, "W", dict(Scale=2.0)),
+    # no randomness: the points sit on the cells' corners (a regular grid)
+    ("2D", "F2", "EUCLIDEAN", False, "Color", dict(Scale=3.0, Randomness=0.0)),
+    ("3D", "F1", "MANHATTAN", False, "Color", dict(Scale=3.0, Randomness=0.0)),
+    ("3D", "F1", "EUCLIDEAN", True, "Distance", dict(Scale=3.0, Detail=2.0, Roughness=0.0)),
 ]
 _VORONOI_DEFAULTS = dict(W=0.0, Scale=5.0, Detail=0.0, Roughness=0.5, Lacunarity=2.0,
                          Smoothness=1.0, Exponent=0.5, Randomness=1.0)
