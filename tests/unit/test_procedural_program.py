@@ -135,3 +135,16 @@ def test_gradient_wave_magic_white_noise_rows():
     _run([pt.WHITE_NOISE, VEC, Q2, FLOATS, OUT, 4], regs)
     value, color = patterns.white_noise(4, 0.37, -0.81, 0.23, 1.2)
     assert regs[FLOATS] == value and tuple(regs[OUT:OUT + 3]) == color
+
+
+def test_wave_detail_is_bounded():
+    """A Wave's Detail linked to a huge value (Cycles runs one octave per unit) takes 64 octaves
+    at most: 1e9 returns at once, equal to 64 (without the bound 1e7 octaves took 1.4 s, so 1e9
+    would take about 140 s)."""
+    import time
+    args = (patterns.BANDS, patterns.DIRECTION_X, patterns.SIN, 0.3, 0.2, 0.1, 2.0)
+    patterns.wave(*args, 2.0, 1.0, 0.5, 0.0)
+    start = time.perf_counter()
+    value = patterns.wave(*args, 1e9, 1.0, 0.5, 0.0)
+    assert time.perf_counter() - start < 0.5
+    assert value == patterns.wave(*args, 64.0, 1.0, 0.5, 0.0)

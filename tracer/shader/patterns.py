@@ -141,6 +141,9 @@ def wave(kind, direction, profile, x, y, z, distortion, detail, detail_scale, de
         n = math.sqrt(rx * rx + ry * ry + rz * rz) * 20.0
     n += phase
     if distortion != 0.0:
+        # Cycles leaves a linked Detail unclamped (one octave per unit); 64 octaves keep a wild
+        # link from hanging the render and differ from Cycles by less than roughness^64
+        detail = min(detail, 64.0)
         s = detail_scale
         n += distortion * (noise_fbm(3, x * s, y * s, z * s, 0.0, detail, detail_roughness, 2.0,
                                      True) * 2.0 - 1.0)
