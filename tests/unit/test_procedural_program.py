@@ -40,11 +40,15 @@ def _run(row, regs):
 
 
 def test_specs_are_well_formed():
-    """Every opcode is in the family's range 300-399 with a description and 7 slot letters."""
-    for code, (what, slots) in pt.SPECS.items():
+    """Every opcode is in the family's range 300-399 with a description, 7 slot letters and
+    bounds only on literal slots."""
+    for code, spec in pt.SPECS.items():
+        what, slots = spec[:2]
         assert 300 <= code <= 399
         assert ":" in what
         assert len(slots) == 7 and set(slots) <= set("fvid-"), (code, slots)
+        for slot, limit in (spec[2] if len(spec) > 2 else {}).items():
+            assert slots[slot - 1] == "i" and limit > 0, (code, slot)
     assert len(set(pt.SPECS)) == len(pt.SPECS)
 
 
@@ -55,6 +59,12 @@ def test_settings_round_trip():
     assert [pt.setting(s, i, 4) for i in range(4)] == [3, 1, 0, 1]
     with pytest.raises(ValueError):
         pt.settings(3, 10)
+
+
+def test_component_row():
+    """COMPONENT copies one register of a block into a float register."""
+    regs = _run([pt.COMPONENT, C2, FLOATS, 2], _regs())
+    assert regs[FLOATS] == 0.7
 
 
 def test_params_row():

@@ -5,9 +5,12 @@ voronoi.py, patterns.py and hashes.py (which follow Cycles 5.0's kernel/svm file
 A row is [opcode, slot1, ..., slot7] (SPECS gives each opcode's slots). Nodes with more float
 inputs than a row has slots read them from parameter blocks: PARAMS gathers three float
 registers into a 3-wide block first (Cycles packs them into extra node rows the same way).
-Enum properties are literal ints in Cycles' order (the constants of the formula modules); Noise
-and Voronoi have more of them than free slots and carry one `settings` int whose decimal digits
-are the enums (settings(3, 1, 1) = 311: see `settings` and `setting`).
+Enum properties are literal ints in Cycles' order (the constants of the formula modules), with
+their bounds in SPECS' third entry (program.check_program holds rows to them); Noise and
+Voronoi have more of them than free slots and carry one `settings` int whose decimal digits are
+the enums (settings(3, 1, 1) = 311: see `settings` and `setting`). A node whose float outputs
+are computed in a block (Noise's Fac, Brick's mortar, Voronoi's Distance, W and Radius) hands
+them out through COMPONENT rows.
 """
 from __future__ import annotations
 
@@ -28,6 +31,7 @@ VORONOI_POSITION = 308
 WAVE = 309
 MAGIC = 310
 WHITE_NOISE = 311
+COMPONENT = 312
 
 SPECS = {
     PARAMS: ("Texture parameters: three floats gathered into a block", "vfff---"),
@@ -37,20 +41,25 @@ SPECS = {
             "frequencies)", "vvvvvii"),
     BRICK_COLOR: ("Brick Texture: Color from (tint, mortar), color1, color2 and mortar colour",
                   "vvvvv--"),
-    GRADIENT: ("Gradient Texture: Fac (vector; gradient type)", "vfi----"),
+    GRADIENT: ("Gradient Texture: Fac (vector; gradient type)", "vfi----", {3: 7}),
     GREY: ("Grey: a float as a grey colour (a texture's Color output that is its Fac)", "fv-----"),
     NOISE: ("Noise Texture: (Fac, Color) as a colour whose red is Fac (vector, [W, scale, "
             "detail], [roughness, lacunarity, distortion], [offset, gain, -]; settings "
-            "dimensions-type-normalize, colour wanted)", "vvvvvii"),
+            "dimensions-type-normalize, colour wanted)", "vvvvvii", {6: 500, 7: 2}),
     VORONOI: ("Voronoi Texture: (Distance, W, Radius) and Color (vector, [W, scale, detail], "
               "[roughness, lacunarity, smoothness], [exponent, randomness, -]; settings "
-              "dimensions-feature-metric-normalize)", "vvvvvvi"),
+              "dimensions-feature-metric-normalize)", "vvvvvvi", {7: 5000}),
     VORONOI_POSITION: ("Voronoi Texture: Position and W (inputs and settings as VORONOI)",
-                       "vvvvvfi"),
+                       "vvvvvfi", {7: 5000}),
     WAVE: ("Wave Texture: Fac (vector, [scale, distortion, detail], [detail scale, detail "
-           "roughness, phase offset]; wave type, direction, profile)", "vvvfiii"),
-    MAGIC: ("Magic Texture: Color and Fac (vector, scale, distortion; depth)", "vffvfi-"),
-    WHITE_NOISE: ("White Noise Texture: Value and Color (vector, W; dimensions)", "vffvi--"),
+           "roughness, phase offset]; wave type, direction, profile)", "vvvfiii",
+           {5: 2, 6: 4, 7: 3}),
+    MAGIC: ("Magic Texture: Color and Fac (vector, scale, distortion; depth)", "vffvfi-",
+            {6: 11}),
+    WHITE_NOISE: ("White Noise Texture: Value and Color (vector, W; dimensions)", "vffvi--",
+                  {5: 5}),
+    COMPONENT: ("Component: one register of a 3-wide block as a float (a texture's float "
+                "output computed in a block)", "vfi----", {3: 3}),
 }
 
 
@@ -159,6 +168,8 @@ def execute(ins, regs, data):
         color = magic(x, y, z, regs[ins[2]], ins[6], regs[ins[3]])
         _store3(regs, ins[4], color)
         regs[ins[5]] = (color[0] + color[1] + color[2]) / 3.0
+    elif op == COMPONENT:
+        regs[ins[2]] = regs[ins[1] + ins[3]]
     elif op == WHITE_NOISE:
         x, y, z = _load3(regs, ins[1])
         value, color = white_noise(ins[5], x, y, z, regs[ins[2]])

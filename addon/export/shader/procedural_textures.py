@@ -85,6 +85,13 @@ def _linked(node, identifier):
                and not link.is_muted for link in node.id_data.links)
 
 
+def _component(c, block, index):
+    """A float register holding register `index` (0-2) of a 3-wide block."""
+    out = c.alloc("float")
+    c.emit(op.COMPONENT, block, out, index)
+    return out
+
+
 def _grey(c, fac):
     color = c.alloc("color")
     c.emit(op.GREY, fac, color)
@@ -110,8 +117,7 @@ def compile_brick(c, node):
     color = c.alloc("color")
     c.emit(op.BRICK_COLOR, tint_mortar, c.input(node, "Color1", "color"),
            c.input(node, "Color2", "color"), c.input(node, "Mortar", "color"), color)
-    # the mortar is the block's second register
-    return {"Color": color, "Fac": tint_mortar + 1}
+    return {"Color": color, "Fac": _component(c, tint_mortar, 1)}
 
 
 def compile_gradient(c, node):
@@ -133,7 +139,7 @@ def compile_noise(c, node):
     c.emit(op.NOISE, _vector(c, node), q1, q2, q3, out,
            op.settings(dims, kind, int(bool(node.normalize))), int(_linked(node, "Color")))
     # Fac is the colour's red channel
-    return {"Fac": out, "Color": out}
+    return {"Fac": _component(c, out, 0), "Color": out}
 
 
 def compile_voronoi(c, node):
@@ -148,13 +154,12 @@ def compile_voronoi(c, node):
     q3 = _params(c, node, "Exponent", "Randomness", None)
     scalars, color = c.alloc("vector"), c.alloc("color")
     c.emit(op.VORONOI, vector, q1, q2, q3, scalars, color, s)
-    outputs = {"Distance": scalars, "Radius": scalars + 2, "Color": color}
-    if _linked(node, "Position") or _linked(node, "W"):
+    outputs = {"Distance": _component(c, scalars, 0), "Radius": _component(c, scalars, 2),
+               "Color": color, "W": _component(c, scalars, 1)}
+    if _linked(node, "Position"):
         position, w = c.alloc("vector"), c.alloc("float")
         c.emit(op.VORONOI_POSITION, vector, q1, q2, q3, position, w, s)
-        outputs.update(Position=position, W=w)
-    else:
-        outputs["W"] = scalars + 1
+        outputs["Position"] = position
     return outputs
 
 
