@@ -6,7 +6,12 @@ the same scene with the noise's Scale 1% off, or the checker's 2% off, must be c
 
 The deliberate errors are made in Blender: the scene is built again with the one value changed
 and exported, and Snell renders that export against the reference of the unchanged scene (same
-geometry, camera and lamp)."""
+geometry, camera and lamp).
+
+Measured (before the core was on main: its working copy with this family registered, Cycles
+rendered, 512 spp): consistent (mean ratios 1.0001-1.0002, mean z 0.2-0.6, z pass fraction
+0.9995, sharpness z 0.62); the noise's scale 1% off: inconsistent (pixel and tile tests, 3 tiles
+failed, z pass fraction 0.949); the checker's 2% off: inconsistent (17 tiles, mean z -17)."""
 from __future__ import annotations
 
 import importlib
