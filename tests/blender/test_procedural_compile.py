@@ -271,3 +271,46 @@ def test_unknown_enum_warns():
     c = RowCompiler()
     assert compiled._enum(c, Node(), "noise_dimensions", compiled.DIMENSIONS, 3) == 3
     assert c.warnings and "noise_dimensions" in c.warnings[0][1]
+
+
+class _Recorder(RowCompiler):
+    """A RowCompiler that records which texture coordinates were asked for."""
+
+    def __init__(self):
+        super().__init__()
+        self.asked = []
+
+    def texcoord(self, node, which, name=""):
+        self.asked.append(which)
+        return self.constant((0.0, 0.0, 0.0))
+
+
+def _lone_node(idname):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    tree = bpy.data.materials.new("Lone").node_tree
+    return tree.nodes.new(idname)
+
+
+@pytest.mark.parametrize("idname", sorted(compiled.COMPILERS))
+def test_unlinked_vector_reads_generated(idname):
+    """A texture with an unlinked Vector reads Generated coordinates (Cycles'
+    LINK_TEXTURE_GENERATED), except White Noise, whose Cycles node has no default link and
+    reads the socket's value (White Noise compiled with the textures' Generated default:
+    caught)."""
+    node = _lone_node(idname)
+    c = _Recorder()
+    compiled.COMPILERS[idname](c, node)
+    if idname == "ShaderNodeTexWhiteNoise":
+        assert c.asked == []
+    else:
+        assert c.asked == ["generated"]
+    assert c.warnings == []
+
+
+def test_texture_mapping_warns():
+    """A node's texture_mapping moved from Python (not applied) is named in a warning."""
+    node = _lone_node("ShaderNodeTexChecker")
+    node.texture_mapping.translation = (0.5, 0.0, 0.0)
+    c = _Recorder()
+    compiled.COMPILERS["ShaderNodeTexChecker"](c, node)
+    assert len(c.warnings) == 1 and "texture mapping" in c.warnings[0][1]
