@@ -185,6 +185,10 @@ CASES = [
      {"Scale": 1.5, "Phase Offset": 0.4}, "Fac", False),
     ("ShaderNodeTexMagic", dict(turbulence_depth=4), dict(Scale=1.5, Distortion=2.0), "Fac",
      False),
+    ("ShaderNodeTexGabor", dict(gabor_type="3D"),
+     {"Scale": 2.0, "Anisotropy": 0.5, "Orientation 3D": (0.3, 0.5, 0.8)}, "Intensity", False),
+    ("ShaderNodeTexGabor", dict(gabor_type="2D"), {"Scale": 3.0, "Orientation 2D": 0.3}, "Value",
+     False),
 ]
 
 

@@ -8,11 +8,11 @@ Cycles shaded (sample 0 lands 6.6e-5 off the pixel's centre on this 16 px probe,
 every render). 1D and 4D nodes take W from the point's x. Evaluating there, Snell and Cycles
 differ by float32 rounding only (Cycles computes in float32, Snell in float64), measured: at most
 1.8e-4 for Noise (which adds offsets of 100-200 to the coordinates, where float32's spacing is
-1.5e-5), 3.8e-5 for Magic, 1.1e-5 for Brick, 2.7e-6 for Wave, 5.1e-7 for Voronoi, 8.6e-8 for
-Gradient and 0 for White Noise and Checker. Each family's tolerance is a few times its measured
-difference. Pixels within 2e-4 of a discontinuity (a cell's or a brick's edge) are left out
-explicitly: Snell's value there changes within that distance of the point; each test bounds how
-many it leaves out.
+1.5e-5), 3.8e-5 for Magic, 1.1e-5 for Brick, 2.7e-6 for Wave, 8.5e-7 for Gabor, 5.1e-7 for
+Voronoi, 8.6e-8 for Gradient and 0 for White Noise and Checker. Each family's tolerance is a few
+times its measured difference. Pixels within 2e-4 of a discontinuity (a cell's or a brick's edge)
+are left out explicitly: Snell's value there changes within that distance of the point; each test
+bounds how many it leaves out.
 
 Each node's Cycles images are rendered once per module (about 1 s each; the module runs in
 about 20 s). Each test shows its teeth on its own images: the same comparison with a scale off by
@@ -27,9 +27,14 @@ times the tolerance. Errors put into the code on purpose, one at a time, were ca
 - brick_noise's 60494 instead of 60493: the Brick Color case fails;
 - Smooth F1's colour correction 1 + 3.05 s instead of 1 + 3 s: the 1D, 3D and 4D Smooth F1 cases
   fail;
-- Wave's diagonal bands at 10.05 instead of 10: the diagonal Wave case fails.
+- Wave's diagonal bands at 10.05 instead of 10: the diagonal Wave case fails;
+- Gabor's 2D kernel centres hashed with seed 3k + 2 instead of 3k + 1: the three 2D cases fail;
+- Gabor's 3D random orientation with sine and cosine of the azimuth swapped: the 3D case with
+  some isotropy fails (the fully anisotropic one keeps the base orientation, as in Cycles).
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
@@ -38,7 +43,7 @@ bpy = pytest.importorskip("bpy")
 
 from support.node_probe import probe  # noqa: E402
 
-from snell.tracer.shader import hashes, noise, patterns, voronoi  # noqa: E402
+from snell.tracer.shader import gabor, hashes, noise, patterns, voronoi  # noqa: E402
 
 SIZE = 16
 EXTENT = 1.0
@@ -488,3 +493,40 @@ def test_magic_matches_cycles(points, case):
     def fn(x, y, z, f=1.0):
         return patterns.magic(x, y, z, inputs["Scale"] * f, depth, inputs["Distortion"])
     _check(image, fn, points, lambda x, y, z: fn(x, y, z, 1.01), TOL_SMOOTH)
+
+
+GABOR_CASES = [
+    # (type, output, inputs)
+    ("2D", "Value", dict(Scale=3.0, Frequency=2.0, Anisotropy=1.0)),
+    ("2D", "Phase", {"Scale": 2.0, "Frequency": 1.5, "Anisotropy": 0.3, "Orientation 2D": 0.4}),
+    ("2D", "Intensity", dict(Scale=3.0, Frequency=3.0, Anisotropy=0.0)),
+    ("3D", "Value", {"Scale": 2.0, "Frequency": 2.0, "Anisotropy": 1.0,
+                     "Orientation 3D": (0.3, 0.5, 0.8)}),
+    ("3D", "Intensity", {"Scale": 2.5, "Frequency": 1.2, "Anisotropy": 0.6,
+                         "Orientation 3D": (-0.2, 0.9, 0.1)}),
+]
+_GABOR_DEFAULTS = {"Scale": 5.0, "Frequency": 2.0, "Anisotropy": 1.0,
+                   "Orientation 2D": math.pi / 4, "Orientation 3D": (2 ** 0.5, 2 ** 0.5, 0.0)}
+
+
+def _gabor_fn(case, scale_factor=1.0):
+    kind, output, inputs = case
+    a = dict(_GABOR_DEFAULTS, **inputs)
+    which = ("Value", "Phase", "Intensity").index(output)
+
+    def fn(x, y, z):
+        return gabor.gabor_texture(gabor.TYPE_3D if kind == "3D" else gabor.TYPE_2D, x, y, z,
+                                   a["Scale"] * scale_factor, a["Frequency"], a["Anisotropy"],
+                                   a["Orientation 2D"], *a["Orientation 3D"])[which]
+    return fn
+
+
+@pytest.mark.parametrize("case", range(len(GABOR_CASES)))
+def test_gabor_matches_cycles(points, case):
+    """Gabor noise in 2D and 3D, isotropic to anisotropic, each output, equals Cycles' (largest
+    difference 8.5e-7; the phase left out where it wraps); a scale off by 1% is caught (by
+    0.06-0.99)."""
+    kind, output, inputs = GABOR_CASES[case]
+    image = _render(_graph("ShaderNodeTexGabor", dict(gabor_type=kind), inputs, output))
+    _check(image, _gabor_fn(GABOR_CASES[case]), points, _gabor_fn(GABOR_CASES[case], 1.01),
+           TOL_EXACT, discontinuous=output == "Phase")

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from snell.tracer.shader import noise, patterns, voronoi
+from snell.tracer.shader import gabor, noise, patterns, voronoi
 from snell.tracer.shader import procedural_textures as pt
 
 VEC, Q1, Q2, Q3, OUT, OUT2, C1, C2, C3 = 0, 3, 6, 9, 12, 15, 18, 21, 24
@@ -158,3 +158,13 @@ def test_wave_detail_is_bounded():
     value = patterns.wave(*args, 1e9, 1.0, 0.5, 0.0)
     assert time.perf_counter() - start < 0.5
     assert value == patterns.wave(*args, 64.0, 1.0, 0.5, 0.0)
+
+
+def test_gabor_row():
+    """GABOR writes gabor_texture's (Value, Phase, Intensity) from [scale, frequency,
+    anisotropy], the 2D orientation and the 3D one."""
+    regs = _regs(Q1=(3.0, 1.7, 0.4), Q2=(0.9, 0.0, 0.0), Q3=(0.2, -0.5, 0.8))
+    for kind in (gabor.TYPE_2D, gabor.TYPE_3D):
+        _run([pt.GABOR, VEC, Q1, Q2, Q3, OUT, kind], regs)
+        assert tuple(regs[OUT:OUT + 3]) == gabor.gabor_texture(kind, 0.37, -0.81, 0.23, 3.0, 1.7,
+                                                               0.4, 0.9, 0.2, -0.5, 0.8)

@@ -255,3 +255,15 @@ def hash_int4_to_float4(x, y, z, w):
     """Four floats in [0, 1] from a 4D integer cell (Cycles' hash_int4_to_float4)."""
     hx, hy, hz, hw = hash_pcg4d_i(x, y, z, w)
     return _int_to_unit(hx), _int_to_unit(hy), _int_to_unit(hz), _int_to_unit(hw)
+
+
+@jit
+def hash_float3_to_float2(kx, ky, kz):
+    """Two floats in [0, 1] from three floats (Cycles' hash_float3_to_float2)."""
+    return hash_float3_to_float(kx, ky, kz), hash_float3_to_float(kz, kx, ky)
+
+
+@jit
+def hash_float4_to_float2(kx, ky, kz, kw):
+    """Two floats in [0, 1] from four floats (Cycles' hash_float4_to_float2)."""
+    return hash_float4_to_float(kx, ky, kz, kw), hash_float4_to_float(kz, kx, kw, ky)

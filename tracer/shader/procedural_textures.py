@@ -1,6 +1,6 @@
 """The shader program's procedural texture family (opcodes 300-399): Checker, Brick, Gradient,
-Noise, Voronoi, Wave, Magic and White Noise, each computed by the formulas of noise.py,
-voronoi.py, patterns.py and hashes.py (which follow Cycles 5.0's kernel/svm files).
+Noise, Voronoi, Wave, Magic, White Noise and Gabor, each computed by the formulas of noise.py,
+voronoi.py, patterns.py, gabor.py and hashes.py (which follow Cycles 5.0's kernel/svm files).
 
 A row is [opcode, slot1, ..., slot7] (SPECS gives each opcode's slots). Nodes with more float
 inputs than a row has slots read them from parameter blocks: PARAMS gathers three float
@@ -15,6 +15,7 @@ them out through COMPONENT rows.
 from __future__ import annotations
 
 from ..jit import jit
+from .gabor import gabor_texture
 from .noise import noise_texture
 from .patterns import brick, checker, gradient, magic, wave, white_noise
 from .voronoi import voronoi_texture
@@ -32,6 +33,7 @@ WAVE = 309
 MAGIC = 310
 WHITE_NOISE = 311
 COMPONENT = 312
+GABOR = 313
 
 SPECS = {
     PARAMS: ("Texture parameters: three floats gathered into a block", "vfff---"),
@@ -60,6 +62,8 @@ SPECS = {
                   {5: 5}),
     COMPONENT: ("Component: one register of a 3-wide block as a float (a texture's float "
                 "output computed in a block)", "vfi----", {3: 3}),
+    GABOR: ("Gabor Texture: (Value, Phase, Intensity) (vector, [scale, frequency, anisotropy], "
+            "orientation 2D, orientation 3D; type)", "vvfvvi-", {6: 2}),
 }
 
 
@@ -168,6 +172,12 @@ def execute(ins, regs, data):
         color = magic(x, y, z, regs[ins[2]], ins[6], regs[ins[3]])
         _store3(regs, ins[4], color)
         regs[ins[5]] = (color[0] + color[1] + color[2]) / 3.0
+    elif op == GABOR:
+        x, y, z = _load3(regs, ins[1])
+        scale, frequency, anisotropy = _load3(regs, ins[2])
+        ox, oy, oz = _load3(regs, ins[4])
+        _store3(regs, ins[5], gabor_texture(ins[6], x, y, z, scale, frequency, anisotropy,
+                                            regs[ins[3]], ox, oy, oz))
     elif op == COMPONENT:
         regs[ins[2]] = regs[ins[1] + ins[3]]
     elif op == WHITE_NOISE:

@@ -1,12 +1,14 @@
 """The procedural texture nodes compiled into shader program rows (the tracer's
 tracer/shader/procedural_textures.py runs them): Checker, Brick, Gradient, Noise, Voronoi, Wave,
-Magic and White Noise. Blender's enum strings map here to the tracer's enums, which are Cycles'.
+Magic, White Noise and Gabor. Blender's enum strings map here to the tracer's enums, which are
+Cycles'.
 
 A texture whose Vector input is unlinked reads Generated coordinates, as in Cycles (White Noise
 excepted: Cycles reads its unlinked Vector's value).
 """
 from __future__ import annotations
 
+from ....tracer.shader import gabor as gb
 from ....tracer.shader import noise as nz
 from ....tracer.shader import patterns as pt
 from ....tracer.shader import procedural_textures as op
@@ -29,6 +31,7 @@ WAVE_DIRECTIONS = {"X": pt.DIRECTION_X, "Y": pt.DIRECTION_Y, "Z": pt.DIRECTION_Z
                    "DIAGONAL": pt.DIRECTION_DIAGONAL_OR_SPHERICAL,
                    "SPHERICAL": pt.DIRECTION_DIAGONAL_OR_SPHERICAL}
 WAVE_PROFILES = {"SIN": pt.SIN, "SAW": pt.SAW, "TRI": pt.TRI}
+GABOR_TYPES = {"2D": gb.TYPE_2D, "3D": gb.TYPE_3D}
 
 
 def _enum(c, node, prop, table, default):
@@ -194,6 +197,17 @@ def compile_white_noise(c, node):
     return {"Value": value, "Color": color}
 
 
+def compile_gabor(c, node):
+    """Gabor Texture."""
+    kind = _enum(c, node, "gabor_type", GABOR_TYPES, gb.TYPE_2D)
+    q = _params(c, node, "Scale", "Frequency", "Anisotropy")
+    out = c.alloc("vector")
+    c.emit(op.GABOR, _vector(c, node), q, c.input(node, "Orientation 2D", "float"),
+           c.input(node, "Orientation 3D", "vector"), out, kind)
+    return {"Value": _component(c, out, 0), "Phase": _component(c, out, 1),
+            "Intensity": _component(c, out, 2)}
+
+
 COMPILERS = {
     "ShaderNodeTexChecker": compile_checker,
     "ShaderNodeTexBrick": compile_brick,
@@ -203,4 +217,5 @@ COMPILERS = {
     "ShaderNodeTexWave": compile_wave,
     "ShaderNodeTexMagic": compile_magic,
     "ShaderNodeTexWhiteNoise": compile_white_noise,
+    "ShaderNodeTexGabor": compile_gabor,
 }
