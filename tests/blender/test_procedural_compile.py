@@ -122,9 +122,10 @@ def _coordinates(tree):
     return mapping.outputs["Vector"]
 
 
-def _build(idname, props, inputs, output, w_from_x, store):
+def _build(idname, props, inputs, output, w_from_x, store, mapped=True):
     def build(tree):
-        coords = _coordinates(tree)
+        coords = (_coordinates(tree) if mapped
+                  else tree.nodes.new("ShaderNodeTexCoord").outputs["Object"])
         node = tree.nodes.new(idname)
         for name, value in props.items():
             setattr(node, name, value)
@@ -318,3 +319,26 @@ def test_texture_mapping_warns():
     c = _Recorder()
     compiled.COMPILERS["ShaderNodeTexChecker"](c, node)
     assert len(c.warnings) == 1 and "texture mapping" in c.warnings[0][1]
+
+
+@pytest.mark.parametrize("case", range(len(CASES)))
+def test_the_cores_compiler_accepts_the_rows(case):
+    """Through the core's exporter (addon/export/materials.convert_material with the scene's
+    texture resources), each case's probe material becomes a program with no issue, and the
+    scene loader's check (program.check_program) accepts its rows."""
+    from support.node_probe import probe_scene
+
+    from snell.addon.export.materials import convert_material
+    from snell.addon.export.textures import ImageTextures
+    from snell.tracer.shader.program import check_program
+
+    idname, props, inputs, output, w_from_x = CASES[case]
+    # Object coordinates straight in, W unlinked (Mapping and Separate XYZ are another
+    # family's)
+    build, _ = _build(idname, props, inputs, output, False, {}, mapped=False)
+    probe_scene(build, size=SIZE)
+    resources = ImageTextures([])
+    mat, coverage = convert_material(bpy.data.materials["Probe"], resources)
+    assert mat["kind"] == "program" and coverage.issues == [], coverage.issues
+    check_program(mat["program"], 0, len(resources.texcoord_keys))
+    assert any(row[0] >= 300 for row in mat["program"]["code"])
