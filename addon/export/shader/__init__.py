@@ -6,14 +6,14 @@ compile_material turns a material's Surface into the scene file's "program" mate
 """
 from __future__ import annotations
 
-from . import color_nodes, math_nodes
+from . import color_nodes, math_nodes, procedural_textures
 from .closure_nodes import compile_surface
 from .compiler import Compiler
 from .input_nodes import NODE_OUTPUTS
 
 # Families of value nodes: modules with COMPILERS = {node idname: compile(compiler, node) ->
 # {output identifier: register}}.
-FAMILIES = (math_nodes, color_nodes)
+FAMILIES = (math_nodes, color_nodes, procedural_textures)
 
 
 def compile_material(name, surface_socket, resources, coverage):
