@@ -41,15 +41,16 @@ class _Buffers(threading.local):
     def get(self):
         """(paths, next paths, shadow rays (a light sample and a light-vertex connection per
         path), radiance, radiance without light vertices (a pilot's), active rows, counters,
-        lobe scratch, Principled parameter and shader program register scratch, light
-        vertices, the paths' denoising albedo and normal) for CHUNK paths."""
+        lobe scratch, (Principled parameter, shader program register and program hit row)
+        scratch, light vertices, the paths' denoising albedo and normal) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
                             wavefront.new_shadows(2 * CHUNK), np.empty((CHUNK, 3)),
                             np.empty((CHUNK, 3)),
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64),
                             np.empty((lobes.MAX_LOBES, lobes.FIELDS)),
-                            (np.empty(lobes.P_FIELDS), program.new_registers()),
+                            (np.empty(lobes.P_FIELDS), program.new_registers(),
+                             np.empty(CHUNK, np.int64)),
                             light_vertices_module.new_light_vertices(CHUNK),
                             (np.zeros((CHUNK, 3)), np.zeros((CHUNK, 3))))
         return self.buffers
@@ -125,9 +126,11 @@ class Renderer:
         self._use_camera_for_caustics()
         used = np.unique(self.materials.of_triangle)
         # Shadow rays look through surfaces only where a program may be transparent.
-        self.transparent_shadows = bool(np.any(
-            (self.materials.kind[used] == PROGRAM)
-            & (self.materials.programs.flags[used] & program.MAY_BE_TRANSPARENT != 0)))
+        programs = used[self.materials.kind[used] == PROGRAM]
+        flags = self.materials.programs.flags[programs]
+        self.transparent_shadows = bool(np.any(flags & program.MAY_BE_TRANSPARENT))
+        # Whether program_emitters runs: a program whose emission no light sample finds.
+        self.programs_emit = bool(np.any(flags & program.EMISSION_VARIES))
         self.light_paths_per_camera_path = settings.light_paths_per_camera_path
         self.light_vertices, self._why_vertices = self._choose_light_vertices(
             settings.light_vertices)
@@ -285,7 +288,7 @@ class Renderer:
                              f"a chunk of {CHUNK}")
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
-        (paths, out, shadows, radiance, without, active, stats, scratch, (params, regs),
+        (paths, out, shadows, radiance, without, active, stats, scratch, (params, regs, programs),
          lv, (feature_albedo, feature_normal)) = self._buffers.get()
         with_features = features is not None
         without = without[:n] if pilot else without[:0]
@@ -311,18 +314,27 @@ class Renderer:
         m = n
         for depth in range(self.max_depth + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            kept = wavefront.emitters(lights, mesh, mats, self.tables, self.next_event,
-                                      self.split, self.world_split, depth, self.max_depth, m,
-                                      paths, prim, u, v, t, radiance, without, active, stats,
-                                      with_features, feature_albedo, scratch, regs)
+            kept = wavefront.emitters(lights, mats, self.next_event, self.split,
+                                      self.world_split, depth, self.max_depth, m, paths, prim, t,
+                                      radiance, without, active, stats, with_features,
+                                      feature_albedo)
+            if self.programs_emit:
+                wavefront.program_emitters(mesh, mats, self.tables, self.split, depth, m, paths,
+                                           prim, u, v, t, radiance, without, with_features,
+                                           feature_albedo, scratch, regs)
             if kept == 0:
                 break
-            m, n_shadow = wavefront.materials(lights, mesh, mats, self.tables, self.fresnel,
-                                              self.next_event, bits, stratified, depth, kept,
-                                              active, paths, prim, u, v, out, shadows, radiance,
-                                              without, scratch, params, regs, stats, lv,
-                                              last_connection, with_features, feature_albedo,
-                                              feature_normal)
+            m, n_shadow, n_programs = wavefront.materials(
+                lights, mesh, mats, self.tables, self.fresnel, self.next_event, bits, stratified,
+                depth, kept, active, paths, prim, u, v, out, shadows, radiance, without, scratch,
+                params, stats, lv, last_connection, with_features, feature_albedo, feature_normal,
+                programs)
+            if n_programs:
+                m, n_shadow = wavefront.program_materials(
+                    lights, mesh, mats, self.tables, self.next_event, bits, stratified, depth,
+                    n_programs, programs, paths, prim, u, v, out, m, shadows, n_shadow, radiance,
+                    without, scratch, regs, stats, lv, last_connection, with_features,
+                    feature_albedo, feature_normal)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])

@@ -27,7 +27,7 @@ from .counters import (CAUSTIC_SPLATS, CONNECTIONS, DEPTH_LIMITED, LENS_SAMPLES,
 from .direct_light import add_light
 from .features import add_feature_light, record_features, smooth_lobes
 from .geometry import FAR, hit_point, offset_origin
-from .jit import jit
+from .jit import jit, jit_inline
 from .light_tracer import CAUSTIC, NO_CAUSTIC
 from .lights.codes import VISIBLE_CAMERA
 from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lights_at_escape,
@@ -173,9 +173,8 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 
 
 @jit
-def emitters(lights, mesh, mats, tables, next_event, caustics, world_caustics, depth, max_depth,
-             m, paths, prim, u, v, t, radiance, without, active, stats, features, feature_albedo,
-             lobes, regs):
+def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_depth, m, paths, prim,
+             t, radiance, without, active, stats, features, feature_albedo):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
@@ -192,8 +191,7 @@ def emitters(lights, mesh, mats, tables, next_event, caustics, world_caustics, d
     With `features`, paths that still carry the denoising features add what they find to the
     Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
     written its features at its first, diffuse, hit).
-    A shader program whose emission varies (shader/program.py) is run at the hit for it
-    (`lobes` and `regs` its scratch); no light sample finds such emission, so it weighs 1.
+    Shader programs whose emission varies add it in program_emitters.
     """
     kept = 0
     for i in range(m):
@@ -225,14 +223,7 @@ def emitters(lights, mesh, mats, tables, next_event, caustics, world_caustics, d
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
-        if mats.kind[mat] == PROGRAM and mats.programs.flags[mat] & EMISSION_VARIES \
-                and emitters_count:
-            emission = program_emission(mesh, mats, tables, prim[i], np.float64(u[i]),
-                                        np.float64(v[i]), o, d, kind, pdf_prev, depth,
-                                        t_surface, lobes, regs)
-        # Emission, a Principled BSDF's or a program's (which, as in Cycles, may be negative)
-        if emitters_count and (max3(emission) > 0.0 or min(emission[0], emission[1],
-                                                           emission[2]) < 0.0):
+        if emitters_count and max3(emission) > 0.0:     # Emission, or a Principled BSDF's
             pdf_light, pdf_vertex = triangle_hit(lights, prim[i], madd(o, -mis_t, d), d,
                                                  t_surface + mis_t, connect)
             w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
@@ -251,51 +242,70 @@ def emitters(lights, mesh, mats, tables, next_event, caustics, world_caustics, d
 
 
 @jit
-def program_emission(mesh, mats, tables, tri, b1, b2, o, d, kind, pdf_prev, depth, t, lobes,
-                     regs):
-    """The emission of a shader program's material at a hit, the program run for it."""
-    p, ng, ns, _ = hit_point(mesh, tri, b1, b2)
-    entering = dot(d, ng) < 0.0
-    side = 1.0 if entering else -1.0
-    run(mats, mats.of_triangle[tri], regs, (p, mul(ng, side), mul(ns, side), neg(d), entering,
-                                            tri, b1, b2, ray_flags(kind, pdf_prev), depth, t),
-        lobes, tables, mesh.corner_normals.shape[0] > 0)
-    return total(regs, TOTAL_EMISSION)
+def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, t, radiance,
+                     without, features, feature_albedo, lobes, regs):
+    """The emission of the shader programs whose emission varies over the surface or with
+    the ray (shader/program.py; `lobes` and `regs` their scratch), each run at the hit of
+    every path of the m: no light sample finds such emission, so it weighs 1 (a path the
+    light tracer counts, as in emitters, gets none; negative emission is added as Cycles adds
+    it)."""
+    has_normals = mesh.corner_normals.shape[0] > 0
+    for i in range(m):
+        tri = prim[i]
+        if tri < 0:
+            continue
+        mat = mats.of_triangle[tri]
+        if mats.kind[mat] != PROGRAM or not mats.programs.flags[mat] & EMISSION_VARIES \
+                or (caustics and paths.caustic[i] == CAUSTIC):
+            continue
+        b1, b2 = np.float64(u[i]), np.float64(v[i])
+        p, _, ng_f, ns_f, _, entering, d = facing_hit(mesh, paths, i, tri, b1, b2)
+        hit = (p, ng_f, ns_f, neg(d), entering, tri, b1, b2,
+               ray_flags(paths.ray_kind[i], paths.pdf_prev[i]), depth,
+               np.float64(t[i]))
+        run(mats, mat, regs, hit, lobes, tables, has_normals)
+        emission = total(regs, TOTAL_EMISSION)
+        beta = row(paths.beta, i)
+        add_light_both(radiance, without, paths.path[i], beta, emission, 1.0, 1.0)
+        if features and paths.feature_on[i] != 0:
+            add_feature_light(feature_albedo, paths, i, beta, emission, 1.0)
 
 
 @jit
 def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, stratified, depth,
               n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes, params,
-              regs, stats, lv, last_connection, features, feature_albedo, feature_normal):
+              stats, lv, last_connection, features, feature_albedo, feature_normal, programs):
     """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
     layered vertices sample a light (a shadow ray, or direct light for lamps that cast no
     shadow) and, up to bounce last_connection (-1: never), connect to the path's light vertex
     in `lv` (light_vertices.py; another shadow ray); every kind samples its BSDF. After Russian
     roulette the surviving paths' next rays go into `out`. `lobes` is scratch for a layered
     hit's lobes (lobes.py), `tables` its albedo tables, `params` for a textured Principled
-    BSDF's parameters, `regs` a shader program's registers; `without` as for emitters. With `features`, paths that still carry the
+    BSDF's parameters; `without` as for emitters. With `features`, paths that still carry the
     denoising features apply this hit to them (features.py), writing into the rows of
-    feature_albedo and feature_normal.
+    feature_albedo and feature_normal. Hits on shader programs are left for program_materials,
+    their rows written into `programs` (as pbrt-v4 queues each material type for a kernel of
+    its own: this one stays the size it was without programs).
 
-    Returns (paths in out, shadow rays queued).
+    Returns (paths in out, shadow rays queued, program hits left).
     """
     n_out = 0
     n_shadow = 0
+    n_programs = 0
     has_normals = mesh.corner_normals.shape[0] > 0
     can_sample_lights = next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0
     strat = stratified and depth < STRATIFIED_BOUNCES
     for j in range(n_active):
         i = active[j]
         tri = prim[i]
-        b1, b2 = np.float64(u[i]), np.float64(v[i])
-        p, ng, ns, eps = hit_point(mesh, tri, b1, b2)
-        d = row(paths.d, i)
-        # Face the normals towards the incoming ray (two-sided surfaces, inside of glass).
-        entering = dot(d, ng) < 0.0
-        side = 1.0 if entering else -1.0
-        ng_f, ns_f = mul(ng, side), mul(ns, side)
         mat = mats.of_triangle[tri]
         kind = mats.kind[mat]
+        if kind == PROGRAM:
+            programs[n_programs] = i
+            n_programs += 1
+            continue
+        b1, b2 = np.float64(u[i]), np.float64(v[i])
+        p, ng, ng_f, ns_f, eps, entering, d = facing_hit(mesh, paths, i, tri, b1, b2)
         color, trans_color = surface_colors(mats, mat, tri, b1, b2)
         key, sample = paths.key[i], paths.sample[i]
         u_pick, u_roulette = sample_pair(key, sample, 2 + 3 * depth, bits, strat)
@@ -307,7 +317,6 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         # Numba cannot inline.
         rng, u_bounce, hit = (key, sample, bits, strat), (u_pick, u0, u1), (p, ng, ng_f, ns_f, eps)
         count = 0
-        mis_t = 0.0
         if kind == DIFFUSE:
             new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow = scatter_diffuse(
                 lights, mesh, can_sample_lights, rng, depth, u_bounce, beta, path, row(paths.o, i),
@@ -318,52 +327,106 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
                 lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u_bounce,
                 beta, path, d, hit, entering, (mat, tri, b1, b2), color, trans_color, connects,
                 lv, lobes, params, shadows, n_shadow, radiance, without, stats)
-        elif kind == PROGRAM:
-            ray = (row(paths.o, i), d, paths.ray_kind[i], paths.pdf_prev[i], paths.mis_t[i])
-            (new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count,
-             mis_t) = scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals,
-                                      rng, depth, u_bounce, beta, path, ray, hit, entering,
-                                      (mat, tri, b1, b2), connects, lv, lobes, regs, shadows,
-                                      n_shadow, radiance, without, stats)
         else:
             new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
                 kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,
                 entering, color, trans_color, mats.ior[mat], stats)
         if features and paths.feature_on[i] != 0:
-            # The layered and program kinds' lobes are still in `lobes` from their scatter.
-            if kind != LAYERED and kind != PROGRAM:
+            # The layered kinds' lobes are still in `lobes` from their scatter.
+            if kind != LAYERED:
                 count = smooth_lobes(kind, lobes, tables, neg(d), ns_f, entering, color,
                                      trans_color, mats.ior[mat])
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
-        peak = max3(beta)
-        if not peak > 0.0:
-            continue
-        if depth + 1 >= RR_START:
-            # Survival probability throughput / 0.1: in a closed room a path's remaining light
-            # is large, and killing paths at throughput 0.5 (q = throughput) cost more
-            # variance than it saved time (measured: 1.5x worse relMSE x time).
-            q = min(peak / RR_THRESHOLD, 1.0)
-            if u_roulette >= q:
-                stats[RR_KILLED] += 1
-                continue
-            beta = mul(beta, 1.0 / q)
-        set_ray(out, n_out, offset_origin(p, ng, eps, new_d), new_d, FAR32)
-        store(out.beta, n_out, beta)
-        out.path[n_out] = paths.path[i]
-        out.key[n_out] = key
-        out.sample[n_out] = sample
-        out.ray_kind[n_out] = ray_kind
-        out.caustic[n_out] = caustic
-        out.pdf_prev[n_out] = pdf_prev
-        out.connect[n_out] = connect
-        out.mis_t[n_out] = mis_t
-        if features:
-            out.feature_on[n_out] = paths.feature_on[i]
-            for k in range(3):
-                out.feature[n_out, k] = paths.feature[i, k]
-        n_out += 1
+        n_out = go_on(out, n_out, paths, i, depth, u_roulette, (new_d, beta, ray_kind, pdf_prev,
+                                                              caustic, connect, 0.0),
+                      offset_origin(p, ng, eps, new_d), features, stats)
+    return n_out, n_shadow, n_programs
+
+
+@jit
+def program_materials(lights, mesh, mats, tables, next_event, bits, stratified, depth,
+                      n_programs, programs, paths, prim, u, v, out, n_out, shadows, n_shadow,
+                      radiance, without, lobes, regs, stats, lv, last_connection, features,
+                      feature_albedo, feature_normal):
+    """The materials stage for the hits on shader programs that `materials` left in
+    `programs` (scatter.scatter_program), their next rays after out's first n_out and their
+    shadow rays after the first n_shadow. Returns the new (n_out, n_shadow)."""
+    has_normals = mesh.corner_normals.shape[0] > 0
+    can_sample_lights = next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0
+    strat = stratified and depth < STRATIFIED_BOUNCES
+    for j in range(n_programs):
+        i = programs[j]
+        tri = prim[i]
+        mat = mats.of_triangle[tri]
+        b1, b2 = np.float64(u[i]), np.float64(v[i])
+        p, ng, ng_f, ns_f, eps, entering, d = facing_hit(mesh, paths, i, tri, b1, b2)
+        key, sample = paths.key[i], paths.sample[i]
+        u_pick, u_roulette = sample_pair(key, sample, 2 + 3 * depth, bits, strat)
+        u0, u1 = sample_pair(key, sample, 4 + 3 * depth, bits, strat)
+        path = paths.path[i]
+        connects = depth <= last_connection and lv.found[path]
+        ray = (row(paths.o, i), d, paths.ray_kind[i], paths.pdf_prev[i], paths.mis_t[i])
+        (new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count,
+         mis_t) = scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals,
+                                  (key, sample, bits, strat), depth, (u_pick, u0, u1),
+                                  row(paths.beta, i), path, ray, (p, ng, ng_f, ns_f, eps),
+                                  entering, (mat, tri, b1, b2), connects, lv, lobes, regs,
+                                  shadows, n_shadow, radiance, without, stats)
+        if features and paths.feature_on[i] != 0:
+            record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
+                            feature_normal)
+        n_out = go_on(out, n_out, paths, i, depth, u_roulette, (new_d, beta, ray_kind, pdf_prev,
+                                                              caustic, connect, mis_t),
+                      offset_origin(p, ng, eps, new_d), features, stats)
     return n_out, n_shadow
+
+
+@jit_inline
+def facing_hit(mesh, paths, i, tri, b1, b2):
+    """Path i's hit on triangle tri at (b1, b2): (point, geometric normal, both normals facing
+    the incoming ray, offset size, entering (the ray met the front face), ray direction)."""
+    p, ng, ns, eps = hit_point(mesh, tri, b1, b2)
+    d = row(paths.d, i)
+    # Face the normals towards the incoming ray (two-sided surfaces, inside of glass).
+    entering = dot(d, ng) < 0.0
+    side = 1.0 if entering else -1.0
+    return p, ng, mul(ng, side), mul(ns, side), eps, entering, d
+
+
+@jit_inline
+def go_on(out, n_out, paths, i, depth, u_roulette, scattered, origin, features, stats):
+    """After Russian roulette, path i's next ray from origin (`scattered`: direction,
+    throughput, ray kind, BSDF density, caustic state, light-vertex factor, distance since the
+    last scattering vertex) as row n_out of `out`; returns the new count."""
+    new_d, beta, ray_kind, pdf_prev, caustic, connect, mis_t = scattered
+    peak = max3(beta)
+    if not peak > 0.0:
+        return n_out
+    if depth + 1 >= RR_START:
+        # Survival probability throughput / 0.1: in a closed room a path's remaining light
+        # is large, and killing paths at throughput 0.5 (q = throughput) cost more
+        # variance than it saved time (measured: 1.5x worse relMSE x time).
+        q = min(peak / RR_THRESHOLD, 1.0)
+        if u_roulette >= q:
+            stats[RR_KILLED] += 1
+            return n_out
+        beta = mul(beta, 1.0 / q)
+    set_ray(out, n_out, origin, new_d, FAR32)
+    store(out.beta, n_out, beta)
+    out.path[n_out] = paths.path[i]
+    out.key[n_out] = paths.key[i]
+    out.sample[n_out] = paths.sample[i]
+    out.ray_kind[n_out] = ray_kind
+    out.caustic[n_out] = caustic
+    out.pdf_prev[n_out] = pdf_prev
+    out.connect[n_out] = connect
+    out.mis_t[n_out] = mis_t
+    if features:
+        out.feature_on[n_out] = paths.feature_on[i]
+        for k in range(3):
+            out.feature[n_out, k] = paths.feature[i, k]
+    return n_out + 1
 
 
 @jit

@@ -6,6 +6,7 @@ and node groups, as Cycles follows them), the active output node (active_output)
 from __future__ import annotations
 
 from ...tracer import scene as scene_mod
+from ...tracer.shader.colorspace import RGB_TO_Y
 from .coverage import node_text
 
 
@@ -113,8 +114,9 @@ class _Value:
         self.default_value, self.type = default_value, type
 
 
-# Blender's and Cycles' colour-to-number conversion: the colour's luminance (linear Rec. 709).
-LUMINANCE = (0.2126, 0.7152, 0.0722)
+# Blender's and Cycles' colour-to-number conversion: the colour's luminance, with the weights
+# of Blender's colour configuration (colorspace.RGB_TO_Y: 0.212639, 0.715169, 0.072192).
+LUMINANCE = RGB_TO_Y
 
 
 def _as_type(value, sock):

@@ -991,7 +991,7 @@ def test_render_settings_default(bl):
                      "pixel_filter": "blackman_harris", "filter_width": 1.5, "denoise": True}
     assert s.render["sources"] == {
         **dict.fromkeys(["spp", "noise_threshold", "min_spp", "time_limit", "seed", "max_depth",
-                         "pixel_filter", "filter_width", "denoise", "denoising_input_passes",
+                         "transparent_max_bounces", "pixel_filter", "filter_width", "denoise", "denoising_input_passes",
                          "denoising_prefilter", "denoising_quality", "denoising_passes"],
                         "file's Cycles setting"),
         **dict.fromkeys(["fresnel", "caustics", "light_vertices"], "default")}
@@ -1165,7 +1165,8 @@ def test_info_names_where_each_setting_came_from(bl, tmp_path):
     assert ("render     96 spp, max depth 7, seed 9, fresnel exact, pixel filter blackman-harris "
             "1.5 px") in text, text
     sources = next(line for line in lines if line.startswith("sources"))
-    assert sources == ("sources    file's Cycles setting: spp, max_depth, seed, noise_threshold, "
+    assert sources == ("sources    file's Cycles setting: spp, max_depth, "
+                       "transparent_max_bounces, seed, noise_threshold, "
                        "min_spp, time_limit, pixel_filter, filter_width, denoise, "
                        "denoising_input_passes, denoising_prefilter, denoising_quality, "
                        "denoising_passes; default: fresnel, "

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..jit import jit
 from .closures import vector as _load3
+from .colorspace import RGB_TO_Y, XYZ_TO_REC709
 from .inputs import store3 as _store3
 
 MIX_COLOR = 200        # Mix (Color) and the legacy MixRGB: a blend mode of A and B
@@ -78,14 +79,6 @@ SPECS = {
 # colorramp_to_array and curvemapping_*_to_array evaluate at i / RAMP_TABLE_SIZE).
 RAMP_TABLE_SIZE = 256
 
-# Blender's OpenColorIO config (datafiles/colormanagement/config.ocio): scene linear is Linear
-# Rec.709, whose matrix from CIE XYZ (D65) is this. Cycles derives its xyz_to_rgb from the
-# config's aces_interchange role (scene/shader.cpp init_xyz_transforms), which comes to this
-# matrix; rgb_to_y is the Y row of its inverse, and Blackbody's rec709_to_rgb is the identity.
-XYZ_TO_REC709 = ((3.2409699, -1.5373832, -0.4986108),
-                 (-0.9692436, 1.8759675, 0.0415551),
-                 (0.0556301, -0.2039770, 1.0569715))
-RGB_TO_Y = tuple(float(v) for v in np.linalg.inv(np.array(XYZ_TO_REC709))[1])
 
 # kernel/tables.h: the blackbody fit's coefficients for 7 temperature ranges, and the CIE 1931
 # colour matching functions every 5 nm from 380 nm.

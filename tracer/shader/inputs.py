@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from ..fresnel import fresnel_dielectric
 from ..jit import jit
-from ..textures import REC709, sample_image, srgb_to_linear
+from ..textures import sample_image, srgb_to_linear
+from .colorspace import RGB_TO_Y
 from ..vec import dot, madd, mul
 
 # Opcodes 20-99.
@@ -142,7 +143,8 @@ def execute(ins, regs, hit, mats):
         regs[ins[2]] = facing
     elif op == COLOR_TO_FLOAT:
         s = ins[2]
-        regs[ins[1]] = REC709[0] * regs[s] + REC709[1] * regs[s + 1] + REC709[2] * regs[s + 2]
+        y = RGB_TO_Y
+        regs[ins[1]] = y[0] * regs[s] + y[1] * regs[s + 1] + y[2] * regs[s + 2]
     elif op == VECTOR_TO_FLOAT:
         s = ins[2]
         regs[ins[1]] = (regs[s] + regs[s + 1] + regs[s + 2]) / 3.0

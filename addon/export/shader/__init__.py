@@ -21,6 +21,8 @@ def compile_material(name, surface_socket, resources, coverage):
     entries recorded in coverage; CompileError if it cannot be compiled."""
     c = Compiler(name, resources, coverage, NODE_OUTPUTS, FAMILIES)
     compile_surface(c, surface_socket)
+    if any(x < 0.0 for x in c.emission):
+        c.emission_varies = True    # no light to sample: its hits add it, as Cycles does
     mat = {"name": name, "kind": "program", "program": c.program()}
     if not c.emission_varies and any(c.emission):
         mat["emission"] = [float(x) for x in c.emission]
