@@ -347,6 +347,9 @@ def _check_material(i, mat, images=(), texcoords=()):
         _finite_vec(mat["transmission_color"], f"{where}.transmission_color", positive=True)
     if kind == "emission":
         _finite_number(mat.get("strength"), f"{where}.strength", 0.0)
+    if mat.get("absorption") is not None:
+        # The Volume output's absorption coefficient sigma_a per metre (tracer/media.py).
+        _finite_vec(mat["absorption"], f"{where}.absorption", positive=True)
     for key, default in MATERIAL_DEFAULTS.get(kind, {}).items():
         if key in mat:
             _check_material_field(f"{where}.{key}", kind, key, mat[key], default)

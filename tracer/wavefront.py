@@ -33,6 +33,8 @@ from .lights.codes import VISIBLE_CAMERA
 from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lights_at_escape,
                               triangle_hit)
 from .material_kinds import DIFFUSE, EMISSION, LAYERED
+from .media import empty_stacks
+from . import media as medium
 from .pixel_filter import position as filter_position
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
@@ -70,6 +72,8 @@ class Paths(NamedTuple):
     feature: np.ndarray      # (n, 3) the denoising features' weight (features.py), when a render
     #                          makes the Denoising Albedo and Normal passes
     feature_on: np.ndarray   # (n,) int64: 1 while the path has not written its features
+    medium: np.ndarray       # (n, media.MAX_MEDIA) int64: the media the ray is inside
+    #                          (media.py), read and written only in scenes with media
 
 
 class Shadows(NamedTuple):
@@ -88,7 +92,7 @@ def new_paths(n: int) -> Paths:
                  np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3), np.float32),
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                  np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n),
-                 np.empty((n, 3)), np.zeros(n, np.int64))
+                 np.empty((n, 3)), np.zeros(n, np.int64), empty_stacks(n))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -165,8 +169,8 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 
 
 @jit
-def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_depth, m, paths, prim,
-             t, radiance, without, active, stats, features, feature_albedo):
+def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, max_depth, m, paths,
+             prim, t, radiance, without, active, stats, features, feature_albedo):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
@@ -183,6 +187,8 @@ def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_dept
     With `features`, paths that still carry the denoising features add what they find to the
     Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
     written its features at its first, diffuse, hit).
+    In a scene with media (media.py), the ray's segment inside them attenuates what it finds
+    and the path's throughput from here on.
     """
     kept = 0
     for i in range(m):
@@ -190,17 +196,23 @@ def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_dept
         beta, path, kind = row(paths.beta, i), paths.path[i], paths.ray_kind[i]
         pdf_prev, connect = paths.pdf_prev[i], paths.connect[i]
         t_surface = np.float64(t[i])     # Embree leaves a miss's t at the ray's length
+        sigma = medium.sigma_of(media, paths.medium, i) if media.on else medium.ZERO
         light_tracers = caustics and paths.caustic[i] == CAUSTIC
         emitters_count = not light_tracers
         for lamp in range(lamps_to_cross(lights) if emitters_count else 0):
             crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
                                                                  kind, pdf_prev, connect)
             if crossed:
+                if media.on:
+                    light = medium.through(light, sigma, medium.lamp_distance(lights, lamp, o, d))
                 w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
                 add_light_both(radiance, without, path, beta, light,
                                mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex), w_without)
                 if features and paths.feature_on[i] != 0:
                     add_feature_light(feature_albedo, paths, i, beta, light, w_without)
+        if media.on and medium.absorbs(sigma):
+            beta = medium.through(beta, sigma, t_surface)
+            store(paths.beta, i, beta)
         if prim[i] < 0:
             first, end = lights_at_escape(lights, not (light_tracers and world_caustics),
                                           emitters_count)
@@ -232,7 +244,7 @@ def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_dept
 
 
 @jit
-def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, stratified, depth,
+def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits, stratified, depth,
               n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes, params,
               stats, lv, last_connection, features, feature_albedo, feature_normal):
     """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
@@ -243,7 +255,9 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
     hit's lobes (lobes.py), `tables` its albedo tables, `params` for a textured Principled
     BSDF's parameters; `without` as for emitters. With `features`, paths that still carry the
     denoising features apply this hit to them (features.py), writing into the rows of
-    feature_albedo and feature_normal.
+    feature_albedo and feature_normal. In a scene with media, the shadow rays are attenuated
+    in the media they cross and the next rays carry their path's stack of media, entered or
+    left where they pass through the surface (media.py).
 
     Returns (paths in out, shadow rays queued).
     """
@@ -275,6 +289,7 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         # Numba cannot inline.
         rng, u_bounce, hit = (key, sample, bits, strat), (u_pick, u0, u1), (p, ng, ng_f, ns_f, eps)
         count = 0
+        first_shadow = n_shadow
         if kind == DIFFUSE:
             new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow = scatter_diffuse(
                 lights, mesh, can_sample_lights, rng, depth, u_bounce, beta, path, row(paths.o, i),
@@ -289,6 +304,9 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
             new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
                 kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,
                 entering, color, trans_color, mats.ior[mat], stats)
+        if media.on:
+            medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
+                                     first_shadow, n_shadow)
         if features and paths.feature_on[i] != 0:
             # The layered kinds' lobes are still in `lobes` from their scatter.
             if kind != LAYERED:
@@ -317,6 +335,9 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         out.caustic[n_out] = caustic
         out.pdf_prev[n_out] = pdf_prev
         out.connect[n_out] = connect
+        if media.on:
+            medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
+                         dot(new_d, ng_f) < 0.0)
         if features:
             out.feature_on[n_out] = paths.feature_on[i]
             for k in range(3):
