@@ -3,8 +3,8 @@
 The active Material Output decides what renders: its Surface's BSDF node is converted by its
 entry in bsdfs.CONVERTERS, with Inputs (nodes.py) reading the node's input values; an Image
 Texture on a texturable input is handed on in the dict's "_textures" (textures.py converts it).
-Everything else the output reaches (a volume, a displacement, a shader Snell lacks, a linked
-input it does not read) is recorded, with what Snell renders instead, in the material's Coverage
+Its Volume becomes the dict's "absorption" (volumes.py). Everything else the output reaches (a
+displacement, a shader Snell lacks, a linked input it does not read) is recorded, with what Snell renders instead, in the material's Coverage
 (coverage.py): its replaced entries are the exporter's warnings, and `snell info` lists both.
 """
 from __future__ import annotations
@@ -14,6 +14,7 @@ from .bsdfs import BLENDER_DISTRIBUTIONS, CONVERTERS, PRINCIPLED_INPUTS  # noqa:
 from .coverage import Coverage, node_text
 from .mixes import NotFolded, fold, mix_factor
 from .nodes import Inputs, active_output, follow, linked_socket, source_in  # noqa: F401
+from .volumes import convert_volume
 
 GREY = [0.8, 0.8, 0.8]
 BLACK = [0.0, 0.0, 0.0]
@@ -27,10 +28,13 @@ DEFAULT_SURFACE = {"name": "(default surface)", "kind": "principled", "color": l
 NO_MATERIAL = ("no material: rendered with Cycles' default surface (a Principled BSDF of base "
                "colour 0.8), as Cycles renders it")
 NO_SURFACE = "rendered black, as Cycles renders it"
+# A material with a Volume and no Surface: Cycles' boundary lets every ray through.
+VOLUME_ONLY = ("rendered as a clear boundary (a Refraction BSDF of IOR 1) around the volume; "
+               "direct light from lamps does not pass it")
+CLEAR = {"kind": "refraction", "color": [1.0, 1.0, 1.0], "ior": 1.0}
 
 # What Snell renders instead of what a Material Output's other inputs carry.
 OUTPUT_INPUTS = {
-    "Volume": "rendered without it (the object's inside is clear)",
     "Displacement": "rendered without displacement or bump (the mesh's normals)",
 }
 # The Thickness input is EEVEE's alone: Cycles ignores it too.
@@ -62,16 +66,24 @@ def convert_material(mat):
         if node is not None:
             coverage.replace(out, f"is linked to {node_text(node)}, which Snell does not "
                                   f"render", instead, input=socket)
+    absorption = convert_volume(out, coverage)
     surface = source_in(out.inputs["Surface"])
+    if surface.node is None and absorption is not None:
+        coverage.replace(out, "is not connected (a volume alone)", VOLUME_ONLY, input="Surface")
+        return {"name": name, **CLEAR, "color": list(CLEAR["color"]),
+                "absorption": absorption}, coverage
     if surface.node is None:
         coverage.replace(out, "is not connected", NO_SURFACE, input="Surface")
         return black, coverage
     try:
-        return convert_surface(name, surface, coverage), coverage
+        converted = convert_surface(name, surface, coverage)
     except NotFolded as exc:
         coverage.replace(out, f"is linked to {exc}, which Snell cannot evaluate",
                          "using grey 0.8 diffuse", input="Surface")
-        return {"name": name, "kind": "diffuse", "color": list(GREY)}, coverage
+        converted = {"name": name, "kind": "diffuse", "color": list(GREY)}
+    if absorption is not None:
+        converted["absorption"] = absorption
+    return converted, coverage
 
 
 def convert_surface(name, surface, coverage):
