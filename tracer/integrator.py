@@ -26,7 +26,7 @@ from .lights.codes import WORLD
 from .lights.tables import LightSampler
 from .material_kinds import DIFFUSE, GLASS, LAYERED, REFRACTION
 from .materials import material_tables
-from .media import media_tables
+from .media import camera_in_medium, media_tables
 from .microfacet_tables import shipped_tables
 from .passes import CHUNK
 from .pixel_filter import make_filter, spread_splats
@@ -201,6 +201,10 @@ class Renderer:
                                                                               self.caustics))
                               if self.caustics is not None else why_no_light),
             "light vertices": (self.light_vertices, self._why_vertices),
+            "absorbing media": (self.media.on, ("absorbing volumes, the camera inside one"
+                                                if camera_in_medium(self.media) else
+                                                "absorbing volumes") if self.media.on else
+                                "no absorbing volumes"),
         }
 
     def _choose_light_vertices(self, wanted: bool) -> tuple[bool, str]:
