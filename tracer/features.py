@@ -22,8 +22,8 @@ Cycles' strategies (light vertices left out): add_feature_light.
 from __future__ import annotations
 
 from .jit import jit
-from .lobes import (ALPHA, DIST_GGX, KIND, LAMBERT, NORMAL, SAMPLE_WEIGHT, lobe_albedo, new_lobe,
-                    setup_glass, setup_glossy, setup_refraction, vec_at)
+from .lobes import (ALPHA, DIST_GGX, KIND, LAMBERT, NORMAL, SAMPLE_WEIGHT, TRANSLUCENT,
+                    lobe_albedo, new_lobe, setup_glass, setup_glossy, setup_refraction, vec_at)
 from .material_kinds import DIFFUSE, GLASS, MIRROR
 from .vec import add, madd, mul, vmul
 
@@ -60,7 +60,7 @@ def surface_features(lobes, count, tables, wi):
         normal = madd(normal, weight, vec_at(lobe, NORMAL))
         total += weight
         albedo = lobe_albedo(lobe, tables, wi)
-        if lobe[KIND] == LAMBERT or lobe[ALPHA] > ROUGH_ALPHA:
+        if lobe[KIND] == LAMBERT or lobe[KIND] == TRANSLUCENT or lobe[ALPHA] > ROUGH_ALPHA:
             rough_albedo = add(rough_albedo, albedo)
             rough += weight
         else:

@@ -24,7 +24,7 @@ from .camera import Camera
 from .geometry import Geometry
 from .lights.codes import WORLD
 from .lights.tables import LightSampler
-from .material_kinds import DIFFUSE, GLASS, LAYERED, REFRACTION
+from .material_kinds import DIFFUSE, GLASS, LAYERED, PROGRAM, REFRACTION
 from .materials import material_tables
 from .media import camera_in_medium, media_tables
 from .microfacet_tables import shipped_tables
@@ -33,6 +33,7 @@ from .pixel_filter import make_filter, spread_splats
 from .result import RenderResult, Window, WindowSums
 from .scene import Scene
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
+from .shader import program
 
 
 class _Buffers(threading.local):
@@ -41,14 +42,15 @@ class _Buffers(threading.local):
     def get(self):
         """(paths, next paths, shadow rays (a light sample and a light-vertex connection per
         path), radiance, radiance without light vertices (a pilot's), active rows, counters,
-        lobe scratch, Principled parameter scratch, light vertices, the paths' denoising albedo
-        and normal) for CHUNK paths."""
+        lobe scratch, Principled parameter and shader program register scratch, light
+        vertices, the paths' denoising albedo and normal) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
                             wavefront.new_shadows(2 * CHUNK), np.empty((CHUNK, 3)),
                             np.empty((CHUNK, 3)),
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64),
-                            np.empty((lobes.MAX_LOBES, lobes.FIELDS)), np.empty(lobes.P_FIELDS),
+                            np.empty((lobes.MAX_LOBES, lobes.FIELDS)),
+                            (np.empty(lobes.P_FIELDS), program.new_registers()),
                             light_vertices_module.new_light_vertices(CHUNK),
                             (np.zeros((CHUNK, 3)), np.zeros((CHUNK, 3))))
         return self.buffers
@@ -123,6 +125,11 @@ class Renderer:
                                                              kind, pure=pure)
                                 if settings.caustics or pure else None)
         self._use_camera_for_caustics()
+        used = np.unique(self.materials.of_triangle)
+        # Shadow rays look through surfaces only where a program may be transparent.
+        self.transparent_shadows = bool(np.any(
+            (self.materials.kind[used] == PROGRAM)
+            & (self.materials.programs.flags[used] & program.MAY_BE_TRANSPARENT != 0)))
         self.light_paths_per_camera_path = settings.light_paths_per_camera_path
         self.light_vertices, self._why_vertices = self._choose_light_vertices(
             settings.light_vertices)
@@ -175,7 +182,7 @@ class Renderer:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
         used = self.materials.kind[self.materials.of_triangle]
         dielectric = bool(np.isin(used, (GLASS, REFRACTION)).any())
-        layered = bool((used == LAYERED).any())
+        layered = bool(np.isin(used, (LAYERED, PROGRAM)).any())
         lights = self.lights.tables
         next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
         world, env = bool(lights.has_world), bool(lights.has_env)
@@ -190,8 +197,11 @@ class Renderer:
             "lens sampling": (self.camera.has_lens, "depth of field" if self.camera.has_lens
                               else "no depth of field"),
             "dielectric sampling": (dielectric, "glass" if dielectric else "no smooth glass"),
-            "microfacet sampling": (layered, "rough or Principled surfaces" if layered
-                                    else "no rough or Principled surfaces"),
+            "microfacet sampling": (layered, "rough, Principled or node-tree surfaces" if layered
+                                    else "no rough, Principled or node-tree surfaces"),
+            "transparent shadows": (self.transparent_shadows,
+                                    "transparent surfaces" if self.transparent_shadows
+                                    else "no transparent surfaces"),
             "next-event estimation": (next_event, "lamps or world light to sample" if next_event
                                       else "no lamps and a black world"),
             "world": (world, "world light" if world else "black world"),
@@ -220,6 +230,10 @@ class Renderer:
         used = self.materials.kind[self.materials.of_triangle]
         if not np.any(used == DIFFUSE):
             return False, "no diffuse surface"
+        if self.transparent_shadows:
+            # A light vertex's density is the one of a path from its camera vertex that no
+            # transparent surface bends; the MIS weights through one are not derived.
+            return False, "transparent surfaces"
         return True, "mesh lights or area lamps light diffuse surfaces"
 
     # -- one chunk of paths ---------------------------------------------------------------
@@ -279,7 +293,7 @@ class Renderer:
                              f"a chunk of {CHUNK}")
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
-        (paths, out, shadows, radiance, without, active, stats, scratch, params,
+        (paths, out, shadows, radiance, without, active, stats, scratch, (params, regs),
          lv, (feature_albedo, feature_normal)) = self._buffers.get()
         with_features = features is not None
         without = without[:n] if pilot else without[:0]
@@ -307,22 +321,25 @@ class Renderer:
         m = n
         for depth in range(self.max_depth + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split,
-                                      self.world_split, depth, self.max_depth, m, paths, prim, t,
-                                      radiance, without, active, stats, with_features,
-                                      feature_albedo)
+            kept = wavefront.emitters(lights, mesh, mats, self.media, self.tables,
+                                      self.next_event, self.split, self.world_split, depth,
+                                      self.max_depth, m, paths, prim, u, v, t, radiance,
+                                      without, active, stats, with_features,
+                                      feature_albedo, scratch, regs)
             if kept == 0:
                 break
             m, n_shadow = wavefront.materials(lights, mesh, mats, self.media, self.tables,
                                               self.fresnel, self.next_event, bits, stratified,
-                                              depth, kept,
-                                              active, paths, prim, u, v, out, shadows, radiance,
-                                              without, scratch, params, stats, lv,
+                                              depth, kept, active, paths, prim, u, v, out,
+                                              shadows, radiance,
+                                              without, scratch, params, regs, stats, lv,
                                               last_connection, with_features, feature_albedo,
                                               feature_normal)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])
+                if self.transparent_shadows:
+                    self._through_transparency(depth, n_shadow, blocked, shadows, scratch, regs)
                 wavefront.shadow_rays(n_shadow, blocked, shadows, radiance, without)
             paths, out = out, paths
             if m == 0:
@@ -333,6 +350,23 @@ class Renderer:
                                                           in_pass, pixels, features[0],
                                                           features[1])
         return radiance, without, stats
+
+    def _through_transparency(self, depth, n_shadow, blocked, shadows, scratch, regs):
+        """Let the blocked shadow rays through transparent surfaces (wavefront.
+        shadow_transparency), one surface per Embree call, as many as Cycles' Transparent
+        bounces allow: a ray with more in its way stays blocked."""
+        pending = np.flatnonzero(blocked == 0)
+        # A round per surface passed, and one more to find nothing behind the last.
+        for _ in range(self.settings.transparent_max_bounces + 1):
+            if len(pending) == 0:
+                return
+            prim, u, v, t = self.geometry.intersect(shadows.o32[pending],
+                                                    shadows.d32[pending],
+                                                    shadows.tmax[pending])
+            left = wavefront.shadow_transparency(self.geometry.mesh, self.materials,
+                                                 self.tables, depth, len(pending), pending,
+                                                 prim, u, v, t, shadows, blocked, scratch, regs)
+            pending = pending[:left]
 
     def _merge_chunk(self, radiance, n, start, in_pass, first_sample, pixels, total,
                      total_sq) -> int:

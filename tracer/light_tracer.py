@@ -51,7 +51,7 @@ from .lights.codes import (AREA, EMISSIVE_TRIANGLE, POINT, SUN, VISIBLE_DIFFUSE,
 from .lights.dispatch import emission_anchor, emit_along, light_seen, starts_light_paths
 from .lights.sun import sun_emission
 from .lights.world import world_emission
-from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, REFRACTION
+from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, PROGRAM, REFRACTION
 from . import media as medium
 from .media import empty_stacks
 from .sampler import mix, random_pair
@@ -385,8 +385,8 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
             continue
         mat = mats.of_triangle[tri]
         kind = mats.kind[mat]
-        if kind == EMISSION or kind == LAYERED:
-            continue      # rough and Principled surfaces: the path tracer's (wavefront.py)
+        if kind == EMISSION or kind == LAYERED or kind == PROGRAM:
+            continue      # rough, Principled and node-tree surfaces: the path tracer's
         d = (np.float64(paths.d32[i, 0]), np.float64(paths.d32[i, 1]), np.float64(paths.d32[i, 2]))
         p, ng, ns, eps = hit_point(mesh, tri, np.float64(u[i]), np.float64(v[i]))
         entering = dot(d, ng) < 0.0

@@ -26,19 +26,24 @@ from .microfacet_tables import ggx_albedo, glass_albedo, remap_albedo
 from .sampling import orthonormal_basis, sample_cosine_hemisphere
 from .vec import add, dot, madd, mean3, mul, normalize, vmul
 
-# Lobe kinds.
-LAMBERT, MICROFACET = range(2)
+# Lobe kinds: Lambert reflection, microfacet reflection and refraction, Lambert transmission
+# (the Translucent BSDF: Lambert about the reversed normal) and straight-through transparency (the
+# Transparent BSDF and Principled Alpha: singular, the path goes on unbent).
+LAMBERT, MICROFACET, TRANSLUCENT, TRANSPARENT = range(4)
 # Fresnel models of a microfacet lobe: none (the colour alone), the dielectric, the dielectric
 # remapped to [f0, 1] (Cycles' generalized Schlick with a negative exponent), F82-tint.
 NO_FRESNEL, DIELECTRIC, REMAPPED, F82 = range(4)
-# What a sample did (bit masks of them: 1 << event).
-DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT = range(3)
+# What a sample did (bit masks of them: 1 << event). A transparent sample is no scattering event:
+# the path goes on as the ray it was (Cycles' LABEL_TRANSMIT_TRANSPARENT).
+DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT, TRANSPARENT_EVENT = range(4)
 ALL_EVENTS = 7
 # Columns of a lobe row.
 KIND, DIST, ALPHA, ETA, REFLECTS, TRANSMITS, FRESNEL, ENERGY, SAMPLE_WEIGHT = range(9)
 WEIGHT, F0, TINT_B, R_TINT, T_TINT, NORMAL = 9, 12, 15, 18, 21, 24   # three columns each
 FIELDS = 27
-MAX_LOBES = 5          # the Principled BSDF: coat, metallic, transmission, specular, diffuse
+# The Principled BSDF alone has up to 6 (transparency, coat, metallic, transmission, specular,
+# diffuse); a shader program's mix of closures may have more: those past MAX_LOBES are left out.
+MAX_LOBES = 16
 WEIGHT_CUTOFF = 1e-5   # Cycles' CLOSURE_WEIGHT_CUTOFF: lighter layers are left out
 # Distributions of the scene file (scene.DISTRIBUTIONS order).
 DIST_GGX, DIST_MULTI_GGX, DIST_BECKMANN = range(3)
@@ -118,11 +123,15 @@ def lobe_eval(lobe, wi, wo):
     """(f |cos(n, wo)| as RGB, without the lobe's weight; solid-angle density of sampling wo)."""
     n = vec_at(lobe, NORMAL)
     cos_no = dot(n, wo)
-    if lobe[KIND] == LAMBERT:
+    if lobe[KIND] == LAMBERT or lobe[KIND] == TRANSLUCENT:
+        if lobe[KIND] == TRANSLUCENT:
+            cos_no = -cos_no
         if cos_no <= 0.0:
             return (0.0, 0.0, 0.0), 0.0
         f = cos_no / math.pi
         return (f, f, f), f
+    if lobe[KIND] == TRANSPARENT:
+        return (0.0, 0.0, 0.0), 0.0
     cos_ni = dot(n, wi)
     alpha, eta = lobe[ALPHA], lobe[ETA]
     transmission = cos_no < 0.0
@@ -173,6 +182,13 @@ def lobe_sample(lobe, ng, wi, u0, u1, u2):
         if dot(ng, wo) <= 0.0:
             return wo, (0.0, 0.0, 0.0), 0.0, DIFFUSE_EVENT, False, False
         return wo, (pdf, pdf, pdf), pdf, DIFFUSE_EVENT, False, True
+    if lobe[KIND] == TRANSLUCENT:
+        wo, pdf = sample_cosine_hemisphere(mul(n, -1.0), u0, u1)
+        if dot(ng, wo) >= 0.0:
+            return wo, (0.0, 0.0, 0.0), 0.0, DIFFUSE_EVENT, False, False
+        return wo, (pdf, pdf, pdf), pdf, DIFFUSE_EVENT, False, True
+    if lobe[KIND] == TRANSPARENT:
+        return mul(wi, -1.0), (1.0, 1.0, 1.0), 1.0, TRANSPARENT_EVENT, True, True
     cos_ni = dot(n, wi)
     zero = (0.0, 0.0, 0.0)
     if cos_ni <= 0.0:
@@ -226,9 +242,12 @@ def lobe_sample(lobe, ng, wi, u0, u1, u2):
 
 @jit
 def lobe_event(lobe, wo):
-    """What scattering into wo is for this lobe: DIFFUSE_EVENT, REFLECT_EVENT or TRANSMIT_EVENT."""
-    if lobe[KIND] == LAMBERT:
+    """What scattering into wo is for this lobe: DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT
+    (or TRANSPARENT_EVENT, which bsdf_eval never meets: a transparent lobe evaluates to 0)."""
+    if lobe[KIND] == LAMBERT or lobe[KIND] == TRANSLUCENT:
         return DIFFUSE_EVENT
+    if lobe[KIND] == TRANSPARENT:
+        return TRANSPARENT_EVENT
     return TRANSMIT_EVENT if dot(vec_at(lobe, NORMAL), wo) < 0.0 else REFLECT_EVENT
 
 
@@ -298,8 +317,10 @@ def lobe_albedo(lobe, tables, wi):
     table for its roughness instead. F82 keeps the smooth reflectance: Snell has no table of
     Cycles' exponent-5 Schlick albedo."""
     weight = vec_at(lobe, WEIGHT)
-    if lobe[KIND] == LAMBERT:
+    if lobe[KIND] == LAMBERT or lobe[KIND] == TRANSLUCENT:
         return weight
+    if lobe[KIND] == TRANSPARENT:
+        return (0.0, 0.0, 0.0)
     cos_i = dot(wi, vec_at(lobe, NORMAL))
     r, t, _ = lobe_fresnel(lobe, cos_i)
     model, eta = lobe[FRESNEL], lobe[ETA]

@@ -12,8 +12,10 @@ from typing import NamedTuple
 import numpy as np
 
 from . import lobes, microfacet
-from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, REFRACTION
+from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, PROGRAM, REFRACTION
 from .scene import DISTRIBUTIONS, EXTENSIONS, TEXTURE_SLOTS, emits, material_field
+from .shader.inputs import IMAGE
+from .shader.program import Programs, program_tables
 
 
 class Materials(NamedTuple):
@@ -38,14 +40,18 @@ class Materials(NamedTuple):
     tex_extension: np.ndarray  # (K,) int64 textures.REPEAT, EXTEND, CLIP, MIRROR
     tex_matrix: np.ndarray    # (K, 3, 3) the Mapping node: coordinate A x + b
     tex_offset: np.ndarray    # (K, 3)
+    image_slot: np.ndarray    # (scene images,) int64 each scene image's index in the pool, or -1
     img_offset: np.ndarray    # (I,) int64 first row of each image in the pool
     img_width: np.ndarray     # (I,) int64
     img_height: np.ndarray    # (I,) int64
     img_srgb: np.ndarray      # (I,) bool decoded from sRGB after interpolation
     pool: np.ndarray          # (N, 3) float32 every textured image's texels, top row first
     coords: np.ndarray        # (C, T, 3, 3) float32 texture coordinates per triangle corner
+    # (image textures: the rows they use; shader programs: the scene's texcoords, in order)
+    programs: Programs        # the PROGRAM materials' shader programs (shader/program.py)
 
 
+NO_COLOR = (0.0, 0.0, 0.0)   # the colour fields of a program material, which has none
 SHADERS = {"glossy": lobes.SHADER_GLOSSY, "glass": lobes.SHADER_GLASS,
            "refraction": lobes.SHADER_REFRACTION, "principled": lobes.SHADER_PRINCIPLED}
 SMOOTH_KINDS = {"diffuse": DIFFUSE, "mirror": MIRROR, "glossy": MIRROR,
@@ -55,6 +61,8 @@ SMOOTH_KINDS = {"diffuse": DIFFUSE, "mirror": MIRROR, "glossy": MIRROR,
 def kind_code(mat: dict) -> int:
     """The integrator's kind of a scene material: its smooth code path, or LAYERED."""
     kind = mat["kind"]
+    if kind == "program":
+        return PROGRAM
     if kind == "principled":
         return LAYERED
     if kind in ("glossy", "glass", "refraction"):
@@ -84,6 +92,12 @@ def emission(mat: dict) -> np.ndarray:
     """Emitted radiance (colour x strength) of a material, 0 for those that do not emit."""
     if not emits(mat):
         return np.zeros(3)
+    if mat["kind"] == "program":
+        # A program's constant emission; one that varies is no light to sample (its hits
+        # evaluate it, with no other strategy to weigh against).
+        if mat["program"].get("emission_varies"):
+            return np.zeros(3)
+        return np.asarray(mat["emission"], np.float64)
     if mat["kind"] == "emission":
         return np.asarray(mat["color"], np.float64) * float(mat.get("strength", 0.0))
     # A Principled BSDF's: Cycles dims it by the coat's reflectance and tint, view-dependent,
@@ -93,14 +107,18 @@ def emission(mat: dict) -> np.ndarray:
 
 
 def _texture_tables(mats, images, texcoords, n_triangles) -> dict:
-    """The texture fields of Materials: only the images textures use go into the pool."""
+    """The texture fields of Materials: only the images textures and programs use go into the
+    pool; programs read every texcoord by its scene index, so with programs all are kept."""
     tex = np.full((len(mats), 3), -1, np.int64)
     specs = []
+    program_images = set()
     for m, mat in enumerate(mats):
         for slot, spec in (mat.get("textures") or {}).items():
             tex[m, TEXTURE_SLOTS.index(slot)] = len(specs)
             specs.append(spec)
-    used = sorted({s["image"] for s in specs})
+        if mat["kind"] == "program":
+            program_images.update(ins[4] for ins in mat["program"]["code"] if ins[0] == IMAGE)
+    used = sorted({s["image"] for s in specs} | program_images)
     index = {image: k for k, image in enumerate(used)}
     rgb = [np.broadcast_to(images[i]["pixels"], images[i]["pixels"].shape[:2] + (3,))
            for i in used]
@@ -110,6 +128,8 @@ def _texture_tables(mats, images, texcoords, n_triangles) -> dict:
     for p, start, size in zip(rgb, offsets, sizes):
         pool[start:start + size] = p.reshape(-1, 3)
     used_coords = sorted({s["texcoord"] for s in specs})
+    if any(mat["kind"] == "program" for mat in mats):
+        used_coords = list(range(len(texcoords)))
     coord_index = {c: k for k, c in enumerate(used_coords)}
     coords = (np.stack([texcoords[c]["coords"] for c in used_coords]) if used_coords
               else np.zeros((0, n_triangles, 3, 3), np.float32))
@@ -121,6 +141,7 @@ def _texture_tables(mats, images, texcoords, n_triangles) -> dict:
         tex_extension=np.array([EXTENSIONS.index(s["extension"]) for s in specs], np.int64),
         tex_matrix=np.array([s["matrix"] for s in specs], np.float64).reshape(-1, 3, 3),
         tex_offset=np.array([s["offset"] for s in specs], np.float64).reshape(-1, 3),
+        image_slot=np.array([index.get(i, -1) for i in range(len(images))], np.int64),
         img_offset=offsets,
         img_width=np.array([p.shape[1] for p in rgb], np.int64),
         img_height=np.array([p.shape[0] for p in rgb], np.int64),
@@ -137,8 +158,9 @@ def material_tables(mats: list, material_ids: np.ndarray, images=(), texcoords=(
     roughness = rows(lambda m: material_field(m, "roughness") if m["kind"] in SHADERS else 0.0)
     return Materials(
         kind=rows(kind_code, np.int64),
-        color=rows(lambda m: m["color"], shape=(3,)),
-        trans_color=rows(lambda m: m.get("transmission_color", m["color"]), shape=(3,)),
+        color=rows(lambda m: m.get("color", NO_COLOR), shape=(3,)),
+        trans_color=rows(lambda m: m.get("transmission_color", m.get("color", NO_COLOR)),
+                         shape=(3,)),
         ior=rows(lambda m: m.get("ior", 1.0)),
         radiance=np.ascontiguousarray(rows(emission, shape=(3,))),
         of_triangle=material_ids.astype(np.int64),
@@ -147,4 +169,6 @@ def material_tables(mats: list, material_ids: np.ndarray, images=(), texcoords=(
         distribution=rows(lambda m: DISTRIBUTIONS.index(material_field(m, "distribution"))
                           if m["kind"] in SHADERS else 0, np.int64),
         principled=rows(principled_row, shape=(lobes.P_FIELDS,)),
+        programs=program_tables([m["program"] if m["kind"] == "program" else None
+                                 for m in mats]),
         **_texture_tables(mats, list(images), list(texcoords), len(material_ids)))

@@ -1,6 +1,6 @@
 """What the materials stage does at a hit, one function per surface kind: DIFFUSE (Lambert),
-LAYERED (the rough and Principled lobes of lobes.py) and the smooth specular kinds (mirror,
-glass, refraction; specular.py).
+LAYERED (the rough and Principled lobes of lobes.py), PROGRAM (the lobes a shader program
+builds) and the smooth specular kinds (mirror, glass, refraction; specular.py).
 
 Each takes the hit (`hit`: point, geometric normal, both normals facing the incoming ray, the
 self-intersection offset), the path's sampler (`rng`: key, sample, bits, stratified; `u`: the
@@ -12,6 +12,8 @@ light-sampling and light-vertex steps of direct_light.py.
 """
 from __future__ import annotations
 
+import math
+
 from . import specular
 from .counters import (DIELECTRIC_SAMPLES, DIFFUSE_HITS, LAYERED_HITS, REFLECTIONS, REJECTED,
                        TIR_ABSORBED_COUNT, TIR_COUNT, TRANSMISSIONS)
@@ -19,13 +21,16 @@ from .direct_light import VISIBLE_ANY_BSDF, connect_to_light_vertex, sample_dire
 from .jit import jit, jit_inline
 from .light_tracer import CAUSTIC, FIRST_DIFFUSE, NO_CAUSTIC
 from .light_vertices import camera_step_density
-from .lights.codes import VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
+from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
 from .lobes import (DIFFUSE_EVENT, P_METALLIC, P_ROUGHNESS, SHADER_PRINCIPLED, TRANSMIT_EVENT,
-                    bsdf_sample, setup_shader)
+                    TRANSPARENT_EVENT, bsdf_sample, setup_shader)
 from .material_kinds import DIFFUSE, LAYERED, MIRROR, REFRACTION
+from .shader.inputs import (LP_CAMERA, LP_DIFFUSE, LP_GLOSSY, LP_REFLECTION, LP_SINGULAR,
+                            LP_TRANSMISSION)
+from .shader.program import run
 from .sampling import sample_cosine_hemisphere
 from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_number
-from .vec import dot, neg, vmul
+from .vec import dot, neg, sub, vmul
 
 
 @jit_inline
@@ -99,6 +104,61 @@ def scatter_layered(lights, mesh, mats, tables, can_sample_lights, has_normals, 
     # The light tracer ends its paths on layered surfaces, so the path tracer counts every path
     # through them.
     return new_d, beta, ray_kind, pdf_prev, NO_CAUSTIC, 0.0, n_shadow, count
+
+
+@jit_inline
+def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u,
+                    beta, path, ray, hit, entering, surface, connects, lv, lobes, regs, shadows,
+                    n_shadow, radiance, without, stats):
+    """A vertex on a shader program's material (shader/program.py): the program builds the
+    hit's lobes, which serve the light sample, the light-vertex connection and the BSDF sample
+    as a layered vertex's do. `ray`: (origin, direction, kind and BSDF density of the ray that
+    hit, the distance it went since its last scattering vertex). A Transparent sample lets the
+    path go on unbent as the same ray: its kind and density stay, and the distance grows.
+    Returns scatter_layered's results, then the new distance since the last scattering vertex."""
+    key, sample, bits, strat = rng
+    u_pick, u0, u1 = u
+    p, _, ng_f, ns_f, eps = hit
+    mat, tri, b1, b2 = surface
+    o, d, kind_in, pdf_in, mis_t = ray
+    stats[LAYERED_HITS] += 1
+    view = neg(d)
+    segment = sub(p, o)
+    length = math.sqrt(dot(segment, segment))
+    count = run(mats, mat, regs, (p, ng_f, ns_f, view, entering, tri, b1, b2,
+                                  ray_flags(kind_in, pdf_in), depth, length),
+                lobes, tables, has_normals)
+    if can_sample_lights:
+        n_shadow = sample_direct_light(lights, mesh, key, sample, 3 + 3 * depth, bits, strat,
+                                       u_pick, VISIBLE_ANY_BSDF, p, ng_f, ns_f, eps, beta, 0.0,
+                                       LAYERED, mats.color[mat], lobes, count, view, shadows,
+                                       n_shadow, radiance, without, path)
+    if connects:
+        n_shadow = connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps,
+                                           LAYERED, mats.color[mat], lobes, count, view, stats)
+    new_d, factor, pdf_prev, event, valid = bsdf_sample(lobes, count, ng_f, view, u_pick, u0, u1)
+    beta = vmul(beta, factor) if valid else (0.0, 0.0, 0.0)
+    if event == TRANSPARENT_EVENT:
+        return new_d, beta, kind_in, pdf_in, NO_CAUSTIC, 0.0, n_shadow, count, mis_t + length
+    ray_kind = VISIBLE_DIFFUSE if event == DIFFUSE_EVENT else \
+        VISIBLE_TRANSMISSION if event == TRANSMIT_EVENT else VISIBLE_GLOSSY
+    return new_d, beta, ray_kind, pdf_prev, NO_CAUSTIC, 0.0, n_shadow, count, 0.0
+
+
+@jit
+def ray_flags(ray_kind, pdf_bsdf):
+    """The Light Path node's flags (1 << shader.inputs.LP_*) of a ray of this kind (a
+    lights.codes VISIBLE_* flag) sampled with this density (0: singular). A transmitted ray is
+    glossy too, as Cycles flags glossy refraction; Snell's rays do not say whether a
+    transmission was diffuse (the Translucent BSDF's are diffuse rays)."""
+    if ray_kind == VISIBLE_CAMERA:
+        return 1 << LP_CAMERA
+    flags = 1 << LP_SINGULAR if pdf_bsdf == 0.0 else 0
+    if ray_kind == VISIBLE_DIFFUSE:
+        return flags | 1 << LP_DIFFUSE | 1 << LP_REFLECTION
+    if ray_kind == VISIBLE_GLOSSY:
+        return flags | 1 << LP_GLOSSY | 1 << LP_REFLECTION
+    return flags | 1 << LP_GLOSSY | 1 << LP_TRANSMISSION
 
 
 @jit_inline

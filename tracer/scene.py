@@ -24,10 +24,14 @@ FORMAT = "snell-scene"
 VERSION = 4
 # Version 2 added spot lamps and lamp radius, spread, angle and flags; version 3 the glossy and
 # principled materials and the roughness of glass and refraction; version 4 orthographic cameras,
-# images (stored in the file) and the world's environment map.
+# images (stored in the file) and the world's environment map. Shader programs (the "program"
+# material) and object texture coordinates came without a new version: they are additions that
+# an older reader rejects by name ("unknown material kind 'program'").
 READS_VERSIONS = (1, 2, 3, 4)
 # The tracer's material and distribution codes are positions in these tuples: add at the end.
-MATERIAL_KINDS = ("diffuse", "mirror", "glass", "refraction", "emission", "glossy", "principled")
+# "program": a shader node tree compiled to instructions (tracer/shader/program.py).
+MATERIAL_KINDS = ("diffuse", "mirror", "glass", "refraction", "emission", "glossy", "principled",
+                  "program")
 DISTRIBUTIONS = ("ggx", "multi_ggx", "beckmann")
 LIGHT_KINDS = ("area", "point", "spot", "sun")
 LIGHT_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_transmission",
@@ -38,7 +42,7 @@ CAMERA_TYPES = ("PERSP", "ORTHO")    # camera.type (version 4); absent: PERSP
 INTERPOLATIONS = ("linear", "closest")
 EXTENSIONS = ("repeat", "extend", "clip", "mirror")     # textures.REPEAT ... MIRROR
 COLORSPACES = ("linear", "srgb")
-TEXCOORD_KINDS = ("uv", "generated")
+TEXCOORD_KINDS = ("uv", "generated", "object")
 # The inputs an image texture may drive, by material kind (docs/scene-format.md).
 TEXTURE_SLOTS = ("color", "roughness", "metallic")
 TEXTURABLE = {"diffuse": ("color",), "mirror": ("color",), "glossy": ("color", "roughness"),
@@ -105,7 +109,8 @@ class Scene:
     # "colorspace" (linear, or srgb: decoded after interpolation, as Cycles does), "pixels":
     # float32 (H, W, C), top row first}; the file stores the pixels.
     images: list = field(default_factory=list)
-    # Texture coordinates the materials' textures read: {"kind": uv or generated, "name": the UV
+    # Texture coordinates the materials' textures read: {"kind": uv, generated or object (the
+    # object-space position), "name": the UV
     # map ("" the active one), "coords": float32 (T, 3, 3), per triangle corner}.
     texcoords: list = field(default_factory=list)
     # What the exporter made of each material's shader nodes, in the materials' order:
@@ -194,7 +199,11 @@ def material_field(mat: dict, key: str):
 
 
 def emits(mat: dict) -> bool:
-    """Whether a material emits light: emission, or principled with a visible emission."""
+    """Whether a material emits light: emission, principled with a visible emission, or a
+    program with an emission (constant or not)."""
+    if mat["kind"] == "program":
+        return (any(c > 0 for c in mat.get("emission", ()))
+                or bool(mat["program"].get("emission_varies")))
     if mat["kind"] != "principled":
         return mat["kind"] == "emission"
     return (material_field(mat, "emission_strength") > 0
@@ -202,7 +211,10 @@ def emits(mat: dict) -> bool:
 
 
 def refracts(mat: dict) -> bool:
-    """Whether light passes through a material: glass, refraction, principled transmission."""
+    """Whether light passes through a material: glass, refraction, principled transmission, a
+    program with a refracting or transparent closure."""
+    if mat["kind"] == "program":
+        return bool(mat["program"].get("refracts"))
     if mat["kind"] == "principled":
         return material_field(mat, "transmission") > 0
     return mat["kind"] in ("glass", "refraction")
@@ -220,7 +232,7 @@ def is_rough(mat: dict) -> bool:
     # (materials.kind_code, which also treats Cycles' near-zero roughness as smooth).
     if mat["kind"] in ("glass", "refraction"):
         return material_field(mat, "roughness") > 0
-    return mat["kind"] in ("glossy", "principled")
+    return mat["kind"] in ("glossy", "principled", "program")
 
 
 def aperture_radius(camera: dict) -> float:
@@ -338,6 +350,20 @@ def _matrix3(value, name, singular_ok=False):
 
 def _check_material(i, mat, images=(), texcoords=()):
     where, kind = _entry_kind("materials", i, mat, MATERIAL_KINDS)
+    if mat.get("absorption") is not None:
+        # The Volume output's absorption coefficient sigma_a per metre (tracer/media.py).
+        _finite_vec(mat["absorption"], f"{where}.absorption", positive=True)
+    if kind == "program":
+        # Here, not at the top: the program's SPECS live beside its compiled code, which a
+        # reader of scenes without programs need not import (Numba).
+        from .shader.program import ProgramError, check_program
+        try:
+            check_program(mat.get("program"), len(images), len(texcoords))
+        except ProgramError as exc:
+            raise SceneError(f"{where}.program: {exc}") from None
+        if "emission" in mat:
+            _finite_vec(mat["emission"], f"{where}.emission", positive=True)
+        return
     if mat.get("textures") is not None:
         _check_textures(where, kind, mat["textures"], images, texcoords)
     _finite_vec(mat.get("color"), f"{where}.color", positive=True)
@@ -347,9 +373,6 @@ def _check_material(i, mat, images=(), texcoords=()):
         _finite_vec(mat["transmission_color"], f"{where}.transmission_color", positive=True)
     if kind == "emission":
         _finite_number(mat.get("strength"), f"{where}.strength", 0.0)
-    if mat.get("absorption") is not None:
-        # The Volume output's absorption coefficient sigma_a per metre (tracer/media.py).
-        _finite_vec(mat["absorption"], f"{where}.absorption", positive=True)
     for key, default in MATERIAL_DEFAULTS.get(kind, {}).items():
         if key in mat:
             _check_material_field(f"{where}.{key}", kind, key, mat[key], default)

@@ -32,15 +32,18 @@ from .light_tracer import CAUSTIC, NO_CAUSTIC
 from .lights.codes import VISIBLE_CAMERA
 from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lights_at_escape,
                               triangle_hit)
-from .material_kinds import DIFFUSE, EMISSION, LAYERED
+from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
 from .media import empty_stacks
 from . import media as medium
 from .pixel_filter import position as filter_position
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
-from .scatter import scatter_diffuse, scatter_layered, scatter_specular
+from .scatter import ray_flags, scatter_diffuse, scatter_layered, scatter_program, scatter_specular
+from .shader.closures import TOTAL_EMISSION, TOTAL_TRANSPARENCY
+from .shader.inputs import LP_SHADOW
+from .shader.program import EMISSION_VARIES, MAY_BE_TRANSPARENT, run, total
 from .textures import surface_colors
-from .vec import dot, finite_row, max3, mul, neg, row, store
+from .vec import dot, finite_row, madd, max3, mul, neg, row, store
 
 STRATIFIED_BOUNCES = 2    # bounces whose light and BSDF samples are stratified (then random)
 RR_START = 3              # Russian roulette from this bounce on ...
@@ -72,6 +75,10 @@ class Paths(NamedTuple):
     feature: np.ndarray      # (n, 3) the denoising features' weight (features.py), when a render
     #                          makes the Denoising Albedo and Normal passes
     feature_on: np.ndarray   # (n,) int64: 1 while the path has not written its features
+    mis_t: np.ndarray        # (n,) how far the ray went, unbent, before its origin since the
+    #                          vertex that sampled it: 0 but through transparent surfaces
+    #                          (scatter_program), whose far side lights then weigh by the
+    #                          densities of that vertex
     medium: np.ndarray       # (n, media.MAX_MEDIA) int64: the media the ray is inside
     #                          (media.py), read and written only in scenes with media
 
@@ -92,7 +99,7 @@ def new_paths(n: int) -> Paths:
                  np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3), np.float32),
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                  np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n),
-                 np.empty((n, 3)), np.zeros(n, np.int64), empty_stacks(n))
+                 np.empty((n, 3)), np.zeros(n, np.int64), np.zeros(n), empty_stacks(n))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -162,6 +169,7 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
         paths.pdf_prev[i] = 0.0      # what the camera sees directly gets no MIS weight
         paths.caustic[i] = NO_CAUSTIC
         paths.connect[i] = 0.0
+        paths.mis_t[i] = 0.0
         if features:
             for k in range(3):
                 paths.feature[i, k] = 1.0
@@ -169,8 +177,9 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 
 
 @jit
-def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, max_depth, m, paths,
-             prim, t, radiance, without, active, stats, features, feature_albedo):
+def emitters(lights, mesh, mats, media, tables, next_event, caustics, world_caustics, depth,
+             max_depth, m, paths, prim, u, v, t, radiance, without, active, stats, features,
+             feature_albedo, lobes, regs):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
@@ -187,6 +196,8 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, m
     With `features`, paths that still carry the denoising features add what they find to the
     Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
     written its features at its first, diffuse, hit).
+    A shader program whose emission varies (shader/program.py) is run at the hit for it
+    (`lobes` and `regs` its scratch); no light sample finds such emission, so it weighs 1.
     In a scene with media (media.py), the ray's segment inside them attenuates what it finds
     and the path's throughput from here on.
     """
@@ -194,14 +205,14 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, m
     for i in range(m):
         o, d = row(paths.o, i), row(paths.d, i)
         beta, path, kind = row(paths.beta, i), paths.path[i], paths.ray_kind[i]
-        pdf_prev, connect = paths.pdf_prev[i], paths.connect[i]
+        pdf_prev, connect, mis_t = paths.pdf_prev[i], paths.connect[i], paths.mis_t[i]
         t_surface = np.float64(t[i])     # Embree leaves a miss's t at the ray's length
         sigma = medium.sigma_of(media, paths.medium, i) if media.on else medium.ZERO
         light_tracers = caustics and paths.caustic[i] == CAUSTIC
         emitters_count = not light_tracers
         for lamp in range(lamps_to_cross(lights) if emitters_count else 0):
             crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
-                                                                 kind, pdf_prev, connect)
+                                                                 kind, pdf_prev, connect, mis_t)
             if crossed:
                 if media.on:
                     light = medium.through(light, sigma, medium.lamp_distance(lights, lamp, o, d))
@@ -226,8 +237,16 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, m
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
-        if emitters_count and max3(emission) > 0.0:     # Emission, or a Principled BSDF's
-            pdf_light, pdf_vertex = triangle_hit(lights, prim[i], o, d, t_surface, connect)
+        if mats.kind[mat] == PROGRAM and mats.programs.flags[mat] & EMISSION_VARIES \
+                and emitters_count:
+            emission = program_emission(mesh, mats, tables, prim[i], np.float64(u[i]),
+                                        np.float64(v[i]), o, d, kind, pdf_prev, depth,
+                                        t_surface, lobes, regs)
+        # Emission, a Principled BSDF's or a program's (which, as in Cycles, may be negative)
+        if emitters_count and (max3(emission) > 0.0 or min(emission[0], emission[1],
+                                                           emission[2]) < 0.0):
+            pdf_light, pdf_vertex = triangle_hit(lights, prim[i], madd(o, -mis_t, d), d,
+                                                 t_surface + mis_t, connect)
             w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
             add_light_both(radiance, without, path, beta, emission,
                            mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex), w_without)
@@ -244,16 +263,29 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, m
 
 
 @jit
-def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits, stratified, depth,
-              n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes, params,
-              stats, lv, last_connection, features, feature_albedo, feature_normal):
+def program_emission(mesh, mats, tables, tri, b1, b2, o, d, kind, pdf_prev, depth, t, lobes,
+                     regs):
+    """The emission of a shader program's material at a hit, the program run for it."""
+    p, ng, ns, _ = hit_point(mesh, tri, b1, b2)
+    entering = dot(d, ng) < 0.0
+    side = 1.0 if entering else -1.0
+    run(mats, mats.of_triangle[tri], regs, (p, mul(ng, side), mul(ns, side), neg(d), entering,
+                                            tri, b1, b2, ray_flags(kind, pdf_prev), depth, t),
+        lobes, tables, mesh.corner_normals.shape[0] > 0)
+    return total(regs, TOTAL_EMISSION)
+
+
+@jit
+def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits, stratified,
+              depth, n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes,
+              params, regs, stats, lv, last_connection, features, feature_albedo, feature_normal):
     """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
     layered vertices sample a light (a shadow ray, or direct light for lamps that cast no
     shadow) and, up to bounce last_connection (-1: never), connect to the path's light vertex
     in `lv` (light_vertices.py; another shadow ray); every kind samples its BSDF. After Russian
     roulette the surviving paths' next rays go into `out`. `lobes` is scratch for a layered
     hit's lobes (lobes.py), `tables` its albedo tables, `params` for a textured Principled
-    BSDF's parameters; `without` as for emitters. With `features`, paths that still carry the
+    BSDF's parameters, `regs` a shader program's registers; `without` as for emitters. With `features`, paths that still carry the
     denoising features apply this hit to them (features.py), writing into the rows of
     feature_albedo and feature_normal. In a scene with media, the shadow rays are attenuated
     in the media they cross and the next rays carry their path's stack of media, entered or
@@ -290,6 +322,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         rng, u_bounce, hit = (key, sample, bits, strat), (u_pick, u0, u1), (p, ng, ng_f, ns_f, eps)
         count = 0
         first_shadow = n_shadow
+        mis_t = 0.0
         if kind == DIFFUSE:
             new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow = scatter_diffuse(
                 lights, mesh, can_sample_lights, rng, depth, u_bounce, beta, path, row(paths.o, i),
@@ -300,6 +333,13 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
                 lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u_bounce,
                 beta, path, d, hit, entering, (mat, tri, b1, b2), color, trans_color, connects,
                 lv, lobes, params, shadows, n_shadow, radiance, without, stats)
+        elif kind == PROGRAM:
+            ray = (row(paths.o, i), d, paths.ray_kind[i], paths.pdf_prev[i], paths.mis_t[i])
+            (new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count,
+             mis_t) = scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals,
+                                      rng, depth, u_bounce, beta, path, ray, hit, entering,
+                                      (mat, tri, b1, b2), connects, lv, lobes, regs, shadows,
+                                      n_shadow, radiance, without, stats)
         else:
             new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
                 kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,
@@ -308,8 +348,8 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
             medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
                                      first_shadow, n_shadow)
         if features and paths.feature_on[i] != 0:
-            # The layered kinds' lobes are still in `lobes` from their scatter.
-            if kind != LAYERED:
+            # The layered and program kinds' lobes are still in `lobes` from their scatter.
+            if kind != LAYERED and kind != PROGRAM:
                 count = smooth_lobes(kind, lobes, tables, neg(d), ns_f, entering, color,
                                      trans_color, mats.ior[mat])
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
@@ -335,6 +375,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         out.caustic[n_out] = caustic
         out.pdf_prev[n_out] = pdf_prev
         out.connect[n_out] = connect
+        out.mis_t[n_out] = mis_t
         if media.on:
             medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
                          dot(new_d, ng_f) < 0.0)
@@ -357,6 +398,51 @@ def shadow_rays(n, blocked, shadows, radiance, without):
                 radiance[shadows.path[j], k] += shadows.contrib[j, k]
                 if tracking:
                     without[shadows.path[j], k] += shadows.without[j, k]
+
+
+@jit
+def shadow_transparency(mesh, mats, tables, depth, n, pending, prim, u, v, t, shadows, blocked,
+                        lobes, regs):
+    """One step of shadow rays through transparent surfaces, as Cycles' transparent shadows:
+    each of the n shadow rays `pending` (rows of shadows) met the surface prim (Embree's closest
+    hit at t, u, v): one that met nothing is free (blocked set to -1); one that met a shader
+    program that may be transparent keeps the program's transparency there (its contribution
+    scaled by it, the program run as for a shadow ray) and goes on from the far side; any
+    other surface blocks it. Returns how many rays go on, moved to the front of `pending`."""
+    left = 0
+    for j in range(n):
+        r = pending[j]
+        if prim[j] < 0:
+            blocked[r] = -1
+            continue
+        mat = mats.of_triangle[prim[j]]
+        if mats.kind[mat] != PROGRAM or not mats.programs.flags[mat] & MAY_BE_TRANSPARENT:
+            continue
+        d = (np.float64(shadows.d32[r, 0]), np.float64(shadows.d32[r, 1]),
+             np.float64(shadows.d32[r, 2]))
+        b1, b2 = np.float64(u[j]), np.float64(v[j])
+        p, ng, ns, eps = hit_point(mesh, prim[j], b1, b2)
+        entering = dot(d, ng) < 0.0
+        side = 1.0 if entering else -1.0
+        run(mats, mat, regs, (p, mul(ng, side), mul(ns, side), neg(d), entering, prim[j], b1, b2,
+                              1 << LP_SHADOW, depth, np.float64(t[j])),
+            lobes, tables, mesh.corner_normals.shape[0] > 0)
+        clear = total(regs, TOTAL_TRANSPARENCY)
+        if not max3(clear) > 0.0:
+            continue
+        for k in range(3):
+            shadows.contrib[r, k] *= clear[k]
+            shadows.without[r, k] *= clear[k]
+        o = (np.float64(shadows.o32[r, 0]), np.float64(shadows.o32[r, 1]),
+             np.float64(shadows.o32[r, 2]))
+        end = np.float64(shadows.tmax[r])
+        start = offset_origin(p, ng, eps, d)
+        for k in range(3):
+            shadows.o32[r, k] = start[k]
+        shadows.tmax[r] = end - dot((start[0] - o[0], start[1] - o[1], start[2] - o[2]), d)
+        pending[left] = r
+        left += 1
+    return left
 
 
 @jit

@@ -68,7 +68,7 @@ class Exporter:
         its issues are warned for the object."""
         key = mat.original if mat is not None else None
         if key not in self.material_ids:
-            converted, coverage = convert_material(mat)
+            converted, coverage = convert_material(mat, self.textures)
             nodes = converted.pop("_textures", None)
             if nodes:
                 textures = {}

@@ -3,8 +3,11 @@
 The active Material Output decides what renders: its Surface's BSDF node is converted by its
 entry in bsdfs.CONVERTERS, with Inputs (nodes.py) reading the node's input values; an Image
 Texture on a texturable input is handed on in the dict's "_textures" (textures.py converts it).
+A tree these fixed kinds cannot render (mixes of other factors, Transparent, Light Path, ...)
+is compiled into a shader program instead (shader/: the scene file's "program" material).
 Its Volume becomes the dict's "absorption" (volumes.py). Everything else the output reaches (a
-displacement, a shader Snell lacks, a linked input it does not read) is recorded, with what Snell renders instead, in the material's Coverage
+displacement, a shader Snell lacks, a linked input it does not read) is recorded, with what
+Snell renders instead, in the material's Coverage
 (coverage.py): its replaced entries are the exporter's warnings, and `snell info` lists both.
 """
 from __future__ import annotations
@@ -14,6 +17,8 @@ from .bsdfs import BLENDER_DISTRIBUTIONS, CONVERTERS, PRINCIPLED_INPUTS  # noqa:
 from .coverage import Coverage, node_text
 from .mixes import NotFolded, fold, mix_factor
 from .nodes import Inputs, active_output, follow, linked_socket, source_in  # noqa: F401
+from .shader import compile_material
+from .shader.compiler import CompileError
 from .volumes import convert_volume
 
 GREY = [0.8, 0.8, 0.8]
@@ -40,9 +45,53 @@ OUTPUT_INPUTS = {
 # The Thickness input is EEVEE's alone: Cycles ignores it too.
 
 
-def convert_material(mat):
+def convert_material(mat, resources=None):
     """(material dict, Coverage) for a Blender material (None: no material); the coverage's
-    issues name the node and input at fault and what is rendered instead."""
+    issues name the node and input at fault and what is rendered instead.
+
+    A material that is one of the scene file's fixed kinds (a BSDF of constant or image-
+    textured inputs, a foldable mix) stays that kind: the tracer's exact code paths render it.
+    Any other is compiled to a shader program (shader/), when that leaves fewer nodes
+    unevaluated; `resources` (depsgraph's ImageTextures) gives a program the scene's images
+    and texture coordinates (None: no programs)."""
+    converted, coverage = _convert_fixed(mat)
+    whole_replaced = converted.pop("_replaced", False)
+    if resources is None or mat is None or not coverage.issues or mat.node_tree is None:
+        return converted, coverage
+    out = active_output(mat.node_tree, "ShaderNodeOutputMaterial")
+    if out is None or source_in(out.inputs["Surface"]).node is None:
+        return converted, coverage          # no surface: black, as Cycles renders it
+    program_coverage = Coverage()
+    absorption = _output_inputs(out, program_coverage)
+    try:
+        program = compile_material(mat.name, out.inputs["Surface"], resources, program_coverage)
+    except CompileError as exc:
+        coverage.append(f"its shader program: {exc}")
+        return converted, coverage
+    # A program wins where it leaves fewer nodes out, or renders part of a surface the fixed
+    # kinds replace whole.
+    if len(program_coverage.issues) > len(coverage.issues) or (
+            len(program_coverage.issues) == len(coverage.issues) and not whole_replaced):
+        return converted, coverage
+    if absorption is not None:
+        program["absorption"] = absorption
+    return program, program_coverage
+
+
+def _output_inputs(out, coverage):
+    """The absorption of a Material Output's Volume (volumes.py; None: none), recording what
+    its Volume and Displacement carry that Snell does not render."""
+    for socket, instead in OUTPUT_INPUTS.items():
+        node = follow(out.inputs[socket]) if socket in out.inputs else None
+        if node is not None:
+            coverage.replace(out, f"is linked to {node_text(node)}, which Snell does not "
+                                  f"render", instead, input=socket)
+    return convert_volume(out, coverage)
+
+
+def _convert_fixed(mat):
+    """convert_material's material dict of a fixed kind, and its Coverage; the dict's
+    "_replaced" is True where grey diffuse replaces the whole surface."""
     coverage = Coverage()
     if mat is None:
         coverage.evaluated.append("Cycles' default surface: a Principled BSDF of base colour 0.8")
@@ -61,12 +110,7 @@ def convert_material(mat):
     if out is None:
         coverage.append(f"no Material Output node: {NO_SURFACE}")
         return black, coverage
-    for socket, instead in OUTPUT_INPUTS.items():
-        node = follow(out.inputs[socket]) if socket in out.inputs else None
-        if node is not None:
-            coverage.replace(out, f"is linked to {node_text(node)}, which Snell does not "
-                                  f"render", instead, input=socket)
-    absorption = convert_volume(out, coverage)
+    absorption = _output_inputs(out, coverage)
     surface = source_in(out.inputs["Surface"])
     if surface.node is None and absorption is not None:
         coverage.replace(out, "is not connected (a volume alone)", VOLUME_ONLY, input="Surface")
@@ -80,7 +124,7 @@ def convert_material(mat):
     except NotFolded as exc:
         coverage.replace(out, f"is linked to {exc}, which Snell cannot evaluate",
                          "using grey 0.8 diffuse", input="Surface")
-        converted = {"name": name, "kind": "diffuse", "color": list(GREY)}
+        converted = {"name": name, "kind": "diffuse", "color": list(GREY), "_replaced": True}
     if absorption is not None:
         converted["absorption"] = absorption
     return converted, coverage

@@ -124,7 +124,8 @@ class Mesh:
 
     def __init__(self, co, corner_verts, tri_corners, mat_index, corner_n, coords=None):
         """co: (V, 3) positions; corner_verts, corner_n: per corner; the rest per triangle;
-        coords: _mesh_texcoords' (UV maps, active name, Generated), or None."""
+        coords: _mesh_texcoords' (UV maps, active name, Generated), or None (then no texture
+        coordinates at all: texcoord gives zeros)."""
         tris = corner_verts[tri_corners]
         # Vertices at NaN, Inf or beyond MAX_COORDINATE drop their triangles, counted apart
         # from the zero-area ones (Embree skips such triangles too, and Cycles renders none).
@@ -147,6 +148,9 @@ class Mesh:
         if not keep.all():
             tri_corners, tris, mat_index = tri_corners[keep], tris[keep], mat_index[keep]
         self.tri_corners, self.coords = tri_corners, coords
+        # Object coordinates per triangle corner: the local positions (affine over a
+        # triangle, so interpolating them is exact).
+        self.local_corners = co[tris].astype(np.float32) if coords is not None else None
         self.mat_index = mat_index
         self.closed = _is_closed(tris, len(co))
         slot = _split_vertices(corner_verts, corner_n, len(co))
@@ -157,13 +161,15 @@ class Mesh:
 
     def texcoord(self, kind, name):
         """(T, 3, 3) float32 texture coordinates per triangle corner: a UV map (name "" the
-        active render one; a missing map gives 0, as in Cycles) or Generated."""
+        active render one; a missing map gives 0, as in Cycles), Generated or Object."""
         out = np.zeros((len(self.tri_corners), 3, 3), np.float32)
         if self.coords is None:
             return out
         uvs, active, orco = self.coords
         if kind == "generated":
             out[:] = orco[self.tri_corners]
+        elif kind == "object":
+            out[:] = self.local_corners
         else:
             uv = uvs.get(name or active)
             if uv is not None:

@@ -12,11 +12,19 @@ import numpy as np
 from .nodes import Inputs, source_in
 
 
+# Nodes that read texture coordinates: every texture node (Image and procedural), Texture
+# Coordinate and UV Map.
+READS_COORDINATES = ("ShaderNodeTexCoord", "ShaderNodeUVMap")
+
+
 def uses_image_textures():
-    """Whether any material has an Image Texture node (then meshes keep their UV maps)."""
+    """Whether any material or node group has a node that reads texture coordinates (then
+    meshes keep their UV maps, Generated and object coordinates)."""
     import bpy
-    return any(node.bl_idname == "ShaderNodeTexImage" for mat in bpy.data.materials
-               if mat.node_tree is not None for node in mat.node_tree.nodes)
+    trees = [mat.node_tree for mat in bpy.data.materials if mat.node_tree is not None]
+    trees += [group for group in bpy.data.node_groups if group.bl_idname == "ShaderNodeTree"]
+    return any(node.bl_idname.startswith("ShaderNodeTex") or node.bl_idname in READS_COORDINATES
+               for tree in trees for node in tree.nodes)
 
 
 def mapping_of(node, issues, groups=()):
@@ -34,34 +42,50 @@ class ImageTextures:
 
     def __init__(self, images):
         self.images = images  # the scene's images (the world's environment map joins them)
-        self.image_index = {}  # bpy image pointer -> index in self.images
+        self.image_index_of = {}  # bpy image pointer -> index in self.images
         self.texcoord_keys = []  # (kind, UV map name) of the textures' coordinates
+
+    def image_index(self, node, issues, instead="using the input's unlinked value"):
+        """The scene's index of an Image Texture node's image, read on first use; None (with
+        an issue naming the node and what is rendered `instead`) if it has none or it cannot
+        be read."""
+        from .images import ImageUnreadable, read_image
+        where = f"node {node.name!r}"
+        image = node.image
+        if image is None:
+            issues.append(f"{where}: no image: {instead}")
+            return None
+        key = image.original.as_pointer() if hasattr(image, "original") else image.as_pointer()
+        if key not in self.image_index_of:
+            notes = []
+            try:
+                pixels, source, colorspace = read_image(image, notes.append, decode=False)
+            except ImageUnreadable as exc:
+                issues.append(f"{where}: image {image.name!r} {exc}: {instead}")
+                return None
+            for note in notes:
+                issues.append(f"{where}: image {image.name!r}: {note}")
+            self.images.append({"name": image.name, "source": source, "colorspace": colorspace,
+                                "pixels": pixels})
+            self.image_index_of[key] = len(self.images) - 1
+        return self.image_index_of[key]
+
+    def texcoord_index(self, kind, name=""):
+        """The scene's index of a texture coordinate entry (uv and a map name, generated,
+        object), added on first use."""
+        if (kind, name) not in self.texcoord_keys:
+            self.texcoord_keys.append((kind, name))
+        return self.texcoord_keys.index((kind, name))
 
     def convert(self, node, issues, groups=()):
         """The scene file's texture entry of an Image Texture node (inside groups, a tuple of
         group nodes), its image and coordinates
         added to the scene's; None (with an issue: the input's unlinked value is used) if it
         cannot be read."""
-        from .images import ImageUnreadable, read_image
         where = f"node {node.name!r}"
-        image = node.image
-        if image is None:
-            issues.append(f"{where}: no image: using the input's unlinked value")
+        index = self.image_index(node, issues)
+        if index is None:
             return None
-        key = image.original.as_pointer() if hasattr(image, "original") else image.as_pointer()
-        if key not in self.image_index:
-            notes = []
-            try:
-                pixels, source, colorspace = read_image(image, notes.append, decode=False)
-            except ImageUnreadable as exc:
-                issues.append(f"{where}: image {image.name!r} {exc}: using the input's unlinked "
-                              f"value")
-                return None
-            for note in notes:
-                issues.append(f"{where}: image {image.name!r}: {note}")
-            self.images.append({"name": image.name, "source": source, "colorspace": colorspace,
-                                "pixels": pixels})
-            self.image_index[key] = len(self.images) - 1
         interpolation = node.interpolation.lower()
         if interpolation not in ("linear", "closest"):
             issues.append(f"{where}: {node.interpolation} interpolation is not supported: using "
@@ -92,9 +116,7 @@ class ImageTextures:
         else:
             issues.append(f"{where}: its Vector is linked to {source_node.name!r}, which Snell "
                           f"cannot evaluate: using the active UV map")
-        if coord not in self.texcoord_keys:
-            self.texcoord_keys.append(coord)
-        return {"image": self.image_index[key], "texcoord": self.texcoord_keys.index(coord),
+        return {"image": index, "texcoord": self.texcoord_index(*coord),
                 "interpolation": interpolation, "extension": node.extension.lower(),
                 "matrix": np.asarray(matrix, np.float64).tolist(),
                 "offset": np.asarray(offset, np.float64).tolist()}

@@ -461,7 +461,6 @@ def test_principled_glass_with_anything_more_is_principled(bl, change):
     ("principled", "Subsurface Weight", 0.5, "subsurface scattering is rendered as the diffuse base"),
     ("principled", "Thin Film Thickness", 300.0, "thin film interference is ignored"),
     ("principled", "Anisotropic", 0.5, "rendered isotropic"),
-    ("principled", "Alpha", 0.5, "rendered opaque"),
     ("principled", "Diffuse Roughness", 0.5, "Oren-Nayar diffuse is rendered as Lambert"),
     ("glossy", "Anisotropy", -0.3, "rendered isotropic"),
     ("glass", "Thin Film Thickness", 300.0, "thin film interference is ignored"),
@@ -475,8 +474,17 @@ def test_inputs_snell_does_not_render_warn_naming_material_node_and_input(bl, ki
     assert warnings == [f"object 'OddObj', material 'Odd': node {node!r}: input {socket!r} is "
                         f"{value:g}: {rendered}"]
     # At the input's neutral value nothing is said.
-    bsdf(mat).inputs[socket].default_value = 1.0 if socket == "Alpha" else 0.0
+    bsdf(mat).inputs[socket].default_value = 0.0
     assert exported_material(bl, mat)[1] == []
+
+
+def test_principled_alpha_makes_a_program(bl):
+    """Alpha below 1 is a transparent share of the surface, which a program renders."""
+    from snell.tracer.shader import closures
+    mat = common.material("Leafy", "principled", (0.5, 0.5, 0.5), Alpha=0.5)
+    m, warnings = exported_material(bl, mat, "LeafObj")
+    assert warnings == [] and m["kind"] == "program"
+    assert [row[0] for row in m["program"]["code"]] == [closures.PRINCIPLED]
 
 
 def link(mat, socket, idname="ShaderNodeTexNoise"):
@@ -526,32 +534,31 @@ def test_linked_normals_and_tangents_are_ignored_with_a_warning(bl, kind, socket
                         f"{socket!r} is linked to {shown}, which Snell ignores: {rendered}"]
 
 
-def test_fallback_warnings_name_object_material_node(bl):
+def test_mixes_of_other_kinds_become_programs_and_unknown_shaders_warn(bl):
+    """Mix(0.5, Diffuse, Glass) and Mix(Fresnel, Refraction, Glossy) (the glass of issue 29's
+    files) are programs, without a warning; a Toon BSDF in one is grey 0.8 diffuse, warned
+    naming object, material and node."""
+    from snell.tracer.shader import closures, inputs
     mat, _, _ = mix_shader_material("Mixed", 0.5, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlass")
     m, warnings = exported_material(bl, mat, "MixObj")
-    assert m["kind"] == "diffuse" and np.allclose(m["color"], 0.8)
-    assert warnings == ["object 'MixObj', material 'Mixed': node 'Material Output': input "
-                        "'Surface' is linked to 'Mix Shader' (a shader mix) of diffuse and glass, "
-                        "which Snell cannot evaluate: using grey 0.8 diffuse"]
-    # A material Snell replaces renders differently from Cycles: "not comparable".
-    assert all(export.differs_from_cycles(w) for w in warnings)
-    mat, _, _ = mix_shader_material("Toon", 0.5, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfToon")
-    _, warnings = exported_material(bl, mat, "ToonObj")
-    assert warnings == ["object 'ToonObj', material 'Toon': node 'Material Output': input "
-                        "'Surface' is linked to 'Mix Shader' (a shader mix) of 'Toon BSDF' (a "
-                        "toon surface), which Snell cannot evaluate: using grey 0.8 diffuse"]
-
-
-def test_a_fresnel_mix_of_refraction_and_glossy_is_one_warning(bl):
-    """The glass of issue 29's files, Mix(Fresnel, Refraction, Glossy): one warning, for the
-    mix, not one more for its linked factor."""
-    mat, mix, _ = mix_shader_material("FresnelGlass", 0.5, "ShaderNodeBsdfRefraction", "ShaderNodeBsdfGlossy")
+    assert warnings == [] and m["kind"] == "program"
+    assert [row[0] for row in m["program"]["code"]] == [closures.DIFFUSE, closures.GLASS]
+    mat, mix, _ = mix_shader_material("FresnelGlass", 0.5, "ShaderNodeBsdfRefraction",
+                                      "ShaderNodeBsdfGlossy")
     fresnel = mat.node_tree.nodes.new("ShaderNodeFresnel")
     mat.node_tree.links.new(fresnel.outputs[0], mix.inputs["Fac"])
-    _, warnings = exported_material(bl, mat, "Ico")
-    assert warnings == ["object 'Ico', material 'FresnelGlass': node 'Material Output': input "
-                        "'Surface' is linked to 'Mix Shader' (a shader mix) of refraction and "
-                        "glossy, which Snell cannot evaluate: using grey 0.8 diffuse"]
+    m, warnings = exported_material(bl, mat, "Ico")
+    assert warnings == [] and m["kind"] == "program"
+    assert [row[0] for row in m["program"]["code"]] == [
+        inputs.FRESNEL, closures.MIX_CLOSURE, closures.REFRACTION, closures.GLOSSY]
+    mat, _, _ = mix_shader_material("Toon", 0.5, "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfToon")
+    m, warnings = exported_material(bl, mat, "ToonObj")
+    assert m["kind"] == "program"
+    assert warnings == ["object 'ToonObj', material 'Toon': node 'Toon BSDF': is 'Toon BSDF' (a "
+                        "toon surface), which Snell does not render: rendered as grey 0.8 "
+                        "diffuse"]
+    # A replaced material renders differently from Cycles: "not comparable".
+    assert all(export.differs_from_cycles(w) for w in warnings)
 
 
 def test_constant_mix_shaders_fold_where_exact(bl):
@@ -578,25 +585,24 @@ def test_constant_mix_shaders_fold_where_exact(bl):
     assert m["color"] == pytest.approx([2.5, 2.5, 2.5])
 
 
-@pytest.mark.parametrize("first, second, why", [
-    ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfGlossy", "of two different glossy surfaces, not "
-                                                     "linear in their colour"),
-    ("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfPrincipled", "of two different principled "
-                                                             "surfaces, not linear in their colour"),
-    ("ShaderNodeBsdfRefraction", "ShaderNodeBsdfRefraction", "of two refraction surfaces that "
-                                                             "differ beyond their colour"),
+@pytest.mark.parametrize("first, second", [
+    ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfGlossy"),
+    ("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfPrincipled"),
+    ("ShaderNodeBsdfRefraction", "ShaderNodeBsdfRefraction"),
 ])
-def test_mixes_that_are_not_one_material_warn(bl, first, second, why):
+def test_mixes_that_are_not_one_material_are_programs(bl, first, second):
     """Multiscatter GGX (the Glossy BSDF's default) and the Principled BSDF are not linear in
-    their colour: a mix of two stays a warning."""
+    their colour, two Refraction BSDFs of two IORs not one: a mix of two is a program of both,
+    weighted 0.5 each."""
     mat, _, (a, b) = mix_shader_material("Two", 0.5, first, second)
     a.inputs[0].default_value = (0.2, 0.3, 0.4, 1.0)
     if "Refraction" in second:
         b.inputs["IOR"].default_value = 1.33
-    _, warnings = exported_material(bl, mat)
-    assert warnings == [f"object 'Obj', material 'Two': node 'Material Output': input 'Surface' "
-                        f"is linked to 'Mix Shader' (a shader mix) {why}, which Snell cannot "
-                        f"evaluate: using grey 0.8 diffuse"]
+    m, warnings = exported_material(bl, mat)
+    assert warnings == [] and m["kind"] == "program"
+    program = m["program"]
+    weights = [row[1] for row in program["code"]]
+    assert len(weights) == 2 and [program["constants"][w] for w in weights] == [0.5, 0.5]
 
 
 def test_no_material_is_cycles_default_surface(bl):
@@ -680,10 +686,10 @@ def test_node_group_on_the_surface_and_on_an_input_warn(bl):
     surface.node_tree = group
     tree.links.new(surface.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
     m, warnings = exported_material(bl, mat, "G")
-    assert m["kind"] == "diffuse"
-    assert warnings == ["object 'G', material 'Grouped': node 'Material Output': input 'Surface' "
-                        "is linked to 'Group' (a node group), which Snell cannot evaluate: using "
-                        "grey 0.8 diffuse"]
+    # A group with no Group Output gives no closure: black, as in Cycles.
+    assert m["kind"] == "program" and m["program"]["code"] == []
+    assert warnings == ["object 'G', material 'Grouped': node 'Group': is a node group with no "
+                        "Group Output: no closure (black), as in Cycles"]
     tree.links.new(tree.nodes["Principled BSDF"].outputs[0],
                    tree.nodes["Material Output"].inputs["Surface"])
     tree.links.new(surface.outputs[1], tree.nodes["Principled BSDF"].inputs["Roughness"])

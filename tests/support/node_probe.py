@@ -37,16 +37,10 @@ def pixel_points(size, extent):
     return np.stack([x, y, np.zeros_like(x)], axis=-1)
 
 
-def probe(build, size=32, extent=1.0, material_setup=None):
-    """(Cycles' image (size, size, 3) float64, the points it shows (size, size, 3)).
-
-    build(tree) adds nodes to the plane material's tree and returns the output socket (colour,
-    vector or float; Blender converts it as a link into a colour input does) whose value
-    becomes the Emission colour. material_setup(material), if given, runs after the tree is
-    built (for material settings). Runs in this process: bpy is reset to an empty file."""
+def probe_scene(build, size=32, extent=1.0, material_setup=None):
+    """Build probe's scene in bpy (reset to an empty file first), without rendering it: for a
+    test that also exports it to Snell (save it with bpy.ops.wm.save_as_mainfile)."""
     import bpy
-
-    from snell.tracer.image import read_exr
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -72,6 +66,10 @@ def probe(build, size=32, extent=1.0, material_setup=None):
     scene.camera = cam
     world = bpy.data.worlds.new("Black")
     world.color = (0.0, 0.0, 0.0)
+    if world.node_tree is not None:      # Blender 5 gives a new world a Background node
+        for node in world.node_tree.nodes:
+            if node.bl_idname == "ShaderNodeBackground":
+                node.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
     scene.world = world
 
     scene.render.engine = "CYCLES"
@@ -89,6 +87,21 @@ def probe(build, size=32, extent=1.0, material_setup=None):
     img.file_format = "OPEN_EXR"
     img.color_depth = "32"
     img.color_mode = "RGB"
+    return scene
+
+
+def probe(build, size=32, extent=1.0, material_setup=None):
+    """(Cycles' image (size, size, 3) float64, the points it shows (size, size, 3)).
+
+    build(tree) adds nodes to the plane material's tree and returns the output socket (colour,
+    vector or float; Blender converts it as a link into a colour input does) whose value
+    becomes the Emission colour. material_setup(material), if given, runs after the tree is
+    built (for material settings). Runs in this process: bpy is reset to an empty file."""
+    import bpy
+
+    from snell.tracer.image import read_exr
+
+    scene = probe_scene(build, size, extent, material_setup)
     with tempfile.TemporaryDirectory(prefix="snell-probe-") as tmp:
         scene.render.filepath = os.path.join(tmp, "probe.exr")
         bpy.ops.render.render(write_still=True)

@@ -7,8 +7,8 @@ import pytest
 
 from support.paths import ROOT
 
-FOLDERS = ("tracer", "tracer/lights", "addon", "addon/export", "validation", "stress", "pages",
-           "farm")
+FOLDERS = ("tracer", "tracer/lights", "tracer/shader", "addon", "addon/export",
+           "addon/export/shader", "validation", "stress", "pages", "farm")
 
 
 def _paragraphs() -> dict:

@@ -169,7 +169,7 @@ def one_material(mat, name="M"):
 def test_kind_and_distribution_codes_are_positions():
     """The tracer's codes: adding a kind or distribution anywhere but the end would renumber."""
     assert S.MATERIAL_KINDS == ("diffuse", "mirror", "glass", "refraction", "emission", "glossy",
-                                "principled")
+                                "principled", "program")
     assert S.DISTRIBUTIONS == ("ggx", "multi_ggx", "beckmann")
     assert S.VERSION == 4 and S.READS_VERSIONS == (1, 2, 3, 4)
 

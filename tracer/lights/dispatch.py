@@ -16,7 +16,7 @@ import numpy as np
 
 from ..jit import jit_inline
 from ..sampling import sample_cosine_hemisphere
-from ..vec import mul, neg, normalize, row, sub
+from ..vec import madd, mul, neg, normalize, row, sub
 from .area import (area_lamp_emitted, area_lamp_hit, area_lamp_point, emit_area_lamp,
                    intersect_area_lamp, sample_area_lamp)
 from .codes import (AREA, CASTS_SHADOW, EMISSIVE_TRIANGLE, POINT, STARTS_LIGHT_VERTICES, SUN,
@@ -104,11 +104,13 @@ def lamps_to_cross(lights):
 
 
 @jit_inline
-def lamp_crossed(lights, lamp, o, d, t_surface, ray_kind, pdf_bsdf, connect):
+def lamp_crossed(lights, lamp, o, d, t_surface, ray_kind, pdf_bsdf, connect, mis_t):
     """Whether the ray o + t d of kind ray_kind (a codes.VISIBLE_* flag), sampled with density
     pdf_bsdf, crosses lamp `lamp` (of lamps_to_cross) before t_surface, and what it gets there:
     (crossed, radiance, pick x density of next-event estimation, the light vertex's density:
-    connect per unit of light_vertex_density, 0 for lamps that start no light vertices)."""
+    connect per unit of light_vertex_density, 0 for lamps that start no light vertices).
+    mis_t: how far the ray went before o, unbent, since the vertex that sampled it (through
+    transparent surfaces): the densities are that vertex's."""
     n_area = lights.area_area.shape[0]
     if lamp < n_area:
         if not seen_by(lights.area_flags[lamp], ray_kind):
@@ -116,7 +118,7 @@ def lamp_crossed(lights, lamp, o, d, t_surface, ray_kind, pdf_bsdf, connect):
         t_lamp = intersect_area_lamp(lights, lamp, o, d)
         if not 0.0 < t_lamp < t_surface:
             return False, ZERO, 0.0, 0.0
-        light, density = area_lamp_hit(lights, lamp, d, t_lamp)
+        light, density = area_lamp_hit(lights, lamp, d, t_lamp + mis_t)
         q = light_vertex_density(lights, AREA, lamp, lights.area_pmf[lamp])
         return True, light, lights.area_pmf[lamp] * density, q * connect
     k = lamp - n_area
@@ -125,7 +127,7 @@ def lamp_crossed(lights, lamp, o, d, t_surface, ray_kind, pdf_bsdf, connect):
     t_lamp = intersect_point_lamp(lights, k, o, d)
     if not 0.0 < t_lamp < t_surface:
         return False, ZERO, 0.0, 0.0
-    light, density = point_lamp_hit(lights, k, o, d, t_lamp, pdf_bsdf)
+    light, density = point_lamp_hit(lights, k, madd(o, -mis_t, d), d, t_lamp + mis_t, pdf_bsdf)
     return True, light, lights.point_pmf[k] * density, 0.0
 
 

@@ -1,0 +1,26 @@
+"""Shader node trees compiled to programs (tracer/shader/program.py): the Compiler
+(compiler.py), the closures (closure_nodes.py), the input nodes (input_nodes.py) and the families
+of value nodes (FAMILIES: modules whose COMPILERS compile a node's outputs at once).
+
+compile_material turns a material's Surface into the scene file's "program" material.
+"""
+from __future__ import annotations
+
+from .closure_nodes import compile_surface
+from .compiler import Compiler
+from .input_nodes import NODE_OUTPUTS
+
+# Families of value nodes: modules with COMPILERS = {node idname: compile(compiler, node) ->
+# {output identifier: register}}.
+FAMILIES = ()
+
+
+def compile_material(name, surface_socket, resources, coverage):
+    """The scene file's program material for a Material Output's Surface socket, its nodes'
+    entries recorded in coverage; CompileError if it cannot be compiled."""
+    c = Compiler(name, resources, coverage, NODE_OUTPUTS, FAMILIES)
+    compile_surface(c, surface_socket)
+    mat = {"name": name, "kind": "program", "program": c.program()}
+    if not c.emission_varies and any(c.emission):
+        mat["emission"] = [float(x) for x in c.emission]
+    return mat
