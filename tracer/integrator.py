@@ -26,6 +26,7 @@ from .lights.codes import WORLD
 from .lights.tables import LightSampler
 from .material_kinds import DIFFUSE, GLASS, LAYERED, PROGRAM, REFRACTION
 from .materials import material_tables
+from .media import camera_in_medium, media_tables
 from .microfacet_tables import shipped_tables
 from .passes import CHUNK
 from .pixel_filter import make_filter, spread_splats
@@ -115,6 +116,7 @@ class Renderer:
         kind = self.materials.kind
         self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
                                    env_sampling=settings.env_sampling)
+        self.media = media_tables(scene, self.lights.tables)
         self.max_depth = settings.max_depth
         self.seed = settings.seed
         self.fresnel = FRESNEL_MODELS.index(settings.fresnel)
@@ -146,6 +148,8 @@ class Renderer:
         other.scene = copy.copy(self.scene)
         other.scene.camera = camera
         other.camera = Camera(camera)
+        if self.media.on:         # the stack at the camera
+            other.media = media_tables(other.scene, self.lights.tables)
         other._use_camera_for_caustics()
         return other
 
@@ -210,6 +214,10 @@ class Renderer:
                                                                               self.caustics))
                               if self.caustics is not None else why_no_light),
             "light vertices": (self.light_vertices, self._why_vertices),
+            "absorbing media": (self.media.on, ("absorbing volumes, the camera inside one"
+                                                if camera_in_medium(self.media) else
+                                                "absorbing volumes") if self.media.on else
+                                "no absorbing volumes"),
         }
 
     def _choose_light_vertices(self, wanted: bool) -> tuple[bool, str]:
@@ -301,6 +309,8 @@ class Renderer:
             wavefront.clear(feature_normal, n)
         wavefront.generate(self.camera.params(), self.pixel_filter, self.seed, start, in_pass,
                            first_sample, pixels, bits, stratified, n, paths, stats, with_features)
+        if self.media.on:
+            paths.medium[:n] = self.media.camera
         last_connection = -1
         if self.light_vertices and (vertices is None or vertices):
             # Every camera path's light vertex, before its first bounce (light_vertices.py).
@@ -310,11 +320,11 @@ class Renderer:
             prim, u, v, _ = geom.intersect(lv.o32[:n_light], lv.d32[:n_light],
                                            lv.tmax[:n_light])
             stats[wavefront.VERTEX_RAYS] += n_light
-            light_vertices_module.hits(lights, mesh, mats, n_light, lv, prim, u, v)
+            light_vertices_module.hits(lights, mesh, mats, self.media, n_light, lv, prim, u, v)
         m = n
         for depth in range(self.max_depth + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            kept = wavefront.emitters(lights, mats, self.next_event, self.split,
+            kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split,
                                       self.world_split, depth, self.max_depth, m, paths, prim, t,
                                       radiance, without, active, stats, with_features,
                                       feature_albedo)
@@ -325,16 +335,16 @@ class Renderer:
             if kept == 0:
                 break
             m, n_shadow, n_programs = wavefront.materials(
-                lights, mesh, mats, self.tables, self.fresnel, self.next_event, bits, stratified,
-                depth, kept, active, paths, prim, u, v, out, shadows, radiance, without, scratch,
-                params, stats, lv, last_connection, with_features, feature_albedo, feature_normal,
-                programs)
+                lights, mesh, mats, self.media, self.tables, self.fresnel, self.next_event, bits,
+                stratified, depth, kept, active, paths, prim, u, v, out, shadows, radiance,
+                without, scratch, params, stats, lv, last_connection, with_features,
+                feature_albedo, feature_normal, programs)
             if n_programs:
                 m, n_shadow = wavefront.program_materials(
-                    lights, mesh, mats, self.tables, self.next_event, bits, stratified, depth,
-                    n_programs, programs, paths, prim, u, v, out, m, shadows, n_shadow, radiance,
-                    without, scratch, regs, stats, lv, last_connection, with_features,
-                    feature_albedo, feature_normal)
+                    lights, mesh, mats, self.media, self.tables, self.next_event, bits,
+                    stratified, depth, n_programs, programs, paths, prim, u, v, out, m, shadows,
+                    n_shadow, radiance, without, scratch, regs, stats, lv, last_connection,
+                    with_features, feature_albedo, feature_normal)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])
@@ -396,16 +406,16 @@ class Renderer:
         paths, out, connections, raster = self._buffers.light()
         filt = self.pixel_filter
         margin = max(0.0, filt.reach - 0.5)     # how far past the image the filter reaches
-        m = light_tracer.emit_light_paths(caustics, lights, mesh, self.seed, pass_index, start, n,
-                                         paths)
+        m = light_tracer.emit_light_paths(caustics, lights, mesh, self.media, self.seed,
+                                          pass_index, start, n, paths)
         pixels, contributions, reached = [], [], 0
         for _ in range(self.max_depth):
             if m == 0:
                 break
             prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            m, n_conn = light_tracer.light_bounce(caustics, lights, mesh, mats, cam, margin,
-                                                 self.fresnel, self.max_depth, m, paths, prim, u,
-                                                 v, out, connections, raster)
+            m, n_conn = light_tracer.light_bounce(caustics, lights, mesh, mats, self.media, cam,
+                                                  margin, self.fresnel, self.max_depth, m, paths,
+                                                  prim, u, v, out, connections, raster)
             if n_conn:
                 visible = geom.occluded(connections.o32[:n_conn], connections.d32[:n_conn],
                                         connections.tmax[:n_conn]) != 0   # Embree: 0 if blocked

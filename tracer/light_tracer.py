@@ -52,6 +52,8 @@ from .lights.dispatch import emission_anchor, emit_along, light_seen, starts_lig
 from .lights.sun import sun_emission
 from .lights.world import world_emission
 from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, PROGRAM, REFRACTION
+from . import media as medium
+from .media import empty_stacks
 from .sampler import mix, random_pair
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
                        sample_uniform_disk, sample_uniform_sphere)
@@ -91,13 +93,14 @@ class LightPaths(NamedTuple):
     beta: np.ndarray         # (n, 3) radiance x measure / density carried
     bounces: np.ndarray      # (n,) int64 vertices so far (all specular unless pure or delta)
     lamp: np.ndarray         # (n,) int64 the emitter's row in Caustics (for its flags)
+    medium: np.ndarray       # (n, media.MAX_MEDIA) int64 the media the ray is inside (media.py)
 
 
 def new_light_paths(n: int) -> LightPaths:
     """Uninitialised buffers for n light paths."""
     return LightPaths(np.empty(n, np.uint64), np.empty((n, 3), np.float32),
                       np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
-                      np.empty(n, np.int64), np.empty(n, np.int64))
+                      np.empty(n, np.int64), np.empty(n, np.int64), empty_stacks(n))
 
 
 def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caustics | None:
@@ -317,8 +320,9 @@ def light_path_key(base, index):
 
 
 @jit
-def emit_light_paths(caustics, lights, mesh, seed, pass_index, start, n, paths):
-    """Light paths start .. start + n of a pass leave their emitters (zero weight: left out)."""
+def emit_light_paths(caustics, lights, mesh, media, seed, pass_index, start, n, paths):
+    """Light paths start .. start + n of a pass leave their emitters (zero weight: left out),
+    inside the media around them (media.py) in a scene with media."""
     # Chained hashes: a single mix of seed ^ pass would give (seed 0, pass 1) the keys of
     # (seed 1, pass 0).
     base = mix(mix(mix(np.uint64(0), np.uint64(seed)), LIGHT_DOMAIN), np.uint64(pass_index))
@@ -335,8 +339,25 @@ def emit_light_paths(caustics, lights, mesh, seed, pass_index, start, n, paths):
         if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
             continue
         set_light_path(paths, kept, key, origin, w, beta, 0, e)
+        if media.on:
+            start_stack(caustics, lights, media, e, paths.medium, kept)
         kept += 1
     return kept
+
+
+@jit
+def start_stack(caustics, lights, media, e, stacks, j):
+    """Light path j's stack where emitter e of the caustics tables starts it: its lamp's, its
+    emissive triangle's object's, none for suns and the world (outside everything)."""
+    kind, i = caustics.emitter_kind[e], caustics.emitter_index[e]
+    for k in range(medium.MAX_MEDIA):
+        stacks[j, k] = medium.NONE
+    if kind == AREA:
+        medium.copy_stack(media.area_start, i, stacks, j)
+    elif kind == POINT:
+        medium.copy_stack(media.point_start, i, stacks, j)
+    elif kind == EMISSIVE_TRIANGLE:
+        medium.copy_stack(media.object_start, media.object_of[lights.tri_prim[i]], stacks, j)
 
 
 @jit_inline
@@ -347,12 +368,14 @@ def lamp_sees(caustics, lights, e, w, s1, kind):
 
 
 @jit
-def light_bounce(caustics, lights, mesh, mats, cam, margin, fresnel_model, max_depth, m, paths,
-                 prim, u, v, out, connections, raster):
+def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model, max_depth, m,
+                 paths, prim, u, v, out, connections, raster):
     """Scatter light paths at specular hits (into `out`); at the first diffuse vertex after one
     or more specular ones, queue the connection to the camera (its nearest image pixel, and in
     `raster` its raster point for the pixel filter; margin: how far past the image the filter
-    reaches). Returns (paths in out, connections queued)."""
+    reaches). In a scene with media, the light is attenuated along its segments and the
+    connection in the media they cross, and the stack of media goes with each path (media.py).
+    Returns (paths in out, connections queued)."""
     n_out = 0
     n_conn = 0
     has_normals = mesh.corner_normals.shape[0] > 0
@@ -370,6 +393,14 @@ def light_bounce(caustics, lights, mesh, mats, cam, margin, fresnel_model, max_d
         side = 1.0 if entering else -1.0
         ng_f, ns_f = mul(ng, side), mul(ns, side)
         beta = row(paths.beta, i)
+        sigma = medium.ZERO
+        if media.on:
+            sigma = medium.sigma_of(media, paths.medium, i)
+            origin = (np.float64(paths.o32[i, 0]), np.float64(paths.o32[i, 1]),
+                      np.float64(paths.o32[i, 2]))
+            segment = sub(p, origin)
+            beta = medium.through(beta, sigma, math.sqrt(dot(segment, segment)))
+            store(paths.beta, i, beta)
         bounces = paths.bounces[i]
         key = paths.key[i]
         color, trans_color = surface_colors(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
@@ -390,6 +421,8 @@ def light_bounce(caustics, lights, mesh, mats, cam, margin, fresnel_model, max_d
                     and bounces + 2 <= max_depth:
                 n_out = diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, color,
                                        random_pair(key, 1 + bounces, 4))
+                if media.on:
+                    medium.copy_stack(paths.medium, i, out.medium, n_out - 1)
             pixel, rx, ry, o_cam, d_cam, lens_dist, cos_theta, s = camera_connection(
                 cam, p, lens0, lens1, margin)
             if pixel < 0:
@@ -409,6 +442,10 @@ def light_bounce(caustics, lights, mesh, mats, cam, margin, fresnel_model, max_d
             origin = offset_origin(p, ngc, eps, wo)
             segment = sub(o_cam, origin)
             length = math.sqrt(dot(segment, segment))
+            if medium.absorbs(sigma):
+                tr = medium.transmittance(sigma, length)
+                for k in range(3):
+                    connections.contrib[n_conn, k] *= tr[k]
             connections.path[n_conn] = pixel
             raster[n_conn, 0] = rx
             raster[n_conn, 1] = ry
@@ -438,6 +475,9 @@ def light_bounce(caustics, lights, mesh, mats, cam, margin, fresnel_model, max_d
             continue
         set_light_path(out, n_out, key, offset_origin(p, ng, eps, new_d), new_d, beta,
                        bounces + 1, paths.lamp[i])
+        if media.on:
+            medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
+                         event == specular.TRANSMITTED)
         n_out += 1
     return n_out, n_conn
 

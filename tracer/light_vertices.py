@@ -36,6 +36,7 @@ from .jit import jit, jit_inline
 from .lights.codes import STARTS_LIGHT_VERTICES
 from .lights.dispatch import emitter_density, light_vertex_density, light_vertex_ray, pick_light
 from .material_kinds import DIFFUSE
+from .media import start_sigma, transmittance
 from .sampler import sample_pair
 from .textures import surface_colors
 from .vec import dot, mul, neg, row, store, sub
@@ -122,8 +123,9 @@ def emit(lights, mesh, bits, stratified, n, keys, samples, lv):
 
 
 @jit
-def hits(lights, mesh, mats, m, lv, prim, u, v):
-    """Keep the emission rays' diffuse hits as light vertices, with their MIS densities."""
+def hits(lights, mesh, mats, media, m, lv, prim, u, v):
+    """Keep the emission rays' diffuse hits as light vertices, with their MIS densities; in a
+    scene with media, the light is attenuated in the media around its lamp (media.py)."""
     for j in range(m):
         i = lv.row[j]
         tri = prim[j]
@@ -144,8 +146,13 @@ def hits(lights, mesh, mats, m, lv, prim, u, v):
         albedo, _ = surface_colors(mats, mats.of_triangle[tri], tri, np.float64(u[j]),
                                    np.float64(v[j]))
         scale = cos_s / (cos_g * math.pi)         # f = albedo / pi, and Veach's 5.3 factor
+        tr = (1.0, 1.0, 1.0)
+        if media.on:
+            lamp = lv.lamp[i]
+            tr = transmittance(start_sigma(media, lamp < 0, -1 - lamp if lamp < 0 else lamp),
+                               dist)
         for a in range(3):
-            lv.weight[i, a] *= albedo[a] * scale
+            lv.weight[i, a] *= albedo[a] * scale * tr[a]
         p0 = cos_s / math.pi
         lv.others[i] = p0 * p0 + p1 * p1
         lv.density[i] *= cos_g

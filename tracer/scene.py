@@ -350,6 +350,9 @@ def _matrix3(value, name, singular_ok=False):
 
 def _check_material(i, mat, images=(), texcoords=()):
     where, kind = _entry_kind("materials", i, mat, MATERIAL_KINDS)
+    if mat.get("absorption") is not None:
+        # The Volume output's absorption coefficient sigma_a per metre (tracer/media.py).
+        _finite_vec(mat["absorption"], f"{where}.absorption", positive=True)
     if kind == "program":
         # Here, not at the top: the program's SPECS live beside its compiled code, which a
         # reader of scenes without programs need not import (Numba).

@@ -33,6 +33,8 @@ from .lights.codes import VISIBLE_CAMERA
 from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lights_at_escape,
                               triangle_hit)
 from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
+from .media import empty_stacks
+from . import media as medium
 from .pixel_filter import position as filter_position
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
@@ -77,6 +79,8 @@ class Paths(NamedTuple):
     #                          vertex that sampled it: 0 but through transparent surfaces
     #                          (scatter_program), whose far side lights then weigh by the
     #                          densities of that vertex
+    medium: np.ndarray       # (n, media.MAX_MEDIA) int64: the media the ray is inside
+    #                          (media.py), read and written only in scenes with media
 
 
 class Shadows(NamedTuple):
@@ -95,7 +99,7 @@ def new_paths(n: int) -> Paths:
                  np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3), np.float32),
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                  np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n),
-                 np.empty((n, 3)), np.zeros(n, np.int64), np.zeros(n))
+                 np.empty((n, 3)), np.zeros(n, np.int64), np.zeros(n), empty_stacks(n))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -173,8 +177,8 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 
 
 @jit
-def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_depth, m, paths, prim,
-             t, radiance, without, active, stats, features, feature_albedo):
+def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, max_depth, m,
+             paths, prim, t, radiance, without, active, stats, features, feature_albedo):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
@@ -191,7 +195,9 @@ def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_dept
     With `features`, paths that still carry the denoising features add what they find to the
     Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
     written its features at its first, diffuse, hit).
-    Shader programs whose emission varies add it in program_emitters.
+    Shader programs whose emission varies add it in program_emitters. In a scene with media
+    (media.py), the ray's segment inside them attenuates what it finds and the path's
+    throughput from here on.
     """
     kept = 0
     for i in range(m):
@@ -199,17 +205,23 @@ def emitters(lights, mats, next_event, caustics, world_caustics, depth, max_dept
         beta, path, kind = row(paths.beta, i), paths.path[i], paths.ray_kind[i]
         pdf_prev, connect, mis_t = paths.pdf_prev[i], paths.connect[i], paths.mis_t[i]
         t_surface = np.float64(t[i])     # Embree leaves a miss's t at the ray's length
+        sigma = medium.sigma_of(media, paths.medium, i) if media.on else medium.ZERO
         light_tracers = caustics and paths.caustic[i] == CAUSTIC
         emitters_count = not light_tracers
         for lamp in range(lamps_to_cross(lights) if emitters_count else 0):
             crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
                                                                  kind, pdf_prev, connect, mis_t)
             if crossed:
+                if media.on:
+                    light = medium.through(light, sigma, medium.lamp_distance(lights, lamp, o, d))
                 w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
                 add_light_both(radiance, without, path, beta, light,
                                mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex), w_without)
                 if features and paths.feature_on[i] != 0:
                     add_feature_light(feature_albedo, paths, i, beta, light, w_without)
+        if media.on and medium.absorbs(sigma):
+            beta = medium.through(beta, sigma, t_surface)
+            store(paths.beta, i, beta)
         if prim[i] < 0:
             first, end = lights_at_escape(lights, not (light_tracers and world_caustics),
                                           emitters_count)
@@ -272,9 +284,10 @@ def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, 
 
 
 @jit
-def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, stratified, depth,
-              n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes, params,
-              stats, lv, last_connection, features, feature_albedo, feature_normal, programs):
+def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits, stratified,
+              depth, n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes,
+              params, stats, lv, last_connection, features, feature_albedo, feature_normal,
+              programs):
     """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
     layered vertices sample a light (a shadow ray, or direct light for lamps that cast no
     shadow) and, up to bounce last_connection (-1: never), connect to the path's light vertex
@@ -283,9 +296,11 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
     hit's lobes (lobes.py), `tables` its albedo tables, `params` for a textured Principled
     BSDF's parameters; `without` as for emitters. With `features`, paths that still carry the
     denoising features apply this hit to them (features.py), writing into the rows of
-    feature_albedo and feature_normal. Hits on shader programs are left for program_materials,
-    their rows written into `programs` (as pbrt-v4 queues each material type for a kernel of
-    its own: this one stays the size it was without programs).
+    feature_albedo and feature_normal. In a scene with media, the shadow rays are attenuated
+    in the media they cross and the next rays carry their path's stack of media, entered or
+    left where they pass through the surface (media.py). Hits on shader programs are left for
+    program_materials, their rows written into `programs` (as pbrt-v4 queues each material
+    type for a kernel of its own: this one stays the size it was without programs).
 
     Returns (paths in out, shadow rays queued, program hits left).
     """
@@ -317,6 +332,7 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
         # Numba cannot inline.
         rng, u_bounce, hit = (key, sample, bits, strat), (u_pick, u0, u1), (p, ng, ng_f, ns_f, eps)
         count = 0
+        first_shadow = n_shadow
         if kind == DIFFUSE:
             new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow = scatter_diffuse(
                 lights, mesh, can_sample_lights, rng, depth, u_bounce, beta, path, row(paths.o, i),
@@ -331,6 +347,9 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
             new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
                 kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,
                 entering, color, trans_color, mats.ior[mat], stats)
+        if media.on:
+            medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
+                                     first_shadow, n_shadow)
         if features and paths.feature_on[i] != 0:
             # The layered kinds' lobes are still in `lobes` from their scatter.
             if kind != LAYERED:
@@ -340,12 +359,13 @@ def materials(lights, mesh, mats, tables, fresnel_model, next_event, bits, strat
                             feature_normal)
         n_out = go_on(out, n_out, paths, i, depth, u_roulette, (new_d, beta, ray_kind, pdf_prev,
                                                               caustic, connect, 0.0),
-                      offset_origin(p, ng, eps, new_d), features, stats)
+                      offset_origin(p, ng, eps, new_d), features, stats, media,
+                      (tri, mat, entering, ng_f))
     return n_out, n_shadow, n_programs
 
 
 @jit
-def program_materials(lights, mesh, mats, tables, next_event, bits, stratified, depth,
+def program_materials(lights, mesh, mats, media, tables, next_event, bits, stratified, depth,
                       n_programs, programs, paths, prim, u, v, out, n_out, shadows, n_shadow,
                       radiance, without, lobes, regs, stats, lv, last_connection, features,
                       feature_albedo, feature_normal):
@@ -367,18 +387,23 @@ def program_materials(lights, mesh, mats, tables, next_event, bits, stratified, 
         path = paths.path[i]
         connects = depth <= last_connection and lv.found[path]
         ray = (row(paths.o, i), d, paths.ray_kind[i], paths.pdf_prev[i], paths.mis_t[i])
+        first_shadow = n_shadow
         (new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count,
          mis_t) = scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals,
                                   (key, sample, bits, strat), depth, (u_pick, u0, u1),
                                   row(paths.beta, i), path, ray, (p, ng, ng_f, ns_f, eps),
                                   entering, (mat, tri, b1, b2), connects, lv, lobes, regs,
                                   shadows, n_shadow, radiance, without, stats)
+        if media.on:
+            medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
+                                     first_shadow, n_shadow)
         if features and paths.feature_on[i] != 0:
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
         n_out = go_on(out, n_out, paths, i, depth, u_roulette, (new_d, beta, ray_kind, pdf_prev,
                                                               caustic, connect, mis_t),
-                      offset_origin(p, ng, eps, new_d), features, stats)
+                      offset_origin(p, ng, eps, new_d), features, stats, media,
+                      (tri, mat, entering, ng_f))
     return n_out, n_shadow
 
 
@@ -395,10 +420,13 @@ def facing_hit(mesh, paths, i, tri, b1, b2):
 
 
 @jit_inline
-def go_on(out, n_out, paths, i, depth, u_roulette, scattered, origin, features, stats):
+def go_on(out, n_out, paths, i, depth, u_roulette, scattered, origin, features, stats, media,
+          surface):
     """After Russian roulette, path i's next ray from origin (`scattered`: direction,
     throughput, ray kind, BSDF density, caustic state, light-vertex factor, distance since the
-    last scattering vertex) as row n_out of `out`; returns the new count."""
+    last scattering vertex) as row n_out of `out`, with its stack of media (entered or left
+    through `surface`: triangle, material, entering, facing geometric normal); returns the new
+    count."""
     new_d, beta, ray_kind, pdf_prev, caustic, connect, mis_t = scattered
     peak = max3(beta)
     if not peak > 0.0:
@@ -422,6 +450,10 @@ def go_on(out, n_out, paths, i, depth, u_roulette, scattered, origin, features, 
     out.pdf_prev[n_out] = pdf_prev
     out.connect[n_out] = connect
     out.mis_t[n_out] = mis_t
+    if media.on:
+        tri, mat, entering, ng_f = surface
+        medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
+                     dot(new_d, ng_f) < 0.0)
     if features:
         out.feature_on[n_out] = paths.feature_on[i]
         for k in range(3):

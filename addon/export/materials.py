@@ -5,8 +5,9 @@ entry in bsdfs.CONVERTERS, with Inputs (nodes.py) reading the node's input value
 Texture on a texturable input is handed on in the dict's "_textures" (textures.py converts it).
 A tree these fixed kinds cannot render (mixes of other factors, Transparent, Light Path, ...)
 is compiled into a shader program instead (shader/: the scene file's "program" material).
-Everything else the output reaches (a volume, a displacement, a shader Snell lacks, a linked
-input it does not read) is recorded, with what Snell renders instead, in the material's Coverage
+Its Volume becomes the dict's "absorption" (volumes.py). Everything else the output reaches (a
+displacement, a shader Snell lacks, a linked input it does not read) is recorded, with what
+Snell renders instead, in the material's Coverage
 (coverage.py): its replaced entries are the exporter's warnings, and `snell info` lists both.
 """
 from __future__ import annotations
@@ -18,6 +19,7 @@ from .mixes import NotFolded, fold, mix_factor
 from .nodes import Inputs, active_output, follow, linked_socket, source_in  # noqa: F401
 from .shader import compile_material
 from .shader.compiler import CompileError
+from .volumes import convert_volume
 
 GREY = [0.8, 0.8, 0.8]
 BLACK = [0.0, 0.0, 0.0]
@@ -31,10 +33,13 @@ DEFAULT_SURFACE = {"name": "(default surface)", "kind": "principled", "color": l
 NO_MATERIAL = ("no material: rendered with Cycles' default surface (a Principled BSDF of base "
                "colour 0.8), as Cycles renders it")
 NO_SURFACE = "rendered black, as Cycles renders it"
+# A material with a Volume and no Surface: Cycles' boundary lets every ray through.
+VOLUME_ONLY = ("rendered as a clear boundary (a Refraction BSDF of IOR 1) around the volume; "
+               "direct light from lamps does not pass it")
+CLEAR = {"kind": "refraction", "color": [1.0, 1.0, 1.0], "ior": 1.0}
 
 # What Snell renders instead of what a Material Output's other inputs carry.
 OUTPUT_INPUTS = {
-    "Volume": "rendered without it (the object's inside is clear)",
     "Displacement": "rendered without displacement or bump (the mesh's normals)",
 }
 # The Thickness input is EEVEE's alone: Cycles ignores it too.
@@ -57,7 +62,7 @@ def convert_material(mat, resources=None):
     if out is None or source_in(out.inputs["Surface"]).node is None:
         return converted, coverage          # no surface: black, as Cycles renders it
     program_coverage = Coverage()
-    _output_inputs(out, program_coverage)
+    absorption = _output_inputs(out, program_coverage)
     try:
         program = compile_material(mat.name, out.inputs["Surface"], resources, program_coverage)
     except CompileError as exc:
@@ -68,17 +73,20 @@ def convert_material(mat, resources=None):
     if len(program_coverage.issues) > len(coverage.issues) or (
             len(program_coverage.issues) == len(coverage.issues) and not whole_replaced):
         return converted, coverage
+    if absorption is not None:
+        program["absorption"] = absorption
     return program, program_coverage
 
 
 def _output_inputs(out, coverage):
-    """Record what a Material Output's Volume and Displacement carry, which Snell does not
-    render."""
+    """The absorption of a Material Output's Volume (volumes.py; None: none), recording what
+    its Volume and Displacement carry that Snell does not render."""
     for socket, instead in OUTPUT_INPUTS.items():
         node = follow(out.inputs[socket]) if socket in out.inputs else None
         if node is not None:
             coverage.replace(out, f"is linked to {node_text(node)}, which Snell does not "
                                   f"render", instead, input=socket)
+    return convert_volume(out, coverage)
 
 
 def _convert_fixed(mat):
@@ -102,17 +110,24 @@ def _convert_fixed(mat):
     if out is None:
         coverage.append(f"no Material Output node: {NO_SURFACE}")
         return black, coverage
-    _output_inputs(out, coverage)
+    absorption = _output_inputs(out, coverage)
     surface = source_in(out.inputs["Surface"])
+    if surface.node is None and absorption is not None:
+        coverage.replace(out, "is not connected (a volume alone)", VOLUME_ONLY, input="Surface")
+        return {"name": name, **CLEAR, "color": list(CLEAR["color"]),
+                "absorption": absorption}, coverage
     if surface.node is None:
         coverage.replace(out, "is not connected", NO_SURFACE, input="Surface")
         return black, coverage
     try:
-        return convert_surface(name, surface, coverage), coverage
+        converted = convert_surface(name, surface, coverage)
     except NotFolded as exc:
         coverage.replace(out, f"is linked to {exc}, which Snell cannot evaluate",
                          "using grey 0.8 diffuse", input="Surface")
-        return {"name": name, "kind": "diffuse", "color": list(GREY), "_replaced": True}, coverage
+        converted = {"name": name, "kind": "diffuse", "color": list(GREY), "_replaced": True}
+    if absorption is not None:
+        converted["absorption"] = absorption
+    return converted, coverage
 
 
 def convert_surface(name, surface, coverage):

@@ -651,14 +651,12 @@ def _glass_with(bl, output_input, idname):
 
 
 @pytest.mark.parametrize("output_input, idname, shown, rendered", [
-    ("Volume", "ShaderNodeVolumeAbsorption", "'Volume Absorption' (a volume)",
-     "rendered without it (the object's inside is clear)"),
     ("Displacement", "ShaderNodeDisplacement", "'Displacement' (a displacement)",
      "rendered without displacement or bump (the mesh's normals)"),
 ])
-def test_material_output_volume_and_displacement_warn(bl, output_input, idname, shown, rendered):
-    """A Volume Absorption inside glass was dropped without a word: now one warning names the
-    output, the input, the node and what renders instead; the surface still converts."""
+def test_material_output_displacement_warns(bl, output_input, idname, shown, rendered):
+    """A displacement: one warning names the output, the input, the node and what renders
+    instead; the surface still converts. (A Volume converts: tests/blender/test_export_volumes.py.)"""
     m, warnings = exported_material(bl, _glass_with(bl, output_input, idname), "Cup")
     assert m["kind"] == "glass" and m["ior"] == pytest.approx(1.33)
     assert warnings == [f"object 'Cup', material 'Coffee': node 'Material Output': input "

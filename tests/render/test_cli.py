@@ -188,7 +188,7 @@ tree.nodes.remove(tree.nodes["Principled BSDF"])
 bsdf = tree.nodes.new("ShaderNodeBsdfGlass")
 out = tree.nodes["Material Output"]
 tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
-tree.links.new(tree.nodes.new("ShaderNodeVolumeAbsorption").outputs[0], out.inputs["Volume"])
+tree.links.new(tree.nodes.new("ShaderNodeVolumeScatter").outputs[0], out.inputs["Volume"])
 rough = bpy.data.materials.new("Rough")
 noise = rough.node_tree.nodes.new("ShaderNodeTexNoise")
 rough.node_tree.links.new(noise.outputs[0], rough.node_tree.nodes["Principled BSDF"].inputs["Roughness"])
@@ -218,9 +218,8 @@ def test_info_lists_each_materials_coverage(tmp_path):
     assert lines[at + 1:at + 10] == [
         "  'Coffee': glass",
         "    evaluated  node 'Glass BSDF': glass surface",
-        "    replaced   node 'Material Output': input 'Volume' is linked to 'Volume Absorption' "
-        "(a volume), which Snell does not render: rendered without it (the object's inside is "
-        "clear)",
+        "    replaced   node 'Volume Scatter': scatters light: rendered without its scattering "
+        "(homogeneous scattering is not rendered yet)",
         "  'Rough': principled",
         "    evaluated  node 'Principled BSDF': principled surface",
         "    replaced   node 'Principled BSDF': input 'Roughness' is linked to 'Noise Texture' "
