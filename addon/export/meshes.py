@@ -30,10 +30,11 @@ def _attribute(mesh, name, count, dtype, prop="value"):
     return None if attr is None else _read(attr.data, prop, count, dtype)
 
 
-def _mesh_texcoords(mesh, corner_verts, co):
-    """{UV map name: (corners, 2) float32}, the active render UV map's name, and the Generated
+def _mesh_texcoords(mesh, corner_verts, co, tangents=False, tri_corners=None):
+    """{UV map name: (corners, 2) float32}, the active render UV map's name, the Generated
     coordinates (corners, 3) of a bpy mesh (Cycles: (co - texspace location) / (2 texspace
-    size) + 0.5)."""
+    size) + 0.5) and, with tangents, {UV map name: ((corners, 3) tangent, (corners,) bitangent
+    sign)} (else {})."""
     nc = len(corner_verts)
     uvs = {}
     for layer in mesh.uv_layers:
@@ -43,12 +44,54 @@ def _mesh_texcoords(mesh, corner_verts, co):
     size = np.array(mesh.texspace_size, np.float64)
     half = np.divide(0.5, size, out=np.zeros(3), where=size != 0)
     orco = ((co.reshape(-1, 3)[corner_verts] - loc) * half + 0.5).astype(np.float32)
-    return uvs, active, orco
+    frames = {name: _uv_tangents(mesh, name, co, corner_verts, tri_corners, uvs[name])
+              for name in uvs} if tangents else {}
+    return uvs, active, orco, frames
 
 
-def mesh_arrays(obj, texcoords=False):
+def _uv_tangents(mesh, name, co, corner_verts, tri_corners, uv):
+    """(tangent (corners, 3), bitangent sign (corners,)) of a UV map in object space: Blender's
+    MikkTSpace (mesh.calc_tangents, the library Cycles computes them with), or for a mesh with
+    n-gons, which it refuses, each triangle's own UV gradient (_triangle_tangents)."""
+    nc = len(corner_verts)
+    try:
+        mesh.calc_tangents(uvmap=name)
+    except RuntimeError:
+        return _triangle_tangents(co.reshape(-1, 3), corner_verts, tri_corners, uv)
+    tangent = _read(mesh.loops, "tangent", nc * 3, np.float32).reshape(nc, 3)
+    sign = _read(mesh.loops, "bitangent_sign", nc, np.float32)
+    return tangent, sign
+
+
+def _triangle_tangents(co, corner_verts, tri_corners, uv):
+    """Tangents from each triangle's UV gradient (the direction of growing u), unaveraged:
+    MikkTSpace's per-triangle step without its smoothing over shared vertices (exact on flat
+    faces with affine UVs), and the bitangent sign: whether v grows along n x t."""
+    tangent = np.zeros((len(corner_verts), 3), np.float32)
+    sign = np.ones(len(corner_verts), np.float32)
+    p = co[corner_verts[tri_corners]].astype(np.float64)           # (T, 3, 3)
+    w = uv[tri_corners].astype(np.float64)                          # (T, 3, 2)
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    d1, d2 = w[:, 1] - w[:, 0], w[:, 2] - w[:, 0]
+    det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+    det = np.where(det == 0.0, 1.0, det)
+    t = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) / det[:, None]
+    b = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) / det[:, None]
+    g = np.cross(e1, e2)
+    t -= g * (np.einsum("ij,ij->i", t, g) / np.maximum(np.einsum("ij,ij->i", g, g),
+                                                       1e-300))[:, None]
+    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+    s = np.where(np.einsum("ij,ij->i", np.cross(g, t), b) < 0.0, -1.0, 1.0)
+    for k in range(3):
+        tangent[tri_corners[:, k]] = t
+        sign[tri_corners[:, k]] = s
+    return tangent, sign
+
+
+def mesh_arrays(obj, texcoords=False, tangents=False):
     """Local-space geometry of an evaluated object, ready for instancing (see Mesh); with
-    texcoords, also its UV maps and Generated coordinates per corner."""
+    texcoords, also its UV maps and Generated coordinates per corner, and with tangents its UV
+    maps' tangents (for normal maps)."""
     mesh = obj.to_mesh()
     try:
         if mesh is None:
@@ -71,7 +114,8 @@ def mesh_arrays(obj, texcoords=False):
         # Smooth faces: Blender's corner normals (vertex, sharp-edge split or custom normals).
         corner_n = _read(mesh.corner_normals, "vector", nc * 3, np.float32).reshape(nc, 3)
         sharp = _attribute(mesh, "sharp_face", nf, bool)
-        coords = _mesh_texcoords(mesh, corner_verts, co) if texcoords else None
+        coords = (_mesh_texcoords(mesh, corner_verts, co, tangents, tri_corners) if texcoords
+                  else None)
         if sharp is not None and sharp.any():
             face_n = _read(mesh.polygons, "normal", nf * 3, np.float32).reshape(nf, 3)
             corner_verts, tri_corners, corner_n, coords = _flat_normals(
@@ -113,9 +157,11 @@ def _flat_normals(flat, face_n, co, corner_verts, tri_corners, corner_n, coords)
     corner_verts = np.concatenate([corner_verts, corner_verts[old]])
     corner_n = np.concatenate([corner_n, np.repeat(n[own].astype(np.float32), 3, axis=0)])
     if coords is not None:
-        uvs, active, orco = coords
+        uvs, active, orco, frames = coords
         coords = ({name: np.concatenate([uv, uv[old]]) for name, uv in uvs.items()}, active,
-                  np.concatenate([orco, orco[old]]))
+                  np.concatenate([orco, orco[old]]),
+                  {name: (np.concatenate([t, t[old]]), np.concatenate([s, s[old]]))
+                   for name, (t, s) in frames.items()})
     return corner_verts, tri_corners, corner_n, coords
 
 
@@ -159,14 +205,23 @@ class Mesh:
         self.normals = corner_n[first].astype(np.float64)
         self._by_slots = {}
 
-    def texcoord(self, kind, name):
+    def texcoord(self, kind, name, matrix=None):
         """(T, 3, 3) float32 texture coordinates per triangle corner: a UV map (name "" the
-        active render one; a missing map gives 0, as in Cycles), Generated or Object."""
+        active render one; a missing map gives 0, as in Cycles), Generated or Object; or, in
+        world space for an instance of world matrix `matrix`, a UV map's normal-map frame
+        (tangent_frame) or the object's normal matrix (normal_matrix)."""
         out = np.zeros((len(self.tri_corners), 3, 3), np.float32)
         if self.coords is None:
             return out
-        uvs, active, orco = self.coords
-        if kind == "generated":
+        uvs, active, orco, frames = self.coords
+        if kind in ("tangent", "bitangent", "tangent_normal"):
+            frame = frames.get(name or active)
+            if frame is not None:
+                out[:] = self.tangent_frame(frame, matrix)[kind]
+        elif kind == "normal_matrix":
+            # Column x, y or z of the normal matrix M^-T: row x, y or z of M^-1.
+            out[:] = np.linalg.inv(matrix[:3, :3])["xyz".index(name)]
+        elif kind == "generated":
             out[:] = orco[self.tri_corners]
         elif kind == "object":
             out[:] = self.local_corners
@@ -175,6 +230,17 @@ class Mesh:
             if uv is not None:
                 out[:, :, :2] = uv[self.tri_corners]
         return out
+
+    def tangent_frame(self, frame, matrix):
+        """{"tangent", "bitangent", "tangent_normal": (T, 3, 3)}: each corner's tangent t,
+        sign (n x t) and normal n (the corner's shading normal), object-space vectors each times
+        the normal matrix M^-T of world matrix `matrix` (tracer/shader/normals.py says why)."""
+        tangent, sign = frame
+        t = tangent[self.tri_corners].astype(np.float64)                  # (T, 3, 3)
+        n = self.normals[self.triangles]
+        b = np.cross(n, t) * sign[self.tri_corners][:, :, None]
+        inv = np.linalg.inv(np.asarray(matrix, np.float64)[:3, :3])       # row vectors: v M^-1
+        return {"tangent": t @ inv, "bitangent": b @ inv, "tangent_normal": n @ inv}
 
     def material_ids(self, slot_ids):
         """(scene material id of each triangle, the distinct ids) for an object's slots' ids."""

@@ -19,8 +19,9 @@ A SPECS entry is (what it computes, slots) or (what, slots, {slot: limit}): lite
 be from 0 to limit - 1 (limit "images" or "texcoords": the scene's counts).
 
 Families of instructions, by opcode range: closures.py (0-19: the closures and the Mix Shader),
-inputs.py (20-99: what reads the hit). The scene loader checks every instruction against its
-family's SPECS (check_program), so the interpreter trusts its indices.
+inputs.py (20-99: what reads the hit), normals.py (400-449: shading normals). The scene loader
+checks every instruction against its family's SPECS (check_program), so the interpreter trusts
+its indices.
 """
 from __future__ import annotations
 
@@ -29,12 +30,12 @@ from typing import NamedTuple
 import numpy as np
 
 from ..jit import jit
-from . import closures, inputs
+from . import closures, inputs, normals
 
 SLOTS = 7
 MAX_REGISTERS = 1024
 MAX_INSTRUCTIONS = 100000
-FAMILIES = (closures, inputs)
+FAMILIES = (closures, inputs, normals)
 SPECS = {op: spec for family in FAMILIES for op, spec in family.SPECS.items()}
 WIDTH = {"f": 1, "v": 3, "w": 1, "n": 3, "P": closures.PRINCIPLED_BLOCK}
 # What the tracer needs to know of a program without running it (Programs.flags).
@@ -196,8 +197,11 @@ def run(mats, m, regs, hit, lobes, tables, has_normals):
         if op <= closures.LAST:
             count = closures.execute(ins, regs, MAX_REGISTERS, hit, lobes, count, tables,
                                      has_normals)
+        elif normals.FIRST <= op <= normals.LAST:
+            normals.execute(ins, regs, hit, mats)
         else:
             inputs.execute(ins, regs, hit, mats)
+    normals.mark_smooth_normal(lobes, count, hit[2])
     return count
 
 
