@@ -46,7 +46,28 @@ def _mesh_texcoords(mesh, corner_verts, co, tangents=False, tri_corners=None):
     orco = ((co.reshape(-1, 3)[corner_verts] - loc) * half + 0.5).astype(np.float32)
     frames = {name: _uv_tangents(mesh, name, co, corner_verts, tri_corners, uvs[name])
               for name in uvs} if tangents else {}
+    if tangents and not uvs:
+        # Cycles gives a mesh without UV maps tangents of its positions mapped to a sphere.
+        layer = mesh.uv_layers.new(name=SPHERE_UV)
+        if layer is not None:
+            sphere = map_to_sphere(co.reshape(-1, 3)[corner_verts].astype(np.float64))
+            layer.uv.foreach_set("vector", sphere.astype(np.float32).ravel())
+            frames[""] = _uv_tangents(mesh, SPHERE_UV, co, corner_verts, tri_corners, sphere)
     return uvs, active, orco, frames
+
+
+SPHERE_UV = "snell sphere mapping"
+
+
+def map_to_sphere(p):
+    """(N, 2) Cycles' map_to_sphere of (N, 3) positions (util/math_float3.h): u the longitude
+    0.5 - atan2(x, y) / 2 pi, v 1 - acos(z / |p|) / pi; 0 at the origin."""
+    length = np.linalg.norm(p, axis=1)
+    u = np.where((p[:, 0] == 0.0) & (p[:, 1] == 0.0), 0.0,
+                 0.5 - np.arctan2(p[:, 0], p[:, 1]) / (2.0 * np.pi))
+    v = 1.0 - np.arccos(np.clip(p[:, 2] / np.where(length > 0.0, length, 1.0), -1.0, 1.0)) / np.pi
+    inside = length > 0.0
+    return np.stack([np.where(inside, u, 0.0), np.where(inside, v, 0.0)], axis=1)
 
 
 def _uv_tangents(mesh, name, co, corner_verts, tri_corners, uv):
