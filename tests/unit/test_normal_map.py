@@ -143,3 +143,22 @@ def test_bump_shadowing_leaves_microfacet_samples_alone():
     assert lobes.bump_shadowing(lobe, wo, True) == 1.0
     assert lobes.bump_shadowing(lobe, (0.995, 0.0, -0.0999), False) == 1.0
     assert lobes.bump_shadowing(lobe, (0.995, 0.0, -0.0999), True) == 0.0
+
+
+@pytest.mark.parametrize("flip", [False, True])
+def test_triangle_tangents_of_an_affine_uv_map(flip):
+    """The fallback for meshes with n-gons (which Blender's MikkTSpace refuses): on a flat face
+    with affine UVs, the tangent is the direction u grows in and sign (n x t) the one v grows
+    in, as MikkTSpace's. (Deliberate error: the sign's test reversed: fails for both.)"""
+    from snell.addon.export.meshes import _triangle_tangents
+    co = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    corner_verts = np.arange(4, dtype=np.int32)
+    tri_corners = np.array([[0, 1, 2], [0, 2, 3]])
+    # u along x (or against it), v along y.
+    u = np.where(flip, 1.0 - co[:, 0] / 2.0, co[:, 0] / 2.0)
+    uv = np.stack([u, co[:, 1]], axis=1).astype(np.float32)
+    tangent, sign = _triangle_tangents(co, corner_verts, tri_corners, uv)
+    x = np.array([-1.0 if flip else 1.0, 0.0, 0.0])
+    assert np.allclose(tangent, x, atol=1e-6)
+    bitangent = sign[:, None] * np.cross([0.0, 0.0, 1.0], tangent)
+    assert np.allclose(bitangent, [0.0, 1.0, 0.0], atol=1e-6)

@@ -36,6 +36,9 @@ def normal_map(c, node, socket):
         c.emit(tracer_normals.NORMAL_MAP_OBJECT, out, color, strength, space, *columns)
     else:
         c.emit(tracer_normals.NORMAL_MAP_WORLD, out, color, strength, space)
+    uv = f" of UV map {node.uv_map!r}" if space == tracer_normals.SPACE_TANGENT and node.uv_map \
+        else ""
+    c.coverage.evaluate(node, f"normal map in {node.space.lower()} space{uv}")
     return out
 
 
