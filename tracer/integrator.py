@@ -34,10 +34,6 @@ from .scene import Scene
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
 from .shader import program
 
-# How many transparent surfaces a shadow ray passes at most: the validator's Cycles
-# transparent_max_bounces (validation/cycles.forced_settings).
-TRANSPARENT_SHADOW_BOUNCES = 1024
-
 
 class _Buffers(threading.local):
     """This thread's chunk buffers, made once and reused by every chunk it runs."""
@@ -345,10 +341,11 @@ class Renderer:
 
     def _through_transparency(self, depth, n_shadow, blocked, shadows, scratch, regs):
         """Let the blocked shadow rays through transparent surfaces (wavefront.
-        shadow_transparency), one surface per Embree call, up to Cycles'
-        transparent_max_bounces as the validator sets it."""
+        shadow_transparency), one surface per Embree call, as many as Cycles' Transparent
+        bounces allow: a ray with more in its way stays blocked."""
         pending = np.flatnonzero(blocked == 0)
-        for _ in range(TRANSPARENT_SHADOW_BOUNCES):
+        # A round per surface passed, and one more to find nothing behind the last.
+        for _ in range(self.settings.transparent_max_bounces + 1):
             if len(pending) == 0:
                 return
             prim, u, v, t = self.geometry.intersect(shadows.o32[pending],

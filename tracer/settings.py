@@ -86,6 +86,11 @@ SETTINGS = (
             "max_ray_depth; Cycles: max_bounces = Max Depth - 1); 0 shows only emitters seen "
             "directly",
             least=0, greatest=MAX_INT, metavar="M", ui={"soft_max": 64}),
+    Setting("transparent_max_bounces", int, 8, "Transparent surfaces a path or a shadow ray "
+            "passes at most (Cycles' Transparent bounces): a camera path ends at the next one, "
+            "a shadow ray is blocked; they do not count towards Max Depth",
+            least=0, greatest=MAX_INT, metavar="N", label="Transparent Bounces",
+            ui={"soft_max": 64}),
     Setting("seed", int, 0, "Random seed: the same seed and sample count give the same image, "
             "whatever the thread count", least=0, greatest=MAX_INT, metavar="S"),
     Setting("fresnel", str, "exact", "Fresnel model for glass",

@@ -92,6 +92,7 @@ def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_thre
     settings = scene.settings(threads=threads, sampler="independent", spp=spp,
                               noise_threshold=noise_threshold, time_limit=0.0, denoise=False,
                               denoising_passes=False,
+                              transparent_max_bounces=cycles.TRANSPARENT_BOUNCES,
                               **({} if caustics is None else {"caustics": caustics}))
     if noise_threshold <= 0.0:
         settings = settings.replace(light_vertices=False, spp=batch_spp(spp), batches=BATCHES)

@@ -21,6 +21,11 @@ import numpy as np
 from ..addon.console import stdout_silenced
 
 
+# Both renderers' transparent bounce limit in a comparison (forced_settings; compare.py gives
+# Snell the same).
+TRANSPARENT_BOUNCES = 1024
+
+
 class NoCyclesEquivalent(ValueError):
     """A Snell setting that Cycles cannot reproduce (e.g. max depth 0)."""
 
@@ -63,9 +68,9 @@ def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=
         ("cycles.diffuse_bounces", b, "per-kind limits equal to max_bounces"),
         ("cycles.glossy_bounces", b, "per-kind limits equal to max_bounces"),
         ("cycles.transmission_bounces", b, "per-kind limits equal to max_bounces"),
-        ("cycles.transparent_max_bounces", 1024, "Cycles counts each crossing of a light object "
-         "as a transparent bounce (a workaround in shade_light.h); Snell's lamps have no such "
-         "limit and it has no other transparency, so the limit is lifted"),
+        ("cycles.transparent_max_bounces", TRANSPARENT_BOUNCES, "Cycles counts each crossing "
+         "of a light object as a transparent bounce (a workaround in shade_light.h); Snell's "
+         "lamps have no such limit, so the limit is lifted for both"),
         ("cycles.volume_bounces", 0, "Snell has no volumes"),
         ("cycles.min_light_bounces", 0, "no forced bounces"),
         ("cycles.min_transparent_bounces", 0, "no forced bounces"),

@@ -67,6 +67,8 @@ FOLLOWED = (
     # Cycles' max_bounces N allows N + 1 scattering events; Snell's max depth counts emission
     # plus up to M bounces, so M = N + 1 (validation/cycles.py forces the same; checked there).
     Followed("max_depth", "Light Paths > Max Bounces > Total", lambda c, f: int(c.max_bounces) + 1),
+    Followed("transparent_max_bounces", "Light Paths > Max Bounces > Transparent",
+             lambda c, f: int(c.transparent_max_bounces)),
     # Snell samples Cycles' filters as Cycles does (tracer/pixel_filter.py); its values are
     # Cycles' identifiers in lower case.
     Followed("pixel_filter", "Film > Pixel Filter > Type",
@@ -117,8 +119,6 @@ NOT_RENDERED = (
                 _not_below_total),
     NotRendered("transmission_bounces", "Light Paths > Transmission bounces",
                 "limited by the total only", _not_below_total),
-    NotRendered("transparent_max_bounces", "Light Paths > Transparent bounces",
-                "Snell has no transparent surfaces", _always),
     NotRendered("volume_bounces", "Light Paths > Volume bounces", "Snell has no volumes",
                 _always),
     NotRendered("sample_clamp_direct", "Light Paths > Clamping > Direct Light", "no clamping: "

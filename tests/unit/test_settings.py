@@ -15,7 +15,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 def test_the_defaults_are_the_scene_files_defaults():
     # The scene file's defaults before the schema: files written then render as they did
     # (time_limit 0: no limit; a 1-pixel box, the only filter before pixel filters).
-    assert DEFAULT_RENDER == {"spp": 64, "max_depth": 8, "seed": 0, "fresnel": "exact",
+    # (transparent_max_bounces: Cycles' default 8; files before it had no transparent surface)
+    assert DEFAULT_RENDER == {"spp": 64, "max_depth": 8, "transparent_max_bounces": 8,
+                              "seed": 0, "fresnel": "exact",
                               "caustics": True, "light_vertices": True, "noise_threshold": 0.01,
                               "min_spp": 0, "time_limit": 0.0,   # time_limit 0: no limit, as before
                               "pixel_filter": "box", "filter_width": 1.0,

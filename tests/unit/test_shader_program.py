@@ -88,12 +88,15 @@ def test_emission_and_transparency_add_up_with_their_weights():
 
 
 def test_principled_alpha_is_a_transparent_share_and_scales_the_rest():
-    """Alpha 0.4: a transparent lobe of weight 0.6, then the Principled BSDF's lobes at 0.4
-    of what setup_principled gives alone; its emission at 0.4 too (Cycles)."""
+    """Alpha 0.4 under a mix weight 0.5: a transparent lobe of weight 0.5 x 0.6, then the
+    Principled BSDF's lobes at 0.5 x 0.4 of what setup_principled gives alone; its emission
+    at 0.5 x 0.4 too (Cycles' principled_bsdf_emission)."""
     block = [*RED, 0.0, 0.5, 1.5, 0.5, 0.0, 0.0, 0.03, 1.5, 1, 1, 1, 1, 1, 1,
              0.4, 1.0, 1.0, 1.0, 2.0]
     assert len(block) == closures.PRINCIPLED_BLOCK
-    lobe, count, regs = _run([[closures.PRINCIPLED, -1, 0, lobes.DIST_GGX, -1]], block)
+    weight = len(block)
+    lobe, count, regs = _run([[closures.PRINCIPLED, weight, 0, lobes.DIST_GGX, -1]],
+                             block + [0.5])
     alone = np.zeros((lobes.MAX_LOBES, lobes.FIELDS))
     n = (0.0, 0.0, 1.0)
     view = (0.0, math.sin(0.6), math.cos(0.6))
@@ -101,11 +104,11 @@ def test_principled_alpha_is_a_transparent_share_and_scales_the_rest():
                                np.array(block[3:17]), lobes.DIST_GGX)
     assert count == k + 1
     assert lobe[0, lobes.KIND] == lobes.TRANSPARENT
-    assert lobe[0, lobes.WEIGHT:lobes.WEIGHT + 3] == pytest.approx([0.6] * 3)
+    assert lobe[0, lobes.WEIGHT:lobes.WEIGHT + 3] == pytest.approx([0.3] * 3)
     for i in range(k):
         assert lobe[1 + i, lobes.WEIGHT:lobes.WEIGHT + 3] == pytest.approx(
-            0.4 * alone[i, lobes.WEIGHT:lobes.WEIGHT + 3])
-    assert program.total(regs, closures.TOTAL_EMISSION) == pytest.approx((0.8, 0.8, 0.8))
+            0.2 * alone[i, lobes.WEIGHT:lobes.WEIGHT + 3])
+    assert program.total(regs, closures.TOTAL_EMISSION) == pytest.approx((0.4, 0.4, 0.4))
 
 
 def _cycles_fresnel(cosi, eta):
