@@ -45,7 +45,8 @@ def _frame(snell_scene, kind):
 def test_a_rotated_scaled_plane_exports_its_frame_in_world_space(scene):
     """A plane (UVs along its x and y, normal z) rotated 90 degrees about x and scaled (2, 1, 3):
     tangent M^-T x = (0.5, 0, 0), bitangent M^-T y = (0, 0, 1) and normal M^-T z = (0, -1/3, 0)
-    at every corner; no warning."""
+    at every corner; no warning. (Deliberate error: the frame times M, as directions are
+    transformed: tangent (2, 0, 0); caught.)"""
     bpy.ops.mesh.primitive_plane_add(size=2.0)
     plane = bpy.context.active_object
     plane.data.materials.append(_normal_mapped("Mapped"))
