@@ -88,3 +88,30 @@ def test_ngons_and_meshes_without_uvs_get_tangents_and_render(scene):
         assert np.abs(np.einsum("tci,tci->tc", t[rows], n[rows])).max() < 1e-4
     result = Renderer(snell_scene, snell_scene.settings().replace(spp=4, max_depth=4)).render()
     assert np.isfinite(result.mean()).all() and result.nan_count == 0
+
+
+def test_bump_without_height_passes_the_normal_map_through(scene):
+    """Normal Map -> Bump (Height unlinked) -> BSDF: Cycles folds the Bump away, so does the
+    compiler (the BSDF reads the Normal Map's register); a Bump with a linked Height is warned,
+    naming material and node (the program's warning and the fixed kind's are one each, and the
+    exporter keeps the fixed kind on a tie). (Deliberate error: the Bump node giving the shading
+    normal even with its Normal linked: the Normal Map is left unread and warned; caught.)"""
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    plane = bpy.context.active_object
+    mat = _normal_mapped("Bumped")
+    tree = mat.node_tree
+    bsdf = next(n for n in tree.nodes if n.bl_idname.startswith("ShaderNodeBsdf"))
+    normal_map = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeNormalMap")
+    bump = tree.nodes.new("ShaderNodeBump")
+    tree.links.new(normal_map.outputs["Normal"], bump.inputs["Normal"])
+    tree.links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+    plane.data.materials.append(mat)
+    snell_scene, warnings = export.export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert warnings == []
+    code = snell_scene.materials[0]["program"]["code"]
+    mapped = next(row for row in code if row[0] == normals.NORMAL_MAP_TANGENT)
+    assert code[-1][3] == mapped[1]            # the Diffuse BSDF's normal slot
+    tree.links.new(tree.nodes.new("ShaderNodeTexNoise").outputs[0], bump.inputs["Height"])
+    _, warnings = export.export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert len(warnings) == 1
+    assert "'Bumped'" in warnings[0] and "'Bump'" in warnings[0]

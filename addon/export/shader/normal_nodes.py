@@ -1,9 +1,10 @@
 """The shading-normal nodes of a program, compiled one output at a time (NODE_OUTPUTS, as
 input_nodes.py's): the Normal Map node in tangent, object and world space (Cycles'
-NormalMapNode, scene/shader_nodes.cpp, run as tracer/shader/normals.py)."""
+NormalMapNode, scene/shader_nodes.cpp, run as tracer/shader/normals.py), and the Bump node
+where Cycles folds it away (its Height unlinked)."""
 from __future__ import annotations
 
-from ....tracer.shader import normals as tracer_normals
+from ....tracer.shader import inputs as tracer_inputs, normals as tracer_normals
 
 # Blender's Normal Map spaces in Cycles' order (tracer.shader.normals.SPACE_*).
 SPACES = ("TANGENT", "OBJECT", "WORLD", "BLENDER_OBJECT", "BLENDER_WORLD")
@@ -42,4 +43,20 @@ def normal_map(c, node, socket):
     return out
 
 
-NODE_OUTPUTS = {"ShaderNodeNormalMap": normal_map}
+def bump(c, node, socket):
+    """The Bump node's Normal as Cycles folds it when its Height is unlinked (BumpNode::
+    constant_fold): its Normal input, or the shading normal. A linked Height is warned and
+    left out: the same normal."""
+    if c.is_linked(node, "Height"):
+        c.warn(node, "is linked, which Snell does not evaluate (the Bump node's height at "
+                     "offset positions)", "the Normal input unbent", input="Height")
+    else:
+        c.coverage.evaluate(node, "bump with no height: the normal unchanged, as Cycles folds it")
+    if c.is_linked(node, "Normal"):
+        return c.input(node, "Normal", "vector")
+    out = c.alloc("vector")
+    c.emit(tracer_inputs.GEOMETRY, out, tracer_inputs.G_NORMAL)
+    return out
+
+
+NODE_OUTPUTS = {"ShaderNodeNormalMap": normal_map, "ShaderNodeBump": bump}
