@@ -43,7 +43,7 @@ INTERPOLATIONS = ("linear", "closest")
 EXTENSIONS = ("repeat", "extend", "clip", "mirror")     # textures.REPEAT ... MIRROR
 COLORSPACES = ("linear", "srgb")
 # The last four are world-space attributes for normal maps (tracer/shader/normals.py).
-TEXCOORD_KINDS = ("uv", "generated", "object", "tangent", "bitangent", "tangent_normal",
+TEXCOORD_KINDS = ("uv", "generated", "object", "tangent", "tangent_sign", "tangent_normal",
                   "normal_matrix")
 # The inputs an image texture may drive, by material kind (docs/scene-format.md).
 TEXTURE_SLOTS = ("color", "roughness", "metallic")

@@ -30,11 +30,10 @@ def _attribute(mesh, name, count, dtype, prop="value"):
     return None if attr is None else _read(attr.data, prop, count, dtype)
 
 
-def _mesh_texcoords(mesh, corner_verts, co, tangents=False, tri_corners=None):
-    """{UV map name: (corners, 2) float32}, the active render UV map's name, the Generated
+def _mesh_texcoords(mesh, corner_verts, co):
+    """{UV map name: (corners, 2) float32}, the active render UV map's name, and the Generated
     coordinates (corners, 3) of a bpy mesh (Cycles: (co - texspace location) / (2 texspace
-    size) + 0.5) and, with tangents, {UV map name: ((corners, 3) tangent, (corners,) bitangent
-    sign)} (else {})."""
+    size) + 0.5)."""
     nc = len(corner_verts)
     uvs = {}
     for layer in mesh.uv_layers:
@@ -44,19 +43,47 @@ def _mesh_texcoords(mesh, corner_verts, co, tangents=False, tri_corners=None):
     size = np.array(mesh.texspace_size, np.float64)
     half = np.divide(0.5, size, out=np.zeros(3), where=size != 0)
     orco = ((co.reshape(-1, 3)[corner_verts] - loc) * half + 0.5).astype(np.float32)
-    frames = {name: _uv_tangents(mesh, name, co, corner_verts, tri_corners, uvs[name])
-              for name in uvs} if tangents else {}
-    if tangents and not uvs:
-        # Cycles gives a mesh without UV maps tangents of its positions mapped to a sphere.
-        layer = mesh.uv_layers.new(name=SPHERE_UV)
-        if layer is not None:
-            sphere = map_to_sphere(co.reshape(-1, 3)[corner_verts].astype(np.float64))
-            layer.uv.foreach_set("vector", sphere.astype(np.float32).ravel())
-            frames[""] = _uv_tangents(mesh, SPHERE_UV, co, corner_verts, tri_corners, sphere)
-    return uvs, active, orco, frames
+    return uvs, active, orco
 
 
-SPHERE_UV = "snell sphere mapping"
+def _tangent_frames(uvs, co, corner_verts, tri_corners, corner_n, smooth):
+    """{UV map name: ((corners, 3) tangent, (corners,) bitangent sign)} in object space, as
+    Cycles computes them (scene/mesh.cpp, mikk_compute_tangents): MikkTSpace over the mesh's
+    triangles (not its quads: on Suzanne the two differ by up to 25 degrees), with the corner
+    normals on smooth triangles. A mesh without UV maps gets Cycles' fallback under the name
+    "": its positions mapped to a sphere (map_to_sphere)."""
+    import bpy
+    co = co.reshape(-1, 3)
+    if not uvs:
+        uvs = {"": map_to_sphere(co[corner_verts].astype(np.float64)).astype(np.float32)}
+    nt, nc = len(tri_corners), len(corner_verts)
+    tri = bpy.data.meshes.new("snell tangents")
+    try:
+        tri.vertices.add(len(co))
+        tri.vertices.foreach_set("co", co.astype(np.float32).ravel())
+        tri.loops.add(3 * nt)
+        tri.loops.foreach_set("vertex_index", corner_verts[tri_corners].astype(np.int32).ravel())
+        tri.polygons.add(nt)
+        tri.polygons.foreach_set("loop_start", np.arange(0, 3 * nt, 3, dtype=np.int32))
+        tri.update(calc_edges=True)
+        tri.polygons.foreach_set("use_smooth", smooth)
+        tri.normals_split_custom_set(corner_n[tri_corners].reshape(-1, 3))
+        layer = tri.uv_layers.new(name="uv")
+        frames = {}
+        for name, uv in uvs.items():
+            layer.uv.foreach_set("vector", uv[tri_corners].astype(np.float32).ravel())
+            tri.calc_tangents(uvmap="uv")
+            # MikkTSpace welds corners of equal position, normal and UV: a corner's triangles
+            # agree on its tangent, which goes back to the mesh's corners.
+            tangent = np.zeros((nc, 3), np.float32)
+            sign = np.ones(nc, np.float32)
+            tangent[tri_corners.ravel()] = _read(tri.loops, "tangent", 9 * nt,
+                                                 np.float32).reshape(-1, 3)
+            sign[tri_corners.ravel()] = _read(tri.loops, "bitangent_sign", 3 * nt, np.float32)
+            frames[name] = tangent, sign
+        return frames
+    finally:
+        bpy.data.meshes.remove(tri)
 
 
 def map_to_sphere(p):
@@ -68,45 +95,6 @@ def map_to_sphere(p):
     v = 1.0 - np.arccos(np.clip(p[:, 2] / np.where(length > 0.0, length, 1.0), -1.0, 1.0)) / np.pi
     inside = length > 0.0
     return np.stack([np.where(inside, u, 0.0), np.where(inside, v, 0.0)], axis=1)
-
-
-def _uv_tangents(mesh, name, co, corner_verts, tri_corners, uv):
-    """(tangent (corners, 3), bitangent sign (corners,)) of a UV map in object space: Blender's
-    MikkTSpace (mesh.calc_tangents, the library Cycles computes them with), or for a mesh with
-    n-gons, which it refuses, each triangle's own UV gradient (_triangle_tangents)."""
-    nc = len(corner_verts)
-    try:
-        mesh.calc_tangents(uvmap=name)
-    except RuntimeError:
-        return _triangle_tangents(co.reshape(-1, 3), corner_verts, tri_corners, uv)
-    tangent = _read(mesh.loops, "tangent", nc * 3, np.float32).reshape(nc, 3)
-    sign = _read(mesh.loops, "bitangent_sign", nc, np.float32)
-    return tangent, sign
-
-
-def _triangle_tangents(co, corner_verts, tri_corners, uv):
-    """Tangents from each triangle's UV gradient (the direction of growing u), unaveraged:
-    MikkTSpace's per-triangle step without its smoothing over shared vertices (exact on flat
-    faces with affine UVs), and the bitangent sign: whether v grows along n x t."""
-    tangent = np.zeros((len(corner_verts), 3), np.float32)
-    sign = np.ones(len(corner_verts), np.float32)
-    p = co[corner_verts[tri_corners]].astype(np.float64)           # (T, 3, 3)
-    w = uv[tri_corners].astype(np.float64)                          # (T, 3, 2)
-    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
-    d1, d2 = w[:, 1] - w[:, 0], w[:, 2] - w[:, 0]
-    det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
-    det = np.where(det == 0.0, 1.0, det)
-    t = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) / det[:, None]
-    b = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) / det[:, None]
-    g = np.cross(e1, e2)
-    t -= g * (np.einsum("ij,ij->i", t, g) / np.maximum(np.einsum("ij,ij->i", g, g),
-                                                       1e-300))[:, None]
-    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
-    s = np.where(np.einsum("ij,ij->i", np.cross(g, t), b) < 0.0, -1.0, 1.0)
-    for k in range(3):
-        tangent[tri_corners[:, k]] = t
-        sign[tri_corners[:, k]] = s
-    return tangent, sign
 
 
 def mesh_arrays(obj, texcoords=False, tangents=False):
@@ -135,8 +123,13 @@ def mesh_arrays(obj, texcoords=False, tangents=False):
         # Smooth faces: Blender's corner normals (vertex, sharp-edge split or custom normals).
         corner_n = _read(mesh.corner_normals, "vector", nc * 3, np.float32).reshape(nc, 3)
         sharp = _attribute(mesh, "sharp_face", nf, bool)
-        coords = (_mesh_texcoords(mesh, corner_verts, co, tangents, tri_corners) if texcoords
-                  else None)
+        coords = None
+        if texcoords:
+            uvs, active, orco = _mesh_texcoords(mesh, corner_verts, co)
+            smooth = np.ones(nt, bool) if sharp is None else ~sharp[tri_faces]
+            frames = (_tangent_frames(uvs, co, corner_verts, tri_corners, corner_n, smooth)
+                      if tangents and nt else {})
+            coords = uvs, active, orco, frames
         if sharp is not None and sharp.any():
             face_n = _read(mesh.polygons, "normal", nf * 3, np.float32).reshape(nf, 3)
             corner_verts, tri_corners, corner_n, coords = _flat_normals(
@@ -235,7 +228,7 @@ class Mesh:
         if self.coords is None:
             return out
         uvs, active, orco, frames = self.coords
-        if kind in ("tangent", "bitangent", "tangent_normal"):
+        if kind in ("tangent", "tangent_sign", "tangent_normal"):
             frame = frames.get(name or active)
             if frame is not None:
                 out[:] = self.tangent_frame(frame, matrix)[kind]
@@ -253,15 +246,27 @@ class Mesh:
         return out
 
     def tangent_frame(self, frame, matrix):
-        """{"tangent", "bitangent", "tangent_normal": (T, 3, 3)}: each corner's tangent t,
-        sign (n x t) and normal n (the corner's shading normal), object-space vectors each times
-        the normal matrix M^-T of world matrix `matrix` (tracer/shader/normals.py says why)."""
+        """{"tangent", "tangent_sign", "tangent_normal": (T, 3, 3)}: each corner's tangent t
+        and normal n (the corner's shading normal), object-space vectors times the normal
+        matrix A = M^-T of world matrix `matrix`; and per corner k its bitangent sign, then
+        entry k of the diagonal and of (xy, xz, yz) of G = det(M) (M M^T)^-1, with which
+        A (n x t) = G (A n x A t) (tracer/shader/normals.py)."""
         tangent, sign = frame
-        t = tangent[self.tri_corners].astype(np.float64)                  # (T, 3, 3)
+        m = np.asarray(matrix, np.float64)[:3, :3]
+        inv = np.linalg.inv(m)                                  # row vectors: v M^-1 = A v
+        t = tangent[self.tri_corners].astype(np.float64)        # (T, 3, 3)
         n = self.normals[self.triangles]
-        b = np.cross(n, t) * sign[self.tri_corners][:, :, None]
-        inv = np.linalg.inv(np.asarray(matrix, np.float64)[:3, :3])       # row vectors: v M^-1
-        return {"tangent": t @ inv, "bitangent": b @ inv, "tangent_normal": n @ inv}
+        g = np.linalg.det(m) * np.linalg.inv(m @ m.T)
+        diagonal, off = np.diag(g), np.array([g[0, 1], g[0, 2], g[1, 2]])
+        if np.linalg.det(m) < 0:
+            # depsgraph.texcoords swaps corners 1 and 2 of a mirrored part: swap G's entries
+            # first, so that they end where the kernel reads them.
+            diagonal, off = diagonal[[0, 2, 1]], off[[0, 2, 1]]
+        rows = np.empty((len(t), 3, 3))
+        rows[:, :, 0] = sign[self.tri_corners]
+        rows[:, :, 1] = diagonal
+        rows[:, :, 2] = off
+        return {"tangent": t @ inv, "tangent_sign": rows, "tangent_normal": n @ inv}
 
     def material_ids(self, slot_ids):
         """(scene material id of each triangle, the distinct ids) for an object's slots' ids."""

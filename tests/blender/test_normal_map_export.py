@@ -44,8 +44,8 @@ def _frame(snell_scene, kind):
 
 def test_a_rotated_scaled_plane_exports_its_frame_in_world_space(scene):
     """A plane (UVs along its x and y, normal z) rotated 90 degrees about x and scaled (2, 1, 3):
-    tangent M^-T x = (0.5, 0, 0), bitangent M^-T y = (0, 0, 1) and normal M^-T z = (0, -1/3, 0)
-    at every corner; no warning. (Deliberate error: the frame times M, as directions are
+    tangent M^-T x = (0.5, 0, 0) and normal M^-T z = (0, -1/3, 0) at every corner, sign 1 and
+    G = det(M) (M M^T)^-1 = diag(1.5, 2/3, 6); no warning. (Deliberate error: the frame times M, as directions are
     transformed: tangent (2, 0, 0); caught.)"""
     bpy.ops.mesh.primitive_plane_add(size=2.0)
     plane = bpy.context.active_object
@@ -56,7 +56,10 @@ def test_a_rotated_scaled_plane_exports_its_frame_in_world_space(scene):
     assert warnings == []
     assert snell_scene.materials[0]["kind"] == "program"
     assert np.allclose(_frame(snell_scene, "tangent"), (0.5, 0.0, 0.0), atol=1e-6)
-    assert np.allclose(_frame(snell_scene, "bitangent"), (0.0, 0.0, 1.0), atol=1e-6)
+    signs = _frame(snell_scene, "tangent_sign")
+    assert np.allclose(signs[:, :, 0], 1.0)
+    assert np.allclose(signs[:, :, 1], (1.5, 2 / 3, 6.0), atol=1e-5)
+    assert np.allclose(signs[:, :, 2], 0.0, atol=1e-5)
     assert np.allclose(_frame(snell_scene, "tangent_normal"), (0.0, -1 / 3, 0.0), atol=1e-6)
     code = snell_scene.materials[0]["program"]["code"]
     assert any(row[0] == normals.NORMAL_MAP_TANGENT for row in code)

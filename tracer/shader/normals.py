@@ -3,15 +3,13 @@ and world space (Cycles' svm_node_normal_map, kernel/svm/tex_coord.h of Blender 
 
 Cycles builds a tangent-space normal in object space, N = x T + y B + z n with T the UV map's
 MikkTSpace tangent and n the mesh normal interpolated (not normalised) at the hit and B = sign
-(n x T), then brings N to world space with the object's normal matrix (the inverse transpose).
-The exporter (addon/export/meshes.py) stores each corner's T, sign (n x T) and n already
-multiplied by that matrix, as the scene's texture coordinates of kinds "tangent", "bitangent"
-and "tangent_normal" (docs/scene-format.md): the frame interpolated from them is Cycles' times
-the matrix, which is linear, so that non-uniform scale and mirroring come out as in Cycles. The
-one difference: Cycles crosses the interpolated n and T, the corners' crosses are interpolated
-here (equal on flat faces; on a smooth mesh they differ at second order in the corners'
-differences). An object-space map reads the object's normal matrix the same way, its columns
-as the constant coordinates of kind "normal_matrix".
+(n x T), then brings N to world space with the object's normal matrix A = M^-T. The exporter
+(addon/export/meshes.py) stores each corner's A T and A n as the scene's texture coordinates of
+kinds "tangent" and "tangent_normal", and of kind "tangent_sign" the corners' signs and the
+matrix G = det(M) (M M^T)^-1, with which A (n x T) = G (A n x A T): interpolating A T and A n
+and crossing them at the hit gives Cycles' frame times A exactly, unequal scale and mirrors
+included. An object-space map reads A itself, its columns as the constant coordinates of kind
+"normal_matrix".
 
 The hit is program.run's tuple (inputs.py's docstring): its shading normal hit[2] faces the
 ray, as Cycles' sd->N does, and hit[4] is False on a back face.
@@ -22,7 +20,7 @@ import math
 
 from ..jit import jit
 from ..lobes import SMOOTH_NORMAL
-from ..vec import add, madd, mul, normalize, sub
+from ..vec import add, cross, madd, mul, normalize, sub
 from .inputs import interpolate, store3
 
 # Opcodes 400-449.
@@ -36,7 +34,7 @@ SPACES = 5
 
 SPECS = {
     NORMAL_MAP_TANGENT: ("Normal Map (tangent space): the normal of colour v at strength f in "
-                         "the frame of the scene's coordinates i (tangent), i (bitangent), "
+                         "the frame of the scene's coordinates i (tangent), i (tangent_sign), "
                          "i (tangent_normal)", "vvfiii-",
                          {4: "texcoords", 5: "texcoords", 6: "texcoords"}),
     NORMAL_MAP_OBJECT: ("Normal Map (object space): the normal of colour v at strength f, space "
@@ -100,6 +98,21 @@ def finish(n, ns, backfacing, strength, mix_strength):
 
 
 @jit
+def bitangent(signs, tri, b1, b2, t, n):
+    """sign (n x t) in world space at barycentrics (b1, b2) of triangle tri, from the
+    "tangent_sign" coordinates (T, 3, 3): per corner its sign, an entry of G's diagonal and one
+    of (G_xy, G_xz, G_yz); t and n the interpolated A T and A n."""
+    c = signs[tri]
+    b0 = 1.0 - b1 - b2
+    sign = b0 * c[0, 0] + b1 * c[1, 0] + b2 * c[2, 0]
+    cr = cross(n, t)
+    gxx, gyy, gzz, gxy, gxz, gyz = c[0, 1], c[1, 1], c[2, 1], c[0, 2], c[1, 2], c[2, 2]
+    return (sign * (gxx * cr[0] + gxy * cr[1] + gxz * cr[2]),
+            sign * (gxy * cr[0] + gyy * cr[1] + gyz * cr[2]),
+            sign * (gxz * cr[0] + gyz * cr[1] + gzz * cr[2]))
+
+
+@jit
 def normal_map_tangent(color, strength, t, b, n, ns, backfacing):
     """The tangent-space Normal Map: colour at strength in the world-space frame (t, b, n)
     interpolated at the hit (each Cycles' object-space vector times the normal matrix); ns the
@@ -129,8 +142,8 @@ def execute(ins, regs, hit, mats):
     strength = regs[ins[3]]
     if op == NORMAL_MAP_TANGENT:
         t = interpolate(mats.coords[ins[4]], tri, b1, b2)
-        b = interpolate(mats.coords[ins[5]], tri, b1, b2)
         n = interpolate(mats.coords[ins[6]], tri, b1, b2)
+        b = bitangent(mats.coords[ins[5]], tri, b1, b2, t, n)
         store3(regs, ins[1], normal_map_tangent(color, strength, t, b, n, ns, backfacing))
     elif op == NORMAL_MAP_OBJECT:
         x = interpolate(mats.coords[ins[5]], tri, b1, b2)

@@ -8,7 +8,7 @@ from ....tracer.shader import inputs as tracer_inputs, normals as tracer_normals
 
 # Blender's Normal Map spaces in Cycles' order (tracer.shader.normals.SPACE_*).
 SPACES = ("TANGENT", "OBJECT", "WORLD", "BLENDER_OBJECT", "BLENDER_WORLD")
-FRAME_KINDS = ("tangent", "bitangent", "tangent_normal")     # tracer.scene.TEXCOORD_KINDS
+FRAME_KINDS = ("tangent", "tangent_sign", "tangent_normal")     # tracer.scene.TEXCOORD_KINDS
 
 
 def uses_normal_maps():
