@@ -3,7 +3,7 @@ arrays (to_world).
 
 Each distinct evaluated mesh is read once: its triangles, a vertex per distinct (vertex, normal)
 pair, its material slots per triangle, whether it is closed, and with textures its UV maps and
-Generated coordinates per corner. The depsgraph walk transforms it for all its instances.
+Generated coordinates per corner (with normal maps also the UV maps' tangents). The depsgraph walk transforms it for all its instances.
 
 Arrays are read with foreach_get into preallocated arrays. Attributes (positions, corner
 vertices, material indices) and the normal caches are copied by Blender in one block; the loop

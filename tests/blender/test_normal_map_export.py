@@ -1,7 +1,7 @@
 """Normal maps exported (addon/export/meshes.py, shader/normal_nodes.py), built with bpy in the
-test: the tangent frame of a UV map as world-space texture coordinates, an n-gon mesh (which
-Blender's MikkTSpace refuses) through the per-triangle fallback, a mesh without UV maps through
-Cycles' sphere mapping, and the scene renders without NaN."""
+test: the tangent frame of a UV map as world-space texture coordinates, an n-gon mesh (MikkTSpace
+runs over the triangles, as in Cycles), a mesh without UV maps through Cycles' sphere mapping,
+the Bump node folded away, and the scene renders without NaN."""
 import importlib
 import math
 
@@ -66,7 +66,7 @@ def test_a_rotated_scaled_plane_exports_its_frame_in_world_space(scene):
 
 
 def test_ngons_and_meshes_without_uvs_get_tangents_and_render(scene):
-    """An n-gon disc (per-triangle tangents) and a UV-less sphere (sphere-mapped ones): unit
+    """An n-gon disc (which Blender's MikkTSpace refuses as it is) and a UV-less sphere: unit
     tangents orthogonal to the normal, and a render without NaN; object and world spaces too."""
     bpy.ops.mesh.primitive_circle_add(vertices=8, fill_type="NGON", location=(-1.2, 0.0, 0.0),
                                       rotation=(math.pi / 2, 0.0, 0.0))
