@@ -50,7 +50,8 @@ class _CachedExporter(Exporter):
         # A mesh cached before any material had an image texture has no texture coordinates.
         if name not in self.live.meshes or (self.want_texcoords and cached is not None
                                             and cached.coords is None):
-            self.live.meshes[name] = mesh_arrays(inst.object, self.want_texcoords)
+            self.live.meshes[name] = mesh_arrays(inst.object, self.want_texcoords,
+                                                 self.want_tangents)
             self.live.extracted.append(name)
         return self.live.meshes[name]
 

@@ -40,7 +40,10 @@ ALL_EVENTS = 7
 # Columns of a lobe row.
 KIND, DIST, ALPHA, ETA, REFLECTS, TRANSMITS, FRESNEL, ENERGY, SAMPLE_WEIGHT = range(9)
 WEIGHT, F0, TINT_B, R_TINT, T_TINT, NORMAL = 9, 12, 15, 18, 21, 24   # three columns each
-FIELDS = 27
+# The hit's smooth shading normal (facing the ray) where a lobe's NORMAL was bent away from it
+# by a Normal Map (bump_shadowing); new_lobe makes it NORMAL itself.
+SMOOTH_NORMAL = 27
+FIELDS = 30
 # The Principled BSDF alone has up to 6 (transparency, coat, metallic, transmission, specular,
 # diffuse); a shader program's mix of closures may have more: those past MAX_LOBES are left out.
 MAX_LOBES = 16
@@ -75,8 +78,34 @@ def new_lobe(lobe, kind, n, weight):
     lobe[SAMPLE_WEIGHT] = abs(mean3(weight))
     lobe[REFLECTS] = 1.0
     set_vec(lobe, NORMAL, n)
+    set_vec(lobe, SMOOTH_NORMAL, n)
     set_vec(lobe, WEIGHT, weight)
     set_vec(lobe, R_TINT, (1.0, 1.0, 1.0))
+
+
+@jit
+def bump_shadowing(lobe, wo, is_eval):
+    """The factor Cycles 5.0 puts on a lobe whose normal a normal map bent away from the smooth
+    normal ns (kernel/closure/bsdf.h, bump_shadowing_term): 0 for light wo on the other side of
+    ns than the bent normal (always in evaluation; in sampling for diffuse lobes), and on
+    diffuse lobes a GGX shadowing G1(alpha^2 = tan^2(ns, n) / 8, |cos(ns, wo)|) that fades light
+    at grazing angles to ns (Bump Map Correction, on by default in Blender)."""
+    n, ns = vec_at(lobe, NORMAL), vec_at(lobe, SMOOTH_NORMAL)
+    if n[0] == ns[0] and n[1] == ns[1] and n[2] == ns[2]:
+        return 1.0
+    cos_ns_i, cos_ns_n, cos_n_i = dot(ns, wo), dot(ns, n), dot(n, wo)
+    diffuse = lobe[KIND] == LAMBERT or lobe[KIND] == TRANSLUCENT
+    if cos_ns_i * cos_ns_n * cos_n_i < 0.0 and (is_eval or diffuse):
+        return 0.0
+    if not diffuse:
+        return 1.0
+    cos_i, cos_d = abs(cos_ns_i), abs(cos_ns_n)
+    if cos_d >= 1.0 or cos_i >= 1.0:
+        return 1.0
+    if cos_i < 1e-6:
+        return 0.0
+    alpha2 = min(max(0.125 * (1.0 / (cos_d * cos_d) - 1.0), 0.0), 1.0)
+    return 1.0 / (1.0 + smith_lambda(GGX, alpha2, cos_i))
 
 
 @jit
@@ -121,6 +150,9 @@ def lobe_fresnel(lobe, cos_hi):
 @jit
 def lobe_eval(lobe, wi, wo):
     """(f |cos(n, wo)| as RGB, without the lobe's weight; solid-angle density of sampling wo)."""
+    shadowing = bump_shadowing(lobe, wo, True)
+    if shadowing == 0.0:
+        return (0.0, 0.0, 0.0), 0.0
     n = vec_at(lobe, NORMAL)
     cos_no = dot(n, wo)
     if lobe[KIND] == LAMBERT or lobe[KIND] == TRANSLUCENT:
@@ -129,7 +161,7 @@ def lobe_eval(lobe, wi, wo):
         if cos_no <= 0.0:
             return (0.0, 0.0, 0.0), 0.0
         f = cos_no / math.pi
-        return (f, f, f), f
+        return (f * shadowing, f * shadowing, f * shadowing), f
     if lobe[KIND] == TRANSPARENT:
         return (0.0, 0.0, 0.0), 0.0
     cos_ni = dot(n, wi)
@@ -166,7 +198,8 @@ def lobe_eval(lobe, wi, wo):
         common = d / cos_ni * 0.25
     p_reflect = mean3(r) / mean3(add(r, t))
     pdf = common * (1.0 - p_reflect if transmission else p_reflect) / (1.0 + lambda_i)
-    value = mul(t if transmission else r, common / (1.0 + lambda_i + lambda_o) * lobe[ENERGY])
+    value = mul(t if transmission else r,
+                common / (1.0 + lambda_i + lambda_o) * lobe[ENERGY] * shadowing)
     return value, pdf
 
 
@@ -181,7 +214,10 @@ def lobe_sample(lobe, ng, wi, u0, u1, u2):
         wo, pdf = sample_cosine_hemisphere(n, u0, u1)
         if dot(ng, wo) <= 0.0:
             return wo, (0.0, 0.0, 0.0), 0.0, DIFFUSE_EVENT, False, False
-        return wo, (pdf, pdf, pdf), pdf, DIFFUSE_EVENT, False, True
+        # Cycles scales a sampled reflection's value, not its density, by the bump shadowing
+        # (a microfacet lobe's sample it leaves alone: its factor is 1 when sampling).
+        f = pdf * bump_shadowing(lobe, wo, False)
+        return wo, (f, f, f), pdf, DIFFUSE_EVENT, False, True
     if lobe[KIND] == TRANSLUCENT:
         wo, pdf = sample_cosine_hemisphere(mul(n, -1.0), u0, u1)
         if dot(ng, wo) >= 0.0:

@@ -42,7 +42,9 @@ CAMERA_TYPES = ("PERSP", "ORTHO")    # camera.type (version 4); absent: PERSP
 INTERPOLATIONS = ("linear", "closest")
 EXTENSIONS = ("repeat", "extend", "clip", "mirror")     # textures.REPEAT ... MIRROR
 COLORSPACES = ("linear", "srgb")
-TEXCOORD_KINDS = ("uv", "generated", "object")
+# The last four are world-space attributes for normal maps (tracer/shader/normals.py).
+TEXCOORD_KINDS = ("uv", "generated", "object", "tangent", "tangent_sign", "tangent_normal",
+                  "normal_matrix")
 # The inputs an image texture may drive, by material kind (docs/scene-format.md).
 TEXTURE_SLOTS = ("color", "roughness", "metallic")
 TEXTURABLE = {"diffuse": ("color",), "mirror": ("color",), "glossy": ("color", "roughness"),

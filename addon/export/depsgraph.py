@@ -18,6 +18,7 @@ from .lights import convert_light
 from .materials import NO_MATERIAL, NO_SURFACE, convert_material
 from .meshes import mesh_arrays, to_world
 from .settings import convert_render
+from .shader.normal_nodes import uses_normal_maps
 from .textures import ImageTextures, uses_image_textures
 from .world import convert_world
 
@@ -47,7 +48,8 @@ class Exporter:
         self.lights = []
         self.images = []  # the scene's images: {"name", "source", "pixels"}
         self.textures = ImageTextures(self.images)
-        self.want_texcoords = uses_image_textures()
+        normal_maps, self.want_tangents = uses_normal_maps()
+        self.want_texcoords = uses_image_textures() or normal_maps
         self._hidden = {}  # original object pointer -> hidden from render
 
     def warn(self, message):
@@ -95,7 +97,7 @@ class Exporter:
         for kind, name in self.textures.texcoord_keys:
             parts = []
             for mesh, matrix, _, _ in self.parts:
-                coords = mesh.texcoord(kind, name)
+                coords = mesh.texcoord(kind, name, matrix)
                 if _det3(matrix) < 0:        # to_world swaps two corners of mirrored parts
                     coords = coords[:, [0, 2, 1]]
                 parts.append(coords)
@@ -180,7 +182,7 @@ class Exporter:
         # with modifiers each object's evaluated data is its own.
         key = (obj.type == "MESH" and obj.data.as_pointer()) or ("object", obj.as_pointer())
         if key not in self.meshes:
-            self.meshes[key] = mesh_arrays(obj, self.want_texcoords)
+            self.meshes[key] = mesh_arrays(obj, self.want_texcoords, self.want_tangents)
         return self.meshes[key]
 
     def geometry(self):

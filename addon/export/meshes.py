@@ -3,7 +3,7 @@ arrays (to_world).
 
 Each distinct evaluated mesh is read once: its triangles, a vertex per distinct (vertex, normal)
 pair, its material slots per triangle, whether it is closed, and with textures its UV maps and
-Generated coordinates per corner. The depsgraph walk transforms it for all its instances.
+Generated coordinates per corner (with normal maps also the UV maps' tangents). The depsgraph walk transforms it for all its instances.
 
 Arrays are read with foreach_get into preallocated arrays. Attributes (positions, corner
 vertices, material indices) and the normal caches are copied by Blender in one block; the loop
@@ -46,9 +46,61 @@ def _mesh_texcoords(mesh, corner_verts, co):
     return uvs, active, orco
 
 
-def mesh_arrays(obj, texcoords=False):
+def _tangent_frames(uvs, co, corner_verts, tri_corners, corner_n, smooth):
+    """{UV map name: ((corners, 3) tangent, (corners,) bitangent sign)} in object space, as
+    Cycles computes them (scene/mesh.cpp, mikk_compute_tangents): MikkTSpace over the mesh's
+    triangles (not its quads: on Suzanne the two differ by up to 25 degrees), with the corner
+    normals on smooth triangles. A mesh without UV maps gets Cycles' fallback under the name
+    "": its positions mapped to a sphere (map_to_sphere)."""
+    import bpy
+    co = co.reshape(-1, 3)
+    if not uvs:
+        uvs = {"": map_to_sphere(co[corner_verts].astype(np.float64)).astype(np.float32)}
+    nt, nc = len(tri_corners), len(corner_verts)
+    tri = bpy.data.meshes.new("snell tangents")
+    try:
+        tri.vertices.add(len(co))
+        tri.vertices.foreach_set("co", co.astype(np.float32).ravel())
+        tri.loops.add(3 * nt)
+        tri.loops.foreach_set("vertex_index", corner_verts[tri_corners].astype(np.int32).ravel())
+        tri.polygons.add(nt)
+        tri.polygons.foreach_set("loop_start", np.arange(0, 3 * nt, 3, dtype=np.int32))
+        tri.update(calc_edges=True)
+        tri.polygons.foreach_set("use_smooth", smooth)
+        tri.normals_split_custom_set(corner_n[tri_corners].reshape(-1, 3))
+        layer = tri.uv_layers.new(name="uv")
+        frames = {}
+        for name, uv in uvs.items():
+            layer.uv.foreach_set("vector", uv[tri_corners].astype(np.float32).ravel())
+            tri.calc_tangents(uvmap="uv")
+            # MikkTSpace welds corners of equal position, normal and UV: a corner's triangles
+            # agree on its tangent, which goes back to the mesh's corners.
+            tangent = np.zeros((nc, 3), np.float32)
+            sign = np.ones(nc, np.float32)
+            tangent[tri_corners.ravel()] = _read(tri.loops, "tangent", 9 * nt,
+                                                 np.float32).reshape(-1, 3)
+            sign[tri_corners.ravel()] = _read(tri.loops, "bitangent_sign", 3 * nt, np.float32)
+            frames[name] = tangent, sign
+        return frames
+    finally:
+        bpy.data.meshes.remove(tri)
+
+
+def map_to_sphere(p):
+    """(N, 2) Cycles' map_to_sphere of (N, 3) positions (util/math_float3.h): u the longitude
+    0.5 - atan2(x, y) / 2 pi, v 1 - acos(z / |p|) / pi; 0 at the origin."""
+    length = np.linalg.norm(p, axis=1)
+    u = np.where((p[:, 0] == 0.0) & (p[:, 1] == 0.0), 0.0,
+                 0.5 - np.arctan2(p[:, 0], p[:, 1]) / (2.0 * np.pi))
+    v = 1.0 - np.arccos(np.clip(p[:, 2] / np.where(length > 0.0, length, 1.0), -1.0, 1.0)) / np.pi
+    inside = length > 0.0
+    return np.stack([np.where(inside, u, 0.0), np.where(inside, v, 0.0)], axis=1)
+
+
+def mesh_arrays(obj, texcoords=False, tangents=False):
     """Local-space geometry of an evaluated object, ready for instancing (see Mesh); with
-    texcoords, also its UV maps and Generated coordinates per corner."""
+    texcoords, also its UV maps and Generated coordinates per corner, and with tangents its UV
+    maps' tangents (for normal maps)."""
     mesh = obj.to_mesh()
     try:
         if mesh is None:
@@ -71,7 +123,13 @@ def mesh_arrays(obj, texcoords=False):
         # Smooth faces: Blender's corner normals (vertex, sharp-edge split or custom normals).
         corner_n = _read(mesh.corner_normals, "vector", nc * 3, np.float32).reshape(nc, 3)
         sharp = _attribute(mesh, "sharp_face", nf, bool)
-        coords = _mesh_texcoords(mesh, corner_verts, co) if texcoords else None
+        coords = None
+        if texcoords:
+            uvs, active, orco = _mesh_texcoords(mesh, corner_verts, co)
+            smooth = np.ones(nt, bool) if sharp is None else ~sharp[tri_faces]
+            frames = (_tangent_frames(uvs, co, corner_verts, tri_corners, corner_n, smooth)
+                      if tangents and nt else {})
+            coords = uvs, active, orco, frames
         if sharp is not None and sharp.any():
             face_n = _read(mesh.polygons, "normal", nf * 3, np.float32).reshape(nf, 3)
             corner_verts, tri_corners, corner_n, coords = _flat_normals(
@@ -113,9 +171,11 @@ def _flat_normals(flat, face_n, co, corner_verts, tri_corners, corner_n, coords)
     corner_verts = np.concatenate([corner_verts, corner_verts[old]])
     corner_n = np.concatenate([corner_n, np.repeat(n[own].astype(np.float32), 3, axis=0)])
     if coords is not None:
-        uvs, active, orco = coords
+        uvs, active, orco, frames = coords
         coords = ({name: np.concatenate([uv, uv[old]]) for name, uv in uvs.items()}, active,
-                  np.concatenate([orco, orco[old]]))
+                  np.concatenate([orco, orco[old]]),
+                  {name: (np.concatenate([t, t[old]]), np.concatenate([s, s[old]]))
+                   for name, (t, s) in frames.items()})
     return corner_verts, tri_corners, corner_n, coords
 
 
@@ -159,14 +219,23 @@ class Mesh:
         self.normals = corner_n[first].astype(np.float64)
         self._by_slots = {}
 
-    def texcoord(self, kind, name):
+    def texcoord(self, kind, name, matrix=None):
         """(T, 3, 3) float32 texture coordinates per triangle corner: a UV map (name "" the
-        active render one; a missing map gives 0, as in Cycles), Generated or Object."""
+        active render one; a missing map gives 0, as in Cycles), Generated or Object; or, in
+        world space for an instance of world matrix `matrix`, a UV map's normal-map frame
+        (tangent_frame) or the object's normal matrix (normal_matrix)."""
         out = np.zeros((len(self.tri_corners), 3, 3), np.float32)
         if self.coords is None:
             return out
-        uvs, active, orco = self.coords
-        if kind == "generated":
+        uvs, active, orco, frames = self.coords
+        if kind in ("tangent", "tangent_sign", "tangent_normal"):
+            frame = frames.get(name or active)
+            if frame is not None:
+                out[:] = self.tangent_frame(frame, matrix)[kind]
+        elif kind == "normal_matrix":
+            # Column x, y or z of the normal matrix M^-T: row x, y or z of M^-1.
+            out[:] = np.linalg.inv(matrix[:3, :3])["xyz".index(name)]
+        elif kind == "generated":
             out[:] = orco[self.tri_corners]
         elif kind == "object":
             out[:] = self.local_corners
@@ -175,6 +244,29 @@ class Mesh:
             if uv is not None:
                 out[:, :, :2] = uv[self.tri_corners]
         return out
+
+    def tangent_frame(self, frame, matrix):
+        """{"tangent", "tangent_sign", "tangent_normal": (T, 3, 3)}: each corner's tangent t
+        and normal n (the corner's shading normal), object-space vectors times the normal
+        matrix A = M^-T of world matrix `matrix`; and per corner k its bitangent sign, then
+        entry k of the diagonal and of (xy, xz, yz) of G = det(M) (M M^T)^-1, with which
+        A (n x t) = G (A n x A t) (tracer/shader/normals.py)."""
+        tangent, sign = frame
+        m = np.asarray(matrix, np.float64)[:3, :3]
+        inv = np.linalg.inv(m)                                  # row vectors: v M^-1 = A v
+        t = tangent[self.tri_corners].astype(np.float64)        # (T, 3, 3)
+        n = self.normals[self.triangles]
+        g = np.linalg.det(m) * np.linalg.inv(m @ m.T)
+        diagonal, off = np.diag(g), np.array([g[0, 1], g[0, 2], g[1, 2]])
+        if np.linalg.det(m) < 0:
+            # depsgraph.texcoords swaps corners 1 and 2 of a mirrored part: swap G's entries
+            # first, so that they end where the kernel reads them.
+            diagonal, off = diagonal[[0, 2, 1]], off[[0, 2, 1]]
+        rows = np.empty((len(t), 3, 3))
+        rows[:, :, 0] = sign[self.tri_corners]
+        rows[:, :, 1] = diagonal
+        rows[:, :, 2] = off
+        return {"tangent": t @ inv, "tangent_sign": rows, "tangent_normal": n @ inv}
 
     def material_ids(self, slot_ids):
         """(scene material id of each triangle, the distinct ids) for an object's slots' ids."""

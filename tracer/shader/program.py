@@ -19,9 +19,10 @@ A SPECS entry is (what it computes, slots) or (what, slots, {slot: limit}): lite
 be from 0 to limit - 1 (limit "images" or "texcoords": the scene's counts).
 
 Families of instructions, by opcode range: closures.py (0-19: the closures and the Mix Shader),
-inputs.py (20-99: what reads the hit), math_nodes.py (100-199), color_nodes.py (200-299) and
-procedural_textures.py (300-399). The scene loader checks every instruction against its
-family's SPECS (check_program), so the interpreter trusts its indices.
+inputs.py (20-99: what reads the hit), math_nodes.py (100-199), color_nodes.py (200-299),
+procedural_textures.py (300-399) and normals.py (400-449: shading normals). The scene loader
+checks every instruction against its family's SPECS (check_program), so the interpreter trusts
+its indices.
 """
 from __future__ import annotations
 
@@ -30,12 +31,12 @@ from typing import NamedTuple
 import numpy as np
 
 from ..jit import jit
-from . import closures, color_nodes, inputs, math_nodes, procedural_textures
+from . import closures, color_nodes, inputs, math_nodes, normals, procedural_textures
 
 SLOTS = 7
 MAX_REGISTERS = 1024
 MAX_INSTRUCTIONS = 100000
-FAMILIES = (closures, inputs, math_nodes, color_nodes, procedural_textures)
+FAMILIES = (closures, inputs, math_nodes, color_nodes, procedural_textures, normals)
 SPECS = {op: spec for family in FAMILIES for op, spec in family.SPECS.items()}
 WIDTH = {"f": 1, "v": 3, "w": 1, "n": 3, "P": closures.PRINCIPLED_BLOCK}
 # What the tracer needs to know of a program without running it (Programs.flags).
@@ -203,8 +204,11 @@ def run(mats, m, regs, hit, lobes, tables, has_normals):
             math_nodes.execute(ins, regs, prog.data)
         elif op < 300:
             color_nodes.execute(ins, regs, prog.data)
-        else:
+        elif op < normals.FIRST:
             procedural_textures.execute(ins, regs, prog.data)
+        else:
+            normals.execute(ins, regs, hit, mats)
+    normals.mark_smooth_normal(lobes, count, hit[2])
     return count
 
 

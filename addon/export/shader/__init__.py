@@ -1,6 +1,7 @@
 """Shader node trees compiled to programs (tracer/shader/program.py): the Compiler
-(compiler.py), the closures (closure_nodes.py), the input nodes (input_nodes.py) and the families
-of value nodes (FAMILIES: modules whose COMPILERS compile a node's outputs at once).
+(compiler.py), the closures (closure_nodes.py), the input nodes (input_nodes.py), the
+shading-normal nodes (normal_nodes.py) and the families of value nodes (FAMILIES: modules whose
+COMPILERS compile a node's outputs at once).
 
 compile_material turns a material's Surface into the scene file's "program" material.
 """
@@ -9,7 +10,10 @@ from __future__ import annotations
 from . import color_nodes, math_nodes, procedural_textures
 from .closure_nodes import compile_surface
 from .compiler import Compiler
-from .input_nodes import NODE_OUTPUTS
+from .input_nodes import NODE_OUTPUTS as INPUT_OUTPUTS
+from .normal_nodes import NODE_OUTPUTS as NORMAL_OUTPUTS
+
+NODE_OUTPUTS = {**INPUT_OUTPUTS, **NORMAL_OUTPUTS}
 
 # Families of value nodes: modules with COMPILERS = {node idname: compile(compiler, node) ->
 # {output identifier: register}}.
