@@ -143,14 +143,12 @@ def _fog_room(max_depth=8):
     return validate(scene)
 
 
-@pytest.mark.slow
 def test_the_light_tracer_attenuates_as_the_path_tracer_does():
     """In the fog room the hybrid (the light tracer renders the caustic through the absorbing
     sphere, its paths starting in the fog around the lamp) and the path tracer alone render the
     same image: every 8x8 tile and the image mean agree, and 99% of pixels. A light tracer
     whose paths start outside the fog (an empty stack at the lamp) is caught (measured: tiles
-    and image mean fail). Slow: two renders of 512 samples at max depth 8 (minutes on 2 busy
-    cores)."""
+    and image mean fail)."""
     scene = _fog_room()
     hybrid = Renderer(scene, scene.settings(sampler="independent", spp=512,
                                             batches=BATCHES)).render()
@@ -192,7 +190,6 @@ def _fog_lit_room(light_vertices, lamp):
     return scene
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("lamp", ["mesh", "area"])
 def test_light_vertices_in_a_medium_leave_the_image_unchanged(lamp):
     """With and without light vertices the fog-filled room renders the same image: the light
@@ -202,8 +199,7 @@ def test_light_vertices_in_a_medium_leave_the_image_unchanged(lamp):
     (measured with the mesh lamp: 98.4% pass, 17 of 768 pixel channels beyond 4 sigma, all
     brighter with light vertices, image means within 0.07%, no tile failed; with the area lamp
     100%). Light vertices whose emission ray ignores the fog are caught: mesh lamp 3 tiles
-    failed, 90.2% of pixels pass; area lamp image means 9-17% bright (mean z 37-80). Slow: four
-    renders of 1024 samples."""
+    failed, 90.2% of pixels pass; area lamp image means 9-17% bright (mean z 37-80)."""
     def render(vertices):
         scene = _fog_lit_room(vertices, lamp)
         return Renderer(scene, scene.settings(sampler="independent", spp=1024,
