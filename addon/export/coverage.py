@@ -53,9 +53,11 @@ class Coverage:
         self.issues = []       # the replaced entries: each one warning
 
     def evaluate(self, node, how, input=None):
-        """Record that Snell evaluates a node (on an input of another node, if given)."""
+        """Record that Snell evaluates a node (on an input of another node, if given; once)."""
         on = f" on input {input!r}" if input else ""
-        self.evaluated.append(f"node {node.name!r}{on}: {how}")
+        entry = f"node {node.name!r}{on}: {how}"
+        if entry not in self.evaluated:
+            self.evaluated.append(entry)
 
     def replace(self, node, what, instead, input=None):
         """Record a node, link or input Snell does not evaluate and what it renders instead."""

@@ -504,11 +504,13 @@ def link(mat, socket, idname="ShaderNodeTexNoise"):
 def test_a_linked_input_uses_its_unlinked_value(bl, kind, socket, field, shown):
     values = {"Metallic": 0.75} if kind == "principled" else {"Roughness": 0.75}
     mat = common.material("Tex", kind, (0.2, 0.4, 0.6), **values)
-    noise = link(mat, socket)
+    # A node no program evaluates either (a Noise Texture is compiled into a program now):
+    # the fixed kind stays, with its input's unlinked value.
+    wire = link(mat, socket, "ShaderNodeWireframe")
     m, warnings = exported_material(bl, mat, "TexObj")
     assert np.allclose(m[field], unlinked_value(bsdf(mat).inputs[socket]))
     assert warnings == [f"object 'TexObj', material 'Tex': node {bsdf(mat).name!r}: input "
-                        f"{socket!r} is linked to {noise.name!r} (a procedural texture), which "
+                        f"{socket!r} is linked to {wire.name!r} (ShaderNodeWireframe), which "
                         f"Snell cannot evaluate: "
                         f"using its unlinked value {shown}"]
     bsdf(mat).inputs[socket].links[0].is_muted = True   # a muted link passes nothing: no warning
@@ -740,26 +742,26 @@ def test_node_groups_are_flattened(bl):
     m, warnings = exported_material(bl, mat, "G")
     assert warnings == []
     assert m["kind"] == "diffuse" and m["color"] == pytest.approx([0.2, 0.5, 0.7])
-    noise = tree.nodes.new("ShaderNodeTexNoise")
-    tree.links.new(noise.outputs["Fac"], node.inputs["Color"])
+    wire = tree.nodes.new("ShaderNodeWireframe")
+    tree.links.new(wire.outputs["Fac"], node.inputs["Color"])
     m, warnings = exported_material(bl, mat, "G")
     # The link outside the group is named, and the value used is the group node's.
     assert warnings == ["object 'G', material 'Grouped': node 'Diffuse BSDF': input 'Color' is "
-                        "linked to 'Noise Texture' (a procedural texture), which Snell cannot "
+                        "linked to 'Wireframe' (ShaderNodeWireframe), which Snell cannot "
                         "evaluate: using its unlinked value (0.2, 0.5, 0.7)"]
 
 
-def test_linked_principled_alpha_and_normal_map_warn(bl):
-    """The Normal Map is evaluated (a shader program), the procedural Alpha warned."""
+def test_linked_principled_alpha_and_normal_map_make_a_program(bl):
+    """A checker Alpha and a Normal Map are evaluated: a shader program, without warnings."""
+    from snell.tracer.shader import closures, normals, procedural_textures
     mat = common.material("Leaf", "principled", (0.2, 0.5, 0.1))
     link(mat, "Alpha", "ShaderNodeTexChecker")
     link(mat, "Normal", "ShaderNodeNormalMap")
     m, warnings = exported_material(bl, mat, "Leaf")
-    assert m["kind"] == "program"
-    assert warnings == [
-        "object 'Leaf', material 'Leaf': node 'Checker Texture': is 'Checker Texture' (a "
-        "procedural texture), which Snell does not evaluate: input 'Alpha' of 'Principled BSDF' "
-        "uses its unlinked value"]
+    assert m["kind"] == "program" and warnings == []
+    ops = {row[0] for row in m["program"]["code"]}
+    assert closures.PRINCIPLED in ops
+    assert ops & set(procedural_textures.SPECS) and ops & set(normals.SPECS)
 
 
 def test_a_linked_input_snell_never_reads_warns(bl):
@@ -800,10 +802,8 @@ def test_reroutes_and_muted_nodes_are_followed(bl, tmp_path):
     assert m["roughness"] == pytest.approx(0.5)
     gamma.mute = False
     s, warnings = run()
-    assert "textures" not in s.materials[0]
-    assert warnings == ["object 'Plane', material 'Routed': node 'Principled BSDF': input "
-                        "'Base Color' is linked to 'Gamma' (ShaderNodeGamma), which Snell cannot "
-                        "evaluate: using its unlinked value (0.3, 0.3, 0.3)"]
+    # An unmuted Gamma is a value node a program evaluates.
+    assert warnings == [] and s.materials[0]["kind"] == "program"
 
 
 def test_glass_on_open_mesh_warns(bl):

@@ -214,23 +214,22 @@ def test_info_lists_each_materials_coverage(tmp_path):
     proc = run("info", blend)
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
-    at = lines.index("materials  3: 1 glass, 2 principled")
+    at = lines.index("materials  3: 1 glass, 1 principled, 1 program")
     assert lines[at + 1:at + 10] == [
         "  'Coffee': glass",
         "    evaluated  node 'Glass BSDF': glass surface",
         "    replaced   node 'Volume Scatter': scatters light: rendered without its scattering "
         "(homogeneous scattering is not rendered yet)",
-        "  'Rough': principled",
-        "    evaluated  node 'Principled BSDF': principled surface",
-        "    replaced   node 'Principled BSDF': input 'Roughness' is linked to 'Noise Texture' "
-        "(a procedural texture), which Snell cannot evaluate: using its unlinked value 0.5",
+        "  'Rough': program",
+        "    evaluated  node 'Noise Texture': compiled into the material's shader program",
+        "    evaluated  node 'Principled BSDF': compiled into the material's shader program",
         "  '(default surface)': principled",
         "    evaluated  Cycles' default surface: a Principled BSDF of base colour 0.8",
         "    replaced   no material: rendered with Cycles' default surface (a Principled BSDF "
         "of base colour 0.8), as Cycles renders it"]
     assert lines[at + 10].startswith("lights ")
     # The replaced entries are the exporter's warnings, one each.
-    assert proc.stderr.count("snell: warning: ") == 3
+    assert proc.stderr.count("snell: warning: ") == 2
 
 
 @pytest.mark.parametrize("render, line", [
@@ -305,11 +304,13 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
     code = cli.main(["render", str(scene_file), "-o", str(out), "--png", str(png), "--spp", "9",
                      "--max-depth", "0", "--seed", "5", "--fresnel", "schlick", "--threads", "3",
                      "--noise-threshold", "0.05", "--min-spp", "3", "--light-vertices", "off",
-                     "--denoising-passes", "--denoising-prefilter", "fast"])
+                     "--denoising-passes", "--denoising-prefilter", "fast",
+                     "--transparent-max-bounces", "4"])
     assert code == 0
     settings = stub_integrator.calls[0]["settings"]
     assert settings.threads == 3
-    assert settings.to_render() == {"spp": 9, "max_depth": 0, "seed": 5, "fresnel": "schlick",
+    assert settings.to_render() == {"spp": 9, "max_depth": 0, "transparent_max_bounces": 4,
+                                    "seed": 5, "fresnel": "schlick",
                                     "caustics": True, "light_vertices": False,
                                     "noise_threshold": 0.05, "min_spp": 3, "time_limit": 0.0,
                                     "pixel_filter": "box", "filter_width": 1.0,

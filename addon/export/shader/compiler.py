@@ -190,6 +190,8 @@ class Compiler:
             known, reg = self._compile_output(node, socket)
             if known:
                 self.unread_links(node)
+                if reg is not None:
+                    self.coverage.evaluate(node, "compiled into the material's shader program")
         finally:
             self.visiting.discard(key)
             self.groups = saved
