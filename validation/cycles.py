@@ -258,20 +258,26 @@ class CyclesResult:
     images: list = field(default_factory=list)  # per-seed images
 
 
-def _render_one(blend_path, settings, camera, workdir):
+def _render_file(blend_path, settings, camera, out):
+    """Open the file, apply the settings and camera overrides, render it into `out`: (render
+    time, the camera overrides applied)."""
     import bpy
 
-    from ..tracer.image import read_exr
     from ..addon.blendfile import open_blend, render_still
     open_blend(blend_path)
     scene = bpy.context.scene
     _apply(scene, settings)
     extra = _apply_camera(scene, camera)
-    out = os.path.join(workdir, "cycles.exr")
     scene.render.filepath = out
     start = time.perf_counter()
     render_still(blend_path)
-    elapsed = time.perf_counter() - start
+    return time.perf_counter() - start, extra
+
+
+def _render_one(blend_path, settings, camera, workdir):
+    from ..tracer.image import read_exr
+    out = os.path.join(workdir, "cycles.exr")
+    elapsed, extra = _render_file(blend_path, settings, camera, out)
     rgb = read_exr(out).astype(np.float64)
     os.remove(out)
     return rgb, elapsed, extra
@@ -343,9 +349,6 @@ def render_denoising_passes(blend_path, *, spp: int, max_depth: int, seeds=(1, 2
     """{pass name: CyclesResult} of Cycles' Denoising Albedo and Denoising Normal passes, each
     rendered once per seed with `spp` samples and the validator's forced settings (no
     denoising: the passes are the path tracer's own estimates)."""
-    import bpy
-
-    from ..addon.blendfile import open_blend, render_still
     seeds = list(seeds)
     if len(seeds) < 2:
         raise ValueError("need at least two seeds for a variance")
@@ -356,16 +359,10 @@ def render_denoising_passes(blend_path, *, spp: int, max_depth: int, seeds=(1, 2
             settings = forced_settings(max_depth, spp, seed, threads) + [
                 ("view_layers.cycles.denoising_store_passes", True, "the Denoising Data passes"),
                 ("output", DENOISING_OUTPUT, "the passes, read back")]
+            out = os.path.join(workdir, "passes.exr")
             with stdout_silenced(quiet_blender):
-                open_blend(blend_path)
-                scene = bpy.context.scene
-                _apply(scene, settings)
-                extra = _apply_camera(scene, camera)
-                out = os.path.join(workdir, "passes.exr")
-                scene.render.filepath = out
-                start = time.perf_counter()
-                render_still(blend_path)
-                total += time.perf_counter() - start
+                elapsed, extra = _render_file(blend_path, settings, camera, out)
+            total += elapsed
             for name in DENOISING_PASSES:
                 images[name].append(read_pass(out, name))
             os.remove(out)

@@ -14,7 +14,7 @@ are all constant costs no instruction for them.
 """
 from __future__ import annotations
 
-from ....tracer.shader import closures, inputs as tracer_inputs
+from ....tracer.shader import inputs as tracer_inputs
 from ....tracer.shader.program import MAX_REGISTERS, SLOTS
 from ..coverage import node_text
 from ..nodes import LUMINANCE, _as_type, source_in
@@ -261,8 +261,3 @@ class Compiler:
                 "data": list(self.data_values), "emission_varies": self.emission_varies,
                 "refracts": self.refracts}
 
-
-def closure_count(program):
-    """How many closure instructions a program has."""
-    return sum(1 for row in program["code"] if row[0] <= closures.LAST
-               and row[0] != closures.MIX_CLOSURE)
