@@ -58,7 +58,7 @@ from .sampler import mix, random_pair
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
                        sample_uniform_disk, sample_uniform_sphere)
 from .textures import surface_colors
-from .vec import add, dot, madd, mul, neg, row, store, sub
+from .vec import add, dot, madd, mul, neg, row, store, sub, vmul
 
 LIGHT_DOMAIN = np.uint64(0x11C7_A0C5)   # keys light paths' random numbers apart from camera paths'
 # A camera path's place in the split of path space with the light tracer (wavefront.Paths.caustic):
@@ -423,37 +423,8 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
                                        random_pair(key, 1 + bounces, 4))
                 if media.on:
                     medium.copy_stack(paths.medium, i, out.medium, n_out - 1)
-            pixel, rx, ry, o_cam, d_cam, lens_dist, cos_theta, s = camera_connection(
-                cam, p, lens0, lens1, margin)
-            if pixel < 0:
-                continue
-            wo = neg(d_cam)                        # towards the lens
-            wi = neg(d)                            # towards where the light came from
-            # Normals facing the camera, as the camera path that sees p has them.
-            face = 1.0 if dot(wo, ng) > 0.0 else -1.0
-            ngc, nsc = mul(ng, face), mul(ns, face)
-            cos_gi, cos_si, cos_go = dot(wi, ngc), dot(wi, nsc), dot(wo, ngc)
-            if not (cos_gi > 0.0 and cos_si > 0.0 and cos_go > 0.0):
-                continue          # a BSDF sample from p could not have produced wi
-            albedo = color
-            f = (cos_si / cos_gi) * cos_go * s / (math.pi * lens_dist * lens_dist * cos_theta ** 3)
-            for k in range(3):
-                connections.contrib[n_conn, k] = beta[k] * albedo[k] * f
-            origin = offset_origin(p, ngc, eps, wo)
-            segment = sub(o_cam, origin)
-            length = math.sqrt(dot(segment, segment))
-            if medium.absorbs(sigma):
-                tr = medium.transmittance(sigma, length)
-                for k in range(3):
-                    connections.contrib[n_conn, k] *= tr[k]
-            connections.path[n_conn] = pixel
-            raster[n_conn, 0] = rx
-            raster[n_conn, 1] = ry
-            for k in range(3):
-                connections.o32[n_conn, k] = origin[k]
-                connections.d32[n_conn, k] = segment[k] / length
-            connections.tmax[n_conn] = length
-            n_conn += 1
+            n_conn = connect_to_camera(cam, margin, (lens0, lens1), connections, raster, n_conn, p,
+                                       ng, ns, eps, d, vmul(beta, color), sigma)
             continue
         if bounces + 1 >= max_depth:
             continue              # a further diffuse vertex would exceed the depth
@@ -480,6 +451,46 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
                          event == specular.TRANSMITTED)
         n_out += 1
     return n_out, n_conn
+
+
+@jit_inline
+def connect_to_camera(cam, margin, lens, connections, raster, n_conn, p, ng, ns, eps, d, light,
+                      sigma):
+    """Queue the connection of a diffuse light vertex p (geometric and shading normals ng, ns;
+    light arriving along d, `light` its throughput times the albedo) to a point on the lens
+    (lens: its random pair) as connection n_conn, with its pixel and raster point (margin: how
+    far past the image the pixel filter reaches), attenuated in the medium sigma; returns the
+    new count (the same when the point is off the image or the geometry rules it out)."""
+    pixel, rx, ry, o_cam, d_cam, lens_dist, cos_theta, s = camera_connection(
+        cam, p, lens[0], lens[1], margin)
+    if pixel < 0:
+        return n_conn
+    wo = neg(d_cam)                        # towards the lens
+    wi = neg(d)                            # towards where the light came from
+    # Normals facing the camera, as the camera path that sees p has them.
+    face = 1.0 if dot(wo, ng) > 0.0 else -1.0
+    ngc, nsc = mul(ng, face), mul(ns, face)
+    cos_gi, cos_si, cos_go = dot(wi, ngc), dot(wi, nsc), dot(wo, ngc)
+    if not (cos_gi > 0.0 and cos_si > 0.0 and cos_go > 0.0):
+        return n_conn             # a BSDF sample from p could not have produced wi
+    f = (cos_si / cos_gi) * cos_go * s / (math.pi * lens_dist * lens_dist * cos_theta ** 3)
+    for k in range(3):
+        connections.contrib[n_conn, k] = light[k] * f
+    origin = offset_origin(p, ngc, eps, wo)
+    segment = sub(o_cam, origin)
+    length = math.sqrt(dot(segment, segment))
+    if medium.absorbs(sigma):
+        tr = medium.transmittance(sigma, length)
+        for k in range(3):
+            connections.contrib[n_conn, k] *= tr[k]
+    connections.path[n_conn] = pixel
+    raster[n_conn, 0] = rx
+    raster[n_conn, 1] = ry
+    for k in range(3):
+        connections.o32[n_conn, k] = origin[k]
+        connections.d32[n_conn, k] = segment[k] / length
+    connections.tmax[n_conn] = length
+    return n_conn + 1
 
 
 @jit_inline
