@@ -18,6 +18,7 @@ from .lights import convert_light
 from .materials import NO_MATERIAL, NO_SURFACE, convert_material
 from .meshes import mesh_arrays, to_world
 from .settings import convert_render
+from .shader.input_nodes import attribute_names, uses_object_data
 from .shader.normal_nodes import uses_normal_maps
 from .textures import ImageTextures, uses_image_textures
 from .world import convert_world
@@ -49,7 +50,9 @@ class Exporter:
         self.images = []  # the scene's images: {"name", "source", "pixels"}
         self.textures = ImageTextures(self.images)
         normal_maps, self.want_tangents = uses_normal_maps()
-        self.want_texcoords = uses_image_textures() or normal_maps
+        self.want_attributes = attribute_names()
+        self.want_texcoords = uses_image_textures() or normal_maps or bool(self.want_attributes)
+        self.want_object_data = uses_object_data()
         self._hidden = {}  # original object pointer -> hidden from render
 
     def warn(self, message):
@@ -150,6 +153,8 @@ class Exporter:
         mat_ids, used = mesh.material_ids(tuple(self.material_id(m, name) for m in slots))
         object_id = len(self.objects)
         self.objects.append({"name": name, "closed": mesh.closed})
+        if self.want_object_data:
+            self.objects[-1].update(object_data(inst, matrix))
         if not mesh.closed:
             for i in used:
                 mat = self.materials[i]
@@ -182,7 +187,8 @@ class Exporter:
         # with modifiers each object's evaluated data is its own.
         key = (obj.type == "MESH" and obj.data.as_pointer()) or ("object", obj.as_pointer())
         if key not in self.meshes:
-            self.meshes[key] = mesh_arrays(obj, self.want_texcoords, self.want_tangents)
+            self.meshes[key] = mesh_arrays(obj, self.want_texcoords, self.want_tangents,
+                                           self.want_attributes)
         return self.meshes[key]
 
     def geometry(self):
@@ -228,6 +234,31 @@ class Exporter:
             world=convert_world(bl_scene.world, self.warn, self.images),
             render=convert_render(bl_scene, self.warn), objects=self.objects, source=source,
             images=self.images, texcoords=self.texcoords(), coverage=self.coverage)
+
+
+def object_data(inst, matrix):
+    """The scene object fields shader programs read of a depsgraph instance (Object Info,
+    Texture Coordinate Normal), as Blender's Cycles sync sets them (blender/object.cpp): its
+    world matrix, colour and alpha, pass index, and random id (an instance's from the
+    depsgraph, an object's the hash of its name)."""
+    obj = inst.object
+    if inst.is_instance:
+        random_id = inst.random_id % 2 ** 32
+    else:
+        random_id = object_random_id(obj.name)
+    return {"matrix": matrix.tolist(), "color": [float(x) for x in obj.color],
+            "pass_index": int(obj.pass_index), "random_id": int(random_id)}
+
+
+def object_random_id(name):
+    """Cycles' random id of an object that is not an instance: hash_uint2(hash_string(name),
+    0) (util/hash.h), hash_string over the name's UTF-8 bytes as C chars (signed: a byte from
+    128 counts as byte - 256)."""
+    from ...tracer.shader.hashes import hash_uint2
+    h = 0
+    for byte in name.encode("utf-8"):
+        h = (h * 37 + (byte if byte < 128 else byte - 256)) % 2 ** 32
+    return int(hash_uint2(h, 0))
 
 
 def _rows(starts, length):
