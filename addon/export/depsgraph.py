@@ -53,6 +53,7 @@ class Exporter:
         self.want_attributes = attribute_names()
         self.want_texcoords = uses_image_textures() or normal_maps or bool(self.want_attributes)
         self.want_object_data = uses_object_data()
+        self.object_data = []  # per object: object_data's fields, or None
         self._hidden = {}  # original object pointer -> hidden from render
 
     def warn(self, message):
@@ -153,8 +154,8 @@ class Exporter:
         mat_ids, used = mesh.material_ids(tuple(self.material_id(m, name) for m in slots))
         object_id = len(self.objects)
         self.objects.append({"name": name, "closed": mesh.closed})
-        if self.want_object_data:
-            self.objects[-1].update(object_data(inst, matrix))
+        # Kept aside: the scene's objects carry them only if a program reads them (objects()).
+        self.object_data.append(object_data(inst, matrix) if self.want_object_data else None)
         if not mesh.closed:
             for i in used:
                 mat = self.materials[i]
@@ -220,6 +221,14 @@ class Exporter:
             triangles[_rows(t_start[parts], len(mesh.triangles))] = t.reshape(-1, 3)
         return positions, normals, triangles
 
+    def scene_objects(self):
+        """The scene's objects, with their object_data where a program reads it (so that
+        scenes whose programs do not, the stored Cycles references' among them, export as
+        before)."""
+        if not any(reads_object_data(mat) for mat in self.materials):
+            return self.objects
+        return [{**obj, **(data or {})} for obj, data in zip(self.objects, self.object_data)]
+
     def scene(self, bl_scene, camera, source):
         """The Scene of the instances added, with this camera and the scene's world and settings."""
         positions, normals, triangles = self.geometry()
@@ -232,8 +241,16 @@ class Exporter:
             object_ids=np.repeat(np.array([p[3] for p in self.parts], np.int32), n_tris),
             materials=self.materials, lights=self.lights, camera=camera,
             world=convert_world(bl_scene.world, self.warn, self.images),
-            render=convert_render(bl_scene, self.warn), objects=self.objects, source=source,
+            render=convert_render(bl_scene, self.warn), objects=self.scene_objects(),
+            source=source,
             images=self.images, texcoords=self.texcoords(), coverage=self.coverage)
+
+
+def reads_object_data(mat):
+    """Whether a scene material's program reads its object's fields (object_data)."""
+    from ...tracer.shader import object_inputs
+    return mat["kind"] == "program" and any(
+        row[0] in object_inputs.READS_OBJECT for row in mat["program"]["code"])
 
 
 def object_data(inst, matrix):

@@ -274,10 +274,11 @@ def _texcoord(probe, output, target=None):
 def test_texture_coordinate_outputs_match_cycles(probe, monkeypatch):
     """Texture Coordinate's Normal (the smooth shading normal in the grid's space, under an
     unequal scale), Camera, Window (a shifted perspective camera, 24 x 16) and Object of
-    another object (an empty) match Cycles to float32 precision. Teeth, each caught: the
-    Window's y flipped, the Camera's z negated (Blender's camera space, -z ahead), the
-    Normal brought to object space by M^-1 rather than M^T, and Object ignoring the other
-    object (the grid's own space)."""
+    another object (an empty) match Cycles to float32 precision (measured: largest
+    differences 1.2e-7, 3.6e-7, 2.2e-7, 4.7e-7). Teeth, each caught (largest differences):
+    the Window's y flipped (0.94), the Camera's z negated, Blender's camera space with -z
+    ahead (7.2), the Normal brought to object space by M^-1 rather than M^T (0.17), and Object
+    ignoring the other object, the grid's own space (4.8)."""
     other = bpy.data.objects["Other"]
     for output in ("Normal", "Camera", "Window"):
         build = _texcoord(probe, output)
@@ -319,8 +320,9 @@ def _object_info(probe, *outputs):
 
 def test_object_info_matches_cycles(probe):
     """Object Info's Location, Color, Alpha, Object Index (pass index 7), Material Index (the
-    material's pass index 3) and Random (Cycles' hash of the object's name) match Cycles to
-    float32 precision. Teeth: the random id hashed with seed 1 instead of 0, caught."""
+    material's pass index 3) and Random (Cycles' hash of the object's name) match Cycles
+    exactly (measured: difference 0). Teeth: the random id hashed with seed 1 instead of 0
+    (0.774 instead of Cycles' 0.105), caught."""
     for outputs in (("Location",), ("Color",), ("Alpha", "Object Index", "Random"),
                     ("Material Index",)):
         build = _object_info(probe, *outputs)
@@ -374,15 +376,16 @@ def test_attributes_match_cycles(probe, outputs):
     """Attribute (type Geometry) and Color Attribute outputs match Cycles to float32
     precision: a float colour on corners, a byte colour on points (the render default, read by
     an unnamed Color Attribute node), a float on faces, a vector on points, a UV map; a
-    missing attribute gives Fac 0 and Alpha 1 (Attribute) or Alpha 0 (Color Attribute)."""
+    missing attribute gives Fac 0 and Alpha 1 (Attribute) or Alpha 0 (Color Attribute)
+    (measured: largest differences 0 to 5.8e-7 over the ten graphs)."""
     build = _attribute(probe, *outputs)
     _assert_agree(probe.snell(build), probe.cycles(build), probe.mask, str(outputs))
 
 
 def test_attribute_domains_have_teeth(probe, monkeypatch):
     """Teeth of the attribute comparisons: the face attribute read with each corner's vertex
-    as its face (the wrong domain) and the active colour attribute taken for the default one
-    are caught."""
+    as its face, the wrong domain (measured: largest difference 2.7), and the active colour
+    attribute taken for the default (render) one (0.81) are caught."""
     build = _attribute(probe, (ATTR, "Weight", "Color"))
     cycles = probe.cycles(build)
     monkeypatch.setattr(export_meshes, "_corner_faces",
@@ -396,7 +399,8 @@ def test_attribute_domains_have_teeth(probe, monkeypatch):
 
 def test_camera_data_matches_cycles(probe):
     """Camera Data's View Vector, View Z Depth and View Distance match Cycles to float32
-    precision. Teeth: the Z depth's sign flipped (Blender's camera space), caught."""
+    precision (measured: largest differences 8.5e-8 and 4.4e-7). Teeth: the Z depth's sign
+    flipped, Blender's camera space (7.2), caught."""
     def vector(tree):
         return probe.node("ShaderNodeCameraData").outputs["View Vector"]
 

@@ -22,6 +22,8 @@ from .inputs import interpolate, store3
  ATTRIBUTE, CAMERA_DATA) = range(40, 48)
 FIRST, LAST = 40, 99
 
+# The instructions that read Materials.objects (the scene objects' optional fields).
+READS_OBJECT = (TEXCO_NORMAL, OBJECT_VECTOR, OBJECT_VALUE)
 # Object Info outputs: OBJECT_VECTOR's literal, then OBJECT_VALUE's.
 OI_LOCATION, OI_COLOR = range(2)
 OI_ALPHA, OI_INDEX, OI_RANDOM = range(3)
