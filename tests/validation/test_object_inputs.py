@@ -412,3 +412,23 @@ def test_camera_data_matches_cycles(probe):
     snell = probe.snell(depths)
     _assert_agree(snell, cycles, probe.mask, "View Z Depth and Distance")
     _assert_caught(snell * [-1, 1, 1], cycles, probe.mask, "the Z depth negated")
+
+
+def test_random_of_a_non_ascii_name_matches_cycles(probe):
+    """Random of an object named with non-ASCII letters: Cycles hashes its UTF-8 bytes as
+    unsigned numbers (measured: equal, 0.3673). Teeth: the bytes from 128 taken as signed C
+    chars (0.8712), caught."""
+    obj = bpy.data.objects["Surface"]
+    obj.name = "Würfel Ω"
+    try:
+        build = _object_info(probe, "Random")
+        cycles = probe.cycles(build)
+        _assert_agree(probe.snell(build), cycles, probe.mask, "Random")
+        from snell.tracer.shader.hashes import hash_uint2
+        h = 0
+        for byte in obj.name.encode():
+            h = (h * 37 + (byte if byte < 128 else byte - 256)) % 2 ** 32
+        signed = np.full_like(cycles, oi.random_number(int(hash_uint2(h, 0))))
+        _assert_caught(signed, cycles, probe.mask, "signed bytes")
+    finally:
+        obj.name = "Surface"
