@@ -43,9 +43,11 @@ INTERPOLATIONS = ("linear", "closest")
 EXTENSIONS = ("repeat", "extend", "clip", "mirror")     # textures.REPEAT ... MIRROR
 COLORSPACES = ("linear", "srgb")
 # Then four world-space attributes for normal maps (tracer/shader/normals.py), and a mesh
-# attribute by name: its value, and its (Fac, Alpha, found) (tracer/shader/object_inputs.py).
+# attribute or an object's property by name: its value, and its (Fac, Alpha, found)
+# (tracer/shader/object_inputs.py).
 TEXCOORD_KINDS = ("uv", "generated", "object", "tangent", "tangent_sign", "tangent_normal",
-                  "normal_matrix", "attribute", "attribute_extra")
+                  "normal_matrix", "attribute", "attribute_extra", "object_attribute",
+                  "object_attribute_extra")
 # The inputs an image texture may drive, by material kind (docs/scene-format.md).
 TEXTURE_SLOTS = ("color", "roughness", "metallic")
 TEXTURABLE = {"diffuse": ("color",), "mirror": ("color",), "glossy": ("color", "roughness"),

@@ -18,7 +18,8 @@ from .lights import convert_light
 from .materials import NO_MATERIAL, NO_SURFACE, convert_material
 from .meshes import mesh_arrays, to_world
 from .settings import convert_render
-from .shader.input_nodes import attribute_names, uses_object_data
+from .custom_properties import instance_rgba
+from .shader.input_nodes import attribute_requests, object_attribute_key, uses_object_data
 from .shader.normal_nodes import uses_normal_maps
 from .textures import ImageTextures, uses_image_textures
 from .world import convert_world
@@ -50,7 +51,8 @@ class Exporter:
         self.images = []  # the scene's images: {"name", "source", "pixels"}
         self.textures = ImageTextures(self.images)
         normal_maps, self.want_tangents = uses_normal_maps()
-        self.want_attributes = attribute_names()
+        self.want_attributes, self.want_properties = attribute_requests()
+        self.properties = []  # per object: {texcoord name: RGBA} of want_properties
         self.want_texcoords = uses_image_textures() or normal_maps or bool(self.want_attributes)
         self.want_object_data = uses_object_data()
         self.object_data = []  # per object: object_data's fields, or None
@@ -100,7 +102,11 @@ class Exporter:
         out = []
         for kind, name in self.textures.texcoord_keys:
             parts = []
-            for mesh, matrix, _, _ in self.parts:
+            for mesh, matrix, _, object_id in self.parts:
+                if kind in ("object_attribute", "object_attribute_extra"):
+                    parts.append(self.property_coords(kind, name, object_id,
+                                                      len(mesh.triangles)))
+                    continue
                 coords = mesh.texcoord(kind, name, matrix)
                 if _det3(matrix) < 0:        # to_world swaps two corners of mirrored parts
                     coords = coords[:, [0, 2, 1]]
@@ -109,6 +115,18 @@ class Exporter:
             out.append({"kind": kind, "name": name,
                         "coords": np.ascontiguousarray(coords, np.float32)})
         return out
+
+    def property_coords(self, kind, name, object_id, n_triangles):
+        """(T, 3, 3) float32 texture coordinates of an object's property (texcoord name
+        `name`: object_attribute_key's), the same at every corner: its RGB (object_attribute)
+        or (Fac: their average, Alpha, 1) (object_attribute_extra), as Cycles reads an object
+        attribute (a float4: kernel/svm/attribute.h)."""
+        r, g, b, a = self.properties[object_id].get(name, (0.0, 0.0, 0.0, 0.0))
+        # The average in float32, as Cycles takes it.
+        value = ((r, g, b) if kind == "object_attribute" else
+                 (float(np.float32(np.float32(r) + np.float32(g) + np.float32(b)) *
+                        np.float32(1.0 / 3.0)), a, 1.0))
+        return np.broadcast_to(np.asarray(value, np.float32), (n_triangles, 3, 3))
 
     def add_instance(self, inst):
         """Record one depsgraph instance; the geometry is transformed later, per mesh (scene())."""
@@ -156,6 +174,8 @@ class Exporter:
         self.objects.append({"name": name, "closed": mesh.closed})
         # Kept aside: the scene's objects carry them only if a program reads them (objects()).
         self.object_data.append(object_data(inst, matrix) if self.want_object_data else None)
+        self.properties.append({object_attribute_key(kind, prop): instance_rgba(
+            inst, prop, kind == "INSTANCER") for kind, prop in self.want_properties})
         if not mesh.closed:
             for i in used:
                 mat = self.materials[i]

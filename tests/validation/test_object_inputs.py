@@ -4,8 +4,9 @@ Texture Coordinate's Normal, Camera, Window and Object of another object, Object
 Color Attribute and Camera Data.
 
 The scene: a smooth, bumpy 6 x 6 grid, rotated, translated and scaled unequally, with an object
-colour and pass index, colour attributes on corners (float) and points (bytes, the render
-default), a float attribute on faces, a vector on points and a UV map; an empty for Texture
+colour and pass index, custom properties (on the object and its mesh), colour attributes on
+corners (float) and points (bytes, the render default), a float attribute on faces, a vector
+on points and a UV map; an empty for Texture
 Coordinate Object; a perspective camera with shift and a 24 x 16 frame. Each graph drives the
 Emission of the grid's material and Cycles renders it at 1 sample, no bounces: each pixel is
 the graph's value at the point sample 0 hit, which a render of Geometry Position gives. Snell's
@@ -41,6 +42,7 @@ WIDTH, HEIGHT = 24, 16
 RTOL = ATOL = 2e-5          # float32 agreement, with room for Cycles' float32 inputs
 OBJECT_COLOR = (0.2, 0.55, 0.9, 0.35)
 PASS_INDEX, MATERIAL_PASS_INDEX = 7, 3
+PROPERTIES = {"tint": [0.2, 0.45, 0.7, 0.3], "count": 3, "pair": [0.6, -0.4]}
 
 
 def _grid(n=6, extent=1.6):
@@ -82,6 +84,9 @@ def build_scene():
     obj.scale = (1.3, 0.8, 1.1)
     obj.color = OBJECT_COLOR
     obj.pass_index = PASS_INDEX
+    for key, value in PROPERTIES.items():
+        obj[key] = value
+    obj.data["gloss"] = 0.25
     scene.collection.objects.link(obj)
     other = bpy.data.objects.new("Other", None)
     other.location = (-0.4, 0.7, 0.3)
@@ -341,12 +346,14 @@ def test_object_info_matches_cycles(probe):
 
 
 def _attribute(probe, *outputs):
-    """outputs: (node idname, name, output) each."""
+    """outputs: (node idname, name, output) each (an Attribute node's name may be "TYPE:name",
+    its attribute_type)."""
     def build(tree):
         sockets = []
         for idname, name, output in outputs:
             if idname == "ShaderNodeAttribute":
-                node = probe.node(idname, attribute_name=name)
+                kind, _, name = name.rpartition(":")
+                node = probe.node(idname, attribute_name=name, attribute_type=kind or "GEOMETRY")
             else:
                 node = probe.node(idname, layer_name=name)
             sockets.append(node.outputs[output])
@@ -382,10 +389,33 @@ def test_attributes_match_cycles(probe, outputs):
     _assert_agree(probe.snell(build), probe.cycles(build), probe.mask, str(outputs))
 
 
+PROPERTY_GRAPHS = (
+    ((ATTR, "OBJECT:tint", "Color"),),
+    ((ATTR, "OBJECT:tint", "Fac"), (ATTR, "OBJECT:tint", "Alpha"), (ATTR, "OBJECT:count", "Fac")),
+    ((ATTR, "OBJECT:location", "Vector"),),
+    ((ATTR, "OBJECT:pair", "Color"),),
+    ((ATTR, "OBJECT:gloss", "Fac"), (ATTR, "OBJECT:missing", "Alpha"),
+     (ATTR, "INSTANCER:tint", "Alpha")),
+    ((ATTR, "OBJECT:pass_index", "Fac"), (ATTR, "OBJECT:pair", "Alpha"),
+     (ATTR, "INSTANCER:count", "Alpha")),
+)
+
+
+@pytest.mark.parametrize("outputs", PROPERTY_GRAPHS,
+                         ids=["-".join(f"{n}.{o}" for _, n, o in g) for g in PROPERTY_GRAPHS])
+def test_object_properties_match_cycles(probe, outputs):
+    """Attribute nodes of type Object and Instancer (the grid is no instance: its own) read
+    its custom properties (a float array of four, of two, an integer), its mesh's (a float)
+    and RNA paths (location, pass_index) as Cycles does (measured: equal to float32)."""
+    build = _attribute(probe, *outputs)
+    _assert_agree(probe.snell(build), probe.cycles(build), probe.mask, str(outputs))
+
+
 def test_attribute_domains_have_teeth(probe, monkeypatch):
     """Teeth of the attribute comparisons: the face attribute read with each corner's vertex
-    as its face, the wrong domain (measured: largest difference 2.7), and the active colour
-    attribute taken for the default (render) one (0.81) are caught."""
+    as its face, the wrong domain (measured: largest difference 2.7), the active colour
+    attribute taken for the default (render) one (0.81), and an object property that is not
+    found read as (0, 0, 0, 1) rather than Blender's zeros (1.0) are caught."""
     build = _attribute(probe, (ATTR, "Weight", "Color"))
     cycles = probe.cycles(build)
     monkeypatch.setattr(export_meshes, "_corner_faces",
@@ -395,6 +425,11 @@ def test_attribute_domains_have_teeth(probe, monkeypatch):
     default = probe.cycles(_attribute(probe, (COLOR_ATTR, "", "Color")))
     _assert_caught(probe.snell(_attribute(probe, (COLOR_ATTR, "Col", "Color"))), default,
                    probe.mask, "the active colour attribute for the default")
+    from snell.addon.export import custom_properties
+    build = _attribute(probe, (ATTR, "OBJECT:missing", "Alpha"))
+    cycles = probe.cycles(build)
+    monkeypatch.setattr(custom_properties, "NOT_FOUND", (0.0, 0.0, 0.0, 1.0))
+    _assert_caught(probe.snell(build), cycles, probe.mask, "a missing property of alpha 1")
 
 
 def test_camera_data_matches_cycles(probe):

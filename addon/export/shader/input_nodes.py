@@ -166,27 +166,39 @@ def object_info(c, node, socket):
     return _unsupported_output(c, node, socket)
 
 
-def _attribute_outputs(c, node, name, missing_alpha):
-    """(colour, Fac, Alpha) registers of one ATTRIBUTE instruction reading mesh attribute
-    `name` (missing_alpha: the Alpha of a mesh without it)."""
+def _attribute_outputs(c, name, missing_alpha, kind="attribute"):
+    """(colour, Fac, Alpha) registers of one ATTRIBUTE instruction reading the texture
+    coordinates `kind` and `kind`_extra of `name` (missing_alpha: the Alpha where a mesh
+    lacks the attribute)."""
     color, fac, alpha = c.alloc("color"), c.alloc("float"), c.alloc("float")
     c.emit(tracer_objects.ATTRIBUTE, color, fac, alpha,
-           c.resources.texcoord_index("attribute", name),
-           c.resources.texcoord_index("attribute_extra", name), missing_alpha)
+           c.resources.texcoord_index(kind, name),
+           c.resources.texcoord_index(f"{kind}_extra", name), missing_alpha)
     return color, fac, alpha
+
+
+def object_attribute_key(attribute_type, name):
+    """The texture coordinate name of an Attribute node of type Object or Instancer."""
+    return f"{attribute_type.lower()}:{name}"
 
 
 def attribute(c, node, socket):
     """One Attribute node output: a mesh attribute by name (type Geometry), read per corner
-    as Cycles reads it; other types (the object's, instancer's or view layer's custom
-    property) are warned and read as 0."""
-    if node.attribute_type != "GEOMETRY":
-        c.warn(node, f"reads {node.attribute_type.lower().replace('_', ' ')} attribute "
-                     f"{node.attribute_name!r}, which Snell does not", "using 0")
+    as Cycles reads it, or the object's or instancer's property (types Object and Instancer,
+    RGBA per object: custom_properties.py); type View Layer is warned and read as 0."""
+    kind = node.attribute_type
+    if kind == "VIEW_LAYER":
+        c.warn(node, f"reads view layer attribute {node.attribute_name!r}, which Snell does "
+                     "not", "using 0")
         return c.constant(0.0 if socket.type == "VALUE" else (0.0, 0.0, 0.0))
-    # A missing attribute's Alpha is 1 in Cycles' Attribute node (svm_node_attr reads it as
-    # a float3, whose alpha is 1).
-    color, fac, alpha = _attribute_outputs(c, node, node.attribute_name, 1)
+    if kind == "GEOMETRY":
+        # A missing attribute's Alpha is 1 in Cycles' Attribute node (svm_node_attr reads it
+        # as a float3, whose alpha is 1).
+        color, fac, alpha = _attribute_outputs(c, node.attribute_name, 1)
+    else:
+        # Every object has one (0, 0, 0, 0 where no property is found): found everywhere.
+        color, fac, alpha = _attribute_outputs(
+            c, object_attribute_key(kind, node.attribute_name), 0, "object_attribute")
     # The Vector output holds the colour's values in a vector register: a link to a number
     # averages a vector where it takes a colour's luminance.
     vector = c.alloc("vector")
@@ -200,7 +212,7 @@ def attribute(c, node, socket):
 def color_attribute(c, node, socket):
     """One Color Attribute output: the named colour attribute, or the mesh's default (render)
     one without a name; a mesh without it gives colour 0 and Alpha 0 (svm_node_vertex_color)."""
-    color, _, alpha = _attribute_outputs(c, node, node.layer_name, 0)
+    color, _, alpha = _attribute_outputs(c, node.layer_name, 0)
     c.remember(node, "Color", color)
     c.remember(node, "Alpha", alpha)
     return color if socket.identifier == "Color" else alpha
@@ -216,20 +228,24 @@ def camera_data(c, node, socket):
     return regs[socket.identifier]
 
 
-def attribute_names():
-    """The mesh attributes any material or node group reads through Attribute (type
-    Geometry) or Color Attribute nodes ("": the default colour attribute)."""
+def attribute_requests():
+    """(the mesh attributes any material or node group reads through Attribute (type
+    Geometry) or Color Attribute nodes ("": the default colour attribute), the (type, name)
+    of its Attribute nodes of type Object and Instancer)."""
     import bpy
     trees = [mat.node_tree for mat in bpy.data.materials if mat.node_tree is not None]
     trees += [group for group in bpy.data.node_groups if group.bl_idname == "ShaderNodeTree"]
-    names = set()
+    names, properties = set(), set()
     for tree in trees:
         for node in tree.nodes:
-            if node.bl_idname == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY":
-                names.add(node.attribute_name)
+            if node.bl_idname == "ShaderNodeAttribute":
+                if node.attribute_type == "GEOMETRY":
+                    names.add(node.attribute_name)
+                elif node.attribute_type in ("OBJECT", "INSTANCER"):
+                    properties.add((node.attribute_type, node.attribute_name))
             elif node.bl_idname == "ShaderNodeVertexColor":
                 names.add(node.layer_name)
-    return sorted(names)
+    return sorted(names), sorted(properties)
 
 
 def uses_object_data():
