@@ -58,19 +58,39 @@ WIDTHS = {"value": 1, "vector": None, "color": 4}
 VALUE_TYPES = {"INT": np.int32, "INT8": np.int32, "BOOLEAN": bool}
 
 
-def _mesh_attributes(mesh, names, corner_verts):
+def _standard_attribute(mesh, name, uvs, active, orco):
+    """(per-corner values (corners, k), width) of the Cycles standard attributes an Attribute
+    node can name that Snell reads ("uv": the active render UV map, "generated": Generated
+    coordinates), or None."""
+    if name == "uv":
+        uv = uvs.get(active)
+        return None if uv is None else (uv.astype(np.float64), 2)
+    if name == "generated":
+        return orco.astype(np.float64), 3
+    return None
+
+
+def _mesh_attributes(mesh, names, corner_verts, uvs=None, active="", orco=None):
     """{name: ((corners, 3) value, (corners, 3) (Fac, Alpha, 1))} float32 of the named
     attributes the mesh has ("": its default colour attribute, which Cycles renders for a Color
     Attribute node without a name), per corner as Cycles reads them (kernel/svm/attribute.h):
     a number f is (f, f, f) of Fac f, a 2D vector (x, y, 0) of Fac x, a 3D vector or a colour
     its first three of Fac their average; Alpha is a colour's alpha, else 1. Byte colours are
     decoded from sRGB per element (Blender's `color`), before interpolation, as Cycles decodes
-    them. Attributes on edges (which Cycles does not read) and of other types are left out:
-    missing, as in Cycles."""
+    them. Cycles' standard names "uv", "generated" and "vertex_color" are the active render UV
+    map, Generated coordinates and the default colours. Attributes on edges (which Cycles does
+    not read) and of other types are left out: missing, as in Cycles."""
     nc = len(corner_verts)
     out = {}
     for name in names:
-        attr = mesh.attributes.get(name or mesh.attributes.default_color_name or "")
+        standard = _standard_attribute(mesh, name, uvs or {}, active, orco)
+        if standard is not None:
+            raw, width = standard
+            out[name] = _attribute_outputs(raw, width)
+            continue
+        # "vertex_color": Cycles' standard name of the default colours, as "".
+        real = "" if name == "vertex_color" else name
+        attr = mesh.attributes.get(real or mesh.attributes.default_color_name or "")
         prop = ATTRIBUTE_PROPS.get(getattr(attr, "data_type", None))
         if attr is None or prop is None or attr.domain not in ("POINT", "CORNER", "FACE"):
             continue
@@ -78,27 +98,34 @@ def _mesh_attributes(mesh, names, corner_verts):
         width = WIDTHS[prop] or (2 if attr.data_type == "FLOAT2" else 3)
         raw = _read(attr.data, prop, n * width, VALUE_TYPES.get(attr.data_type, np.float32))
         raw = raw.astype(np.float64).reshape(n, width)
-        value = np.zeros((n, 3))
-        extra = np.ones((n, 3))
-        if width == 1:
-            value[:] = raw
-            extra[:, 0] = raw[:, 0]
-        elif width == 2:
-            value[:, :2] = raw
-            extra[:, 0] = raw[:, 0]
-        else:
-            value[:] = raw[:, :3]
-            extra[:, 0] = raw[:, :3].mean(axis=1)
-            if width == 4:
-                extra[:, 1] = raw[:, 3]
         if attr.domain == "POINT":
             at = corner_verts
         elif attr.domain == "FACE":
             at = _corner_faces(mesh, nc)
         else:
             at = np.arange(nc)
-        out[name] = value[at].astype(np.float32), extra[at].astype(np.float32)
+        out[name] = _attribute_outputs(raw[at], width)
     return out
+
+
+def _attribute_outputs(raw, width):
+    """((n, 3) value, (n, 3) (Fac, Alpha, 1)) float32 of n values of `width` components, as
+    _mesh_attributes describes."""
+    n = len(raw)
+    value = np.zeros((n, 3))
+    extra = np.ones((n, 3))
+    if width == 1:
+        value[:] = raw
+        extra[:, 0] = raw[:, 0]
+    elif width == 2:
+        value[:, :2] = raw
+        extra[:, 0] = raw[:, 0]
+    else:
+        value[:] = raw[:, :3]
+        extra[:, 0] = raw[:, :3].mean(axis=1)
+        if width == 4:
+            extra[:, 1] = raw[:, 3]
+    return value.astype(np.float32), extra.astype(np.float32)
 
 
 def _corner_faces(mesh, n_corners):
@@ -197,7 +224,7 @@ def mesh_arrays(obj, texcoords=False, tangents=False, attributes=()):
             frames = (_tangent_frames(uvs, co, corner_verts, tri_corners, corner_n, smooth)
                       if tangents and nt else {})
             coords = (uvs, active, orco, frames,
-                      _mesh_attributes(mesh, attributes, corner_verts))
+                      _mesh_attributes(mesh, attributes, corner_verts, uvs, active, orco))
         if sharp is not None and sharp.any():
             face_n = _read(mesh.polygons, "normal", nf * 3, np.float32).reshape(nf, 3)
             corner_verts, tri_corners, corner_n, coords = _flat_normals(

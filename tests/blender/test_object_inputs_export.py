@@ -46,18 +46,21 @@ def _attribute(kind, name):
     return make
 
 
-def test_view_layer_attribute_is_warned_naming_material_node_and_attribute():
-    """A View Layer attribute in a program (its Emission Strength from Object Info, so that
-    the program renders more of the tree than the fixed kinds) is warned, read as 0."""
+@pytest.mark.parametrize("kind, name, what", [("VIEW_LAYER", "tint", "view layer"),
+                                              ("GEOMETRY", "pointiness", "standard")])
+def test_unread_attributes_are_warned_naming_material_node_and_attribute(kind, name, what):
+    """A View Layer attribute and a Cycles standard attribute Snell does not read (in a
+    program: its Emission Strength from Object Info, so that the program renders more of the
+    tree than the fixed kinds) are warned, read as 0."""
     def make(tree):
         info = tree.nodes.new("ShaderNodeObjectInfo")
         emission = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeEmission")
         tree.links.new(info.outputs["Random"], emission.inputs["Strength"])
-        return _attribute("VIEW_LAYER", "tint")(tree)
+        return _attribute(kind, name)(tree)
     scene, warnings = _scene(make)
     assert scene.materials[0]["kind"] == "program"
-    assert any("material 'Probe'" in w and "'Attribute'" in w and "'tint'" in w
-               and "view layer" in w for w in warnings), warnings
+    assert any("material 'Probe'" in w and "'Attribute'" in w and repr(name) in w
+               and what in w for w in warnings), warnings
 
 
 def test_texture_coordinate_and_object_info_outputs_are_evaluated():

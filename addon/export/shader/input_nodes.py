@@ -177,6 +177,18 @@ def _attribute_outputs(c, name, missing_alpha, kind="attribute"):
     return color, fac, alpha
 
 
+# Names an Attribute node gives Cycles' standard attributes (scene/attribute.cpp
+# standard_name) rather than the mesh's, beside "uv", "generated" and "vertex_color", which
+# meshes.py reads: not read, warned.
+UNREAD_STANDARD = ("P", "radius", "N", "generated_transform", "tangent", "tangent_sign",
+                   "undisplaced_tangent", "undisplaced_tangent_sign", "undeformed",
+                   "undisplaced", "undisplaced_N", "particle", "curve_intercept",
+                   "curve_length", "curve_random", "point_random", "ptex_face_id", "ptex_uv",
+                   "density", "color", "flame", "heat", "temperature", "velocity",
+                   "velocity_x", "velocity_y", "velocity_z", "pointiness", "random_per_island",
+                   "shadow_transparency")
+
+
 def object_attribute_key(attribute_type, name):
     """The texture coordinate name of an Attribute node of type Object or Instancer."""
     return f"{attribute_type.lower()}:{name}"
@@ -190,6 +202,10 @@ def attribute(c, node, socket):
     if kind == "VIEW_LAYER":
         c.warn(node, f"reads view layer attribute {node.attribute_name!r}, which Snell does "
                      "not", "using 0")
+        return c.constant(0.0 if socket.type == "VALUE" else (0.0, 0.0, 0.0))
+    if kind == "GEOMETRY" and node.attribute_name in UNREAD_STANDARD:
+        c.warn(node, f"reads Cycles' standard attribute {node.attribute_name!r}, which Snell "
+                     "does not", "using 0")
         return c.constant(0.0 if socket.type == "VALUE" else (0.0, 0.0, 0.0))
     if kind == "GEOMETRY":
         # A missing attribute's Alpha is 1 in Cycles' Attribute node (svm_node_attr reads it
