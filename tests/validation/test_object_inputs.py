@@ -138,12 +138,32 @@ def build_scene():
     return tree, emission
 
 
+def instance_grid():
+    """Make the grid a collection instance: its collection is instanced by an empty, moved,
+    turned and scaled, with custom properties of its own."""
+    scene = bpy.context.scene
+    grid = bpy.data.objects["Surface"]
+    scene.collection.objects.unlink(grid)
+    collection = bpy.data.collections.new("Source")
+    collection.objects.link(grid)
+    holder = bpy.data.objects.new("Holder", None)
+    holder.instance_type = "COLLECTION"
+    holder.instance_collection = collection
+    holder.location = (0.2, 0.3, -0.2)
+    holder.rotation_euler = (0.1, 0.2, -0.3)
+    holder.scale = (0.9, 1.2, 1.0)
+    holder["tint"] = [0.9, 0.1, 0.5, 0.6]
+    scene.collection.objects.link(holder)
+
+
 class Probe:
     """The scene, Cycles' renders of graphs on it, and Snell's values at the points Cycles
     hit."""
 
-    def __init__(self):
+    def __init__(self, instanced=False):
         self.tree, self.emission = build_scene()
+        if instanced:
+            instance_grid()
         self.points = self.cycles(lambda t: self.node("ShaderNodeNewGeometry").outputs[
             "Position"])
         ones = self.cycles(lambda t: self.value(1.0))
@@ -471,3 +491,37 @@ def test_random_of_a_non_ascii_name_matches_cycles(probe):
         _assert_caught(signed, cycles, probe.mask, "signed bytes")
     finally:
         obj.name = "Surface"
+
+
+@pytest.fixture(scope="module")
+def instanced():
+    """The grid as a collection instance (built after the tests of `probe`: it resets bpy)."""
+    return Probe(instanced=True)
+
+
+INSTANCE_GRAPHS = (
+    ((ATTR, "INSTANCER:tint", "Color"),),
+    ((ATTR, "INSTANCER:tint", "Alpha"), (ATTR, "OBJECT:tint", "Alpha"),
+     (ATTR, "INSTANCER:count", "Fac")),
+)
+
+
+def test_instance_matches_cycles(instanced):
+    """On a collection instance (an empty instancing the grid's collection, moved, turned and
+    scaled): Object Info Random (the depsgraph instance's random id), Location, Texture
+    Coordinate Normal and Object (the instance's matrix), and Attribute nodes of type
+    Instancer (the instancer's custom property first, then the object's) and Object (the
+    object's own) match Cycles (measured: largest differences 0 to 4.4e-7). Teeth: Random from
+    the hash of the object's name, as for an object that is not an instance, caught."""
+    graphs = [_object_info(instanced, "Random", "Alpha", "Object Index"),
+              _object_info(instanced, "Location"), _texcoord(instanced, "Normal"),
+              _texcoord(instanced, "Object")]
+    graphs += [_attribute(instanced, *g) for g in INSTANCE_GRAPHS]
+    for k, build in enumerate(graphs):
+        _assert_agree(instanced.snell(build), instanced.cycles(build), instanced.mask,
+                      f"graph {k}")
+    from snell.addon.export.depsgraph import object_random_id
+    cycles = instanced.cycles(graphs[0])
+    wrong = instanced.snell(graphs[0])
+    wrong[:, 0] = oi.random_number(object_random_id("Surface"))
+    _assert_caught(wrong, cycles, instanced.mask, "Random of the object's name")
