@@ -13,6 +13,9 @@ the graph's value at the point sample 0 hit, which a render of Geometry Position
 exporter compiles the same material, and its interpreter (program.run) evaluates it at those
 points; the two agree to float32 precision (Cycles computes in float32).
 
+The last test makes the grid a collection instance (an empty instancing its collection), where
+the random id, the matrix and the Instancer properties come from the instance.
+
 Each test's teeth are the same comparison with a deliberate error, which must fail; the numbers
 measured are in the tests' docstrings.
 """
