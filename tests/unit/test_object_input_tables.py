@@ -1,4 +1,4 @@
-"""The object and camera inputs of shader programs (tracer/shader/object_inputs.py) without
+"""The object and camera tables of shader programs (tracer/shader/object_inputs.py) without
 Blender: Cycles' random number of a random id, the Window coordinate against the camera's own
 projection (which the light tracer splats through), the object-space normal, and the scene
 loader's checks of the objects' optional fields (tests/validation/test_object_inputs.py holds
