@@ -120,8 +120,10 @@ class Exporter:
         """(T, 3, 3) float32 texture coordinates of an object's property (texcoord name
         `name`: object_attribute_key's), the same at every corner: its RGB (object_attribute)
         or (Fac: their average, Alpha, 1) (object_attribute_extra), as Cycles reads an object
-        attribute (a float4: kernel/svm/attribute.h)."""
-        r, g, b, a = self.properties[object_id].get(name, (0.0, 0.0, 0.0, 0.0))
+        attribute (a float4: kernel/svm/attribute.h); NaN or Inf read as 0 (a scene file
+        holds finite coordinates)."""
+        r, g, b, a = np.nan_to_num(self.properties[object_id].get(name, (0.0, 0.0, 0.0, 0.0)),
+                                   nan=0.0, posinf=0.0, neginf=0.0).tolist()
         # The average in float32, as Cycles takes it.
         value = ((r, g, b) if kind == "object_attribute" else
                  (float(np.float32(np.float32(r) + np.float32(g) + np.float32(b)) *
@@ -163,6 +165,9 @@ class Exporter:
                       f"vertex coordinate beyond +-{scene_mod.MAX_COORDINATE:g} (out of range)")
         if mesh.dropped:
             self.warn(f"object {name!r}: dropped {mesh.dropped} {DROPPED_TRIANGLES}")
+        for attribute in mesh.nonfinite_attributes:
+            self.warn(f"object {name!r}: attribute {attribute!r} has NaN or Inf values: "
+                      "read as 0 there")
         if len(mesh.triangles) == 0:
             return
         if abs(_det3(matrix)) < 1e-30:
@@ -176,6 +181,10 @@ class Exporter:
         self.object_data.append(object_data(inst, matrix) if self.want_object_data else None)
         self.properties.append({object_attribute_key(kind, prop): instance_rgba(
             inst, prop, kind == "INSTANCER") for kind, prop in self.want_properties})
+        for key, value in self.properties[-1].items():
+            if not np.isfinite(value).all():
+                self.warn(f"object {name!r}: property {key.partition(':')[2]!r} is NaN or "
+                          "Inf: read as 0 there")
         if not mesh.closed:
             for i in used:
                 mat = self.materials[i]

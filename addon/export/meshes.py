@@ -305,6 +305,14 @@ class Mesh:
         if not keep.all():
             tri_corners, tris, mat_index = tri_corners[keep], tris[keep], mat_index[keep]
         self.tri_corners, self.coords = tri_corners, coords
+        # NaN or Inf in an attribute would make the scene file invalid: read as 0, named
+        # here for the exporter's warning.
+        self.nonfinite_attributes = []
+        for name, arrays in (coords[4] if coords is not None else {}).items():
+            if not all(np.isfinite(a).all() for a in arrays):
+                self.nonfinite_attributes.append(name)
+                for a in arrays:
+                    np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
         # Object coordinates per triangle corner: the local positions (affine over a
         # triangle, so interpolating them is exact).
         self.local_corners = co[tris].astype(np.float32) if coords is not None else None

@@ -137,3 +137,38 @@ def test_property_rgba_reads_as_blender_does():
     assert property_rgba(obj, "location") == (0.0, 0.0, 0.0, 1.0)
     for name in ("text", "long", "missing", ""):
         assert property_rgba(obj, name) is None
+
+
+def test_texture_coordinate_from_instancer_is_warned():
+    """From Instancer (Cycles' instancer's Generated and UV) is warned; the object's are used."""
+    def make(tree):
+        node = tree.nodes.new("ShaderNodeTexCoord")
+        node.from_instancer = True
+        info = tree.nodes.new("ShaderNodeObjectInfo")
+        emission = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeEmission")
+        tree.links.new(info.outputs["Random"], emission.inputs["Strength"])
+        return node.outputs["Generated"]
+    scene, warnings = _scene(make)
+    assert any("From Instancer" in w and "'Texture Coordinate'" in w for w in warnings), warnings
+
+
+def test_nonfinite_attribute_values_are_warned_and_read_as_0():
+    """NaN and Inf in a colour attribute and in an object property: a warning naming the
+    object and attribute, 0 in the scene file (which holds finite numbers only)."""
+    def make(tree):
+        obj = bpy.data.objects["Quad"]
+        values = np.arange(16, dtype=np.float32) / 16
+        values[[0, 5]] = np.nan, np.inf
+        obj.data.color_attributes["Col"].data.foreach_set("color", values)
+        obj["bad"] = float("inf")
+        node = tree.nodes.new("ShaderNodeVertexColor")
+        node.layer_name = "Col"
+        mix = tree.nodes.new("ShaderNodeVectorMath")
+        tree.links.new(node.outputs["Color"], mix.inputs[0])
+        tree.links.new(_attribute("OBJECT", "bad")(tree), mix.inputs[1])
+        return mix.outputs[0]
+    scene, warnings = _scene(make)
+    assert any("'Quad'" in w and "'Col'" in w and "NaN or Inf" in w for w in warnings), warnings
+    assert any("'Quad'" in w and "'bad'" in w and "NaN or Inf" in w for w in warnings), warnings
+    for tc in scene.texcoords:
+        assert np.isfinite(tc["coords"]).all()

@@ -72,6 +72,10 @@ TEXCO_OPCODES = {"Normal": tracer_objects.TEXCO_NORMAL, "Camera": tracer_objects
 def texture_coordinate(c, node, socket):
     """One Texture Coordinate output at the hit."""
     name = socket.name
+    if name in ("Generated", "UV") and getattr(node, "from_instancer", False):
+        # Cycles' NODE_TEXCO_DUPLI_GENERATED and _UV: the instancer's coordinates.
+        c.warn(node, "reads the instancer's coordinates (From Instancer), which Snell does "
+                     "not", "using the object's")
     if name == "Generated":
         return c.texcoord(node, "generated")
     if name == "UV":
