@@ -1,7 +1,9 @@
-"""The values Attribute nodes of type Object and Instancer read: an object's (or its data's, its
-instancer's, its particle settings') custom property or RNA property by name, as RGBA, as
-Blender looks them up for Cycles (blenkernel object_dupli.cc: BKE_object_dupli_find_rgba_attribute
-and find_property_rgba; Cycles' blender/object.cpp lookup_instance_property)."""
+"""The values Attribute nodes of type Object, Instancer and View Layer read: an object's (or its
+data's, its instancer's, its particle settings') or the view layer's (or the scene's, the
+world's) custom property or RNA property by name, as RGBA, as Blender looks them up for Cycles
+(blenkernel object_dupli.cc: BKE_object_dupli_find_rgba_attribute,
+BKE_view_layer_find_rgba_attribute and find_property_rgba; Cycles' blender/object.cpp
+lookup_instance_property)."""
 from __future__ import annotations
 
 import numbers
@@ -52,6 +54,17 @@ def instance_rgba(inst, name, use_instancer):
         owners.append(inst.parent)
     owners += [obj, obj.data]
     for owner in owners:
+        value = property_rgba(owner, name)
+        if value is not None:
+            return value
+    return NOT_FOUND
+
+
+def view_layer_rgba(depsgraph, name):
+    """An Attribute node's RGBA of type View Layer: the view layer's property, then the
+    scene's, then its world's; (0, 0, 0, 0) where none has it."""
+    scene = depsgraph.scene
+    for owner in (depsgraph.view_layer, scene, scene.world):
         value = property_rgba(owner, name)
         if value is not None:
             return value

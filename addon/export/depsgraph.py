@@ -18,7 +18,7 @@ from .lights import convert_light
 from .materials import NO_MATERIAL, NO_SURFACE, convert_material
 from .meshes import mesh_arrays, to_world
 from .settings import convert_render
-from .custom_properties import instance_rgba
+from .custom_properties import instance_rgba, view_layer_rgba
 from .shader.input_nodes import attribute_requests, object_attribute_key, uses_object_data
 from .shader.normal_nodes import uses_normal_maps
 from .textures import ImageTextures, uses_image_textures
@@ -53,6 +53,7 @@ class Exporter:
         normal_maps, self.want_tangents = uses_normal_maps()
         self.want_attributes, self.want_properties = attribute_requests()
         self.properties = []  # per object: {texcoord name: RGBA} of want_properties
+        self._layer_properties = {}
         self.want_texcoords = uses_image_textures() or normal_maps or bool(self.want_attributes)
         self.want_object_data = uses_object_data()
         self.object_data = []  # per object: object_data's fields, or None
@@ -115,6 +116,15 @@ class Exporter:
             out.append({"kind": kind, "name": name,
                         "coords": np.ascontiguousarray(coords, np.float32)})
         return out
+
+    def property_rgba(self, inst, kind, name):
+        """An Attribute node's RGBA of type `kind` (OBJECT, INSTANCER, VIEW_LAYER) for an
+        instance (the view layer's read once)."""
+        if kind != "VIEW_LAYER":
+            return instance_rgba(inst, name, kind == "INSTANCER")
+        if name not in self._layer_properties:
+            self._layer_properties[name] = view_layer_rgba(self.depsgraph, name)
+        return self._layer_properties[name]
 
     def property_coords(self, kind, name, object_id, n_triangles):
         """(T, 3, 3) float32 texture coordinates of an object's property (texcoord name
@@ -179,8 +189,8 @@ class Exporter:
         self.objects.append({"name": name, "closed": mesh.closed})
         # Kept aside: the scene's objects carry them only if a program reads them (objects()).
         self.object_data.append(object_data(inst, matrix) if self.want_object_data else None)
-        self.properties.append({object_attribute_key(kind, prop): instance_rgba(
-            inst, prop, kind == "INSTANCER") for kind, prop in self.want_properties})
+        self.properties.append({object_attribute_key(kind, prop): self.property_rgba(
+            inst, kind, prop) for kind, prop in self.want_properties})
         for key, value in self.properties[-1].items():
             if not np.isfinite(value).all():
                 self.warn(f"object {name!r}: property {key.partition(':')[2]!r} is NaN or "

@@ -46,12 +46,11 @@ def _attribute(kind, name):
     return make
 
 
-@pytest.mark.parametrize("kind, name, what", [("VIEW_LAYER", "tint", "view layer"),
-                                              ("GEOMETRY", "pointiness", "standard")])
+@pytest.mark.parametrize("kind, name, what", [("GEOMETRY", "pointiness", "standard")])
 def test_unread_attributes_are_warned_naming_material_node_and_attribute(kind, name, what):
-    """A View Layer attribute and a Cycles standard attribute Snell does not read (in a
-    program: its Emission Strength from Object Info, so that the program renders more of the
-    tree than the fixed kinds) are warned, read as 0."""
+    """A Cycles standard attribute Snell does not read (in a program: its Emission Strength
+    from Object Info, so that the program renders more of the tree than the fixed kinds) is
+    warned, read as 0."""
     def make(tree):
         info = tree.nodes.new("ShaderNodeObjectInfo")
         emission = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeEmission")

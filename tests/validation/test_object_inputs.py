@@ -89,6 +89,9 @@ def build_scene():
     obj.pass_index = PASS_INDEX
     for key, value in PROPERTIES.items():
         obj[key] = value
+    scene.view_layers[0]["shade"] = [0.3, 0.6]
+    scene["shade"] = 5.0                # the view layer's comes first
+    scene["level"] = 0.75
     obj.data["gloss"] = 0.25
     scene.collection.objects.link(obj)
     other = bpy.data.objects.new("Other", None)
@@ -425,6 +428,9 @@ PROPERTY_GRAPHS = (
      (ATTR, "INSTANCER:tint", "Alpha")),
     ((ATTR, "OBJECT:pass_index", "Fac"), (ATTR, "OBJECT:pair", "Alpha"),
      (ATTR, "INSTANCER:count", "Alpha")),
+    ((ATTR, "VIEW_LAYER:shade", "Color"),),
+    ((ATTR, "VIEW_LAYER:level", "Fac"), (ATTR, "VIEW_LAYER:shade", "Alpha"),
+     (ATTR, "VIEW_LAYER:missing", "Alpha")),
 )
 
 
@@ -433,7 +439,8 @@ PROPERTY_GRAPHS = (
 def test_object_properties_match_cycles(probe, outputs):
     """Attribute nodes of type Object and Instancer (the grid is no instance: its own) read
     its custom properties (a float array of four, of two, an integer), its mesh's (a float)
-    and RNA paths (location, pass_index) as Cycles does (measured: equal to float32)."""
+    and RNA paths (location, pass_index), and of type View Layer the view layer's property
+    before the scene's, as Cycles does (measured: equal to float32)."""
     build = _attribute(probe, *outputs)
     _assert_agree(probe.snell(build), probe.cycles(build), probe.mask, str(outputs))
 

@@ -200,13 +200,9 @@ def object_attribute_key(attribute_type, name):
 
 def attribute(c, node, socket):
     """One Attribute node output: a mesh attribute by name (type Geometry), read per corner
-    as Cycles reads it, or the object's or instancer's property (types Object and Instancer,
-    RGBA per object: custom_properties.py); type View Layer is warned and read as 0."""
+    as Cycles reads it, or the object's, instancer's or view layer's property (types Object,
+    Instancer and View Layer, RGBA per object: custom_properties.py)."""
     kind = node.attribute_type
-    if kind == "VIEW_LAYER":
-        c.warn(node, f"reads view layer attribute {node.attribute_name!r}, which Snell does "
-                     "not", "using 0")
-        return c.constant(0.0 if socket.type == "VALUE" else (0.0, 0.0, 0.0))
     if kind == "GEOMETRY" and node.attribute_name in UNREAD_STANDARD:
         c.warn(node, f"reads Cycles' standard attribute {node.attribute_name!r}, which Snell "
                      "does not", "using 0")
@@ -217,6 +213,7 @@ def attribute(c, node, socket):
         color, fac, alpha = _attribute_outputs(c, node.attribute_name, 1)
     else:
         # Every object has one (0, 0, 0, 0 where no property is found): found everywhere.
+        # (A View Layer's is the same for every object; through the same path.)
         color, fac, alpha = _attribute_outputs(
             c, object_attribute_key(kind, node.attribute_name), 0, "object_attribute")
     # The Vector output holds the colour's values in a vector register: a link to a number
@@ -251,7 +248,7 @@ def camera_data(c, node, socket):
 def attribute_requests():
     """(the mesh attributes any material or node group reads through Attribute (type
     Geometry) or Color Attribute nodes ("": the default colour attribute), the (type, name)
-    of its Attribute nodes of type Object and Instancer)."""
+    of its Attribute nodes of type Object, Instancer and View Layer)."""
     import bpy
     trees = [mat.node_tree for mat in bpy.data.materials if mat.node_tree is not None]
     trees += [group for group in bpy.data.node_groups if group.bl_idname == "ShaderNodeTree"]
@@ -261,7 +258,7 @@ def attribute_requests():
             if node.bl_idname == "ShaderNodeAttribute":
                 if node.attribute_type == "GEOMETRY":
                     names.add(node.attribute_name)
-                elif node.attribute_type in ("OBJECT", "INSTANCER"):
+                elif node.attribute_type in ("OBJECT", "INSTANCER", "VIEW_LAYER"):
                     properties.add((node.attribute_type, node.attribute_name))
             elif node.bl_idname == "ShaderNodeVertexColor":
                 names.add(node.layer_name)
