@@ -14,11 +14,11 @@ import numpy as np
 from ...tracer import scene as scene_mod
 from ...tracer.scene import Scene, SceneError
 from .camera import convert_camera
+from .custom_properties import instance_rgba, view_layer_rgba
 from .lights import convert_light
 from .materials import NO_MATERIAL, NO_SURFACE, convert_material
 from .meshes import mesh_arrays, to_world
 from .settings import convert_render
-from .custom_properties import instance_rgba, view_layer_rgba
 from .shader.input_nodes import attribute_requests, object_attribute_key, uses_object_data
 from .shader.normal_nodes import uses_normal_maps
 from .textures import ImageTextures, uses_image_textures
@@ -187,7 +187,8 @@ class Exporter:
         mat_ids, used = mesh.material_ids(tuple(self.material_id(m, name) for m in slots))
         object_id = len(self.objects)
         self.objects.append({"name": name, "closed": mesh.closed})
-        # Kept aside: the scene's objects carry them only if a program reads them (objects()).
+        # Kept aside: the scene's objects carry them only if a program reads them
+        # (scene_objects).
         self.object_data.append(object_data(inst, matrix) if self.want_object_data else None)
         self.properties.append({object_attribute_key(kind, prop): self.property_rgba(
             inst, kind, prop) for kind, prop in self.want_properties})

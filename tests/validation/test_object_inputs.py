@@ -402,6 +402,8 @@ ATTRIBUTE_GRAPHS = (
     ((ATTR, "generated", "Color"),),
     ((ATTR, "uv", "Color"),),
     ((ATTR, "generated", "Fac"), (ATTR, "uv", "Fac"), (ATTR, "vertex_color", "Alpha")),
+    ((ATTR, "", "Color"),),
+    ((ATTR, "", "Fac"), (ATTR, "", "Alpha"), (ATTR, "", "Vector")),
 )
 
 
@@ -413,8 +415,8 @@ def test_attributes_match_cycles(probe, outputs):
     precision: a float colour on corners, a byte colour on points (the render default, read by
     an unnamed Color Attribute node), a float on faces, a vector on points, a UV map; a
     missing attribute gives Fac 0 and Alpha 1 (Attribute) or Alpha 0 (Color Attribute);
-    Cycles' standard names generated, uv and vertex_color (measured: largest differences 0 to
-    5.8e-7 over the graphs)."""
+    Cycles' standard names generated, uv and vertex_color; an Attribute node without a name
+    reads nothing (measured: largest differences 0 to 5.8e-7 over the graphs)."""
     build = _attribute(probe, *outputs)
     _assert_agree(probe.snell(build), probe.cycles(build), probe.mask, str(outputs))
 

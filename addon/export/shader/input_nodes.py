@@ -194,7 +194,8 @@ UNREAD_STANDARD = ("P", "radius", "N", "generated_transform", "tangent", "tangen
 
 
 def object_attribute_key(attribute_type, name):
-    """The texture coordinate name of an Attribute node of type Object or Instancer."""
+    """The texture coordinate name of an Attribute node of type Object, Instancer or View
+    Layer."""
     return f"{attribute_type.lower()}:{name}"
 
 
@@ -207,6 +208,11 @@ def attribute(c, node, socket):
         c.warn(node, f"reads Cycles' standard attribute {node.attribute_name!r}, which Snell "
                      "does not", "using 0")
         return c.constant(0.0 if socket.type == "VALUE" else (0.0, 0.0, 0.0))
+    if kind == "GEOMETRY" and not node.attribute_name:
+        # No name: no attribute (Cycles finds none); "" is the default colour for meshes.py.
+        regs = {"Color": c.constant((0.0, 0.0, 0.0)), "Vector": c.constant((0.0, 0.0, 0.0)),
+                "Fac": c.constant(0.0), "Alpha": c.constant(1.0)}
+        return regs[socket.identifier]
     if kind == "GEOMETRY":
         # A missing attribute's Alpha is 1 in Cycles' Attribute node (svm_node_attr reads it
         # as a float3, whose alpha is 1).
@@ -245,23 +251,27 @@ def camera_data(c, node, socket):
     return regs[socket.identifier]
 
 
+def _shader_nodes():
+    """Every node of every material's tree and shader node group."""
+    import bpy
+    trees = [mat.node_tree for mat in bpy.data.materials if mat.node_tree is not None]
+    trees += [group for group in bpy.data.node_groups if group.bl_idname == "ShaderNodeTree"]
+    return [node for tree in trees for node in tree.nodes]
+
+
 def attribute_requests():
     """(the mesh attributes any material or node group reads through Attribute (type
     Geometry) or Color Attribute nodes ("": the default colour attribute), the (type, name)
     of its Attribute nodes of type Object, Instancer and View Layer)."""
-    import bpy
-    trees = [mat.node_tree for mat in bpy.data.materials if mat.node_tree is not None]
-    trees += [group for group in bpy.data.node_groups if group.bl_idname == "ShaderNodeTree"]
     names, properties = set(), set()
-    for tree in trees:
-        for node in tree.nodes:
-            if node.bl_idname == "ShaderNodeAttribute":
-                if node.attribute_type == "GEOMETRY":
-                    names.add(node.attribute_name)
-                elif node.attribute_type in ("OBJECT", "INSTANCER", "VIEW_LAYER"):
-                    properties.add((node.attribute_type, node.attribute_name))
-            elif node.bl_idname == "ShaderNodeVertexColor":
-                names.add(node.layer_name)
+    for node in _shader_nodes():
+        if node.bl_idname == "ShaderNodeAttribute":
+            if node.attribute_type == "GEOMETRY" and node.attribute_name:
+                names.add(node.attribute_name)
+            elif node.attribute_type in ("OBJECT", "INSTANCER", "VIEW_LAYER"):
+                properties.add((node.attribute_type, node.attribute_name))
+        elif node.bl_idname == "ShaderNodeVertexColor":
+            names.add(node.layer_name)
     return sorted(names), sorted(properties)
 
 
@@ -269,11 +279,8 @@ def uses_object_data():
     """Whether any material or node group reads the object's data (Object Info, or a Texture
     Coordinate node's Normal): then the scene's objects carry their matrix, colour, pass index
     and random id."""
-    import bpy
-    trees = [mat.node_tree for mat in bpy.data.materials if mat.node_tree is not None]
-    trees += [group for group in bpy.data.node_groups if group.bl_idname == "ShaderNodeTree"]
     return any(node.bl_idname in ("ShaderNodeObjectInfo", "ShaderNodeTexCoord")
-               for tree in trees for node in tree.nodes)
+               for node in _shader_nodes())
 
 
 NODE_OUTPUTS = {
