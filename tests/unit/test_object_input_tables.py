@@ -101,3 +101,16 @@ def test_object_fields_survive_a_scene_file(tmp_path):
     assert scene_mod.load(tmp_path / "a.snell").objects == scene.objects
     scene_mod.save(tiny_scene(), tmp_path / "b.snell")
     assert scene_mod.load(tmp_path / "b.snell").objects == [{"name": "Quad", "closed": False}]
+
+
+def test_a_renderer_with_another_camera_has_its_camera_table():
+    """Renderer.with_camera (the viewport's moving view) gives programs the new camera's
+    Camera, Window and Camera Data; the first renderer keeps its own."""
+    from snell.tracer.integrator import Renderer
+    scene = tiny_scene()
+    renderer = Renderer(scene)
+    assert np.array_equal(renderer.materials.camera, oi.camera_table(Camera(scene.camera)))
+    moved = dict(scene.camera, matrix=camera(position=(1.0, 2.0, 3.0))["matrix"])
+    other = renderer.with_camera(moved)
+    assert np.array_equal(other.materials.camera, oi.camera_table(Camera(moved)))
+    assert not np.array_equal(other.materials.camera, renderer.materials.camera)
