@@ -34,6 +34,7 @@ from .result import RenderResult, Window, WindowSums
 from .scene import Scene
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
 from .shader import program
+from .shader.object_inputs import camera_table
 
 
 class _Buffers(threading.local):
@@ -111,7 +112,8 @@ class Renderer:
         self.geometry = (Geometry(scene.positions, scene.triangles, scene.normals)
                          if geometry is None else geometry)
         self.materials = material_tables(scene.materials, scene.material_ids, scene.images,
-                                         scene.texcoords)
+                                         scene.texcoords, scene.objects, scene.object_ids,
+                                         self.camera)
         self.tables = shipped_tables()
         kind = self.materials.kind
         self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
@@ -148,6 +150,7 @@ class Renderer:
         other.scene = copy.copy(self.scene)
         other.scene.camera = camera
         other.camera = Camera(camera)
+        other.materials = self.materials._replace(camera=camera_table(other.camera))
         if self.media.on:         # the stack at the camera
             other.media = media_tables(other.scene, self.lights.tables)
         other._use_camera_for_caustics()

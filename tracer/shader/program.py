@@ -19,10 +19,10 @@ A SPECS entry is (what it computes, slots) or (what, slots, {slot: limit}): lite
 be from 0 to limit - 1 (limit "images" or "texcoords": the scene's counts).
 
 Families of instructions, by opcode range: closures.py (0-19: the closures and the Mix Shader),
-inputs.py (20-99: what reads the hit), math_nodes.py (100-199), color_nodes.py (200-299),
-procedural_textures.py (300-399) and normals.py (400-449: shading normals). The scene loader
-checks every instruction against its family's SPECS (check_program), so the interpreter trusts
-its indices.
+inputs.py (20-39: what reads the hit), object_inputs.py (40-99: the object, camera and mesh
+attributes), math_nodes.py (100-199), color_nodes.py (200-299), procedural_textures.py
+(300-399) and normals.py (400-449: shading normals). The scene loader checks every instruction
+against its family's SPECS (check_program), so the interpreter trusts its indices.
 """
 from __future__ import annotations
 
@@ -31,12 +31,14 @@ from typing import NamedTuple
 import numpy as np
 
 from ..jit import jit
-from . import closures, color_nodes, inputs, math_nodes, normals, procedural_textures
+from . import (closures, color_nodes, inputs, math_nodes, normals, object_inputs,
+               procedural_textures)
 
 SLOTS = 7
 MAX_REGISTERS = 1024
 MAX_INSTRUCTIONS = 100000
-FAMILIES = (closures, inputs, math_nodes, color_nodes, procedural_textures, normals)
+FAMILIES = (closures, inputs, object_inputs, math_nodes, color_nodes, procedural_textures,
+            normals)
 SPECS = {op: spec for family in FAMILIES for op, spec in family.SPECS.items()}
 WIDTH = {"f": 1, "v": 3, "w": 1, "n": 3, "P": closures.PRINCIPLED_BLOCK}
 # What the tracer needs to know of a program without running it (Programs.flags).
@@ -200,6 +202,8 @@ def run(mats, m, regs, hit, lobes, tables, has_normals):
                                      has_normals)
         elif op <= inputs.LAST:
             inputs.execute(ins, regs, hit, mats)
+        elif op <= object_inputs.LAST:
+            object_inputs.execute(ins, regs, hit, mats)
         elif op < 200:
             math_nodes.execute(ins, regs, prog.data)
         elif op < 300:
