@@ -302,6 +302,9 @@ def _summary(args, rgb, result, bad_pixels, denoised=None) -> str:
     if denoised is not None:
         denoising = (f", denoised in {_duration(denoised.seconds)}" if denoised.denoised
                      else ", not denoised")
+    compiled = getattr(result, "compile_s", 0.0)
+    if compiled >= 0.05:
+        on += f" (and {_duration(compiled)} compiling kernels first)"
     return (f"snell: {written}: {rgb.shape[1]}x{rgb.shape[0]}, {samples} in {_duration(wall)}{on} "
             f"({rays}, {embree}){light}{denoising}, {nans}{skipped}")
 

@@ -14,13 +14,18 @@ sources: Numba checks only the timestamp of the file that defines a kernel, so a
 function it calls in another file would otherwise leave a stale kernel in the cache. The cache
 lives under Snell's user cache directory unless set_cache_dir() picks another base before the
 first kernel module is imported (inside Blender, the extension's user directory).
+compile_seconds() says how long this process has spent compiling, so that a render leaves its
+kernels' first compile out of its timings.
 """
 from __future__ import annotations
 
 import hashlib
 import os
+import threading
+import time
 
 import numba
+from numba.core import event
 
 OPTIONS = {"nogil": True, "cache": True, "error_model": "numpy", "_nrt": False}
 TRACER_DIR = os.path.dirname(os.path.abspath(__file__))
@@ -88,6 +93,37 @@ def mark_warm() -> None:
     os.makedirs(cache_dir(), exist_ok=True)
     with open(_warm_marker(), "w") as f:
         f.write(numba.__version__ + "\n")
+
+
+class _CompileClock(event.Listener):
+    """Adds up the seconds Numba spends compiling (not loading from the cache): a compile
+    nested in another (a callee's) is counted once, in its caller's."""
+
+    def __init__(self):
+        self.total = 0.0
+        self._local = threading.local()
+        self._lock = threading.Lock()
+
+    def on_start(self, ev):
+        stack = self._local.__dict__.setdefault("starts", [])
+        stack.append(time.perf_counter())
+
+    def on_end(self, ev):
+        stack = self._local.starts
+        start = stack.pop()
+        if not stack:
+            with self._lock:
+                self.total += time.perf_counter() - start
+
+
+_CLOCK = _CompileClock()
+event.register("numba:compile", _CLOCK)
+
+
+def compile_seconds() -> float:
+    """Seconds spent compiling kernels in this process so far (renders subtract theirs from
+    their timings)."""
+    return _CLOCK.total
 
 
 # SNELL_KERNEL_CACHE moves the cache (tests point it at a fresh directory to time compiles).

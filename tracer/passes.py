@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import adaptive, wavefront
+from . import adaptive, jit, wavefront
 from .image import as_float32
 from .pilot import LightVertexPilot
 from .result import RenderResult, Window
@@ -162,12 +162,18 @@ def drive(renderer, scheduler, pool, progress, stop, time_limit: float) -> Rende
     progress returned False or time_limit seconds (0: none) passed; returns its result."""
     result = scheduler.result
     embree_before, rays_before = renderer.embree_time, renderer.ray_count
-    start = time.perf_counter()
+    start, compiled_before = time.perf_counter(), jit.compile_seconds()
+
+    def took():
+        # A kernel's first compile (the scene's first shader program, say) is no render time.
+        result.compile_s = jit.compile_seconds() - compiled_before
+        return time.perf_counter() - start - result.compile_s
+
     while (step := scheduler.next()) is not None:
         if not scheduler.trace(pool, step, stop):
             result.cancelled = True
             break
-        result.time_s = time.perf_counter() - start
+        result.time_s = took()
         result.embree_time_s = renderer.embree_time - embree_before
         result.rays = renderer.ray_count - rays_before
         if progress is not None and progress(result, scheduler.k, scheduler.estimate()) is False:
@@ -175,10 +181,10 @@ def drive(renderer, scheduler, pool, progress, stop, time_limit: float) -> Rende
             break
         if scheduler.converged:
             break                 # every pixel has converged
-        if time_limit > 0.0 and time.perf_counter() - start >= time_limit:
+        if time_limit > 0.0 and took() >= time_limit:
             result.time_limited = True    # a whole image of the passes done
             break
-    result.time_s = time.perf_counter() - start
+    result.time_s = took()
     return result
 
 

@@ -58,7 +58,8 @@ class RenderResult:
     light_in_image: bool = False     # the hybrid: the light tracer's splats are part of the image
     batches: int = 0
     nan_count: int = 0
-    time_s: float = 0.0
+    time_s: float = 0.0              # rendering, without compile_s
+    compile_s: float = 0.0           # compiling kernels the render met first (passes.drive)
     build_s: float = 0.0
     embree_time_s: float = 0.0
     rays: int = 0

@@ -267,6 +267,31 @@ def test_stop_event_ends_a_pass_within_a_chunk(monkeypatch):
     assert traced == [0] and result.cancelled and result.spp == 0   # 32 chunks in the pass
 
 
+def test_a_compile_during_the_render_is_left_out_of_its_time(monkeypatch):
+    """A kernel compiled inside the render (jit.compile_seconds rising by 30 s in the first
+    pass) is reported as compile_s and not counted in time_s, the summary's render time."""
+    from snell.tracer import jit, passes
+    pos, tri, nrm = icosphere(2)
+    mats = [{"name": "Grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
+    scene = make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(16, 16)), world=WHITE, spp=2)
+    renderer = Renderer(scene, scene.settings(threads=1))
+    clock = {"compiled": 100.0, "now": 1000.0, "calls": 0}
+    trace = renderer.trace_chunk
+
+    def compiling_trace(*args):
+        # The first chunk compiles for 30 s; every chunk works for 1 s.
+        clock["compiled"], clock["now"] = 130.0, clock["now"] + 1.0 + 30.0 * (clock["calls"] == 0)
+        clock["calls"] += 1
+        return trace(*args)
+
+    monkeypatch.setattr(renderer, "trace_chunk", compiling_trace)
+    monkeypatch.setattr(jit, "compile_seconds", lambda: clock["compiled"])
+    monkeypatch.setattr(passes.time, "perf_counter", lambda: clock["now"])
+    result = renderer.render()
+    assert result.compile_s == pytest.approx(30.0)
+    assert result.time_s == pytest.approx(clock["calls"])   # the work, not the compile
+
+
 def test_nan_samples_are_counted_and_kept_out_of_the_image(monkeypatch):
     pos, tri, nrm = icosphere(2)
     mats = [{"name": "Grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
