@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import CliError
 from ..tracer.progress import describe_adaptive, fraction_done, pixels_sampling, time_left
 from ..tracer.scene import SceneError, has_world_light
-from . import window
+from . import kernel_warmup, window
 
 MAX_REPORTED_WARNINGS = 20
 SAMPLE_COUNT_PASS = "Sample Count"   # Cycles' name for its pass of each pixel's samples
@@ -125,16 +125,32 @@ def _integrator():
     return integrator
 
 
-def _compile_kernels(engine, record):
-    """Compile the kernels on the first render after an install or update, saying so."""
+def _compile_kernels(engine, record) -> bool:
+    """Compile the kernels on the first render after an install or update, saying so, or wait
+    for the background compile that choosing Snell started (kernel_warmup); False if the render
+    was cancelled meanwhile."""
     integrator = _integrator()
     record["kernels_compiled_s"] = None
     if integrator.kernels_compiled():
-        return
+        return True
+    start = time.perf_counter()
+
+    def waiting(status):
+        engine.update_stats("", status)
+        return not _should_stop(engine)
+
+    if kernel_warmup.running():
+        kernel_warmup.wait(waiting)
+        if _should_stop(engine):
+            return False
+    if integrator.kernels_compiled():
+        record["kernels_compiled_s"] = time.perf_counter() - start
+        return True
     message = "Snell: compiling kernels (first run only)"
     engine.update_stats("", message)
     print(message, file=sys.stderr, flush=True)
     record["kernels_compiled_s"] = integrator.warm_up()
+    return True
 
 
 class _Progress:
@@ -205,7 +221,9 @@ def render(engine, depsgraph):
         settings = _settings(bl_scene, scene)
         spp = settings.spp
         record["target_spp"] = spp
-        _compile_kernels(engine, record)
+        if not _compile_kernels(engine, record):
+            _stop_without_image(engine, record)
+            return
         if remote_render is None:
             engine.update_stats("", f"Snell: building the BVH of {len(scene.triangles)} triangles")
             renderer = _integrator().Renderer(scene, settings)
@@ -226,6 +244,7 @@ def render(engine, depsgraph):
                                      bl_scene.frame_current, progress)
         adaptive = describe_adaptive(rendered)
         record.update(spp=rendered.spp, cancelled=rendered.cancelled, time_s=rendered.time_s,
+                      compile_s=rendered.compile_s,
                       rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count,
                       light_paths=rendered.light_paths, adaptive=adaptive,
                       saved_share=rendered.saved_share,

@@ -1,14 +1,15 @@
 """Register and unregister everything Snell adds to Blender, in one place.
 
-Order: the property group and `scene.snell`, the render engine, the panels, then SNELL in the
-COMPAT_ENGINES of Blender's own panels. unregister() undoes it in reverse, so enable, disable,
+Order: the property group and `scene.snell`, the render engine, the panels, SNELL in the
+COMPAT_ENGINES of Blender's own panels, then the watch that compiles the kernels in the
+background once Snell is the engine (kernel_warmup). unregister() undoes it in reverse, so enable, disable,
 enable again leaves Blender as it was.
 """
 import os
 
 import bpy
 
-from . import engine, properties, ui
+from . import engine, kernel_warmup, properties, ui
 
 classes = (properties.SnellRenderSettings, engine.SnellRenderEngine, *ui.classes)
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
@@ -35,9 +36,11 @@ def register():
     _register_classes()
     properties.register()
     ui.add_compat_engine()
+    kernel_warmup.register()
 
 
 def unregister():
+    kernel_warmup.unregister()
     ui.remove_compat_engine()
     properties.unregister()
     _unregister_classes()

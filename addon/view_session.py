@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..tracer.scene import SceneError, validate
+from . import kernel_warmup
 from .view_camera import scaled
 
 COARSE = (8, 4, 2)          # the first passes: 1 sample per pixel at 1/8, 1/4, 1/2 resolution
@@ -185,10 +186,17 @@ class ViewSession:
         self.mailbox.put(Frame(job.generation, None, 0, final=True, error=message,
                                elapsed=time.perf_counter() - job.submitted))
 
+    def _waiting(self, status):
+        """kernel_warmup.wait's poll: show its status; stop waiting once the session ends."""
+        self.status = status.removeprefix("Snell: ")
+        return not self._stopping
+
     def _render(self, job):
         from ..tracer import integrator
 
         validate(job.scene)
+        if kernel_warmup.running() and not kernel_warmup.wait(self._waiting) and self._stopping:
+            return
         if not integrator.kernels_compiled():
             self.status = "compiling kernels (first run only)"
             print(f"Snell: {self.status}", file=sys.stderr, flush=True)
