@@ -34,6 +34,7 @@ from .result import RenderResult, Window, WindowSums
 from .scene import Scene
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
 from .shader import program
+from .shader.bump import with_view
 
 
 class _Buffers(threading.local):
@@ -110,8 +111,9 @@ class Renderer:
         self.pixel_filter = make_filter(settings.pixel_filter, settings.filter_width)
         self.geometry = (Geometry(scene.positions, scene.triangles, scene.normals)
                          if geometry is None else geometry)
-        self.materials = material_tables(scene.materials, scene.material_ids, scene.images,
-                                         scene.texcoords)
+        self.materials = with_view(material_tables(scene.materials, scene.material_ids,
+                                                   scene.images, scene.texcoords),
+                                   self.geometry.corners, self.camera.params())
         self.tables = shipped_tables()
         kind = self.materials.kind
         self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
@@ -148,6 +150,7 @@ class Renderer:
         other.scene = copy.copy(self.scene)
         other.scene.camera = camera
         other.camera = Camera(camera)
+        other.materials = with_view(self.materials, self.geometry.corners, other.camera.params())
         if self.media.on:         # the stack at the camera
             other.media = media_tables(other.scene, self.lights.tables)
         other._use_camera_for_caustics()

@@ -1,0 +1,215 @@
+"""Bump mapping's formulas (tracer/shader/bump.py, Cycles' svm_node_set_bump and its
+differentials) and the instructions that move the hit a Bump node's Height is read at, run
+through program.run."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from snell.tracer import lobes
+from snell.tracer.materials import material_tables
+from snell.tracer.microfacet_tables import shipped_tables
+from snell.tracer.shader import bump, inputs, program
+from snell.tracer.shader.program import check_program
+
+
+def _unit(v):
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
+
+
+def _frame(n):
+    """A right-handed frame (t, b, n) around unit n."""
+    n = _unit(n)
+    t = _unit(np.cross([0.3, 0.5, 0.8], n))
+    return t, np.cross(n, t), n
+
+
+def _bumped(gradient, n, ng, distance, strength=1.0, invert=False, width=0.1, cone=0.01,
+            point=(0.2, -0.1, 0.4)):
+    """bump_normal for the linear height h(P) = gradient . P sampled as Cycles samples it."""
+    dx, dy = bump.differentials(tuple(ng), cone)
+    p = np.asarray(point, float)
+    g = np.asarray(gradient, float)
+    heights = (g @ p, g @ (p + width * np.asarray(dx)), g @ (p + width * np.asarray(dy)))
+    return np.asarray(bump.bump_normal(heights, strength, distance, invert, width, tuple(n),
+                                       dx, dy))
+
+
+@pytest.mark.parametrize("n", [(0.0, 0.0, 1.0), (0.6, -0.48, 0.64), (-1.0, 0.0, 0.0),
+                               (0.0, 0.0, -1.0)])
+@pytest.mark.parametrize("distance, invert", [(0.5, False), (0.05, False), (0.5, True)])
+def test_linear_height_bends_the_normal_by_its_surface_gradient(n, distance, invert):
+    """A height of known gradient g: Cycles' bumped normal is normalize(n - d (g - (g.n) n))
+    (d the Distance, negated when inverted), whatever the differentials' width, and on any
+    side (a back face's n and Ng face the ray). (Deliberate errors: the height difference's
+    sign flipped gives n + d g_t: off by 0.46 for d 0.5; Distance read 10% larger: off by 0.02
+    (tolerance 1e-9); both caught.)"""
+    n = _unit(n)
+    g = np.array([0.3, -0.7, 0.45])
+    d = -distance if invert else distance
+    expect = _unit(n - d * (g - (g @ n) * n))
+    for cone in (1e-4, 0.01, 1.0):
+        got = _bumped(g, n, n, distance, invert=invert, cone=cone)
+        assert np.allclose(got, expect, atol=1e-9), (cone, got, expect)
+
+
+def test_strength_mixes_linearly_from_the_unbent_normal():
+    """Strength s: normalize(s bent + (1 - s) n), clamped at 0 below (Cycles has no upper
+    clamp). (Deliberate error: strength applied to Distance instead gives another normal,
+    off by 0.03 at s 0.5; caught.)"""
+    n = np.array([0.0, 0.0, 1.0])
+    g = np.array([1.2, 0.4, 0.0])
+    full = _unit(n - 0.5 * g)
+    for s in (0.0, 0.25, 0.5, 1.0, 1.5):
+        expect = _unit(s * full + (1.0 - s) * n)
+        assert np.allclose(_bumped(g, n, n, 0.5, strength=s), expect, atol=1e-12)
+    assert np.allclose(_bumped(g, n, n, 0.5, strength=-1.0), n, atol=1e-12)
+
+
+def test_no_width_or_no_gradient_leaves_the_normal():
+    """A zero differential (det 0) gives the unbent normal, as Cycles' is_zero fallback; a
+    flat height too."""
+    n = np.array([0.0, 0.6, 0.8])
+    assert np.allclose(_bumped([1.0, 2.0, 3.0], n, n, 0.5, cone=0.0), n)
+    assert np.allclose(_bumped([0.0, 0.0, 0.0], n, n, 0.5), n)
+
+
+def test_input_normal_other_than_the_frame_normal():
+    """The Normal input need not be Ng: the tangents are crosses with the input normal, and
+    for a linear height the bend is exact along the input normal's plane when it equals Ng's
+    rotation about the surface... checked here against Cycles' formula written out in numpy:
+    N' = normalize(w |det| n - d sign(det) ((h_x - h_c) Rx + (h_y - h_c) Ry))."""
+    ng = _unit([0.1, 0.2, 1.0])
+    n = _unit([0.3, -0.1, 1.0])
+    g = np.array([0.5, 0.2, -0.3])
+    width, cone, distance = 0.1, 0.02, 0.3
+    dx, dy = (np.asarray(v) for v in bump.differentials(tuple(ng), cone))
+    rx, ry = np.cross(dy, n), np.cross(n, dx)
+    det = dx @ rx
+    p = np.array([0.2, 0.3, 0.1])
+    hc, hx, hy = g @ p, g @ (p + width * dx), g @ (p + width * dy)
+    expect = _unit(width * abs(det) * n - distance * np.sign(det) * ((hx - hc) * rx
+                                                                      + (hy - hc) * ry))
+    assert np.allclose(_bumped(g, n, ng, distance, width=width, cone=cone, point=p), expect,
+                       atol=1e-12)
+
+
+def test_make_orthonormals_is_cycles():
+    """Cycles' make_orthonormals: a = normalize((1, 1, 1) x N) (or (-1, 1, 1) x N when N's
+    components are equal), b = N x a."""
+    for n in [(0.0, 0.0, 1.0), _unit([0.3, -0.4, 0.2]), _unit([1.0, 1.0, 1.0])]:
+        n = np.asarray(n, float)
+        ones = [1.0, 1.0, 1.0] if not (n[0] == n[1] == n[2]) else [-1.0, 1.0, 1.0]
+        a_expect = _unit(np.cross(ones, n))
+        a, b = (np.asarray(v) for v in bump.make_orthonormals(tuple(n)))
+        assert np.allclose(a, a_expect, atol=1e-12)
+        assert np.allclose(b, np.cross(n, a_expect), atol=1e-12)
+
+
+def test_barycentric_step_moves_the_point_by_the_step():
+    c = np.array([[0.1, 0.0, 0.2], [2.0, 0.3, 0.2], [0.4, 1.5, 0.2]])
+    step = np.array([0.05, -0.02, 0.0])
+    db1, db2 = bump.barycentric_step(c, tuple(step))
+    assert np.allclose(db1 * (c[1] - c[0]) + db2 * (c[2] - c[0]), step, atol=1e-14)
+
+
+def test_camera_spread_is_cycles_compact_dD():
+    """A perspective camera ray's dD is the mean of |normalize(D + dx) - normalize(D)| and its
+    dy twin, D on the plane at distance 1 (kernel/camera/camera.h); at the centre about the
+    pixel's size, off-axis smaller."""
+    view = np.zeros(bump.VIEW_SIZE)
+    view[:9] = np.eye(3).reshape(9)
+    view[bump.VIEW_PIXEL_X] = view[bump.VIEW_PIXEL_Y] = 0.002
+    centre = bump.camera_spread(view, (0.0, 0.0, -1.0))
+    assert centre == pytest.approx(0.002, rel=1e-5)
+    d = _unit([0.5, 0.2, -1.0])
+    pc = d / -d[2]
+    ex = _unit(pc + [0.002, 0, 0]) - _unit(pc)
+    ey = _unit(pc + [0, 0.002, 0]) - _unit(pc)
+    assert bump.camera_spread(view, tuple(d)) == pytest.approx(
+        0.5 * (np.linalg.norm(ex) + np.linalg.norm(ey)), rel=1e-12)
+    assert bump.cone_width(view, True, tuple(d), 3.0) == pytest.approx(
+        3.0 * bump.camera_spread(view, tuple(d)), rel=1e-12)
+    # Orthographic: the pixel's size, whatever the distance.
+    view[bump.VIEW_ORTHO] = 1.0
+    assert bump.cone_width(view, True, tuple(d), 3.0) == pytest.approx(0.002)
+
+
+def _program(code, constants, registers=None):
+    rows = [row + [0] * (8 - len(row)) for row in code]
+    return {"registers": registers if registers is not None else len(constants) + 40,
+            "constants": constants, "code": rows}
+
+
+CORNERS = np.array([[[-1.0, -1.0, 0.0], [3.0, -1.0, 0.0], [-1.0, 3.0, 0.0]]])
+
+
+def _run(code, constants, texcoords, length=2.0):
+    """Run a program at a hit on one triangle (CORNERS, normal +z) seen by a camera ray from
+    above, with a camera of pixel 0.004 looking down -z; returns the registers."""
+    mat = {"name": "P", "kind": "program", "program": _program(code, constants)}
+    check_program(mat["program"], 0, 1)
+    mats = material_tables([mat], np.zeros(1, np.int32), (),
+                           [{"kind": "uv", "name": "",
+                             "coords": np.asarray(texcoords, np.float32)[None]}])
+    view = np.zeros(bump.VIEW_SIZE)
+    view[:9] = np.eye(3).reshape(9)
+    view[bump.VIEW_PIXEL_X] = view[bump.VIEW_PIXEL_Y] = 0.004
+    mats = mats._replace(programs=mats.programs._replace(corners=CORNERS, camera=view))
+    regs = program.new_registers()
+    scratch = np.zeros((lobes.MAX_LOBES, lobes.FIELDS))
+    n = (0.0, 0.0, 1.0)
+    b1, b2 = 0.3, 0.2
+    p = tuple((1 - b1 - b2) * CORNERS[0, 0] + b1 * CORNERS[0, 1] + b2 * CORNERS[0, 2])
+    hit = (p, n, n, n, True, 0, b1, b2, 1 << inputs.LP_CAMERA, 0, length)
+    program.run(mats, 0, regs, hit, scratch, shipped_tables(), False)
+    return regs, np.array(p)
+
+
+def test_offset_moves_position_and_coordinates_together_and_restore_puts_them_back():
+    """Between OFFSET and RESTORE, Geometry Position is the hit moved by its differential
+    (Cycles' svm_node_bump_P_dx: P + dP.dx width, dP.dx = camera dD x distance along
+    make_orthonormals(Ng)), and a per-corner coordinate moves with it (here a UV equal to
+    the position's x, y); after RESTORE both are back. (Deliberate error: barycentrics left
+    unmoved: the UV stays at the hit while the position moves, caught.)"""
+    uv = np.array([[[-1.0, -1.0, 0.0], [3.0, -1.0, 0.0], [-1.0, 3.0, 0.0]]])[0]
+    width = 0.5
+    # Registers: 0 the width constant; 1.. outputs.
+    code = [[bump.OFFSET, bump.AXIS_X, 0], [inputs.GEOMETRY, 1, inputs.G_POSITION],
+            [inputs.TEXCOORD, 4, 0], [bump.RESTORE],
+            [bump.OFFSET, bump.AXIS_Y, 0], [inputs.GEOMETRY, 7, inputs.G_POSITION],
+            [inputs.TEXCOORD, 10, 0], [bump.RESTORE],
+            [inputs.GEOMETRY, 13, inputs.G_POSITION], [inputs.TEXCOORD, 16, 0]]
+    regs, p = _run(code, [width], uv, length=2.0)
+    cone = 2.0 * 0.004 * (1.0 - 1e-6)          # camera dD at the centre x distance
+    a, b = (np.asarray(v) for v in bump.make_orthonormals((0.0, 0.0, 1.0)))
+    assert np.allclose(regs[1:4], p + width * cone * a, atol=1e-8)
+    assert np.allclose(regs[4:7], regs[1:4], atol=1e-12)
+    assert np.allclose(regs[7:10], p + width * cone * b, atol=1e-8)
+    assert np.allclose(regs[10:13], regs[7:10], atol=1e-12)
+    assert np.allclose(regs[13:16], p) and np.allclose(regs[16:19], p)
+
+
+def test_bump_instruction_bends_by_the_moved_heights():
+    """The whole chain as the exporter compiles a Bump node of Height = Geometry Position's
+    x (a Separate XYZ's): h at the hit and at each moved hit copied into a block, then BUMP:
+    the normal is normalize(n - distance (1, 0, 0)) (a linear height, exact)."""
+    from snell.tracer.shader import math_nodes
+    distance, width = 0.4, 0.1
+    # Constants: 0 width, 1 strength, 2 distance, 3-5 the heights' block.
+    code = []
+    for k, axis in enumerate((None, bump.AXIS_X, bump.AXIS_Y)):
+        if axis is not None:
+            code.append([bump.OFFSET, axis, 0])
+        code.append([inputs.GEOMETRY, 10 + 6 * k, inputs.G_POSITION])
+        code.append([math_nodes.SEPARATE_XYZ, 10 + 6 * k, 13 + 6 * k, 14 + 6 * k,
+                     15 + 6 * k])
+        if axis is not None:
+            code.append([bump.RESTORE])
+        code.append([inputs.COPY_FLOAT, 3 + k, 13 + 6 * k])
+    code.append([bump.BUMP, 30, -1, 3, 1, 2, 0, 0])
+    regs, _ = _run(code, [width, 1.0, distance, 0.0, 0.0, 0.0], np.zeros((3, 3)))
+    assert np.allclose(regs[30:33], _unit([-distance, 0.0, 1.0]), atol=1e-9)

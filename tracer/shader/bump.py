@@ -1,0 +1,289 @@
+"""Bump mapping in shader programs: the Bump node with a linked Height and bump displacement
+(a Material Output's Displacement with the displacement method "Bump Only", or "Displacement
+and Bump" whose true displacement is not rendered), as Cycles 5.0 evaluates them.
+
+Cycles (scene/shader_graph.cpp refine_bump_nodes and bump_from_displacement) evaluates the
+Height subgraph three times: at the hit, and at the hit moved by the surface differentials
+dP.dx and dP.dy times the Bump node's Filter Width (kernel/svm/attribute.h svm_node_bump_P_dx,
+tex_coord.h and geometry.h's *_bump_dx/dy nodes: position, UV, Generated and Object move
+together, normals and the view stay). The exporter compiles the Height's nodes three times the
+same way: OFFSET moves the hit that the hit-reading instructions see (its point by the
+differential, its barycentrics by the same step, so that every per-corner coordinate moves
+with it) and RESTORE puts it back; BUMP then takes the finite-difference surface gradient
+(kernel/svm/displace.h svm_node_set_bump). Bump displacement is the same with Cycles' Bump of
+Distance 1 fed by dot(displacement, N) (svm_node_displacement, svm_node_vector_displacement)
+whose normal SET_NORMAL makes the hit's shading normal for every closure and node after it
+(Cycles' SetNormal before the surface shader).
+
+The differential. Cycles keeps a compact ray differential, a cone's width (kernel/util/
+differential.h): a perspective camera ray starts with dP = 0 and dD = the mean length of
+normalize(D + cam.dx) - normalize(D) and its dy twin (kernel/camera/camera.h), an orthographic
+one with dP = the pixel's size and dD = 0; at a hit, sd->dP = dP + t dD (shader_data.h), and
+differential_from_compact(Ng, sd->dP) makes dP.dx and dP.dy that width along
+make_orthonormals(Ng). After a bounce the ray keeps dD and starts from dP = sd->dP
+(shade_surface.h): the width grows with the whole path's length. What differs in Snell: its
+paths do not carry the width, so a hit after a bounce (and a shadow ray's hit on a
+transparent surface) takes the camera's dD at the image centre times the length of its own
+segment only, and a camera ray through transparent surfaces the length from its last
+surface; camera hits take Cycles' dD of their own direction. The step is a small fraction of a
+pixel's footprint (Filter Width 0.1 by default), so for heights smooth at that scale the
+gradient, and so the normal, is the same; only heights that vary within a pixel see the
+difference (as in Cycles, they alias). A Bump node inside another Bump node's Height is
+evaluated at the unmoved hit; Cycles' object-space bump (displacement method "Displacement and
+Bump") is taken in world space, the same for objects of unit scale.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..jit import jit
+from ..vec import add, cross, dot, mul, normalize, sub
+from .inputs import LP_CAMERA, interpolate, normal_in, store3
+
+# Opcodes 450-479.
+OFFSET, RESTORE, BUMP, SET_NORMAL, DISPLACEMENT, VECTOR_DISPLACEMENT, HEIGHT, \
+    OBJECT_DIRECTION, OBJECT_NORMAL = range(450, 459)
+FIRST, LAST = 450, 479
+# OFFSET's literal: the differential it moves the hit by.
+AXIS_X, AXIS_Y = 0, 1
+# The camera's numbers a program's differentials need (Programs.camera): its camera-to-world
+# rotation (row-major), its pixel's size on the plane at distance 1 (perspective) or in scene
+# units (orthographic), and whether it is orthographic.
+VIEW_ROTATION, VIEW_PIXEL_X, VIEW_PIXEL_Y, VIEW_ORTHO = 0, 9, 10, 11
+VIEW_SIZE = 12
+
+SPECS = {
+    OFFSET: ("Bump: the hit the next instructions read moved by its differential along axis i "
+             "(AXIS_X, AXIS_Y) times filter width f", "if-----", {1: 2}),
+    RESTORE: ("Bump: the hit the next instructions read back at the hit", "-------"),
+    BUMP: ("Bump: the normal bent from normal n by the heights v (at the hit, moved along x, "
+           "along y) at strength f, distance f, inverted if i, filter width f", "vnvffif",
+           {6: 2}),
+    SET_NORMAL: ("Bump displacement: vector v becomes the hit's shading normal", "v------"),
+    DISPLACEMENT: ("Displacement: normal n times (height f - midlevel f) times scale f",
+                   "vfffn--"),
+    VECTOR_DISPLACEMENT: ("Vector Displacement: (vector v - midlevel f) times scale f",
+                          "vvff---"),
+    HEIGHT: ("Bump displacement: displacement v along the hit's shading normal", "fv-----"),
+    OBJECT_DIRECTION: ("Displacement in object space: vector v through the object's matrix M, "
+                       "of normal matrix columns the scene's coordinates i, i, i", "vviii--",
+                       {3: "texcoords", 4: "texcoords", 5: "texcoords"}),
+    OBJECT_NORMAL: ("Displacement in object space: M normalize(M^T n), of normal matrix "
+                    "columns the scene's coordinates i, i, i", "vniii--",
+                    {3: "texcoords", 4: "texcoords", 5: "texcoords"}),
+}
+
+
+def view_numbers(camera) -> np.ndarray:
+    """Programs.camera for a camera (camera.CameraParams)."""
+    view = np.zeros(VIEW_SIZE)
+    view[VIEW_ROTATION:VIEW_ROTATION + 9] = np.asarray(camera.rotation, np.float64).reshape(9)
+    view[VIEW_PIXEL_X] = 2.0 * camera.half_x / camera.width
+    view[VIEW_PIXEL_Y] = 2.0 * camera.half_y / camera.height
+    view[VIEW_ORTHO] = 1.0 if camera.ortho else 0.0
+    return view
+
+
+def with_view(materials, corners, camera):
+    """Materials whose programs know the scene's triangle corners (T, 3, 3) and its camera
+    (camera.CameraParams), which bump differentials need."""
+    programs = materials.programs._replace(corners=np.ascontiguousarray(corners, np.float64),
+                                           camera=view_numbers(camera))
+    return materials._replace(programs=programs)
+
+
+@jit
+def make_orthonormals(n):
+    """Two unit vectors completing n to a frame, as Cycles' make_orthonormals
+    (util/math_float3.h): a = normalize((1, 1, 1) x n) (or (-1, 1, 1) x n), b = n x a."""
+    if n[0] != n[1] or n[0] != n[2]:
+        a = (n[2] - n[1], n[0] - n[2], n[1] - n[0])
+    else:
+        a = (n[2] - n[1], n[0] + n[2], -n[1] - n[0])
+    a = normalize(a)
+    return a, cross(n, a)
+
+
+@jit
+def direction_spread(pc, px, py):
+    """Cycles' compact dD of a perspective camera ray through camera-plane point pc: the mean
+    of |normalize(pc + dx) - normalize(pc)| over the pixel's steps dx = (px, 0, 0) and
+    dy = (0, py, 0)."""
+    d = normalize(pc)
+    dx = sub(normalize((pc[0] + px, pc[1], pc[2])), d)
+    dy = sub(normalize((pc[0], pc[1] + py, pc[2])), d)
+    return 0.5 * (math.sqrt(dot(dx, dx)) + math.sqrt(dot(dy, dy)))
+
+
+@jit
+def camera_spread(view, d):
+    """The compact dD of the perspective camera ray of direction d (world space)."""
+    r = view[VIEW_ROTATION:VIEW_ROTATION + 9]
+    # Camera space (the camera looks down -z), then onto the plane at distance 1.
+    x = r[0] * d[0] + r[3] * d[1] + r[6] * d[2]
+    y = r[1] * d[0] + r[4] * d[1] + r[7] * d[2]
+    z = r[2] * d[0] + r[5] * d[1] + r[8] * d[2]
+    if not z < 0.0:
+        z = -1.0
+        x = y = 0.0
+    return direction_spread((x / -z, y / -z, -1.0), view[VIEW_PIXEL_X], view[VIEW_PIXEL_Y])
+
+
+@jit
+def cone_width(view, camera_ray, d, length):
+    """Cycles' sd->dP at a hit `length` along a ray of direction d (camera_ray: the camera's own
+    ray); see the module docstring for what Snell's paths leave out."""
+    px, py = view[VIEW_PIXEL_X], view[VIEW_PIXEL_Y]
+    if view[VIEW_ORTHO] != 0.0:
+        return 0.5 * (px + py)
+    if camera_ray:
+        return camera_spread(view, d) * length
+    return direction_spread((0.0, 0.0, -1.0), px, py) * length
+
+
+@jit
+def differentials(ng, width):
+    """Cycles' differential_from_compact(Ng, dP): (dP.dx, dP.dy) of length `width` along
+    make_orthonormals(ng)."""
+    a, b = make_orthonormals(ng)
+    return mul(a, width), mul(b, width)
+
+
+@jit
+def barycentric_step(c, step):
+    """The change (db1, db2) of barycentrics on triangle corners c (3, 3) that moves its point
+    by step (in its plane): P = c0 + b1 (c1 - c0) + b2 (c2 - c0), solved by least squares as
+    Cycles' differential_dudv solves it exactly in the plane."""
+    e1 = (c[1, 0] - c[0, 0], c[1, 1] - c[0, 1], c[1, 2] - c[0, 2])
+    e2 = (c[2, 0] - c[0, 0], c[2, 1] - c[0, 1], c[2, 2] - c[0, 2])
+    a11, a12, a22 = dot(e1, e1), dot(e1, e2), dot(e2, e2)
+    det = a11 * a22 - a12 * a12
+    if not det > 0.0:
+        return 0.0, 0.0
+    r1, r2 = dot(e1, step), dot(e2, step)
+    return (a22 * r1 - a12 * r2) / det, (a11 * r2 - a12 * r1) / det
+
+
+@jit
+def hit_width(hit, view):
+    """sd->dP at program.run's hit."""
+    camera_ray = hit[8] == 1 << LP_CAMERA          # a camera ray (through transparency too)
+    return cone_width(view, camera_ray, mul(hit[3], -1.0), hit[10])
+
+
+@jit
+def moved_hit(hit, axis, filter_width, programs):
+    """program.run's hit moved by its differential along axis (AXIS_X, AXIS_Y) times
+    filter_width: its point, and its barycentrics by the same step."""
+    dx, dy = differentials(hit[1], hit_width(hit, programs.camera))
+    step = mul(dx if axis == AXIS_X else dy, filter_width)
+    tri = hit[5]
+    db1, db2 = 0.0, 0.0
+    if tri < programs.corners.shape[0]:
+        db1, db2 = barycentric_step(programs.corners[tri], step)
+    return (add(hit[0], step), hit[1], hit[2], hit[3], hit[4], hit[5], hit[6] + db1,
+            hit[7] + db2, hit[8], hit[9], hit[10])
+
+
+@jit
+def with_normal(hit, n):
+    """program.run's hit with shading normal n (Cycles' svm_node_set_normal), unless n is zero
+    or not finite."""
+    for k in range(3):
+        if not math.isfinite(n[k]):
+            return hit
+    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:
+        return hit
+    return (hit[0], hit[1], n, hit[3], hit[4], hit[5], hit[6], hit[7], hit[8], hit[9], hit[10])
+
+
+@jit
+def bump_normal(heights, strength, distance, invert, filter_width, n, dx, dy):
+    """Cycles' svm_node_set_bump: normal n bent by the heights (h_c, h_x, h_y) at the hit and
+    at the hit moved by dx and dy times filter_width, at a strength and distance."""
+    h_c, h_x, h_y = heights
+    rx = cross(dy, n)
+    ry = cross(n, dx)
+    det = dot(dx, rx)
+    surfgrad = add(mul(rx, h_x - h_c), mul(ry, h_y - h_c))
+    scale = -distance if invert else distance
+    strength = max(strength, 0.0)
+    sign = -1.0 if det < 0.0 else 1.0
+    out = normalize(sub(mul(n, filter_width * abs(det)), mul(surfgrad, scale * sign)))
+    if out[0] == 0.0 and out[1] == 0.0 and out[2] == 0.0:
+        return n
+    return normalize(add(mul(out, strength), mul(n, 1.0 - strength)))
+
+
+@jit
+def displacement(height, midlevel, scale, n):
+    """The Displacement node in world space: n (height - midlevel) scale."""
+    return mul(n, (height - midlevel) * scale)
+
+
+@jit
+def vector_displacement(v, midlevel, scale):
+    """The Vector Displacement node in world space: (v - midlevel) scale."""
+    return ((v[0] - midlevel) * scale, (v[1] - midlevel) * scale, (v[2] - midlevel) * scale)
+
+
+@jit
+def object_matrix_columns(x, y, z):
+    """The columns of the object's matrix M and det(A) from its normal matrix A = M^-T of
+    columns x, y, z: M = A^-T has columns (y x z, z x x, x x y) / det(A)."""
+    det = dot(x, cross(y, z))
+    inv = 1.0 / det if det != 0.0 else 0.0
+    return mul(cross(y, z), inv), mul(cross(z, x), inv), mul(cross(x, y), inv)
+
+
+@jit
+def object_direction(v, x, y, z):
+    """M v (Cycles' object_dir_transform) for normal matrix columns x, y, z."""
+    m0, m1, m2 = object_matrix_columns(x, y, z)
+    return add(add(mul(m0, v[0]), mul(m1, v[1])), mul(m2, v[2]))
+
+
+@jit
+def object_normal(n, x, y, z):
+    """M normalize(M^T n): a world normal to object space (object_inverse_normal_transform)
+    and that direction back through M (object_dir_transform), as the Displacement node's
+    object space does."""
+    m0, m1, m2 = object_matrix_columns(x, y, z)
+    local = normalize((dot(m0, n), dot(m1, n), dot(m2, n)))
+    return object_direction(local, x, y, z)
+
+
+@jit
+def execute(ins, regs, hit, mats):
+    """Run BUMP and the displacement instructions at program.run's hit (OFFSET, RESTORE and
+    SET_NORMAL change the hit: run does them)."""
+    op = ins[0]
+    ns = hit[2]
+    if op == BUMP:
+        n = normal_in(regs, ins[2], ns)
+        dx, dy = differentials(hit[1], hit_width(hit, mats.programs.camera))
+        h = ins[3]
+        store3(regs, ins[1], bump_normal((regs[h], regs[h + 1], regs[h + 2]), regs[ins[4]],
+                                         regs[ins[5]], ins[6] != 0, regs[ins[7]], n, dx, dy))
+    elif op == DISPLACEMENT:
+        store3(regs, ins[1], displacement(regs[ins[2]], regs[ins[3]], regs[ins[4]],
+                                          normal_in(regs, ins[5], ns)))
+    elif op == VECTOR_DISPLACEMENT:
+        v = ins[2]
+        store3(regs, ins[1], vector_displacement((regs[v], regs[v + 1], regs[v + 2]),
+                                                 regs[ins[3]], regs[ins[4]]))
+    elif op == HEIGHT:
+        v = ins[2]
+        regs[ins[1]] = dot((regs[v], regs[v + 1], regs[v + 2]), ns)
+    elif op == OBJECT_DIRECTION or op == OBJECT_NORMAL:
+        tri, b1, b2 = hit[5], hit[6], hit[7]
+        x = interpolate(mats.coords[ins[3]], tri, b1, b2)
+        y = interpolate(mats.coords[ins[4]], tri, b1, b2)
+        z = interpolate(mats.coords[ins[5]], tri, b1, b2)
+        if op == OBJECT_DIRECTION:
+            v = ins[2]
+            store3(regs, ins[1], object_direction((regs[v], regs[v + 1], regs[v + 2]), x, y, z))
+        else:
+            store3(regs, ins[1], object_normal(normal_in(regs, ins[2], ns), x, y, z))
