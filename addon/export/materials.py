@@ -71,9 +71,11 @@ def convert_material(mat, resources=None):
         coverage.append(f"its shader program: {exc}")
         return converted, coverage
     # A program wins where it leaves fewer nodes out, or renders part of a surface the fixed
-    # kinds replace whole.
+    # kinds replace whole, or the bump displacement they leave out.
+    bumped = program["program"].get("bump_displacement", False)
     if len(program_coverage.issues) > len(coverage.issues) or (
-            len(program_coverage.issues) == len(coverage.issues) and not whole_replaced):
+            len(program_coverage.issues) == len(coverage.issues) and not whole_replaced
+            and not bumped):
         return converted, coverage
     if absorption is not None:
         program["absorption"] = absorption

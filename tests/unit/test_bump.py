@@ -44,9 +44,9 @@ def _bumped(gradient, n, ng, distance, strength=1.0, invert=False, width=0.1, co
 def test_linear_height_bends_the_normal_by_its_surface_gradient(n, distance, invert):
     """A height of known gradient g: Cycles' bumped normal is normalize(n - d (g - (g.n) n))
     (d the Distance, negated when inverted), whatever the differentials' width, and on any
-    side (a back face's n and Ng face the ray). (Deliberate errors: the height difference's
-    sign flipped gives n + d g_t: off by 0.46 for d 0.5; Distance read 10% larger: off by 0.02
-    (tolerance 1e-9); both caught.)"""
+    side (a back face's n and Ng face the ray). (Deliberate errors, measured: the height
+    differences' sign flipped (n + d g_t) puts components off by up to 0.65, and the Distance
+    read 10% larger by 0.012-0.028, against a tolerance of 1e-9: every case fails.)"""
     n = _unit(n)
     g = np.array([0.3, -0.7, 0.45])
     d = -distance if invert else distance
@@ -58,8 +58,8 @@ def test_linear_height_bends_the_normal_by_its_surface_gradient(n, distance, inv
 
 def test_strength_mixes_linearly_from_the_unbent_normal():
     """Strength s: normalize(s bent + (1 - s) n), clamped at 0 below (Cycles has no upper
-    clamp). (Deliberate error: strength applied to Distance instead gives another normal,
-    off by 0.03 at s 0.5; caught.)"""
+    clamp). (Deliberate errors: the clamp at 0 left out fails at strength -1; the Distance
+    10% larger fails too.)"""
     n = np.array([0.0, 0.0, 1.0])
     g = np.array([1.2, 0.4, 0.0])
     full = _unit(n - 0.5 * g)
@@ -78,10 +78,10 @@ def test_no_width_or_no_gradient_leaves_the_normal():
 
 
 def test_input_normal_other_than_the_frame_normal():
-    """The Normal input need not be Ng: the tangents are crosses with the input normal, and
-    for a linear height the bend is exact along the input normal's plane when it equals Ng's
-    rotation about the surface... checked here against Cycles' formula written out in numpy:
-    N' = normalize(w |det| n - d sign(det) ((h_x - h_c) Rx + (h_y - h_c) Ry))."""
+    """A Normal input other than Ng (the differentials stay along Ng's frame): Cycles'
+    formula written out in numpy, N' = normalize(w |det| n - d sign(det) ((h_x - h_c) Rx +
+    (h_y - h_c) Ry)) with Rx = dP.dy x n, Ry = n x dP.dx, det = dP.dx . Rx. (The sign and
+    Distance errors above fail here too.)"""
     ng = _unit([0.1, 0.2, 1.0])
     n = _unit([0.3, -0.1, 1.0])
     g = np.array([0.5, 0.2, -0.3])
@@ -173,8 +173,8 @@ def test_offset_moves_position_and_coordinates_together_and_restore_puts_them_ba
     """Between OFFSET and RESTORE, Geometry Position is the hit moved by its differential
     (Cycles' svm_node_bump_P_dx: P + dP.dx width, dP.dx = camera dD x distance along
     make_orthonormals(Ng)), and a per-corner coordinate moves with it (here a UV equal to
-    the position's x, y); after RESTORE both are back. (Deliberate error: barycentrics left
-    unmoved: the UV stays at the hit while the position moves, caught.)"""
+    the position's x, y); after RESTORE both are back. (Deliberate error, measured:
+    barycentrics left unmoved, the UV stays at the hit while the position moves: fails.)"""
     uv = np.array([[[-1.0, -1.0, 0.0], [3.0, -1.0, 0.0], [-1.0, 3.0, 0.0]]])[0]
     width = 0.5
     # Registers: 0 the width constant; 1.. outputs.
@@ -213,3 +213,48 @@ def test_bump_instruction_bends_by_the_moved_heights():
     code.append([bump.BUMP, 30, -1, 3, 1, 2, 0, 0])
     regs, _ = _run(code, [width, 1.0, distance, 0.0, 0.0, 0.0], np.zeros((3, 3)))
     assert np.allclose(regs[30:33], _unit([-distance, 0.0, 1.0]), atol=1e-9)
+
+
+def _normal_matrix_columns(m):
+    """The columns x, y, z of A = M^-T, as the scene's normal_matrix coordinates hold them."""
+    a = np.linalg.inv(m).T
+    return tuple(tuple(a[:, k]) for k in range(3))
+
+
+def test_object_space_displacement_goes_through_the_object_matrix():
+    """Cycles' object-space displacement: the Displacement node's normal M normalize(M^T n)
+    (object_inverse_normal_transform, then object_dir_transform), Vector Displacement's M v,
+    under an unequal scale with rotation and shear, read from the normal matrix A = M^-T.
+    (Deliberate error: M taken as A itself: off by the scale, caught.)"""
+    rng = np.random.default_rng(3)
+    m = rng.normal(size=(3, 3)) + np.diag([1.5, 0.4, 2.0])
+    x, y, z = _normal_matrix_columns(m)
+    v = np.array([0.3, -0.2, 0.9])
+    assert np.allclose(bump.object_direction(tuple(v), x, y, z), m @ v, atol=1e-12)
+    n = _unit([0.2, 0.4, 0.9])
+    expect = m @ _unit(m.T @ n)
+    assert np.allclose(bump.object_normal(tuple(n), x, y, z), expect, atol=1e-12)
+    # The Displacement node in world space: n (height - midlevel) scale.
+    assert np.allclose(bump.displacement(0.8, 0.5, 0.2, tuple(n)), n * 0.06, atol=1e-15)
+    assert np.allclose(bump.vector_displacement((0.7, 0.2, 0.5), 0.5, 2.0), (0.4, -0.6, 0.0))
+
+
+def test_tangent_space_vector_displacement_is_cycles():
+    """Cycles' tangent space: x along the object-space tangent t, y along the object-space
+    normal n, z along sign normalize(n x t), through M; the exporter's tangent is A t (world
+    space through the normal matrix). Checked against that construction in numpy under an
+    unequal scale. (Deliberate error: y and z swapped (the usual x, y, z = t, b, n order): off
+    by the components' difference, caught.)"""
+    rng = np.random.default_rng(5)
+    m = rng.normal(size=(3, 3)) * 0.3 + np.diag([1.2, 0.7, 1.6])
+    x, y, z = _normal_matrix_columns(m)
+    a = np.linalg.inv(m).T
+    t_obj = np.array([0.9, 0.1, 0.05])
+    n_world = _unit(a @ _unit([0.05, -0.1, 1.0]))
+    v = np.array([0.3, 0.5, -0.2])
+    for sign in (1.0, -1.0):
+        n_obj = _unit(m.T @ n_world)
+        b = sign * _unit(np.cross(n_obj, t_obj))
+        expect = m @ (t_obj * v[0] + n_obj * v[1] + b * v[2])
+        got = bump.tangent_direction(tuple(v), tuple(a @ t_obj), sign, tuple(n_world), x, y, z)
+        assert np.allclose(got, expect, atol=1e-12)

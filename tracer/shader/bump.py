@@ -44,7 +44,7 @@ from .inputs import LP_CAMERA, interpolate, normal_in, store3
 
 # Opcodes 450-479.
 OFFSET, RESTORE, BUMP, SET_NORMAL, DISPLACEMENT, VECTOR_DISPLACEMENT, HEIGHT, \
-    OBJECT_DIRECTION, OBJECT_NORMAL = range(450, 459)
+    OBJECT_DIRECTION, OBJECT_NORMAL, TANGENT_DIRECTION = range(450, 460)
 FIRST, LAST = 450, 479
 # OFFSET's literal: the differential it moves the hit by.
 AXIS_X, AXIS_Y = 0, 1
@@ -73,6 +73,11 @@ SPECS = {
     OBJECT_NORMAL: ("Displacement in object space: M normalize(M^T n), of normal matrix "
                     "columns the scene's coordinates i, i, i", "vniii--",
                     {3: "texcoords", 4: "texcoords", 5: "texcoords"}),
+    TANGENT_DIRECTION: ("Vector Displacement in tangent space: vector v in the frame of the "
+                        "scene's coordinates i (tangent), i (tangent_sign) and the shading "
+                        "normal, through M of normal matrix columns i, i, i", "vviiiii",
+                        {3: "texcoords", 4: "texcoords", 5: "texcoords", 6: "texcoords",
+                         7: "texcoords"}),
 }
 
 
@@ -256,6 +261,28 @@ def object_normal(n, x, y, z):
 
 
 @jit
+def object_transposed(v, x, y, z):
+    """M^T v (a world normal to object space before normalising; a normal-matrix-transformed
+    vector A t back to t) for normal matrix columns x, y, z."""
+    m0, m1, m2 = object_matrix_columns(x, y, z)
+    return dot(m0, v), dot(m1, v), dot(m2, v)
+
+
+@jit
+def tangent_direction(v, tangent, sign, ns, x, y, z):
+    """Cycles' tangent-space Vector Displacement (svm_node_vector_displacement): v's
+    components along the object-space tangent t, normal n and bitangent sign normalize(n x t)
+    (x, normal, bitangent in that order: Blender's convention), through M. tangent: A t
+    interpolated at the hit (A = M^-T, the normal matrix of columns x, y, z); ns the world
+    shading normal."""
+    t = object_transposed(tangent, x, y, z)
+    n = normalize(object_transposed(ns, x, y, z))
+    b = mul(normalize(cross(n, t)), sign)
+    local = add(add(mul(t, v[0]), mul(n, v[1])), mul(b, v[2]))
+    return object_direction(local, x, y, z)
+
+
+@jit
 def execute(ins, regs, hit, mats):
     """Run BUMP and the displacement instructions at program.run's hit (OFFSET, RESTORE and
     SET_NORMAL change the hit: run does them)."""
@@ -287,3 +314,13 @@ def execute(ins, regs, hit, mats):
             store3(regs, ins[1], object_direction((regs[v], regs[v + 1], regs[v + 2]), x, y, z))
         else:
             store3(regs, ins[1], object_normal(normal_in(regs, ins[2], ns), x, y, z))
+    elif op == TANGENT_DIRECTION:
+        tri, b1, b2 = hit[5], hit[6], hit[7]
+        x = interpolate(mats.coords[ins[5]], tri, b1, b2)
+        y = interpolate(mats.coords[ins[6]], tri, b1, b2)
+        z = interpolate(mats.coords[ins[7]], tri, b1, b2)
+        tangent = interpolate(mats.coords[ins[3]], tri, b1, b2)
+        sign = interpolate(mats.coords[ins[4]], tri, b1, b2)[0]
+        v = ins[2]
+        store3(regs, ins[1], tangent_direction((regs[v], regs[v + 1], regs[v + 2]), tangent,
+                                               sign, ns, x, y, z))

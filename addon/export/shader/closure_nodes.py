@@ -201,3 +201,4 @@ def compile_displacement(c, output, method):
     normal = c.alloc("vector")
     c.emit(tracer_bump.BUMP, normal, None, heights, c.constant(1.0), c.constant(1.0), 0, width)
     c.emit(tracer_bump.SET_NORMAL, normal)
+    c.bump_displacement = True

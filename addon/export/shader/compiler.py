@@ -72,6 +72,7 @@ class Compiler:
         self.emission = [0.0, 0.0, 0.0]
         self.emission_varies = False
         self.refracts = False
+        self.bump_displacement = False     # the program bumps the hit's normal first
 
     # -- registers and instructions -------------------------------------------------------
 
@@ -277,7 +278,10 @@ class Compiler:
             raise CompileError(f"needs {registers} registers, more than the {MAX_REGISTERS} "
                                f"a program has")
         code = [[s.index if isinstance(s, Reg) else int(s) for s in row] for row in self.rows]
-        return {"registers": registers, "constants": consts, "code": code,
-                "data": list(self.data_values), "emission_varies": self.emission_varies,
-                "refracts": self.refracts}
+        program = {"registers": registers, "constants": consts, "code": code,
+                   "data": list(self.data_values), "emission_varies": self.emission_varies,
+                   "refracts": self.refracts}
+        if self.bump_displacement:
+            program["bump_displacement"] = True
+        return program
 

@@ -16,14 +16,23 @@ FRAME_KINDS = ("tangent", "tangent_sign", "tangent_normal")     # tracer.scene.T
 
 
 def uses_normal_maps():
-    """(whether any material or node group has a Normal Map node, whether one is in tangent
-    space: then meshes keep their UV maps' tangents)."""
+    """(whether any material or node group has a Normal Map or a displacement node: then
+    meshes keep their coordinates, the normal matrix among them; whether a Normal Map or a
+    Vector Displacement is in tangent space: then they keep their UV maps' tangents too)."""
     import bpy
     trees = [mat.node_tree for mat in bpy.data.materials if mat.node_tree is not None]
     trees += [group for group in bpy.data.node_groups if group.bl_idname == "ShaderNodeTree"]
     spaces = {node.space for tree in trees for node in tree.nodes
               if node.bl_idname == "ShaderNodeNormalMap"}
-    return bool(spaces), "TANGENT" in spaces
+    # A tangent-space Vector Displacement reads the tangents too.
+    tangent_displacement = any(node.bl_idname == "ShaderNodeVectorDisplacement"
+                               and node.space == "TANGENT" for tree in trees
+                               for node in tree.nodes)
+    # Displacement nodes read the object's normal matrix among the coordinates.
+    displacement = any(node.bl_idname in ("ShaderNodeDisplacement",
+                                          "ShaderNodeVectorDisplacement")
+                       for tree in trees for node in tree.nodes)
+    return bool(spaces) or displacement, "TANGENT" in spaces or tangent_displacement
 
 
 def normal_map(c, node, socket):
@@ -118,15 +127,19 @@ def displacement(c, node, socket):
 
 
 def vector_displacement(c, node, socket):
-    """The Vector Displacement node's vector: (Vector - Midlevel) x Scale in world or object
-    space (svm_node_vector_displacement); tangent space is warned and read as object space."""
+    """The Vector Displacement node's vector: (Vector - Midlevel) x Scale in tangent, object or
+    world space (svm_node_vector_displacement)."""
     out = c.alloc("vector")
     c.emit(tracer_bump.VECTOR_DISPLACEMENT, out, c.input(node, "Vector", "vector"),
            c.input(node, "Midlevel", "float"), c.input(node, "Scale", "float"))
     if node.space == "TANGENT":
-        c.warn(node, "is in tangent space, which Snell does not evaluate", "read in object "
-               "space")
-    if node.space != "WORLD":
+        # The active render UV map's tangents, as Cycles' VectorDisplacementNode reads them.
+        world = c.alloc("vector")
+        c.emit(tracer_bump.TANGENT_DIRECTION, world, out,
+               c.resources.texcoord_index("tangent", ""),
+               c.resources.texcoord_index("tangent_sign", ""), *_object_matrix(c))
+        out = world
+    elif node.space == "OBJECT":
         world = c.alloc("vector")
         c.emit(tracer_bump.OBJECT_DIRECTION, world, out, *_object_matrix(c))
         out = world
