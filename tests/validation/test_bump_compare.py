@@ -219,13 +219,15 @@ def test_bumps_compile_to_programs_with_three_heights(bumps):
 
 
 def test_bumps_match_cycles(bumps):
-    """Consistent (measured: see the module's numbers in the commit)."""
+    """Consistent (measured at 256 spp against the stored reference: mean ratio 0.9999/
+    0.9998/0.9997, mean z -0.05/-0.16/-0.22, z pass fraction 1.0, no tile failed)."""
     verdict, detail = _verdict(bumps.compare())
     assert verdict == "consistent", detail
 
 
 def test_bump_distance_off_by_ten_percent_is_caught(bumps):
-    """Every Bump's Distance 10% larger."""
+    """Every Bump's Distance 10% larger (measured: 21 tiles failed, mean ratio 0.987, mean z
+    -9.5 to -10.8)."""
     from snell.tracer.shader import bump
     verdict, detail = _verdict(bumps.compare(
         lambda s: with_scaled_slot(s, BUMPED, bump.BUMP, 5, 1.1)))
@@ -233,13 +235,19 @@ def test_bump_distance_off_by_ten_percent_is_caught(bumps):
 
 
 def test_back_faces_match_cycles(back_faces):
-    """Consistent: Cycles bends a back face's normal about the normal facing the ray."""
+    """Consistent (measured: mean ratio 1.0016/1.0008/1.0003, mean z 0.85/0.55/0.23, no tile
+    failed). Cycles bends a back face's normal about the normals facing the ray, and moves the
+    Wave's Generated coordinates against the point (its barycentric differentials flip on a
+    back face): moved with the point, the walls were 8% darker than Cycles' (5 tiles failed,
+    mean z -32 to -47)."""
     assert back_faces.warnings == []
     verdict, detail = _verdict(back_faces.compare())
     assert verdict == "consistent", detail
 
 
 def test_back_face_distance_off_by_ten_percent_is_caught(back_faces):
+    """Both Bumps' Distance 10% larger (measured: 3 tiles failed, mean ratio 0.978, mean z
+    -11.6 to -16.9)."""
     from snell.tracer.shader import bump
     verdict, detail = _verdict(back_faces.compare(
         lambda s: with_scaled_slot(s, BACK, bump.BUMP, 5, 1.1)))
@@ -261,12 +269,15 @@ def test_displacement_compiles_to_bump_before_the_closures(displacement):
 
 
 def test_displacement_matches_cycles(displacement):
+    """Consistent (measured: mean ratio 1.0008/1.0008/1.0007, mean z 0.86/0.84/0.78, z pass
+    fraction 1.0, no tile failed)."""
     verdict, detail = _verdict(displacement.compare())
     assert verdict == "consistent", detail
 
 
 def test_displacement_scale_off_by_ten_percent_is_caught(displacement):
-    """Every Displacement node's Scale 10% larger."""
+    """Every Displacement node's Scale 10% larger (measured: 12 tiles failed, mean ratio
+    0.976, mean z -26 to -29)."""
     from snell.tracer.shader import bump
     verdict, detail = _verdict(displacement.compare(
         lambda s: with_scaled_slot(s, DISPLACED, bump.DISPLACEMENT, 4, 1.1)))

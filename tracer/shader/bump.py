@@ -28,7 +28,11 @@ segment only, and a camera ray through transparent surfaces the length from its 
 surface; camera hits take Cycles' dD of their own direction. The step is a small fraction of a
 pixel's footprint (Filter Width 0.1 by default), so for heights smooth at that scale the
 gradient, and so the normal, is the same; only heights that vary within a pixel see the
-difference (as in Cycles, they alias). A Bump node inside another Bump node's Height is
+difference (as in Cycles, they alias). On a back face Cycles moves the attributes (UV,
+Generated) against the point (its barycentric differentials flip with dPdu and dPdv); Snell
+moves the barycentrics so, and with them its Object coordinates, which Cycles moves with the
+point: an Object-coordinate height seen from behind is bumped the other way round than in
+Cycles. A Bump node inside another Bump node's Height is
 evaluated at the unmoved hit; Cycles' object-space bump (displacement method "Displacement and
 Bump") is taken in world space, the same for objects of unit scale.
 """
@@ -181,13 +185,19 @@ def hit_width(hit, view):
 @jit
 def moved_hit(hit, axis, filter_width, programs):
     """program.run's hit moved by its differential along axis (AXIS_X, AXIS_Y) times
-    filter_width: its point, and its barycentrics by the same step."""
+    filter_width: its point, and its barycentrics by the same step (on a back face, the
+    opposite step, as Cycles' do)."""
     dx, dy = differentials(hit[1], hit_width(hit, programs.camera))
     step = mul(dx if axis == AXIS_X else dy, filter_width)
     tri = hit[5]
     db1, db2 = 0.0, 0.0
     if tri < programs.corners.shape[0]:
         db1, db2 = barycentric_step(programs.corners[tri], step)
+    if not hit[4]:
+        # On a back face Cycles negates dPdu and dPdv with Ng (shader_data.h), so the
+        # barycentric differentials it solves for flip while dP.dx does not: attributes move
+        # against the point.
+        db1, db2 = -db1, -db2
     return (add(hit[0], step), hit[1], hit[2], hit[3], hit[4], hit[5], hit[6] + db1,
             hit[7] + db2, hit[8], hit[9], hit[10])
 
