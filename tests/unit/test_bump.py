@@ -197,9 +197,10 @@ def test_offset_moves_position_and_coordinates_together_and_restore_puts_them_ba
 def test_on_a_back_face_coordinates_move_against_the_point():
     """On a back face Cycles negates dPdu and dPdv with Ng (shader_data.h): the point moves by
     dP.dx along make_orthonormals(-Ng), while the barycentric differentials, and the UV
-    interpolated with them, move the opposite way. (Deliberate error: the barycentrics moved
-    with the point, as on a front face: the bump scene's back-face walls were 8% darker than
-    Cycles', 5 tiles failed; here the UV's check fails.)"""
+    interpolated with them, move the opposite way. (Deliberate error, measured: the
+    barycentrics moved with the point, as on a front face: here the UV's check fails; in
+    tests/validation/test_bump_compare.py the back-face walls were 8% darker than Cycles', 5
+    tiles failed.)"""
     uv = np.array([[-1.0, -1.0, 0.0], [3.0, -1.0, 0.0], [-1.0, 3.0, 0.0]])
     width = 0.5
     code = [[bump.OFFSET, bump.AXIS_X, 0], [inputs.GEOMETRY, 1, inputs.G_POSITION],
