@@ -51,7 +51,7 @@ class _CachedExporter(Exporter):
         if name not in self.live.meshes or (self.want_texcoords and cached is not None
                                             and cached.coords is None):
             self.live.meshes[name] = mesh_arrays(inst.object, self.want_texcoords,
-                                                 self.want_tangents)
+                                                 self.want_tangents, self.want_attributes)
             self.live.extracted.append(name)
         return self.live.meshes[name]
 

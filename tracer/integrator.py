@@ -35,6 +35,7 @@ from .scene import Scene
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
 from .shader import program
 from .shader.bump import with_view
+from .shader.object_inputs import camera_table
 
 
 class _Buffers(threading.local):
@@ -112,8 +113,9 @@ class Renderer:
         self.geometry = (Geometry(scene.positions, scene.triangles, scene.normals)
                          if geometry is None else geometry)
         self.materials = with_view(material_tables(scene.materials, scene.material_ids,
-                                                   scene.images, scene.texcoords),
-                                   self.geometry.corners, self.camera.params())
+                                                   scene.images, scene.texcoords, scene.objects,
+                                                   scene.object_ids, self.camera),
+                                   self.geometry.corners, self.camera)
         self.tables = shipped_tables()
         kind = self.materials.kind
         self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
@@ -150,7 +152,8 @@ class Renderer:
         other.scene = copy.copy(self.scene)
         other.scene.camera = camera
         other.camera = Camera(camera)
-        other.materials = with_view(self.materials, self.geometry.corners, other.camera.params())
+        other.materials = with_view(self.materials._replace(camera=camera_table(other.camera)),
+                                    self.geometry.corners, other.camera)
         if self.media.on:         # the stack at the camera
             other.media = media_tables(other.scene, self.lights.tables)
         other._use_camera_for_caustics()
@@ -325,10 +328,14 @@ class Renderer:
             stats[wavefront.VERTEX_RAYS] += n_light
             light_vertices_module.hits(lights, mesh, mats, self.media, n_light, lv, prim, u, v)
         m = n
-        for depth in range(self.max_depth + 1):
+        # Passing a transparent surface is no bounce (wavefront.Paths.bounce): the wavefront
+        # goes as deep as the bounces and transparent bounces together allow.
+        limits = (self.max_depth, self.settings.transparent_max_bounces)
+        deepest = self.max_depth + (limits[1] if self.transparent_shadows else 0)
+        for depth in range(deepest + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
             kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split,
-                                      self.world_split, depth, self.max_depth, m, paths, prim, t,
+                                      self.world_split, depth, limits, m, paths, prim, t,
                                       radiance, without, active, stats, with_features,
                                       feature_albedo)
             if self.programs_emit:
@@ -345,14 +352,14 @@ class Renderer:
             if n_programs:
                 m, n_shadow = wavefront.program_materials(
                     lights, mesh, mats, self.media, self.tables, self.next_event, bits,
-                    stratified, depth, n_programs, programs, paths, prim, u, v, out, m, shadows,
+                    stratified, depth, self.max_depth, n_programs, programs, paths, prim, u, v, out, m, shadows,
                     n_shadow, radiance, without, scratch, regs, stats, lv, last_connection,
                     with_features, feature_albedo, feature_normal)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])
                 if self.transparent_shadows:
-                    self._through_transparency(depth, n_shadow, blocked, shadows, scratch, regs)
+                    self._through_transparency(n_shadow, blocked, shadows, scratch, regs)
                 wavefront.shadow_rays(n_shadow, blocked, shadows, radiance, without)
             paths, out = out, paths
             if m == 0:
@@ -364,7 +371,7 @@ class Renderer:
                                                           features[1])
         return radiance, without, stats
 
-    def _through_transparency(self, depth, n_shadow, blocked, shadows, scratch, regs):
+    def _through_transparency(self, n_shadow, blocked, shadows, scratch, regs):
         """Let the blocked shadow rays through transparent surfaces (wavefront.
         shadow_transparency), one surface per Embree call, as many as Cycles' Transparent
         bounces allow: a ray with more in its way stays blocked."""
@@ -377,7 +384,7 @@ class Renderer:
                                                     shadows.d32[pending],
                                                     shadows.tmax[pending])
             left = wavefront.shadow_transparency(self.geometry.mesh, self.materials,
-                                                 self.tables, depth, len(pending), pending,
+                                                 self.tables, len(pending), pending,
                                                  prim, u, v, t, shadows, blocked, scratch, regs)
             pending = pending[:left]
 

@@ -15,6 +15,7 @@ from . import lobes, microfacet
 from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, PROGRAM, REFRACTION
 from .scene import DISTRIBUTIONS, EXTENSIONS, TEXTURE_SLOTS, emits, material_field
 from .shader.inputs import IMAGE
+from .shader.object_inputs import camera_table, object_table
 from .shader.program import Programs, program_tables
 
 
@@ -49,6 +50,10 @@ class Materials(NamedTuple):
     coords: np.ndarray        # (C, T, 3, 3) float32 texture coordinates per triangle corner
     # (image textures: the rows they use; shader programs: the scene's texcoords, in order)
     programs: Programs        # the PROGRAM materials' shader programs (shader/program.py)
+    # What programs read of the object and camera (shader/object_inputs.py).
+    of_object: np.ndarray     # (T,) int64 object of each triangle
+    objects: np.ndarray       # (O, object_inputs.OBJECT_FIELDS) each object's matrix, colour ...
+    camera: np.ndarray        # (object_inputs.CAMERA_FIELDS,) world to camera and view plane
 
 
 NO_COLOR = (0.0, 0.0, 0.0)   # the colour fields of a program material, which has none
@@ -149,9 +154,11 @@ def _texture_tables(mats, images, texcoords, n_triangles) -> dict:
         pool=pool, coords=np.ascontiguousarray(coords))
 
 
-def material_tables(mats: list, material_ids: np.ndarray, images=(), texcoords=()) -> Materials:
+def material_tables(mats: list, material_ids: np.ndarray, images=(), texcoords=(),
+                    objects=(), object_ids=None, camera=None) -> Materials:
     """The kernels' tables for a scene's materials and its triangles' material indices (and its
-    images and texture coordinates, which textures read)."""
+    images and texture coordinates, which textures read; its objects, their triangles' object
+    indices and its camera (a tracer.camera.Camera), which programs read)."""
     def rows(fn, dtype=np.float64, shape=()):
         return np.array([fn(m) for m in mats], dtype).reshape((len(mats),) + shape)
 
@@ -171,4 +178,7 @@ def material_tables(mats: list, material_ids: np.ndarray, images=(), texcoords=(
         principled=rows(principled_row, shape=(lobes.P_FIELDS,)),
         programs=program_tables([m["program"] if m["kind"] == "program" else None
                                  for m in mats]),
+        of_object=(np.zeros(len(material_ids), np.int64) if object_ids is None
+                   else np.asarray(object_ids, np.int64)),
+        objects=object_table(list(objects)), camera=camera_table(camera),
         **_texture_tables(mats, list(images), list(texcoords), len(material_ids)))

@@ -25,9 +25,10 @@ from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIB
 from .lobes import (DIFFUSE_EVENT, P_METALLIC, P_ROUGHNESS, SHADER_PRINCIPLED, TRANSMIT_EVENT,
                     TRANSPARENT_EVENT, bsdf_sample, setup_shader)
 from .material_kinds import DIFFUSE, LAYERED, MIRROR, REFRACTION
+from .shader.closures import TOTAL_TRANSPARENCY
 from .shader.inputs import (LP_CAMERA, LP_DIFFUSE, LP_GLOSSY, LP_REFLECTION, LP_SINGULAR,
                             LP_TRANSMISSION)
-from .shader.program import run
+from .shader.program import run, total
 from .sampling import sample_cosine_hemisphere
 from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_number
 from .vec import dot, neg, sub, vmul
@@ -107,14 +108,17 @@ def scatter_layered(lights, mesh, mats, tables, can_sample_lights, has_normals, 
 
 
 @jit_inline
-def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u,
-                    beta, path, ray, hit, entering, surface, connects, lv, lobes, regs, shadows,
-                    n_shadow, radiance, without, stats):
+def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth,
+                    bounces, u, beta, path, ray, hit, entering, surface, connects, lv, lobes, regs,
+                    shadows, n_shadow, radiance, without, stats):
     """A vertex on a shader program's material (shader/program.py): the program builds the
     hit's lobes, which serve the light sample, the light-vertex connection and the BSDF sample
     as a layered vertex's do. `ray`: (origin, direction, kind and BSDF density of the ray that
     hit, the distance it went since its last scattering vertex). A Transparent sample lets the
     path go on unbent as the same ray: its kind and density stay, and the distance grows.
+    bounces: (the path's bounces, whether they are spent): a path past its last bounce only
+    passes through the surface's transparency, as Cycles' PATH_RAY_TERMINATE_AFTER_TRANSPARENT
+    paths do (their shader keeps no closure but Transparent).
     Returns scatter_layered's results, then the new distance since the last scattering vertex."""
     key, sample, bits, strat = rng
     u_pick, u0, u1 = u
@@ -125,9 +129,13 @@ def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, 
     view = neg(d)
     segment = sub(p, o)
     length = math.sqrt(dot(segment, segment))
+    bounce, spent = bounces
     count = run(mats, mat, regs, (p, ng_f, ns_f, view, entering, tri, b1, b2,
-                                  ray_flags(kind_in, pdf_in), depth, length),
+                                  ray_flags(kind_in, pdf_in), bounce, length),
                 lobes, tables, has_normals)
+    if spent:
+        clear = total(regs, TOTAL_TRANSPARENCY)
+        return d, vmul(beta, clear), kind_in, pdf_in, NO_CAUSTIC, 0.0, n_shadow, 0, mis_t + length
     if can_sample_lights:
         n_shadow = sample_direct_light(lights, mesh, key, sample, 3 + 3 * depth, bits, strat,
                                        u_pick, VISIBLE_ANY_BSDF, p, ng_f, ns_f, eps, beta, 0.0,

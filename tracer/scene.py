@@ -42,9 +42,12 @@ CAMERA_TYPES = ("PERSP", "ORTHO")    # camera.type (version 4); absent: PERSP
 INTERPOLATIONS = ("linear", "closest")
 EXTENSIONS = ("repeat", "extend", "clip", "mirror")     # textures.REPEAT ... MIRROR
 COLORSPACES = ("linear", "srgb")
-# The last four are world-space attributes for normal maps (tracer/shader/normals.py).
+# Then four world-space attributes for normal maps (tracer/shader/normals.py), and a mesh
+# attribute or an object's property by name: its value, and its (Fac, Alpha, found)
+# (tracer/shader/object_inputs.py).
 TEXCOORD_KINDS = ("uv", "generated", "object", "tangent", "tangent_sign", "tangent_normal",
-                  "normal_matrix")
+                  "normal_matrix", "attribute", "attribute_extra", "object_attribute",
+                  "object_attribute_extra")
 # The inputs an image texture may drive, by material kind (docs/scene-format.md).
 TEXTURE_SLOTS = ("color", "roughness", "metallic")
 TEXTURABLE = {"diffuse": ("color",), "mirror": ("color",), "glossy": ("color", "roughness"),
@@ -516,6 +519,17 @@ def _check_objects(objects):
             raise SceneError(f"objects[{i}]: expected an object, got {_short(obj)}")
         if "closed" in obj and not isinstance(obj["closed"], bool):
             raise SceneError(f"objects[{i}].closed: expected true or false, got {_short(obj['closed'])}")
+        # What shader programs read of the object (Object Info, Texture Coordinate Normal);
+        # each optional: a file written before them reads Blender's defaults.
+        if "matrix" in obj:
+            _matrix(obj["matrix"], f"objects[{i}].matrix")
+        if "color" in obj:
+            _finite_vec(obj["color"], f"objects[{i}].color", n=4)
+        if "pass_index" in obj:
+            _int_in(obj["pass_index"], f"objects[{i}].pass_index", 0, 2 ** 31 - 1)
+        if "random_id" in obj:
+            _int_in(obj["random_id"], f"objects[{i}].random_id", 0, 2 ** 32 - 1,
+                    "a 32-bit unsigned integer")
 
 
 def _image_entries(images):

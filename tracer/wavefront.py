@@ -81,6 +81,9 @@ class Paths(NamedTuple):
     #                          densities of that vertex
     medium: np.ndarray       # (n, media.MAX_MEDIA) int64: the media the ray is inside
     #                          (media.py), read and written only in scenes with media
+    bounce: np.ndarray       # (n,) int64: the path's bounces so far, Cycles' `bounce`: a pass
+    #                          through a transparent surface is none (the wavefront's depth
+    #                          minus this is the path's transparent bounces)
 
 
 class Shadows(NamedTuple):
@@ -91,6 +94,7 @@ class Shadows(NamedTuple):
     tmax: np.ndarray         # (n,) float32 segment length
     contrib: np.ndarray      # (n, 3) radiance the path gets if the segment is free
     without: np.ndarray      # (n, 3) the same without light vertices (a pilot's, see emitters)
+    bounce: np.ndarray       # (n,) int64: the bounces of the path that cast it (Paths.bounce)
 
 
 def new_paths(n: int) -> Paths:
@@ -99,14 +103,15 @@ def new_paths(n: int) -> Paths:
                  np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3), np.float32),
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                  np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n),
-                 np.empty((n, 3)), np.zeros(n, np.int64), np.zeros(n), empty_stacks(n))
+                 np.empty((n, 3)), np.zeros(n, np.int64), np.zeros(n), empty_stacks(n),
+                 np.zeros(n, np.int64))
 
 
 def new_shadows(n: int) -> Shadows:
     """Uninitialised shadow-ray buffers for n rays."""
     return Shadows(np.empty(n, np.int64), np.empty((n, 3), np.float32),
                    np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
-                   np.empty((n, 3)))
+                   np.empty((n, 3)), np.zeros(n, np.int64))
 
 
 @jit
@@ -170,6 +175,7 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
         paths.caustic[i] = NO_CAUSTIC
         paths.connect[i] = 0.0
         paths.mis_t[i] = 0.0
+        paths.bounce[i] = 0
         if features:
             for k in range(3):
                 paths.feature[i, k] = 1.0
@@ -177,7 +183,7 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 
 
 @jit
-def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, max_depth, m,
+def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, limits, m,
              paths, prim, t, radiance, without, active, stats, features, feature_albedo):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
@@ -192,6 +198,10 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, m
     are this stage's. With `caustics` (the light tracer runs), paths in the CAUSTIC state get no
     light from lamps, emissive triangles or suns, and with `world_caustics` (it starts paths on
     the world) none from the world: those paths are the light tracer's to count.
+    limits: (max depth, transparent max bounces). A path ends at a surface after its last
+    bounce, or after as many transparent surfaces as the second allows, as in Cycles
+    (path_state_next): what it ends on still adds its light, and after the last bounce a path
+    still passes through transparent surfaces (program_materials), since shadow rays do.
     With `features`, paths that still carry the denoising features add what they find to the
     Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
     written its features at its first, diffuse, hit).
@@ -245,12 +255,26 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, m
                 add_feature_light(feature_albedo, paths, i, beta, emission, w_without)
         if mats.kind[mat] == EMISSION:
             continue
-        if depth == max_depth:
+        if ended(mats, mat, depth, paths.bounce[i], limits):
             stats[DEPTH_LIMITED] += 1     # the depth limit, not the scene, ends this path
             continue
         active[kept] = i
         kept += 1
     return kept
+
+
+@jit_inline
+def ended(mats, mat, depth, bounce, limits):
+    """Whether a path of `bounce` bounces at wavefront depth `depth` ends at a surface of
+    material mat (emitters' limits)."""
+    max_depth, transparent_max = limits
+    crossed = depth - bounce
+    if crossed > 0 and crossed >= transparent_max:
+        return True     # Cycles' PATH_RAY_TERMINATE_ON_NEXT_SURFACE
+    # After the last bounce only a transparent surface lets the path go on (Cycles'
+    # PATH_RAY_TERMINATE_AFTER_TRANSPARENT).
+    return bounce >= max_depth and not (mats.kind[mat] == PROGRAM
+                                        and mats.programs.flags[mat] & MAY_BE_TRANSPARENT)
 
 
 @jit
@@ -273,7 +297,7 @@ def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, 
         b1, b2 = np.float64(u[i]), np.float64(v[i])
         p, _, ng_f, ns_f, _, entering, d = facing_hit(mesh, paths, i, tri, b1, b2)
         hit = (p, ng_f, ns_f, neg(d), entering, tri, b1, b2,
-               ray_flags(paths.ray_kind[i], paths.pdf_prev[i]), depth,
+               ray_flags(paths.ray_kind[i], paths.pdf_prev[i]), paths.bounce[i],
                np.float64(t[i]))
         run(mats, mat, regs, hit, lobes, tables, has_normals)
         emission = total(regs, TOTAL_EMISSION)
@@ -347,6 +371,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
             new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
                 kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,
                 entering, color, trans_color, mats.ior[mat], stats)
+        shadows.bounce[first_shadow:n_shadow] = paths.bounce[i]
         if media.on:
             medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
                                      first_shadow, n_shadow)
@@ -357,7 +382,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
                                      trans_color, mats.ior[mat])
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
-        n_out = go_on(out, n_out, paths, i, depth, u_roulette, (new_d, beta, ray_kind, pdf_prev,
+        n_out = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
                                                               caustic, connect, 0.0),
                       offset_origin(p, ng, eps, new_d), features, stats, media,
                       (tri, mat, entering, ng_f))
@@ -366,12 +391,13 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
 
 @jit
 def program_materials(lights, mesh, mats, media, tables, next_event, bits, stratified, depth,
-                      n_programs, programs, paths, prim, u, v, out, n_out, shadows, n_shadow,
+                      max_depth, n_programs, programs, paths, prim, u, v, out, n_out, shadows, n_shadow,
                       radiance, without, lobes, regs, stats, lv, last_connection, features,
                       feature_albedo, feature_normal):
     """The materials stage for the hits on shader programs that `materials` left in
     `programs` (scatter.scatter_program), their next rays after out's first n_out and their
-    shadow rays after the first n_shadow. Returns the new (n_out, n_shadow)."""
+    shadow rays after the first n_shadow. Returns the new (n_out, n_shadow). A path past its
+    last bounce (max_depth) only passes through the surface's transparency."""
     has_normals = mesh.corner_normals.shape[0] > 0
     can_sample_lights = next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0
     strat = stratified and depth < STRATIFIED_BOUNCES
@@ -388,19 +414,22 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
         connects = depth <= last_connection and lv.found[path]
         ray = (row(paths.o, i), d, paths.ray_kind[i], paths.pdf_prev[i], paths.mis_t[i])
         first_shadow = n_shadow
+        bounce = paths.bounce[i]
         (new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count,
          mis_t) = scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals,
-                                  (key, sample, bits, strat), depth, (u_pick, u0, u1),
+                                  (key, sample, bits, strat), depth,
+                                  (bounce, bounce >= max_depth), (u_pick, u0, u1),
                                   row(paths.beta, i), path, ray, (p, ng, ng_f, ns_f, eps),
                                   entering, (mat, tri, b1, b2), connects, lv, lobes, regs,
                                   shadows, n_shadow, radiance, without, stats)
+        shadows.bounce[first_shadow:n_shadow] = bounce
         if media.on:
             medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
                                      first_shadow, n_shadow)
         if features and paths.feature_on[i] != 0:
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
-        n_out = go_on(out, n_out, paths, i, depth, u_roulette, (new_d, beta, ray_kind, pdf_prev,
+        n_out = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
                                                               caustic, connect, mis_t),
                       offset_origin(p, ng, eps, new_d), features, stats, media,
                       (tri, mat, entering, ng_f))
@@ -420,18 +449,20 @@ def facing_hit(mesh, paths, i, tri, b1, b2):
 
 
 @jit_inline
-def go_on(out, n_out, paths, i, depth, u_roulette, scattered, origin, features, stats, media,
+def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, media,
           surface):
     """After Russian roulette, path i's next ray from origin (`scattered`: direction,
     throughput, ray kind, BSDF density, caustic state, light-vertex factor, distance since the
-    last scattering vertex) as row n_out of `out`, with its stack of media (entered or left
+    last scattering vertex: not 0 after a transparent surface, which is no bounce) as row n_out
+    of `out`, with its stack of media (entered or left
     through `surface`: triangle, material, entering, facing geometric normal); returns the new
     count."""
     new_d, beta, ray_kind, pdf_prev, caustic, connect, mis_t = scattered
     peak = max3(beta)
     if not peak > 0.0:
         return n_out
-    if depth + 1 >= RR_START:
+    bounce = paths.bounce[i] + (0 if mis_t > 0.0 else 1)
+    if bounce >= RR_START:
         # Survival probability throughput / 0.1: in a closed room a path's remaining light
         # is large, and killing paths at throughput 0.5 (q = throughput) cost more
         # variance than it saved time (measured: 1.5x worse relMSE x time).
@@ -450,6 +481,7 @@ def go_on(out, n_out, paths, i, depth, u_roulette, scattered, origin, features, 
     out.pdf_prev[n_out] = pdf_prev
     out.connect[n_out] = connect
     out.mis_t[n_out] = mis_t
+    out.bounce[n_out] = bounce
     if media.on:
         tri, mat, entering, ng_f = surface
         medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
@@ -475,7 +507,7 @@ def shadow_rays(n, blocked, shadows, radiance, without):
 
 
 @jit
-def shadow_transparency(mesh, mats, tables, depth, n, pending, prim, u, v, t, shadows, blocked,
+def shadow_transparency(mesh, mats, tables, n, pending, prim, u, v, t, shadows, blocked,
                         lobes, regs):
     """One step of shadow rays through transparent surfaces, as Cycles' transparent shadows:
     each of the n shadow rays `pending` (rows of shadows) met the surface prim (Embree's closest
@@ -499,7 +531,7 @@ def shadow_transparency(mesh, mats, tables, depth, n, pending, prim, u, v, t, sh
         entering = dot(d, ng) < 0.0
         side = 1.0 if entering else -1.0
         run(mats, mat, regs, (p, mul(ng, side), mul(ns, side), neg(d), entering, prim[j], b1, b2,
-                              1 << LP_SHADOW, depth, np.float64(t[j])),
+                              1 << LP_SHADOW, shadows.bounce[r], np.float64(t[j])),
             lobes, tables, mesh.corner_normals.shape[0] > 0)
         clear = total(regs, TOTAL_TRANSPARENCY)
         if not max3(clear) > 0.0:

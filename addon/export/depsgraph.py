@@ -14,10 +14,12 @@ import numpy as np
 from ...tracer import scene as scene_mod
 from ...tracer.scene import Scene, SceneError
 from .camera import convert_camera
+from .custom_properties import instance_rgba, view_layer_rgba
 from .lights import convert_light
 from .materials import NO_MATERIAL, NO_SURFACE, convert_material
 from .meshes import mesh_arrays, to_world
 from .settings import convert_render
+from .shader.input_nodes import attribute_requests, object_attribute_key, uses_object_data
 from .shader.normal_nodes import uses_normal_maps
 from .textures import ImageTextures, uses_image_textures
 from .world import convert_world
@@ -49,7 +51,12 @@ class Exporter:
         self.images = []  # the scene's images: {"name", "source", "pixels"}
         self.textures = ImageTextures(self.images)
         normal_maps, self.want_tangents = uses_normal_maps()
-        self.want_texcoords = uses_image_textures() or normal_maps
+        self.want_attributes, self.want_properties = attribute_requests()
+        self.properties = []  # per object: {texcoord name: RGBA} of want_properties
+        self._layer_properties = {}
+        self.want_texcoords = uses_image_textures() or normal_maps or bool(self.want_attributes)
+        self.want_object_data = uses_object_data()
+        self.object_data = []  # per object: object_data's fields, or None
         self._hidden = {}  # original object pointer -> hidden from render
 
     def warn(self, message):
@@ -96,7 +103,11 @@ class Exporter:
         out = []
         for kind, name in self.textures.texcoord_keys:
             parts = []
-            for mesh, matrix, _, _ in self.parts:
+            for mesh, matrix, _, object_id in self.parts:
+                if kind in ("object_attribute", "object_attribute_extra"):
+                    parts.append(self.property_coords(kind, name, object_id,
+                                                      len(mesh.triangles)))
+                    continue
                 coords = mesh.texcoord(kind, name, matrix)
                 if _det3(matrix) < 0:        # to_world swaps two corners of mirrored parts
                     coords = coords[:, [0, 2, 1]]
@@ -105,6 +116,29 @@ class Exporter:
             out.append({"kind": kind, "name": name,
                         "coords": np.ascontiguousarray(coords, np.float32)})
         return out
+
+    def property_rgba(self, inst, kind, name):
+        """An Attribute node's RGBA of type `kind` (OBJECT, INSTANCER, VIEW_LAYER) for an
+        instance (the view layer's read once)."""
+        if kind != "VIEW_LAYER":
+            return instance_rgba(inst, name, kind == "INSTANCER")
+        if name not in self._layer_properties:
+            self._layer_properties[name] = view_layer_rgba(self.depsgraph, name)
+        return self._layer_properties[name]
+
+    def property_coords(self, kind, name, object_id, n_triangles):
+        """(T, 3, 3) float32 texture coordinates of an object's property (texcoord name
+        `name`: object_attribute_key's), the same at every corner: its RGB (object_attribute)
+        or (Fac: their average, Alpha, 1) (object_attribute_extra), as Cycles reads an object
+        attribute (a float4: kernel/svm/attribute.h); NaN or Inf read as 0 (a scene file
+        holds finite coordinates)."""
+        r, g, b, a = np.nan_to_num(self.properties[object_id].get(name, (0.0, 0.0, 0.0, 0.0)),
+                                   nan=0.0, posinf=0.0, neginf=0.0).tolist()
+        # The average in float32, as Cycles takes it.
+        value = ((r, g, b) if kind == "object_attribute" else
+                 (float(np.float32(np.float32(r) + np.float32(g) + np.float32(b)) *
+                        np.float32(1.0 / 3.0)), a, 1.0))
+        return np.broadcast_to(np.asarray(value, np.float32), (n_triangles, 3, 3))
 
     def add_instance(self, inst):
         """Record one depsgraph instance; the geometry is transformed later, per mesh (scene())."""
@@ -141,6 +175,9 @@ class Exporter:
                       f"vertex coordinate beyond +-{scene_mod.MAX_COORDINATE:g} (out of range)")
         if mesh.dropped:
             self.warn(f"object {name!r}: dropped {mesh.dropped} {DROPPED_TRIANGLES}")
+        for attribute in mesh.nonfinite_attributes:
+            self.warn(f"object {name!r}: attribute {attribute!r} has NaN or Inf values: "
+                      "read as 0 there")
         if len(mesh.triangles) == 0:
             return
         if abs(_det3(matrix)) < 1e-30:
@@ -150,6 +187,15 @@ class Exporter:
         mat_ids, used = mesh.material_ids(tuple(self.material_id(m, name) for m in slots))
         object_id = len(self.objects)
         self.objects.append({"name": name, "closed": mesh.closed})
+        # Kept aside: the scene's objects carry them only if a program reads them
+        # (scene_objects).
+        self.object_data.append(object_data(inst, matrix) if self.want_object_data else None)
+        self.properties.append({object_attribute_key(kind, prop): self.property_rgba(
+            inst, kind, prop) for kind, prop in self.want_properties})
+        for key, value in self.properties[-1].items():
+            if not np.isfinite(value).all():
+                self.warn(f"object {name!r}: property {key.partition(':')[2]!r} is NaN or "
+                          "Inf: read as 0 there")
         if not mesh.closed:
             for i in used:
                 mat = self.materials[i]
@@ -182,7 +228,8 @@ class Exporter:
         # with modifiers each object's evaluated data is its own.
         key = (obj.type == "MESH" and obj.data.as_pointer()) or ("object", obj.as_pointer())
         if key not in self.meshes:
-            self.meshes[key] = mesh_arrays(obj, self.want_texcoords, self.want_tangents)
+            self.meshes[key] = mesh_arrays(obj, self.want_texcoords, self.want_tangents,
+                                           self.want_attributes)
         return self.meshes[key]
 
     def geometry(self):
@@ -214,6 +261,14 @@ class Exporter:
             triangles[_rows(t_start[parts], len(mesh.triangles))] = t.reshape(-1, 3)
         return positions, normals, triangles
 
+    def scene_objects(self):
+        """The scene's objects, with their object_data where a program reads it (so that
+        scenes whose programs do not, the stored Cycles references' among them, export as
+        before)."""
+        if not any(reads_object_data(mat) for mat in self.materials):
+            return self.objects
+        return [{**obj, **(data or {})} for obj, data in zip(self.objects, self.object_data)]
+
     def scene(self, bl_scene, camera, source):
         """The Scene of the instances added, with this camera and the scene's world and settings."""
         positions, normals, triangles = self.geometry()
@@ -226,8 +281,41 @@ class Exporter:
             object_ids=np.repeat(np.array([p[3] for p in self.parts], np.int32), n_tris),
             materials=self.materials, lights=self.lights, camera=camera,
             world=convert_world(bl_scene.world, self.warn, self.images),
-            render=convert_render(bl_scene, self.warn), objects=self.objects, source=source,
+            render=convert_render(bl_scene, self.warn), objects=self.scene_objects(),
+            source=source,
             images=self.images, texcoords=self.texcoords(), coverage=self.coverage)
+
+
+def reads_object_data(mat):
+    """Whether a scene material's program reads its object's fields (object_data)."""
+    from ...tracer.shader import object_inputs
+    return mat["kind"] == "program" and any(
+        row[0] in object_inputs.READS_OBJECT for row in mat["program"]["code"])
+
+
+def object_data(inst, matrix):
+    """The scene object fields shader programs read of a depsgraph instance (Object Info,
+    Texture Coordinate Normal), as Blender's Cycles sync sets them (blender/object.cpp): its
+    world matrix, colour and alpha, pass index, and random id (an instance's from the
+    depsgraph, an object's the hash of its name)."""
+    obj = inst.object
+    if inst.is_instance:
+        random_id = inst.random_id % 2 ** 32
+    else:
+        random_id = object_random_id(obj.name)
+    return {"matrix": matrix.tolist(), "color": [float(x) for x in obj.color],
+            "pass_index": int(obj.pass_index), "random_id": int(random_id)}
+
+
+def object_random_id(name):
+    """Cycles' random id of an object that is not an instance: hash_uint2(hash_string(name),
+    0) (util/hash.h), hash_string over the name's UTF-8 bytes, each from 0 to 255 (measured
+    against Blender 5.0's Cycles: a name with non-ASCII letters hashes its bytes unsigned)."""
+    from ...tracer.shader.hashes import hash_uint2
+    h = 0
+    for byte in name.encode("utf-8"):
+        h = (h * 37 + byte) % 2 ** 32
+    return int(hash_uint2(h, 0))
 
 
 def _rows(starts, length):

@@ -3,7 +3,9 @@ arrays (to_world).
 
 Each distinct evaluated mesh is read once: its triangles, a vertex per distinct (vertex, normal)
 pair, its material slots per triangle, whether it is closed, and with textures its UV maps and
-Generated coordinates per corner (with normal maps also the UV maps' tangents). The depsgraph walk transforms it for all its instances.
+Generated coordinates per corner (with normal maps also the UV maps' tangents, and with
+Attribute or Color Attribute nodes the attributes they name). The depsgraph walk transforms it
+for all its instances.
 
 Arrays are read with foreach_get into preallocated arrays. Attributes (positions, corner
 vertices, material indices) and the normal caches are copied by Blender in one block; the loop
@@ -44,6 +46,98 @@ def _mesh_texcoords(mesh, corner_verts, co):
     half = np.divide(0.5, size, out=np.zeros(3), where=size != 0)
     orco = ((co.reshape(-1, 3)[corner_verts] - loc) * half + 0.5).astype(np.float32)
     return uvs, active, orco
+
+
+# Attribute types Cycles reads (blender/mesh.cpp), by the foreach_get property that holds them.
+ATTRIBUTE_PROPS = {"FLOAT": "value", "INT": "value", "INT8": "value", "BOOLEAN": "value",
+                   "FLOAT2": "vector", "FLOAT_VECTOR": "vector", "FLOAT_COLOR": "color",
+                   "BYTE_COLOR": "color"}
+WIDTHS = {"value": 1, "vector": None, "color": 4}
+# The array types foreach_get fills for the integer and boolean ones (Cycles reads them as
+# floats).
+VALUE_TYPES = {"INT": np.int32, "INT8": np.int32, "BOOLEAN": bool}
+
+
+def _standard_attribute(mesh, name, uvs, active, orco):
+    """(per-corner values (corners, k), width) of the Cycles standard attributes an Attribute
+    node can name that Snell reads ("uv": the active render UV map, "generated": Generated
+    coordinates), or None."""
+    if name == "uv":
+        uv = uvs.get(active)
+        return None if uv is None else (uv.astype(np.float64), 2)
+    if name == "generated":
+        return orco.astype(np.float64), 3
+    return None
+
+
+def _mesh_attributes(mesh, names, corner_verts, uvs=None, active="", orco=None):
+    """{name: ((corners, 3) value, (corners, 3) (Fac, Alpha, 1))} float32 of the named
+    attributes the mesh has ("": its default colour attribute, which Cycles renders for a Color
+    Attribute node without a name), per corner as Cycles reads them (kernel/svm/attribute.h):
+    a number f is (f, f, f) of Fac f, a 2D vector (x, y, 0) of Fac x, a 3D vector or a colour
+    its first three of Fac their average; Alpha is a colour's alpha, else 1. Byte colours are
+    decoded from sRGB per element (Blender's `color`), before interpolation, as Cycles decodes
+    them. Cycles' standard names "uv", "generated" and "vertex_color" are the active render UV
+    map, Generated coordinates and the default colours. Attributes on edges (which Cycles does
+    not read) and of other types are left out: missing, as in Cycles."""
+    nc = len(corner_verts)
+    out = {}
+    for name in names:
+        standard = _standard_attribute(mesh, name, uvs or {}, active, orco)
+        if standard is not None:
+            raw, width = standard
+            out[name] = _attribute_outputs(raw, width)
+            continue
+        # "vertex_color": Cycles' standard name of the default colours, as "".
+        real = "" if name == "vertex_color" else name
+        attr = mesh.attributes.get(real or mesh.attributes.default_color_name or "")
+        prop = ATTRIBUTE_PROPS.get(getattr(attr, "data_type", None))
+        if attr is None or prop is None or attr.domain not in ("POINT", "CORNER", "FACE"):
+            continue
+        n = len(attr.data)
+        width = WIDTHS[prop] or (2 if attr.data_type == "FLOAT2" else 3)
+        raw = _read(attr.data, prop, n * width, VALUE_TYPES.get(attr.data_type, np.float32))
+        raw = raw.astype(np.float64).reshape(n, width)
+        if attr.domain == "POINT":
+            at = corner_verts
+        elif attr.domain == "FACE":
+            at = _corner_faces(mesh, nc)
+        else:
+            at = np.arange(nc)
+        out[name] = _attribute_outputs(raw[at], width)
+    return out
+
+
+def _attribute_outputs(raw, width):
+    """((n, 3) value, (n, 3) (Fac, Alpha, 1)) float32 of n values of `width` components, as
+    _mesh_attributes describes."""
+    n = len(raw)
+    value = np.zeros((n, 3))
+    extra = np.ones((n, 3))
+    if width == 1:
+        value[:] = raw
+        extra[:, 0] = raw[:, 0]
+    elif width == 2:
+        value[:, :2] = raw
+        extra[:, 0] = raw[:, 0]
+    else:
+        value[:] = raw[:, :3]
+        extra[:, 0] = raw[:, :3].mean(axis=1)
+        if width == 4:
+            extra[:, 1] = raw[:, 3]
+    return value.astype(np.float32), extra.astype(np.float32)
+
+
+def _corner_faces(mesh, n_corners):
+    """The face of each corner."""
+    nf = len(mesh.polygons)
+    start = _read(mesh.polygons, "loop_start", nf, np.int64)
+    total = _read(mesh.polygons, "loop_total", nf, np.int64)
+    faces = np.zeros(n_corners, np.int64)
+    order = np.argsort(start, kind="stable")
+    faces[np.concatenate([np.arange(start[f], start[f] + total[f]) for f in order])
+          if nf else np.zeros(0, np.int64)] = np.repeat(order, total[order])
+    return faces
 
 
 def _tangent_frames(uvs, co, corner_verts, tri_corners, corner_n, smooth):
@@ -97,10 +191,10 @@ def map_to_sphere(p):
     return np.stack([np.where(inside, u, 0.0), np.where(inside, v, 0.0)], axis=1)
 
 
-def mesh_arrays(obj, texcoords=False, tangents=False):
+def mesh_arrays(obj, texcoords=False, tangents=False, attributes=()):
     """Local-space geometry of an evaluated object, ready for instancing (see Mesh); with
-    texcoords, also its UV maps and Generated coordinates per corner, and with tangents its UV
-    maps' tangents (for normal maps)."""
+    texcoords, also its UV maps and Generated coordinates per corner, with tangents its UV
+    maps' tangents (for normal maps) and the named attributes (_mesh_attributes)."""
     mesh = obj.to_mesh()
     try:
         if mesh is None:
@@ -129,7 +223,8 @@ def mesh_arrays(obj, texcoords=False, tangents=False):
             smooth = np.ones(nt, bool) if sharp is None else ~sharp[tri_faces]
             frames = (_tangent_frames(uvs, co, corner_verts, tri_corners, corner_n, smooth)
                       if tangents and nt else {})
-            coords = uvs, active, orco, frames
+            coords = (uvs, active, orco, frames,
+                      _mesh_attributes(mesh, attributes, corner_verts, uvs, active, orco))
         if sharp is not None and sharp.any():
             face_n = _read(mesh.polygons, "normal", nf * 3, np.float32).reshape(nf, 3)
             corner_verts, tri_corners, corner_n, coords = _flat_normals(
@@ -171,11 +266,13 @@ def _flat_normals(flat, face_n, co, corner_verts, tri_corners, corner_n, coords)
     corner_verts = np.concatenate([corner_verts, corner_verts[old]])
     corner_n = np.concatenate([corner_n, np.repeat(n[own].astype(np.float32), 3, axis=0)])
     if coords is not None:
-        uvs, active, orco, frames = coords
+        uvs, active, orco, frames, attrs = coords
         coords = ({name: np.concatenate([uv, uv[old]]) for name, uv in uvs.items()}, active,
                   np.concatenate([orco, orco[old]]),
                   {name: (np.concatenate([t, t[old]]), np.concatenate([s, s[old]]))
-                   for name, (t, s) in frames.items()})
+                   for name, (t, s) in frames.items()},
+                  {name: (np.concatenate([v, v[old]]), np.concatenate([e, e[old]]))
+                   for name, (v, e) in attrs.items()})
     return corner_verts, tri_corners, corner_n, coords
 
 
@@ -184,8 +281,8 @@ class Mesh:
 
     def __init__(self, co, corner_verts, tri_corners, mat_index, corner_n, coords=None):
         """co: (V, 3) positions; corner_verts, corner_n: per corner; the rest per triangle;
-        coords: _mesh_texcoords' (UV maps, active name, Generated), or None (then no texture
-        coordinates at all: texcoord gives zeros)."""
+        coords: (UV maps, active name, Generated, tangent frames, attributes), or None (then no
+        texture coordinates at all: texcoord gives zeros)."""
         tris = corner_verts[tri_corners]
         # Vertices at NaN, Inf or beyond MAX_COORDINATE drop their triangles, counted apart
         # from the zero-area ones (Embree skips such triangles too, and Cycles renders none).
@@ -208,6 +305,14 @@ class Mesh:
         if not keep.all():
             tri_corners, tris, mat_index = tri_corners[keep], tris[keep], mat_index[keep]
         self.tri_corners, self.coords = tri_corners, coords
+        # NaN or Inf in an attribute would make the scene file invalid: read as 0, named
+        # here for the exporter's warning.
+        self.nonfinite_attributes = []
+        for name, arrays in (coords[4] if coords is not None else {}).items():
+            if not all(np.isfinite(a).all() for a in arrays):
+                self.nonfinite_attributes.append(name)
+                for a in arrays:
+                    np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
         # Object coordinates per triangle corner: the local positions (affine over a
         # triangle, so interpolating them is exact).
         self.local_corners = co[tris].astype(np.float32) if coords is not None else None
@@ -221,14 +326,19 @@ class Mesh:
 
     def texcoord(self, kind, name, matrix=None):
         """(T, 3, 3) float32 texture coordinates per triangle corner: a UV map (name "" the
-        active render one; a missing map gives 0, as in Cycles), Generated or Object; or, in
+        active render one; a missing map gives 0, as in Cycles), Generated, Object, a named
+        attribute's value or its (Fac, Alpha, found) (0 where the mesh lacks it); or, in
         world space for an instance of world matrix `matrix`, a UV map's normal-map frame
         (tangent_frame) or the object's normal matrix (normal_matrix)."""
         out = np.zeros((len(self.tri_corners), 3, 3), np.float32)
         if self.coords is None:
             return out
-        uvs, active, orco, frames = self.coords
-        if kind in ("tangent", "tangent_sign", "tangent_normal"):
+        uvs, active, orco, frames, attrs = self.coords
+        if kind in ("attribute", "attribute_extra"):
+            found = attrs.get(name)
+            if found is not None:
+                out[:] = found[kind == "attribute_extra"][self.tri_corners]
+        elif kind in ("tangent", "tangent_sign", "tangent_normal"):
             frame = frames.get(name or active)
             if frame is not None:
                 out[:] = self.tangent_frame(frame, matrix)[kind]

@@ -116,26 +116,36 @@ def test_barycentric_step_moves_the_point_by_the_step():
     assert np.allclose(db1 * (c[1] - c[0]) + db2 * (c[2] - c[0]), step, atol=1e-14)
 
 
+def _camera(ortho=False):
+    """Materials.camera of a camera at the origin looking down world -z (Blender's camera
+    rotation the identity)."""
+    from snell.tracer.shader import object_inputs
+    cam = object_inputs.camera_table()
+    cam[object_inputs.CAM_MATRIX:object_inputs.CAM_MATRIX + 12] = np.hstack(
+        [np.diag([1.0, 1.0, -1.0]), np.zeros((3, 1))]).ravel()
+    cam[object_inputs.CAM_ORTHO] = float(ortho)
+    return cam
+
+
 def test_camera_spread_is_cycles_compact_dD():
     """A perspective camera ray's dD is the mean of |normalize(D + dx) - normalize(D)| and its
     dy twin, D on the plane at distance 1 (kernel/camera/camera.h); at the centre about the
     pixel's size, off-axis smaller."""
-    view = np.zeros(bump.VIEW_SIZE)
-    view[:9] = np.eye(3).reshape(9)
-    view[bump.VIEW_PIXEL_X] = view[bump.VIEW_PIXEL_Y] = 0.002
-    centre = bump.camera_spread(view, (0.0, 0.0, -1.0))
+    pixel = np.array([0.002, 0.002])
+    cam = _camera()
+    centre = bump.camera_spread(cam, pixel, (0.0, 0.0, -1.0))
     assert centre == pytest.approx(0.002, rel=1e-5)
     d = _unit([0.5, 0.2, -1.0])
     pc = d / -d[2]
     ex = _unit(pc + [0.002, 0, 0]) - _unit(pc)
     ey = _unit(pc + [0, 0.002, 0]) - _unit(pc)
-    assert bump.camera_spread(view, tuple(d)) == pytest.approx(
+    assert bump.camera_spread(cam, pixel, tuple(d)) == pytest.approx(
         0.5 * (np.linalg.norm(ex) + np.linalg.norm(ey)), rel=1e-12)
-    assert bump.cone_width(view, True, tuple(d), 3.0) == pytest.approx(
-        3.0 * bump.camera_spread(view, tuple(d)), rel=1e-12)
+    assert bump.cone_width(cam, pixel, True, tuple(d), 3.0) == pytest.approx(
+        3.0 * bump.camera_spread(cam, pixel, tuple(d)), rel=1e-12)
     # Orthographic: the pixel's size, whatever the distance.
-    view[bump.VIEW_ORTHO] = 1.0
-    assert bump.cone_width(view, True, tuple(d), 3.0) == pytest.approx(0.002)
+    assert bump.cone_width(_camera(ortho=True), pixel, True, tuple(d), 3.0) == \
+        pytest.approx(0.002)
 
 
 def _program(code, constants, registers=None):
@@ -149,16 +159,16 @@ CORNERS = np.array([[[-1.0, -1.0, 0.0], [3.0, -1.0, 0.0], [-1.0, 3.0, 0.0]]])
 
 def _run(code, constants, texcoords, length=2.0, entering=True):
     """Run a program at a hit on one triangle (CORNERS, normal +z) seen by a camera ray from
-    above, with a camera of pixel 0.004 looking down -z; returns the registers."""
+    above (the camera's axis, or from below), with a camera of pixel 0.004 looking down -z;
+    returns the registers."""
     mat = {"name": "P", "kind": "program", "program": _program(code, constants)}
     check_program(mat["program"], 0, 1)
     mats = material_tables([mat], np.zeros(1, np.int32), (),
                            [{"kind": "uv", "name": "",
                              "coords": np.asarray(texcoords, np.float32)[None]}])
-    view = np.zeros(bump.VIEW_SIZE)
-    view[:9] = np.eye(3).reshape(9)
-    view[bump.VIEW_PIXEL_X] = view[bump.VIEW_PIXEL_Y] = 0.004
-    mats = mats._replace(programs=mats.programs._replace(corners=CORNERS, camera=view))
+    mats = mats._replace(programs=mats.programs._replace(corners=CORNERS,
+                                                         pixel=np.array([0.004, 0.004])),
+                         camera=_camera())
     regs = program.new_registers()
     scratch = np.zeros((lobes.MAX_LOBES, lobes.FIELDS))
     n = (0.0, 0.0, 1.0) if entering else (0.0, 0.0, -1.0)

@@ -45,6 +45,7 @@ import numpy as np
 from ..jit import jit
 from ..vec import add, cross, dot, mul, normalize, sub
 from .inputs import LP_CAMERA, interpolate, normal_in, store3
+from .object_inputs import CAM_MATRIX, CAM_ORTHO
 
 # Opcodes 450-479.
 OFFSET, RESTORE, BUMP, SET_NORMAL, DISPLACEMENT, VECTOR_DISPLACEMENT, HEIGHT, \
@@ -52,11 +53,9 @@ OFFSET, RESTORE, BUMP, SET_NORMAL, DISPLACEMENT, VECTOR_DISPLACEMENT, HEIGHT, \
 FIRST, LAST = 450, 479
 # OFFSET's literal: the differential it moves the hit by.
 AXIS_X, AXIS_Y = 0, 1
-# The camera's numbers a program's differentials need (Programs.camera): its camera-to-world
-# rotation (row-major), its pixel's size on the plane at distance 1 (perspective) or in scene
-# units (orthographic), and whether it is orthographic.
-VIEW_ROTATION, VIEW_PIXEL_X, VIEW_PIXEL_Y, VIEW_ORTHO = 0, 9, 10, 11
-VIEW_SIZE = 12
+# Programs.pixel: the size of a pixel on the view plane (x, y; at distance 1 in front of a
+# perspective camera, in scene units for an orthographic one), with Materials.camera
+# (object_inputs.py: world to camera, whether orthographic) what camera differentials need.
 
 SPECS = {
     OFFSET: ("Bump: the hit the next instructions read moved by its differential along axis i "
@@ -85,21 +84,16 @@ SPECS = {
 }
 
 
-def view_numbers(camera) -> np.ndarray:
-    """Programs.camera for a camera (camera.CameraParams)."""
-    view = np.zeros(VIEW_SIZE)
-    view[VIEW_ROTATION:VIEW_ROTATION + 9] = np.asarray(camera.rotation, np.float64).reshape(9)
-    view[VIEW_PIXEL_X] = 2.0 * camera.half_x / camera.width
-    view[VIEW_PIXEL_Y] = 2.0 * camera.half_y / camera.height
-    view[VIEW_ORTHO] = 1.0 if camera.ortho else 0.0
-    return view
+def pixel_size(camera) -> np.ndarray:
+    """Programs.pixel for a camera (tracer.camera.Camera)."""
+    return np.array([2.0 * camera.half_x / camera.width, 2.0 * camera.half_y / camera.height])
 
 
 def with_view(materials, corners, camera):
-    """Materials whose programs know the scene's triangle corners (T, 3, 3) and its camera
-    (camera.CameraParams), which bump differentials need."""
+    """Materials whose programs know the scene's triangle corners (T, 3, 3) and the camera's
+    pixel size (camera: tracer.camera.Camera), which bump differentials need."""
     programs = materials.programs._replace(corners=np.ascontiguousarray(corners, np.float64),
-                                           camera=view_numbers(camera))
+                                           pixel=pixel_size(camera))
     return materials._replace(programs=programs)
 
 
@@ -127,29 +121,28 @@ def direction_spread(pc, px, py):
 
 
 @jit
-def camera_spread(view, d):
-    """The compact dD of the perspective camera ray of direction d (world space)."""
-    r = view[VIEW_ROTATION:VIEW_ROTATION + 9]
-    # Camera space (the camera looks down -z), then onto the plane at distance 1.
-    x = r[0] * d[0] + r[3] * d[1] + r[6] * d[2]
-    y = r[1] * d[0] + r[4] * d[1] + r[7] * d[2]
-    z = r[2] * d[0] + r[5] * d[1] + r[8] * d[2]
-    if not z < 0.0:
-        z = -1.0
-        x = y = 0.0
-    return direction_spread((x / -z, y / -z, -1.0), view[VIEW_PIXEL_X], view[VIEW_PIXEL_Y])
+def camera_spread(cam, pixel, d):
+    """The compact dD of the perspective camera ray of direction d (world space); cam:
+    Materials.camera (its world-to-camera rows, +z ahead), pixel: Programs.pixel."""
+    m = CAM_MATRIX
+    x = cam[m] * d[0] + cam[m + 1] * d[1] + cam[m + 2] * d[2]
+    y = cam[m + 4] * d[0] + cam[m + 5] * d[1] + cam[m + 6] * d[2]
+    z = cam[m + 8] * d[0] + cam[m + 9] * d[1] + cam[m + 10] * d[2]
+    if not z > 0.0:
+        x, y, z = 0.0, 0.0, 1.0
+    # Onto the view plane at distance 1, where the pixel steps are.
+    return direction_spread((x / z, y / z, 1.0), pixel[0], pixel[1])
 
 
 @jit
-def cone_width(view, camera_ray, d, length):
+def cone_width(cam, pixel, camera_ray, d, length):
     """Cycles' sd->dP at a hit `length` along a ray of direction d (camera_ray: the camera's own
     ray); see the module docstring for what Snell's paths leave out."""
-    px, py = view[VIEW_PIXEL_X], view[VIEW_PIXEL_Y]
-    if view[VIEW_ORTHO] != 0.0:
-        return 0.5 * (px + py)
+    if cam[CAM_ORTHO] != 0.0:
+        return 0.5 * (pixel[0] + pixel[1])
     if camera_ray:
-        return camera_spread(view, d) * length
-    return direction_spread((0.0, 0.0, -1.0), px, py) * length
+        return camera_spread(cam, pixel, d) * length
+    return direction_spread((0.0, 0.0, 1.0), pixel[0], pixel[1]) * length
 
 
 @jit
@@ -176,19 +169,21 @@ def barycentric_step(c, step):
 
 
 @jit
-def hit_width(hit, view):
+def hit_width(hit, mats):
     """sd->dP at program.run's hit."""
     camera_ray = hit[8] == 1 << LP_CAMERA          # a camera ray (through transparency too)
-    return cone_width(view, camera_ray, mul(hit[3], -1.0), hit[10])
+    return cone_width(mats.camera, mats.programs.pixel, camera_ray, mul(hit[3], -1.0),
+                      hit[10])
 
 
 @jit
-def moved_hit(hit, axis, filter_width, programs):
+def moved_hit(hit, axis, filter_width, mats):
     """program.run's hit moved by its differential along axis (AXIS_X, AXIS_Y) times
     filter_width: its point, and its barycentrics by the same step (on a back face, the
     opposite step, as Cycles' do)."""
-    dx, dy = differentials(hit[1], hit_width(hit, programs.camera))
+    dx, dy = differentials(hit[1], hit_width(hit, mats))
     step = mul(dx if axis == AXIS_X else dy, filter_width)
+    programs = mats.programs
     tri = hit[5]
     db1, db2 = 0.0, 0.0
     if tri < programs.corners.shape[0]:
@@ -300,7 +295,7 @@ def execute(ins, regs, hit, mats):
     ns = hit[2]
     if op == BUMP:
         n = normal_in(regs, ins[2], ns)
-        dx, dy = differentials(hit[1], hit_width(hit, mats.programs.camera))
+        dx, dy = differentials(hit[1], hit_width(hit, mats))
         h = ins[3]
         store3(regs, ins[1], bump_normal((regs[h], regs[h + 1], regs[h + 2]), regs[ins[4]],
                                          regs[ins[5]], ins[6] != 0, regs[ins[7]], n, dx, dy))

@@ -15,10 +15,10 @@ from ..textures import sample_image, srgb_to_linear
 from .colorspace import RGB_TO_Y
 from ..vec import dot, madd, mul
 
-# Opcodes 20-99.
+# Opcodes 20-39 (40-99: object_inputs.py).
 (LIGHT_PATH, GEOMETRY, TEXCOORD, REFLECTION, IMAGE, FRESNEL, LAYER_WEIGHT, COLOR_TO_FLOAT,
  VECTOR_TO_FLOAT, FLOAT_TO_VECTOR, COPY_FLOAT, COPY_VECTOR) = range(20, 32)
-FIRST, LAST = 20, 99
+FIRST, LAST = 20, 39
 
 # Light Path outputs (LIGHT_PATH's literal): the first seven are bits of the hit's flags.
 (LP_CAMERA, LP_SHADOW, LP_DIFFUSE, LP_GLOSSY, LP_SINGULAR, LP_REFLECTION, LP_TRANSMISSION,

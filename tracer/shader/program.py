@@ -19,12 +19,12 @@ A SPECS entry is (what it computes, slots) or (what, slots, {slot: limit}): lite
 be from 0 to limit - 1 (limit "images" or "texcoords": the scene's counts).
 
 Families of instructions, by opcode range: closures.py (0-19: the closures and the Mix Shader),
-inputs.py (20-99: what reads the hit), math_nodes.py (100-199), color_nodes.py (200-299),
-procedural_textures.py (300-399), normals.py (400-449: shading normals) and bump.py (450-479: the
-Bump node and bump displacement, which move the hit the instructions between OFFSET and RESTORE
-read, and SET_NORMAL, which changes its shading normal). The scene loader
-checks every instruction against its family's SPECS (check_program), so the interpreter trusts
-its indices.
+inputs.py (20-39: what reads the hit), object_inputs.py (40-99: the object, camera and mesh
+attributes), math_nodes.py (100-199), color_nodes.py (200-299), procedural_textures.py
+(300-399), normals.py (400-449: shading normals) and bump.py (450-479: the Bump node and bump
+displacement, which move the hit the instructions between OFFSET and RESTORE read, and
+SET_NORMAL, which changes its shading normal). The scene loader checks every instruction
+against its family's SPECS (check_program), so the interpreter trusts its indices.
 """
 from __future__ import annotations
 
@@ -33,12 +33,14 @@ from typing import NamedTuple
 import numpy as np
 
 from ..jit import jit
-from . import bump, closures, color_nodes, inputs, math_nodes, normals, procedural_textures
+from . import (bump, closures, color_nodes, inputs, math_nodes, normals, object_inputs,
+               procedural_textures)
 
 SLOTS = 7
 MAX_REGISTERS = 1024
 MAX_INSTRUCTIONS = 100000
-FAMILIES = (closures, inputs, math_nodes, color_nodes, procedural_textures, normals, bump)
+FAMILIES = (closures, inputs, object_inputs, math_nodes, color_nodes, procedural_textures,
+            normals, bump)
 SPECS = {op: spec for family in FAMILIES for op, spec in family.SPECS.items()}
 WIDTH = {"f": 1, "v": 3, "w": 1, "n": 3, "P": closures.PRINCIPLED_BLOCK}
 # What the tracer needs to know of a program without running it (Programs.flags).
@@ -57,11 +59,11 @@ class Programs(NamedTuple):
     const_start: np.ndarray   # (M,) int64
     const_length: np.ndarray  # (M,) int64
     flags: np.ndarray         # (M,) int64 MAY_BE_TRANSPARENT | EMISSION_VARIES
-    # What bump differentials read (bump.with_view sets them for a render; by default none: a
-    # bump moves no barycentrics, and its camera looks down -z with pixels of 0.001 at
+    # What bump differentials read besides Materials.camera (bump.with_view sets them for a
+    # render; by default none: a bump moves no barycentrics, and pixels are 0.001 wide at
     # distance 1, about a 50 mm lens's at 700 pixels).
     corners: np.ndarray       # (T, 3, 3) float64 the scene's triangle corners
-    camera: np.ndarray        # (bump.VIEW_SIZE,) float64 the camera's numbers (bump.view_numbers)
+    pixel: np.ndarray         # (2,) float64 a pixel's size on the view plane (bump.pixel_size)
 
 
 class ProgramError(ValueError):
@@ -175,14 +177,7 @@ def program_tables(programs: list) -> Programs:
         data.extend(program.get("data", []))
     return Programs(np.array(code, np.int64).reshape(-1, SLOTS + 1),
                     np.array(consts, np.float64), np.array(data, np.float64), start, length,
-                    const_start, const_length, flags, np.zeros((0, 3, 3)), _default_view())
-
-
-def _default_view():
-    view = np.zeros(bump.VIEW_SIZE)
-    view[bump.VIEW_ROTATION:bump.VIEW_ROTATION + 9] = np.eye(3).reshape(9)
-    view[bump.VIEW_PIXEL_X] = view[bump.VIEW_PIXEL_Y] = 1e-3
-    return view
+                    const_start, const_length, flags, np.zeros((0, 3, 3)), np.full(2, 1e-3))
 
 
 def new_registers() -> np.ndarray:
@@ -215,6 +210,8 @@ def run(mats, m, regs, hit, lobes, tables, has_normals):
                                      has_normals)
         elif op <= inputs.LAST:
             inputs.execute(ins, regs, hit, mats)
+        elif op <= object_inputs.LAST:
+            object_inputs.execute(ins, regs, hit, mats)
         elif op < 200:
             math_nodes.execute(ins, regs, prog.data)
         elif op < 300:
@@ -224,7 +221,7 @@ def run(mats, m, regs, hit, lobes, tables, has_normals):
         elif op <= normals.LAST:
             normals.execute(ins, regs, hit, mats)
         elif op == bump.OFFSET:
-            hit = bump.moved_hit(center, ins[1], regs[ins[2]], prog)
+            hit = bump.moved_hit(center, ins[1], regs[ins[2]], mats)
         elif op == bump.RESTORE:
             hit = center
         elif op == bump.SET_NORMAL:
