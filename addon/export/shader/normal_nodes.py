@@ -22,17 +22,13 @@ def uses_normal_maps():
     import bpy
     trees = [mat.node_tree for mat in bpy.data.materials if mat.node_tree is not None]
     trees += [group for group in bpy.data.node_groups if group.bl_idname == "ShaderNodeTree"]
-    spaces = {node.space for tree in trees for node in tree.nodes
-              if node.bl_idname == "ShaderNodeNormalMap"}
-    # A tangent-space Vector Displacement reads the tangents too.
-    tangent_displacement = any(node.bl_idname == "ShaderNodeVectorDisplacement"
-                               and node.space == "TANGENT" for tree in trees
-                               for node in tree.nodes)
-    # Displacement nodes read the object's normal matrix among the coordinates.
-    displacement = any(node.bl_idname in ("ShaderNodeDisplacement",
-                                          "ShaderNodeVectorDisplacement")
-                       for tree in trees for node in tree.nodes)
-    return bool(spaces) or displacement, "TANGENT" in spaces or tangent_displacement
+    nodes = [node for tree in trees for node in tree.nodes]
+    maps = {node.space for node in nodes if node.bl_idname == "ShaderNodeNormalMap"}
+    # Displacement nodes read the object's normal matrix among the coordinates, and a
+    # tangent-space Vector Displacement the tangents too.
+    displacements = {node.space for node in nodes if node.bl_idname in (
+        "ShaderNodeDisplacement", "ShaderNodeVectorDisplacement")}
+    return bool(maps or displacements), "TANGENT" in maps | displacements
 
 
 def normal_map(c, node, socket):
