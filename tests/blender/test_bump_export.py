@@ -115,3 +115,28 @@ def test_bumped_scene_renders_without_nan(scene):
             m["program"]["code"] = [row for row in m["program"]["code"]
                                     if row[0] != bump.SET_NORMAL]
     assert not np.allclose(Renderer(flat).render().mean(), image)
+
+
+def test_height_through_a_node_group_compiles_three_times(scene):
+    """A Noise inside a node group feeds the Bump's Height through the group's output: the
+    group's nodes are flattened and compiled in each memo scope, three Noise instructions."""
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    plane = bpy.context.active_object
+    group = bpy.data.node_groups.new("Heights", "ShaderNodeTree")
+    group.interface.new_socket("Height", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    inner = group.nodes.new("ShaderNodeTexNoise")
+    output = group.nodes.new("NodeGroupOutput")
+    group.links.new(inner.outputs["Fac"], output.inputs[0])
+    mat = common.material("Grouped", "diffuse")
+    tree = mat.node_tree
+    bsdf = next(n for n in tree.nodes if n.bl_idname.startswith("ShaderNodeBsdf"))
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    bumped = tree.nodes.new("ShaderNodeBump")
+    tree.links.new(node.outputs[0], bumped.inputs["Height"])
+    tree.links.new(bumped.outputs["Normal"], bsdf.inputs["Normal"])
+    plane.data.materials.append(mat)
+    snell_scene, warnings = _export()
+    assert warnings == []
+    ops = [row[0] for row in snell_scene.materials[0]["program"]["code"]]
+    assert ops.count(procedural_textures.NOISE) == 3 and ops.count(bump.BUMP) == 1

@@ -77,6 +77,17 @@ def test_no_width_or_no_gradient_leaves_the_normal():
     assert np.allclose(_bumped([0.0, 0.0, 0.0], n, n, 0.5), n)
 
 
+def test_heights_that_are_not_finite_leave_the_normal():
+    """NaN or infinite heights or strength: the unbent normal, never NaN (Snell writes no NaN
+    into an image). (Deliberate error: the finite check left out returns NaN, caught.)"""
+    n = (0.0, 0.0, 1.0)
+    dx, dy = bump.differentials(n, 0.01)
+    for heights, strength in [((math.nan, 0.0, 0.0), 1.0), ((0.0, math.inf, 0.0), 1.0),
+                              ((0.0, 0.1, 0.2), math.nan)]:
+        got = bump.bump_normal(heights, strength, 0.5, False, 0.1, n, dx, dy)
+        assert np.allclose(got, n), (heights, strength, got)
+
+
 def test_input_normal_other_than_the_frame_normal():
     """A Normal input other than Ng (the differentials stay along Ng's frame): Cycles'
     formula written out in numpy, N' = normalize(w |det| n - d sign(det) ((h_x - h_c) Rx +

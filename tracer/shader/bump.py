@@ -45,6 +45,7 @@ import numpy as np
 from ..jit import jit
 from ..vec import add, cross, dot, mul, normalize, sub
 from .inputs import LP_CAMERA, interpolate, normal_in, store3
+from .normals import finite_nonzero
 from .object_inputs import CAM_MATRIX, CAM_ORTHO
 
 # Opcodes 450-479.
@@ -201,10 +202,7 @@ def moved_hit(hit, axis, filter_width, mats):
 def with_normal(hit, n):
     """program.run's hit with shading normal n (Cycles' svm_node_set_normal), unless n is zero
     or not finite."""
-    for k in range(3):
-        if not math.isfinite(n[k]):
-            return hit
-    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:
+    if not finite_nonzero(n):
         return hit
     return (hit[0], hit[1], n, hit[3], hit[4], hit[5], hit[6], hit[7], hit[8], hit[9], hit[10])
 
@@ -224,7 +222,9 @@ def bump_normal(heights, strength, distance, invert, filter_width, n, dx, dy):
     out = normalize(sub(mul(n, filter_width * abs(det)), mul(surfgrad, scale * sign)))
     if out[0] == 0.0 and out[1] == 0.0 and out[2] == 0.0:
         return n
-    return normalize(add(mul(out, strength), mul(n, 1.0 - strength)))
+    out = normalize(add(mul(out, strength), mul(n, 1.0 - strength)))
+    # A height or input that is not finite leaves the normal (Snell writes no NaN).
+    return out if finite_nonzero(out) else n
 
 
 @jit
@@ -297,8 +297,9 @@ def execute(ins, regs, hit, mats):
         n = normal_in(regs, ins[2], ns)
         dx, dy = differentials(hit[1], hit_width(hit, mats))
         h = ins[3]
-        store3(regs, ins[1], bump_normal((regs[h], regs[h + 1], regs[h + 2]), regs[ins[4]],
-                                         regs[ins[5]], ins[6] != 0, regs[ins[7]], n, dx, dy))
+        out = bump_normal((regs[h], regs[h + 1], regs[h + 2]), regs[ins[4]], regs[ins[5]],
+                          ins[6] != 0, regs[ins[7]], n, dx, dy)
+        store3(regs, ins[1], out if finite_nonzero(out) else ns)
     elif op == DISPLACEMENT:
         store3(regs, ins[1], displacement(regs[ins[2]], regs[ins[3]], regs[ins[4]],
                                           normal_in(regs, ins[5], ns)))
