@@ -28,13 +28,16 @@ segment only, and a camera ray through transparent surfaces the length from its 
 surface; camera hits take Cycles' dD of their own direction. The step is a small fraction of a
 pixel's footprint (Filter Width 0.1 by default), so for heights smooth at that scale the
 gradient, and so the normal, is the same; only heights that vary within a pixel see the
-difference (as in Cycles, they alias). On a back face Cycles moves the attributes (UV,
-Generated) against the point (its barycentric differentials flip with dPdu and dPdv); Snell
-moves the barycentrics so, and with them its Object coordinates, which Cycles moves with the
-point: an Object-coordinate height seen from behind is bumped the other way round than in
-Cycles. A Bump node inside another Bump node's Height is
-evaluated at the unmoved hit; Cycles' object-space bump (displacement method "Displacement and
-Bump") is taken in world space, the same for objects of unit scale.
+difference (as in Cycles, they alias).
+
+On a back face Cycles moves the attributes (UV, Generated, Attribute) against the point (its
+barycentric differentials flip with dPdu and dPdv); Snell moves the barycentrics so, and with
+them the object's own Object coordinates (interpolated at the corners), which Cycles moves with
+the point: an Object-coordinate height seen from behind is bumped the other way round than in
+Cycles. Also unlike Cycles: Texture Coordinate Normal is read at the unmoved hit (Cycles
+interpolates it at the moved barycentrics), a Bump node inside another Bump node's Height is
+evaluated at the unmoved hit, and Cycles' object-space bump (displacement method "Displacement
+and Bump") is taken in world space, the same for objects of unit scale.
 """
 from __future__ import annotations
 
