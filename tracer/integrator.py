@@ -34,6 +34,7 @@ from .result import RenderResult, Window, WindowSums
 from .scene import Scene
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
 from .shader import program
+from .shader.bump import with_view
 from .shader.object_inputs import camera_table
 
 
@@ -111,9 +112,10 @@ class Renderer:
         self.pixel_filter = make_filter(settings.pixel_filter, settings.filter_width)
         self.geometry = (Geometry(scene.positions, scene.triangles, scene.normals)
                          if geometry is None else geometry)
-        self.materials = material_tables(scene.materials, scene.material_ids, scene.images,
-                                         scene.texcoords, scene.objects, scene.object_ids,
-                                         self.camera)
+        self.materials = with_view(material_tables(scene.materials, scene.material_ids,
+                                                   scene.images, scene.texcoords, scene.objects,
+                                                   scene.object_ids, self.camera),
+                                   self.geometry.corners, self.camera)
         self.tables = shipped_tables()
         kind = self.materials.kind
         self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
@@ -150,7 +152,8 @@ class Renderer:
         other.scene = copy.copy(self.scene)
         other.scene.camera = camera
         other.camera = Camera(camera)
-        other.materials = self.materials._replace(camera=camera_table(other.camera))
+        other.materials = with_view(self.materials._replace(camera=camera_table(other.camera)),
+                                    self.geometry.corners, other.camera)
         if self.media.on:         # the stack at the camera
             other.media = media_tables(other.scene, self.lights.tables)
         other._use_camera_for_caustics()

@@ -62,28 +62,43 @@ def convert_material(mat, resources=None):
     if out is None or source_in(out.inputs["Surface"]).node is None:
         return converted, coverage          # no surface: black, as Cycles renders it
     program_coverage = Coverage()
-    absorption = _output_inputs(out, program_coverage)
+    method = getattr(mat, "displacement_method", "BUMP")
+    absorption = _output_inputs(out, program_coverage, method)
     try:
-        program = compile_material(mat.name, out.inputs["Surface"], resources, program_coverage)
+        program = compile_material(mat.name, out.inputs["Surface"], resources, program_coverage,
+                                   method)
     except CompileError as exc:
         coverage.append(f"its shader program: {exc}")
         return converted, coverage
     # A program wins where it leaves fewer nodes out, or renders part of a surface the fixed
-    # kinds replace whole.
+    # kinds replace whole, or the bump displacement they leave out.
+    bumped = program["program"].get("bump_displacement", False)
     if len(program_coverage.issues) > len(coverage.issues) or (
-            len(program_coverage.issues) == len(coverage.issues) and not whole_replaced):
+            len(program_coverage.issues) == len(coverage.issues) and not whole_replaced
+            and not bumped):
         return converted, coverage
     if absorption is not None:
         program["absorption"] = absorption
     return program, program_coverage
 
 
-def _output_inputs(out, coverage):
+def _output_inputs(out, coverage, program_method=None):
     """The absorption of a Material Output's Volume (volumes.py; None: none), recording what
-    its Volume and Displacement carry that Snell does not render."""
+    its Volume and Displacement carry that Snell does not render. program_method: the
+    material's displacement method, for a shader program (which renders bump displacement,
+    shader/closure_nodes.py), or None."""
     for socket, instead in OUTPUT_INPUTS.items():
         node = follow(out.inputs[socket]) if socket in out.inputs else None
-        if node is not None:
+        if node is not None and socket == "Displacement" and program_method is not None:
+            if program_method == "BOTH":
+                coverage.replace(out, "is displaced as well as bumped (displacement method "
+                                      "Displacement and Bump), and Snell does not displace "
+                                      "meshes", "rendered with bump only", input=socket)
+            elif program_method not in ("BUMP", "BOTH"):
+                coverage.replace(out, "is true displacement (displacement method Displacement "
+                                      "Only), which Snell does not render",
+                                 "rendered without displacement", input=socket)
+        elif node is not None:
             coverage.replace(out, f"is linked to {node_text(node)}, which Snell does not "
                                   f"render", instead, input=socket)
     return convert_volume(out, coverage)

@@ -517,15 +517,24 @@ def test_a_linked_input_uses_its_unlinked_value(bl, kind, socket, field, shown):
     assert exported_material(bl, mat)[1] == []
 
 
+@pytest.mark.parametrize("kind", ["principled", "glossy", "glass", "refraction", "diffuse"])
+def test_a_bump_with_a_height_on_a_normal_is_a_program(bl, kind):
+    """A Bump node of linked Height on a BSDF's Normal: the material is a program that
+    evaluates it (tracer/shader/bump.py), without a warning."""
+    from snell.tracer.shader import bump
+    mat = common.material("Bumpy", kind, (0.5, 0.5, 0.5))
+    source = link(mat, "Normal", "ShaderNodeBump")
+    noise = mat.node_tree.nodes.new("ShaderNodeTexNoise")
+    mat.node_tree.links.new(noise.outputs[0], source.inputs["Height"])
+    m, warnings = exported_material(bl, mat, "BumpyObj")
+    assert warnings == [] and m["kind"] == "program"
+    assert any(row[0] == bump.BUMP for row in m["program"]["code"])
+
+
 @pytest.mark.parametrize("kind, socket, rendered", [
-    ("principled", "Normal", "shaded with the mesh's normals"),
     ("principled", "Coat Normal", "shaded with the mesh's normals"),
     ("principled", "Tangent", "rendered isotropic"),
-    ("glossy", "Normal", "shaded with the mesh's normals"),
     ("glossy", "Tangent", "rendered isotropic"),
-    ("glass", "Normal", "shaded with the mesh's normals"),
-    ("refraction", "Normal", "shaded with the mesh's normals"),
-    ("diffuse", "Normal", "shaded with the mesh's normals"),
 ])
 def test_linked_normals_and_tangents_are_ignored_with_a_warning(bl, kind, socket, rendered):
     mat = common.material("Bumpy", kind, (0.5, 0.5, 0.5))
@@ -661,14 +670,38 @@ def _glass_with(bl, output_input, idname):
      "rendered without displacement or bump (the mesh's normals)"),
 ])
 def test_material_output_displacement_warns(bl, output_input, idname, shown, rendered):
-    """A displacement: one warning names the output, the input, the node and what renders
-    instead; the surface still converts. (A Volume converts: tests/blender/test_export_volumes.py.)"""
-    m, warnings = exported_material(bl, _glass_with(bl, output_input, idname), "Cup")
+    """A true displacement (method Displacement Only): one warning names the output, the input,
+    the node and what renders instead; the surface still converts. (A Volume converts:
+    tests/blender/test_export_volumes.py; bump displacement: the next test.)"""
+    mat = _glass_with(bl, output_input, idname)
+    mat.displacement_method = "DISPLACEMENT"
+    m, warnings = exported_material(bl, mat, "Cup")
     assert m["kind"] == "glass" and m["ior"] == pytest.approx(1.33)
     assert warnings == [f"object 'Cup', material 'Coffee': node 'Material Output': input "
                         f"{output_input!r} is linked to {shown}, which Snell does not render: "
                         f"{rendered}"]
     assert export.differs_from_cycles(warnings[0])
+
+
+@pytest.mark.parametrize("method, warned", [("BUMP", False), ("BOTH", True)])
+def test_bump_displacement_is_a_program(bl, method, warned):
+    """Displacement method Bump Only (Cycles' default), or Displacement and Bump: the
+    material is a program that bumps its normal first (SET_NORMAL before the closures); the
+    true displacement of the second is warned: rendered with bump only."""
+    from snell.tracer.shader import bump
+    mat = _glass_with(bl, "Displacement", "ShaderNodeDisplacement")
+    mat.displacement_method = method
+    m, warnings = exported_material(bl, mat, "Cup")
+    assert m["kind"] == "program"
+    ops = [row[0] for row in m["program"]["code"]]
+    assert ops.count(bump.SET_NORMAL) == 1 and ops.count(bump.DISPLACEMENT) == 3
+    if warned:
+        assert warnings == ["object 'Cup', material 'Coffee': node 'Material Output': input "
+                            "'Displacement' is displaced as well as bumped (displacement method "
+                            "Displacement and Bump), and Snell does not displace meshes: "
+                            "rendered with bump only"]
+    else:
+        assert warnings == []
 
 
 def test_world_volume_warns(bl):

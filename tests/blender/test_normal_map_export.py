@@ -12,7 +12,7 @@ bpy = pytest.importorskip("bpy")
 
 from snell.addon import export  # noqa: E402
 from snell.tracer.integrator import Renderer  # noqa: E402
-from snell.tracer.shader import normals  # noqa: E402
+from snell.tracer.shader import bump as tracer_bump, normals  # noqa: E402
 
 common = importlib.import_module("common")
 
@@ -95,10 +95,10 @@ def test_ngons_and_meshes_without_uvs_get_tangents_and_render(scene):
 
 def test_bump_without_height_passes_the_normal_map_through(scene):
     """Normal Map -> Bump (Height unlinked) -> BSDF: Cycles folds the Bump away, so does the
-    compiler (the BSDF reads the Normal Map's register); a Bump with a linked Height is warned,
-    naming material and node (the program's warning and the fixed kind's are one each, and the
-    exporter keeps the fixed kind on a tie). (Deliberate error: the Bump node giving the shading
-    normal even with its Normal linked: the Normal Map is left unread and warned; caught.)"""
+    compiler (the BSDF reads the Normal Map's register); a Bump with a linked Height is
+    evaluated (tracer/shader/bump.py), bending the Normal Map's normal, without a warning.
+    (Deliberate error: the Bump node giving the shading normal even with its Normal linked: the
+    Normal Map is left unread and warned; caught.)"""
     bpy.ops.mesh.primitive_plane_add(size=2.0)
     plane = bpy.context.active_object
     mat = _normal_mapped("Bumped")
@@ -115,6 +115,9 @@ def test_bump_without_height_passes_the_normal_map_through(scene):
     mapped = next(row for row in code if row[0] == normals.NORMAL_MAP_TANGENT)
     assert code[-1][3] == mapped[1]            # the Diffuse BSDF's normal slot
     tree.links.new(tree.nodes.new("ShaderNodeTexNoise").outputs[0], bump.inputs["Height"])
-    _, warnings = export.export_depsgraph(bpy.context.evaluated_depsgraph_get())
-    assert len(warnings) == 1
-    assert "'Bumped'" in warnings[0] and "'Bump'" in warnings[0]
+    snell_scene, warnings = export.export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    assert warnings == []
+    code = snell_scene.materials[0]["program"]["code"]
+    mapped = next(row for row in code if row[0] == normals.NORMAL_MAP_TANGENT)
+    bumped = next(row for row in code if row[0] == tracer_bump.BUMP)
+    assert bumped[2] == mapped[1] and code[-1][3] == bumped[1]

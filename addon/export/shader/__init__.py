@@ -8,7 +8,7 @@ compile_material turns a material's Surface into the scene file's "program" mate
 from __future__ import annotations
 
 from . import color_nodes, math_nodes, procedural_textures
-from .closure_nodes import compile_surface
+from .closure_nodes import compile_displacement, compile_surface
 from .compiler import Compiler
 from .input_nodes import NODE_OUTPUTS as INPUT_OUTPUTS
 from .normal_nodes import NODE_OUTPUTS as NORMAL_OUTPUTS
@@ -20,10 +20,12 @@ NODE_OUTPUTS = {**INPUT_OUTPUTS, **NORMAL_OUTPUTS}
 FAMILIES = (math_nodes, color_nodes, procedural_textures)
 
 
-def compile_material(name, surface_socket, resources, coverage):
-    """The scene file's program material for a Material Output's Surface socket, its nodes'
-    entries recorded in coverage; CompileError if it cannot be compiled."""
+def compile_material(name, surface_socket, resources, coverage, displacement_method="BUMP"):
+    """The scene file's program material for a Material Output's Surface socket (and the
+    output's Displacement, as bump for these displacement methods), its nodes' entries
+    recorded in coverage; CompileError if it cannot be compiled."""
     c = Compiler(name, resources, coverage, NODE_OUTPUTS, FAMILIES)
+    compile_displacement(c, surface_socket.node, displacement_method)
     compile_surface(c, surface_socket)
     if any(x < 0.0 for x in c.emission):
         c.emission_varies = True    # no light to sample: its hits add it, as Cycles does

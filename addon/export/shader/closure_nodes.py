@@ -1,12 +1,14 @@
 """The shader nodes of a program: the BSDFs, Emission, Transparent, Translucent, Holdout, and
 the Mix and Add Shaders that weigh them (Cycles' kernel/svm/closure.h; compile_surface walks
-them from the Material Output's Surface)."""
+them from the Material Output's Surface), and the bump displacement that comes before them
+(compile_displacement)."""
 from __future__ import annotations
 
-from ....tracer.shader import closures, inputs as tracer_inputs
+from ....tracer.shader import bump as tracer_bump, closures, inputs as tracer_inputs
 from ..bsdfs import BLENDER_DISTRIBUTIONS, PRINCIPLED_INPUTS, PRINCIPLED_UNSUPPORTED
 from ..coverage import node_text
 from ..nodes import source_in
+from .normal_nodes import three_heights
 
 DISTRIBUTIONS = ("ggx", "multi_ggx", "beckmann")     # tracer.scene.DISTRIBUTIONS
 GREY = (0.8, 0.8, 0.8)
@@ -168,3 +170,35 @@ def compile_surface(c, socket, weight=None, groups=()):
             c.coverage.evaluate(node, "compiled into the material's shader program")
     finally:
         c.groups = saved
+
+
+# Cycles' displacement methods that bump (shader.cpp: all but DISPLACE_TRUE).
+BUMP_METHODS = ("BUMP", "BOTH")
+# The Filter Width of the Bump node bump_from_displacement makes (BumpNode's default).
+DISPLACEMENT_FILTER_WIDTH = 0.1
+
+
+def compile_displacement(c, output, method):
+    """A Material Output's Displacement as Cycles' bump_from_displacement (scene/
+    shader_graph.cpp) makes it for displacement method BUMP or BOTH: the displacement's
+    height along the shading normal at the hit and at the hit moved by each differential,
+    through a Bump node of Distance 1, made the hit's shading normal before the surface's
+    closures compile (SET_NORMAL): every closure, Geometry Normal and Bump after it reads it.
+    Its nodes compile in memo scopes of their own, as Cycles compiles its bump shader apart
+    from the surface."""
+    if method not in BUMP_METHODS or "Displacement" not in output.inputs \
+            or not c.is_linked(output, "Displacement"):
+        return
+
+    def height():
+        reg = c.alloc("float")
+        c.emit(tracer_bump.HEIGHT, reg, c.input(output, "Displacement", "vector"))
+        return reg
+
+    width = c.constant(DISPLACEMENT_FILTER_WIDTH)
+    with c.scope("displacement"):
+        heights = three_heights(c, width, "displacement", height)
+    normal = c.alloc("vector")
+    c.emit(tracer_bump.BUMP, normal, None, heights, c.constant(1.0), c.constant(1.0), 0, width)
+    c.emit(tracer_bump.SET_NORMAL, normal)
+    c.bump_displacement = True

@@ -8,11 +8,18 @@ family of value nodes) see: `input` compiles what feeds an input and returns its
 `emit` appends an instruction. Registers are Reg objects until `program` lays them out:
 constants first (the program's "constants"), then the rest.
 
+A memo scope (`scope`) compiles a subgraph again, each node anew, with the constants shared:
+the Bump node's Height at the hit moved by its differentials (normal_nodes.py) and a bump
+displacement's three evaluations (closure_nodes.py), as Cycles copies those nodes
+(scene/shader_graph.cpp refine_bump_nodes, bump_from_displacement).
+
 Constant factors fold as they compile: a Mix Shader of constant factor gives its sides
 constant weights (a side of weight 0 is not compiled at all), so that a material whose mixes
 are all constant costs no instruction for them.
 """
 from __future__ import annotations
+
+from contextlib import contextmanager
 
 from ....tracer.shader import inputs as tracer_inputs
 from ....tracer.shader.program import MAX_REGISTERS, SLOTS
@@ -57,13 +64,15 @@ class Compiler:
         self.constants = {}            # values -> Reg (one register per distinct constant)
         self.blocks = []               # constant Regs of their own (Principled blocks)
         self.temps = []
-        self.memo = {}                 # (node, groups, output) -> Reg
+        self.memo = {}                 # (scope, node, groups, output) -> Reg
+        self.memo_scope = ()           # the memo scope nodes compile in (scope())
         self.read = set()              # (node, groups, input identifier) of inputs read
         self.visiting = set()
         self.groups = ()               # the groups of the node being compiled
         self.emission = [0.0, 0.0, 0.0]
         self.emission_varies = False
         self.refracts = False
+        self.bump_displacement = False     # the program bumps the hit's normal first
 
     # -- registers and instructions -------------------------------------------------------
 
@@ -105,12 +114,23 @@ class Compiler:
     def texcoord(self, node, kind, name=""):
         """The register of texture coordinates (uv with a map name, generated, object) at
         the hit."""
-        key = (kind, name)
+        key = (self.memo_scope, kind, name)
         if key not in self.memo:
             reg = self.alloc("vector")
             self.emit(tracer_inputs.TEXCOORD, reg, self.resources.texcoord_index(kind, name))
             self.memo[key] = reg
         return self.memo[key]
+
+    @contextmanager
+    def scope(self, name):
+        """Compile in a memo scope of its own inside the current one (`name` tells it from
+        the others): every node reached is compiled again, constants are shared."""
+        saved = self.memo_scope
+        self.memo_scope = saved + (name,)
+        try:
+            yield
+        finally:
+            self.memo_scope = saved
 
     def remember(self, node, identifier, reg):
         """Record reg as the register of another output of the node being compiled."""
@@ -129,7 +149,8 @@ class Compiler:
 
     def _key(self, node, identifier, groups=None):
         groups = self.groups if groups is None else groups
-        return (node.as_pointer(), tuple(g.as_pointer() for g in groups), identifier)
+        return (self.memo_scope, node.as_pointer(), tuple(g.as_pointer() for g in groups),
+                identifier)
 
     def unread_links(self, node):
         """Warn for every linked input of the node that its compilation did not read: nothing
@@ -257,7 +278,10 @@ class Compiler:
             raise CompileError(f"needs {registers} registers, more than the {MAX_REGISTERS} "
                                f"a program has")
         code = [[s.index if isinstance(s, Reg) else int(s) for s in row] for row in self.rows]
-        return {"registers": registers, "constants": consts, "code": code,
-                "data": list(self.data_values), "emission_varies": self.emission_varies,
-                "refracts": self.refracts}
+        program = {"registers": registers, "constants": consts, "code": code,
+                   "data": list(self.data_values), "emission_varies": self.emission_varies,
+                   "refracts": self.refracts}
+        if self.bump_displacement:
+            program["bump_displacement"] = True
+        return program
 
