@@ -57,7 +57,7 @@ def _one_triangle_mesh(tangents, sign, normals_):
     frames = {"UVMap": (np.asarray(tangents, np.float32), np.full(3, sign, np.float32))}
     return Mesh(co, corners, corners.reshape(1, 3), np.zeros(1, np.int32),
                 np.asarray(normals_, np.float32), (uvs, "UVMap", np.zeros((3, 3), np.float32),
-                                                   frames))
+                                                   frames, {}))
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])
