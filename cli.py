@@ -132,7 +132,8 @@ class ProgressLine:
 def _setup_render(p):
     p.add_argument("scene", help="a .blend (exported on the fly) or a .snell scene file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="linear float EXR to write")
-    p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit sRGB PNG (Standard view transform)")
+    p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit PNG through the .blend's view transform, look, exposure and "
+                        "gamma (a .snell file's: Standard)")
     _add_setting_options(p)
     _add_scale_option(p)
     _add_farm_options(p)
@@ -242,7 +243,10 @@ def cmd_render(args) -> int:
         if getattr(result, "has_features", False):
             channels.update(pass_channels(None, result))
     bad_pixels = image.write_exr(args.output, rgb, channels=channels)
-    if args.png:
+    if args.png and _extension(args.scene) == ".blend":
+        from .addon import display
+        display.write_png(args.png, rgb, args.scene)
+    elif args.png:
         image.write_png(args.png, rgb)
     if not args.quiet:
         print(_summary(args, rgb, result, bad_pixels, denoised))
