@@ -111,9 +111,14 @@ class RENDER_PT_snell_sampling_viewport(SnellPanel, bpy.types.Panel):
     bl_parent_id = "RENDER_PT_snell_sampling"
 
     def draw(self, context):
-        # Cycles' Sampling > Viewport: the samples the viewport's Rendered mode refines to.
+        # Cycles' Sampling > Viewport: the samples the viewport's Rendered mode refines to
+        # (the file's Cycles value when Snell follows it, as the Render panel does).
+        cycles = _cycles(context)
         col = self.column(align=True)
-        col.prop(context.scene.snell, "viewport_spp", text="Max Samples")
+        if cycles is not None:
+            col.prop(cycles, "preview_samples", text="Max Samples")
+        else:
+            col.prop(context.scene.snell, "viewport_spp", text="Max Samples")
         col.prop(context.scene.snell, "viewport_time_limit", text="Time Limit")
 
 

@@ -64,6 +64,9 @@ FOLLOWED = (
     Followed("time_limit", "Sampling > Render > Time Limit",
              lambda c, f: float(f"{c.time_limit:.7g}")),
     Followed("seed", "Sampling > Advanced > Seed", _seed),
+    # Both count 0 as "until stopped".
+    Followed("viewport_spp", "Sampling > Viewport > Max Samples",
+             lambda c, f: int(c.preview_samples)),
     # Cycles' max_bounces N allows N + 1 scattering events; Snell's max depth counts emission
     # plus up to M bounces, so M = N + 1 (validation/cycles.py forces the same; checked there).
     Followed("max_depth", "Light Paths > Max Bounces > Total", lambda c, f: int(c.max_bounces) + 1),

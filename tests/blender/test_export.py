@@ -1079,6 +1079,20 @@ def test_the_files_cycles_settings_are_followed(bl):
     assert len(seeds) == 3
 
 
+def test_the_viewport_refines_to_cycles_viewport_samples(bl):
+    """Sampling > Viewport > Max Samples (0: until stopped, in both) is the viewport's target,
+    unless Follow Cycles' Settings is off."""
+    from snell.addon import registration
+    from snell.addon.export import blender_settings
+    registration.ensure_registered()
+    bl.snell.viewport_spp = 20
+    for samples in (37, 0):
+        bl.cycles.preview_samples = samples
+        assert blender_settings(bl).viewport_spp == samples
+    bl.snell.use_cycles_settings = False
+    assert blender_settings(bl).viewport_spp == 20
+
+
 def test_snells_own_settings_override_cycles_only_when_asked(bl):
     from snell.addon import registration
     registration.ensure_registered()

@@ -402,7 +402,7 @@ def draw_until(engine, context, drawing, predicate, timeout=120):
 
 def test_view_update_and_view_draw_send_and_draw(monkeypatch):
     scene = open_spheres()
-    scene.snell.viewport_spp = 3
+    scene.cycles.preview_samples = 3      # the file's Cycles setting, which Snell follows
     drawing = StandInDrawing()
     monkeypatch.setattr(viewport, "DRAWING", drawing)
     monkeypatch.setattr(viewport, "RESIZE_DELAY", 0.0)
@@ -475,7 +475,7 @@ def test_view_update_and_view_draw_send_and_draw(monkeypatch):
 
 def test_resizes_wait_until_the_region_keeps_its_size(monkeypatch):
     scene = open_spheres()
-    scene.snell.viewport_spp = 1
+    scene.cycles.preview_samples = 1      # the file's Cycles setting, which Snell follows
     drawing = StandInDrawing()
     monkeypatch.setattr(viewport, "DRAWING", drawing)
     monkeypatch.setattr(viewport, "RESIZE_DELAY", 0.0)
@@ -525,7 +525,7 @@ def test_worker_errors_are_drawn_and_reported(monkeypatch):
 
 def test_a_drawing_failure_is_reported_not_raised(monkeypatch):
     scene = open_spheres()
-    scene.snell.viewport_spp = 1
+    scene.cycles.preview_samples = 1      # the file's Cycles setting, which Snell follows
 
     class Refusing(StandInDrawing):
         def draw_texture(self, *args):
