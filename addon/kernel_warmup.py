@@ -21,9 +21,9 @@ from bpy.app.handlers import persistent
 
 from ..tracer import jit
 
-# Seconds the first compile took on a 2-core machine, idle (docs/measurements.md#first-render):
-# the estimate until this machine has timed one of its own.
-DEFAULT_ESTIMATE_S = 150.0
+# Seconds the first compile took on the 2-core development machine, idle (docs/measurements.md,
+# "Kernels"): the estimate until this machine has timed one of its own.
+DEFAULT_ESTIMATE_S = 135.0
 _TIMING_FILE = "last-compile-seconds"
 _LOG_FILE = "background-compile.log"     # the process's stderr (a pipe could fill and block it)
 

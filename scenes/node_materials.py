@@ -18,34 +18,36 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
 
-def _tree(name):
+def node_tree(name):
+    """A new material with an empty node tree: (material, tree, its Material Output)."""
     mat = bpy.data.materials.new(name)
     tree = mat.node_tree
     tree.nodes.clear()
     return mat, tree, tree.nodes.new("ShaderNodeOutputMaterial")
 
 
-def _node(tree, idname, **inputs):
-    node = tree.nodes.new(idname)
+def node(tree, idname, **inputs):
+    """A new node of the tree with these input values."""
+    new = tree.nodes.new(idname)
     for key, value in inputs.items():
-        node.inputs[key].default_value = value
-    return node
+        new.inputs[key].default_value = value
+    return new
 
 
 def worn_tiles():
     """Checker tiles whose colour and roughness wear with a Noise texture."""
-    mat, tree, out = _tree("WornTiles")
-    bsdf = _node(tree, "ShaderNodeBsdfPrincipled")
-    checker = _node(tree, "ShaderNodeTexChecker", Scale=6.0, Color1=(0.8, 0.75, 0.65, 1.0),
+    mat, tree, out = node_tree("WornTiles")
+    bsdf = node(tree, "ShaderNodeBsdfPrincipled")
+    checker = node(tree, "ShaderNodeTexChecker", Scale=6.0, Color1=(0.8, 0.75, 0.65, 1.0),
                     Color2=(0.15, 0.12, 0.1, 1.0))
-    noise = _node(tree, "ShaderNodeTexNoise", Scale=4.0, Detail=3.0)
+    noise = node(tree, "ShaderNodeTexNoise", Scale=4.0, Detail=3.0)
     mix = tree.nodes.new("ShaderNodeMix")
     mix.data_type = "RGBA"
     mix.blend_type = "MULTIPLY"
     mix.inputs["Factor"].default_value = 0.6
     tree.links.new(checker.outputs["Color"], mix.inputs["A"])
     tree.links.new(noise.outputs["Color"], mix.inputs["B"])
-    rough = _node(tree, "ShaderNodeMapRange", **{"To Min": 0.2, "To Max": 0.7})
+    rough = node(tree, "ShaderNodeMapRange", **{"To Min": 0.2, "To Max": 0.7})
     tree.links.new(noise.outputs["Fac"], rough.inputs["Value"])
     tree.links.new(mix.outputs["Result"], bsdf.inputs["Base Color"])
     tree.links.new(rough.outputs["Result"], bsdf.inputs["Roughness"])
@@ -55,23 +57,23 @@ def worn_tiles():
 
 def brick_wall():
     """A Diffuse BSDF coloured by a Brick texture."""
-    mat, tree, out = _tree("BrickWall")
-    bsdf = _node(tree, "ShaderNodeBsdfDiffuse")
-    brick = _node(tree, "ShaderNodeTexBrick", Scale=3.0, Color1=(0.55, 0.2, 0.12, 1.0),
+    mat, tree, out = node_tree("BrickWall")
+    bsdf = node(tree, "ShaderNodeBsdfDiffuse")
+    brick = node(tree, "ShaderNodeTexBrick", Scale=3.0, Color1=(0.55, 0.2, 0.12, 1.0),
                   Color2=(0.4, 0.16, 0.1, 1.0), Mortar=(0.7, 0.7, 0.68, 1.0))
     tree.links.new(brick.outputs["Color"], bsdf.inputs["Color"])
     tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
     return mat
 
 
-def fresnel_glass():
-    """Mix(Fresnel, Refraction, Glossy)."""
-    mat, tree, out = _tree("FresnelGlass")
+def fresnel_glass(ior=1.5):
+    """Mix(Fresnel, Refraction, Glossy): the glass of a file issue 29 lists."""
+    mat, tree, out = node_tree("FresnelGlass")
     mix = tree.nodes.new("ShaderNodeMixShader")
-    tree.links.new(_node(tree, "ShaderNodeFresnel", IOR=1.5).outputs[0], mix.inputs["Fac"])
-    tree.links.new(_node(tree, "ShaderNodeBsdfRefraction", IOR=1.5, Roughness=0.0).outputs[0],
+    tree.links.new(node(tree, "ShaderNodeFresnel", IOR=ior).outputs[0], mix.inputs["Fac"])
+    tree.links.new(node(tree, "ShaderNodeBsdfRefraction", IOR=ior, Roughness=0.0).outputs[0],
                    mix.inputs[1])
-    tree.links.new(_node(tree, "ShaderNodeBsdfGlossy", Roughness=0.0).outputs[0], mix.inputs[2])
+    tree.links.new(node(tree, "ShaderNodeBsdfGlossy", Roughness=0.0).outputs[0], mix.inputs[2])
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
     return mat
 
@@ -81,7 +83,7 @@ def dispersion_glass():
     group = bpy.data.node_groups.new("Dispersion", "ShaderNodeTree")
     group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
     go = group.nodes.new("NodeGroupOutput")
-    shaders = [_node(group, "ShaderNodeBsdfGlass", Color=(r, g, b, 1.0), IOR=ior, Roughness=0.0)
+    shaders = [node(group, "ShaderNodeBsdfGlass", Color=(r, g, b, 1.0), IOR=ior, Roughness=0.0)
                for r, g, b, ior in ((1, 0, 0, 1.51), (0, 1, 0, 1.53), (0, 0, 1, 1.55))]
     first, second = group.nodes.new("ShaderNodeAddShader"), group.nodes.new("ShaderNodeAddShader")
     group.links.new(shaders[0].outputs[0], first.inputs[0])
@@ -89,19 +91,19 @@ def dispersion_glass():
     group.links.new(first.outputs[0], second.inputs[0])
     group.links.new(shaders[2].outputs[0], second.inputs[1])
     group.links.new(second.outputs[0], go.inputs[0])
-    mat, tree, out = _tree("DispersionGlass")
-    node = tree.nodes.new("ShaderNodeGroup")
-    node.node_tree = group
-    tree.links.new(node.outputs[0], out.inputs["Surface"])
+    mat, tree, out = node_tree("DispersionGlass")
+    instance = tree.nodes.new("ShaderNodeGroup")
+    instance.node_tree = group
+    tree.links.new(instance.outputs[0], out.inputs["Surface"])
     return mat
 
 
 def leaf():
     """A Principled BSDF cut out by a Noise through a constant Color Ramp into Alpha."""
-    mat, tree, out = _tree("Leaf")
-    bsdf = _node(tree, "ShaderNodeBsdfPrincipled", **{"Base Color": (0.2, 0.55, 0.1, 1.0),
+    mat, tree, out = node_tree("Leaf")
+    bsdf = node(tree, "ShaderNodeBsdfPrincipled", **{"Base Color": (0.2, 0.55, 0.1, 1.0),
                                                        "Roughness": 0.5})
-    noise = _node(tree, "ShaderNodeTexNoise", Scale=3.0, Detail=2.0)
+    noise = node(tree, "ShaderNodeTexNoise", Scale=3.0, Detail=2.0)
     ramp = tree.nodes.new("ShaderNodeValToRGB")
     ramp.color_ramp.interpolation = "CONSTANT"
     ramp.color_ramp.elements[1].position = 0.5
@@ -111,15 +113,16 @@ def leaf():
     return mat
 
 
-def shadow_glass():
-    """Glass for camera and indirect rays, Transparent for shadow rays."""
-    mat, tree, out = _tree("ShadowGlass")
+def shadow_glass(ior=1.45, clear=1.0):
+    """Glass for camera and indirect rays, Transparent (of colour `clear`) for shadow rays."""
+    mat, tree, out = node_tree("ShadowGlass")
     mix = tree.nodes.new("ShaderNodeMixShader")
     tree.links.new(tree.nodes.new("ShaderNodeLightPath").outputs["Is Shadow Ray"],
                    mix.inputs["Fac"])
-    tree.links.new(_node(tree, "ShaderNodeBsdfGlass", IOR=1.45, Roughness=0.0).outputs[0],
+    tree.links.new(node(tree, "ShaderNodeBsdfGlass", IOR=ior, Roughness=0.0).outputs[0],
                    mix.inputs[1])
-    tree.links.new(_node(tree, "ShaderNodeBsdfTransparent").outputs[0], mix.inputs[2])
+    tree.links.new(node(tree, "ShaderNodeBsdfTransparent",
+                        Color=(clear, clear, clear, 1.0)).outputs[0], mix.inputs[2])
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
     return mat
 

@@ -22,83 +22,24 @@ from support.programs import material_copy, with_constant, with_slot_constant
 bpy = pytest.importorskip("bpy")
 
 common = importlib.import_module("common")
+graphs = importlib.import_module("node_materials")
 textured = importlib.import_module("textured_floors")
 
 FULL = {"resolution_percentage": 100}
 SHADOW_IOR, FRESNEL_IOR = 1.45, 1.47
 CLEAR = 0.95      # the shadow glass's Transparent colour
-DISPERSION = ((1.0, 0.0, 0.0, 1.51), (0.0, 1.0, 0.0, 1.53), (0.0, 0.0, 1.0, 1.55))
-
-
-def _tree(name):
-    mat = bpy.data.materials.new(name)
-    tree = mat.node_tree
-    tree.nodes.clear()
-    return mat, tree, tree.nodes.new("ShaderNodeOutputMaterial")
-
-
-def _node(tree, idname, **inputs):
-    node = tree.nodes.new(idname)
-    for key, value in inputs.items():
-        node.inputs[key].default_value = value
-    return node
-
-
-def shadow_glass():
-    """Glass for camera and indirect rays, Transparent for shadow rays."""
-    mat, tree, out = _tree("ShadowGlass")
-    mix = tree.nodes.new("ShaderNodeMixShader")
-    path = tree.nodes.new("ShaderNodeLightPath")
-    tree.links.new(path.outputs["Is Shadow Ray"], mix.inputs["Fac"])
-    tree.links.new(_node(tree, "ShaderNodeBsdfGlass", IOR=SHADOW_IOR, Roughness=0.0).outputs[0],
-                   mix.inputs[1])
-    tree.links.new(_node(tree, "ShaderNodeBsdfTransparent",
-                         Color=(CLEAR, CLEAR, CLEAR, 1.0)).outputs[0], mix.inputs[2])
-    tree.links.new(mix.outputs[0], out.inputs["Surface"])
-    return mat
-
-
-def fresnel_glass():
-    """Mix(Fresnel, Refraction, Glossy): the glass of a file the issue lists."""
-    mat, tree, out = _tree("FresnelGlass")
-    mix = tree.nodes.new("ShaderNodeMixShader")
-    fresnel = _node(tree, "ShaderNodeFresnel", IOR=FRESNEL_IOR)
-    tree.links.new(fresnel.outputs[0], mix.inputs["Fac"])
-    tree.links.new(_node(tree, "ShaderNodeBsdfRefraction", IOR=FRESNEL_IOR,
-                         Roughness=0.0).outputs[0], mix.inputs[1])
-    tree.links.new(_node(tree, "ShaderNodeBsdfGlossy", Roughness=0.0).outputs[0], mix.inputs[2])
-    tree.links.new(mix.outputs[0], out.inputs["Surface"])
-    return mat
-
-
-def dispersion_glass():
-    """A node group adding three glasses, red, green and blue, of three IORs."""
-    group = bpy.data.node_groups.new("Dispersion", "ShaderNodeTree")
-    group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
-    go = group.nodes.new("NodeGroupOutput")
-    shaders = [_node(group, "ShaderNodeBsdfGlass", Color=(r, g, b, 1.0), IOR=ior, Roughness=0.0)
-               for r, g, b, ior in DISPERSION]
-    first = group.nodes.new("ShaderNodeAddShader")
-    second = group.nodes.new("ShaderNodeAddShader")
-    group.links.new(shaders[0].outputs[0], first.inputs[0])
-    group.links.new(shaders[1].outputs[0], first.inputs[1])
-    group.links.new(first.outputs[0], second.inputs[0])
-    group.links.new(shaders[2].outputs[0], second.inputs[1])
-    group.links.new(second.outputs[0], go.inputs[0])
-    mat, tree, out = _tree("DispersionGlass")
-    node = tree.nodes.new("ShaderNodeGroup")
-    node.node_tree = group
-    tree.links.new(node.outputs[0], out.inputs["Surface"])
-    return mat
 
 
 def build_glass(path):
     scene = common.reset()
     common.setup_render(scene, (48, 48))
     common.cornell_box(light_size=0.8)
-    common.uv_sphere("ShadowSphere", (-0.45, 0.3, 0.45), 0.45, shadow_glass(), 48, 24)
-    common.uv_sphere("FresnelSphere", (0.5, 0.4, 0.35), 0.35, fresnel_glass(), 48, 24)
-    common.uv_sphere("DispersionSphere", (0.1, -0.35, 0.25), 0.25, dispersion_glass(), 48, 24)
+    common.uv_sphere("ShadowSphere", (-0.45, 0.3, 0.45), 0.45,
+                     graphs.shadow_glass(SHADOW_IOR, CLEAR), 48, 24)
+    common.uv_sphere("FresnelSphere", (0.5, 0.4, 0.35), 0.35, graphs.fresnel_glass(FRESNEL_IOR),
+                     48, 24)
+    common.uv_sphere("DispersionSphere", (0.1, -0.35, 0.25), 0.25, graphs.dispersion_glass(),
+                     48, 24)
     # Close up on the floor, where the spheres and their shadows are.
     common.camera(scene, (0.0, -2.3, 0.9), (0.0, 0.1, 0.45), lens=40.0)
     return common.save(path)
@@ -113,13 +54,13 @@ def leaf(stripes):
 
 def hidden_lamp():
     """An emissive panel the camera does not see: Mix(Emission, Transparent, Is Camera Ray)."""
-    mat, tree, out = _tree("HiddenLamp")
+    mat, tree, out = graphs.node_tree("HiddenLamp")
     mix = tree.nodes.new("ShaderNodeMixShader")
     path = tree.nodes.new("ShaderNodeLightPath")
     tree.links.new(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
-    tree.links.new(_node(tree, "ShaderNodeEmission", Color=(1.0, 0.8, 0.5, 1.0),
+    tree.links.new(graphs.node(tree, "ShaderNodeEmission", Color=(1.0, 0.8, 0.5, 1.0),
                          Strength=4.0).outputs[0], mix.inputs[1])
-    tree.links.new(_node(tree, "ShaderNodeBsdfTransparent").outputs[0], mix.inputs[2])
+    tree.links.new(graphs.node(tree, "ShaderNodeBsdfTransparent").outputs[0], mix.inputs[2])
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
     return mat
 
