@@ -140,6 +140,9 @@ def test_build_makes_one_zip_per_platform_with_its_wheels(built):
         assert sorted(n for n in names if n.startswith("addon/") and n.endswith(".py")) == addon
 
 
+# Slow: the installed copy compiles every kernel into its own cache (3 minutes of the default
+# run's 22); the other tests here still install the zip and import each of its modules.
+@pytest.mark.slow
 def test_installed_extension_renders_like_snell_render(built, tmp_path, blender_scenes):
     blends = blender_scenes
     blend = blends / "cornell.blend"

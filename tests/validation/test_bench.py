@@ -92,6 +92,7 @@ def test_median_run_keeps_one_whole_run():
     assert bench_curves.median_run(runs[:1]) == {**runs[0], "runs": 1, "wall_s_runs": [12.0]}
 
 
+@pytest.mark.slow        # a whole quick bench with its Cycles ladder: 84 s
 def test_quick_bench_fills_every_key(tmp_path):
     pytest.importorskip("bpy")
     pytest.importorskip("flip_evaluator")
