@@ -132,8 +132,9 @@ class ProgressLine:
 def _setup_render(p):
     p.add_argument("scene", help="a .blend (exported on the fly) or a .snell scene file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="linear float EXR to write")
-    p.add_argument("--png", metavar="OUT.png", help="also write an 8-bit PNG through the .blend's view transform, look, exposure and "
-                        "gamma (a .snell file's: Standard)")
+    p.add_argument("--png", metavar="OUT.png",
+                   help="also write an 8-bit PNG through the .blend's view transform, look, "
+                        "exposure and gamma (a .snell file's: Standard)")
     _add_setting_options(p)
     _add_scale_option(p)
     _add_farm_options(p)

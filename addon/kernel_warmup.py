@@ -74,12 +74,16 @@ def _environment() -> dict:
     # Blender's own paths (its modules, the extension's wheels: numba, llvmlite, embreex) and
     # the cache this process uses (jit.cache_dir is <base>/<sources hash>).
     env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
-    env["SNELL_KERNEL_CACHE"] = os.path.dirname(jit.cache_dir())
+    env["SNELL_KERNEL_CACHE"] = _cache_base()
     return env
 
 
+def _cache_base() -> str:
+    return os.path.dirname(jit.cache_dir())
+
+
 def _beside_cache(name: str) -> str:
-    return os.path.join(os.path.dirname(jit.cache_dir()), name)
+    return os.path.join(_cache_base(), name)
 
 
 def estimate() -> float:
@@ -106,7 +110,7 @@ def start() -> bool:
     if _in_background() or _compiled():
         return False
     _started = time.perf_counter()
-    os.makedirs(os.path.dirname(jit.cache_dir()), exist_ok=True)
+    os.makedirs(_cache_base(), exist_ok=True)
     with open(_beside_cache(_LOG_FILE), "wb") as log:
         _process = subprocess.Popen(_command(), env=_environment(), stdin=subprocess.DEVNULL,
                                     stdout=subprocess.DEVNULL, stderr=log)

@@ -352,9 +352,9 @@ class Renderer:
             if n_programs:
                 m, n_shadow = wavefront.program_materials(
                     lights, mesh, mats, self.media, self.tables, self.next_event, bits,
-                    stratified, depth, self.max_depth, n_programs, programs, paths, prim, u, v, out, m, shadows,
-                    n_shadow, radiance, without, scratch, regs, stats, lv, last_connection,
-                    with_features, feature_albedo, feature_normal)
+                    stratified, depth, self.max_depth, n_programs, programs, paths, prim, u, v,
+                    out, m, shadows, n_shadow, radiance, without, scratch, regs, stats, lv,
+                    last_connection, with_features, feature_albedo, feature_normal)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])

@@ -383,7 +383,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
         n_out = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
-                                                              caustic, connect, 0.0),
+                                                        caustic, connect, 0.0),
                       offset_origin(p, ng, eps, new_d), features, stats, media,
                       (tri, mat, entering, ng_f))
     return n_out, n_shadow, n_programs
@@ -391,9 +391,9 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
 
 @jit
 def program_materials(lights, mesh, mats, media, tables, next_event, bits, stratified, depth,
-                      max_depth, n_programs, programs, paths, prim, u, v, out, n_out, shadows, n_shadow,
-                      radiance, without, lobes, regs, stats, lv, last_connection, features,
-                      feature_albedo, feature_normal):
+                      max_depth, n_programs, programs, paths, prim, u, v, out, n_out, shadows,
+                      n_shadow, radiance, without, lobes, regs, stats, lv, last_connection,
+                      features, feature_albedo, feature_normal):
     """The materials stage for the hits on shader programs that `materials` left in
     `programs` (scatter.scatter_program), their next rays after out's first n_out and their
     shadow rays after the first n_shadow. Returns the new (n_out, n_shadow). A path past its
@@ -430,7 +430,7 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
         n_out = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
-                                                              caustic, connect, mis_t),
+                                                        caustic, connect, mis_t),
                       offset_origin(p, ng, eps, new_d), features, stats, media,
                       (tri, mat, entering, ng_f))
     return n_out, n_shadow
@@ -454,9 +454,8 @@ def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, 
     """After Russian roulette, path i's next ray from origin (`scattered`: direction,
     throughput, ray kind, BSDF density, caustic state, light-vertex factor, distance since the
     last scattering vertex: not 0 after a transparent surface, which is no bounce) as row n_out
-    of `out`, with its stack of media (entered or left
-    through `surface`: triangle, material, entering, facing geometric normal); returns the new
-    count."""
+    of `out`, with its stack of media (entered or left through `surface`: triangle, material,
+    entering, facing geometric normal); returns the new count."""
     new_d, beta, ray_kind, pdf_prev, caustic, connect, mis_t = scattered
     peak = max3(beta)
     if not peak > 0.0:

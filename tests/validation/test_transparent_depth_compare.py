@@ -25,6 +25,7 @@ from support.cycles_reference import verdict as _verdict
 bpy = pytest.importorskip("bpy")
 
 common = importlib.import_module("common")
+graphs = importlib.import_module("node_materials")
 
 FULL = {"resolution_percentage": 100}
 ALPHA = 0.5
@@ -54,11 +55,9 @@ def build_veils(path):
 
 
 def clear_pane():
-    mat = bpy.data.materials.new("Clear")
-    tree = mat.node_tree
-    tree.nodes.clear()
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    tree.links.new(tree.nodes.new("ShaderNodeBsdfTransparent").outputs[0],
+    """A Transparent BSDF of colour 1."""
+    mat, tree, out = graphs.node_tree("Clear")
+    tree.links.new(graphs.node(tree, "ShaderNodeBsdfTransparent").outputs[0],
                    out.inputs["Surface"])
     return mat
 
