@@ -206,7 +206,7 @@ def cmd_render(args) -> int:
     farm = args.workers is not None or args.cluster is not None
     if farm:
         from .farm.render import check_settings
-        check_settings(settings, args.scene)
+        check_settings(settings, args.scene, scene)
     from .tracer import image
     from .tracer.integrator import kernels_compiled, render, warm_up
 
@@ -229,8 +229,8 @@ def cmd_render(args) -> int:
             bar.close()
     if result.cancelled:
         raise KeyboardInterrupt
-    # Each pixel's samples as an extra channel: where adaptive sampling stopped early.
-    channels = {"samples": result.samples()}
+    # The alpha (Film > Transparent, a Holdout) and each pixel's samples as extra channels.
+    channels = result.exr_channels()
     denoised = None
     if settings.denoise:
         from .tracer.denoise import denoise_result
@@ -244,11 +244,12 @@ def cmd_render(args) -> int:
         if getattr(result, "has_features", False):
             channels.update(pass_channels(None, result))
     bad_pixels = image.write_exr(args.output, rgb, channels=channels)
+    alpha = result.alpha() if getattr(result, "has_alpha", False) else None
     if args.png and _extension(args.scene) == ".blend":
         from .addon import display
-        display.write_png(args.png, rgb, args.scene)
+        display.write_png(args.png, rgb, args.scene, alpha)
     elif args.png:
-        image.write_png(args.png, rgb)
+        image.write_png(args.png, rgb, alpha)
     if not args.quiet:
         print(_summary(args, rgb, result, bad_pixels, denoised))
     return 0
@@ -303,6 +304,8 @@ def _summary(args, rgb, result, bad_pixels, denoised=None) -> str:
     on = f" on {_plural(workers, 'worker')}" if workers else ""
     if getattr(result, "has_features", False) and result.feature_nan_count:
         nans += f", {result.feature_nan_count} NaN/Inf denoising-pass samples left out"
+    if getattr(result, "has_alpha", False) and result.alpha_nan_count:
+        nans += f", {result.alpha_nan_count} NaN/Inf alpha samples left out"
     denoising = ""
     if denoised is not None:
         denoising = (f", denoised in {_duration(denoised.seconds)}" if denoised.denoised

@@ -50,26 +50,29 @@ def _set_output(scene, output):
         raise BatchError(f"-o {output}: directory {directory} does not exist")
     settings = scene.render.image_settings
     settings.file_format = FORMATS[ext]
+    # With Film > Transparent the alpha too, as Cycles' files have it.
+    mode = "RGBA" if scene.render.film_transparent else "RGB"
     if ext == ".exr":   # linear scene-referred float, as `snell render` writes
         settings.color_depth = "32"
-        settings.color_mode = "RGB"
+        settings.color_mode = mode
     else:               # 8-bit through the scene's view transform, as any engine
         settings.color_depth = "8"
-        settings.color_mode = "RGB"
+        settings.color_mode = mode
     scene.render.use_file_extension = True
     scene.render.filepath = os.path.abspath(output)
 
 
-def _add_sample_counts(path, counts):
-    """Blender's EXR of a frame with each pixel's samples added as the channel `samples`, so
-    that `snell batch` and `snell render` write the same channels (R, G, B, samples). Left as
-    Blender wrote it when the counts do not cover the image (a render region without crop)."""
+def _add_render_channels(path, channels):
+    """Blender's EXR of a frame rewritten with the render's own channels after R, G, B (its
+    alpha where it made one, each pixel's samples: RenderResult.exr_channels), so that `snell
+    batch` and `snell render` write the same channels. Left as Blender wrote it when they do not
+    cover the image (a render region without crop)."""
     from ..tracer import image
 
     rgb = image.read_exr(path)
-    if counts is None or counts.shape != rgb.shape[:2]:
+    if not channels or channels["samples"].shape != rgb.shape[:2]:
         return
-    image.write_exr(path, rgb, channels={"samples": counts})
+    image.write_exr(path, rgb, channels=channels)
 
 
 def run(blend_path: str, frames: str | None = None, output: str | None = None,
@@ -198,7 +201,7 @@ def _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, strea
             os.replace(path, exact)
             path = exact
         if path.lower().endswith(".exr"):
-            _add_sample_counts(path, record.get("sample_counts"))
+            _add_render_channels(path, record.get("exr_channels"))
         rate = record.get("rays_per_second", 0.0) / 1e6
         samples = record.get("adaptive") or f"{record.get('spp', 0)} spp"
         print(f"{head}: {path}: {samples} in {time.perf_counter() - start:.1f}s "

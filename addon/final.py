@@ -172,6 +172,8 @@ class _Progress:
     def write(self, render_result):
         # The tracer's row 0 is the top; Blender's is the bottom.
         self.rgba[:, :, :3] = render_result.mean()[::-1]
+        if render_result.has_alpha:     # Film > Transparent, or a Holdout
+            self.rgba[:, :, 3] = render_result.alpha()[::-1]
         self.combined.rect.foreach_set(self.rgba.ravel())
         if self.counts is not None:
             self.counts.rect.foreach_set(
@@ -249,9 +251,12 @@ def render(engine, depsgraph):
                       light_paths=rendered.light_paths, adaptive=adaptive,
                       saved_share=rendered.saved_share,
                       mean_spp=float(rendered.samples().mean()),
-                      sample_counts=rendered.samples())
+                      exr_channels=rendered.exr_channels())
         if rendered.nan_count:
             engine.report({"WARNING"}, f"Snell: {rendered.nan_count} NaN/Inf samples counted as 0")
+        if rendered.alpha_nan_count:
+            engine.report({"WARNING"}, f"Snell: {rendered.alpha_nan_count} NaN/Inf alpha samples "
+                                       "left out")
         _write_denoised(engine, result, progress, rendered, settings, record)
         state = ("Cancelled after" if rendered.cancelled else
                  "Time limit reached after" if rendered.time_limited else "Done:")

@@ -6,9 +6,10 @@ addon/export/settings.py reads them back (blender_settings); the viewport reads 
 viewport_time_limit, the render engine threads.
 """
 import bpy
-from bpy.props import BoolProperty
+from bpy.props import BoolProperty, EnumProperty
 
 from ..tracer.settings import RUN, SCENE, VIEWPORT, of_scope
+from .export.cycles_settings import FOLLOWED
 
 # The Sampling panel's checkbox, as Cycles has it: unchecked, the noise threshold is kept but not
 # used (the scene file says noise_threshold 0). Blender's alone: the file has no such setting.
@@ -24,6 +25,15 @@ USE_CYCLES_SETTINGS = BoolProperty(
     description="Render with the file's Cycles settings (samples, noise threshold, min samples, "
                 "time limit, seed, max bounces), as a Cycles render of it would; off: Snell's "
                 "own settings below override them")
+
+
+# Per setting, Snell's own value over the file's Cycles one while Snell follows the rest
+# (addon/export/settings.py: overridden). Saved as a bit mask in FOLLOWED's order.
+OVERRIDES = EnumProperty(
+    name="Overrides", options={"ENUM_FLAG"},
+    items=[(f.name.upper(), f.label.rsplit(" > ", 1)[-1], f"Snell's own {f.name} instead of "
+            f"Cycles' {f.label}", 1 << k) for k, f in enumerate(FOLLOWED)],
+    description="The Cycles settings Snell's own values override")
 
 
 def enum_items(setting) -> list:
@@ -55,6 +65,7 @@ def _annotations() -> dict:
         props[setting.name] = getattr(bpy.props, kind)(**options)
     props["use_adaptive_sampling"] = USE_ADAPTIVE_SAMPLING
     props["use_cycles_settings"] = USE_CYCLES_SETTINGS
+    props["overrides"] = OVERRIDES
     return props
 
 

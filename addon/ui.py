@@ -1,6 +1,8 @@
 """Snell's panel in the Render Properties, and Blender's own panels that mean the same for Snell."""
 import bpy
 
+from .export.cycles_settings import FOLLOWED
+
 ENGINE = "SNELL"
 
 # Built-in (bl_ui) panels whose settings Snell reads with the same meaning: camera lens and depth
@@ -106,6 +108,38 @@ class RENDER_PT_snell_sampling(SnellPanel, bpy.types.Panel):
                             "time_limit")
         self.column().prop(props, "seed")
 
+class RENDER_PT_snell_overrides(SnellPanel, bpy.types.Panel):
+    """Per setting, Snell's own value over the file's Cycles one, while Snell follows the rest."""
+    bl_label = "Snell Overrides"
+    bl_parent_id = "RENDER_PT_snell_sampling"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and _cycles(context) is not None
+
+    def draw(self, context):
+        props = context.scene.snell
+        col = self.column()
+        for followed in FOLLOWED:
+            key = followed.name.upper()
+            row = col.row(heading=followed.label.rsplit(" > ", 1)[-1])
+            row.prop_enum(props, "overrides", key, text="", icon="DECORATE_OVERRIDE")
+            sub = row.row()
+            sub.active = key in props.overrides
+            sub.prop(props, followed.name, text="")
+
+
+# The viewport's denoise switch, passes, prefilter, quality and start sample: Cycles' properties
+# and Snell's own.
+VIEWPORT_DENOISE_CYCLES = ("use_preview_denoising", "preview_denoising_input_passes",
+                           "preview_denoising_prefilter", "preview_denoising_quality",
+                           "preview_denoising_start_sample")
+VIEWPORT_DENOISE_SNELL = ("viewport_denoise", "viewport_denoising_input_passes",
+                          "viewport_denoising_prefilter", "viewport_denoising_quality",
+                          "viewport_denoise_start_sample")
+
+
 class RENDER_PT_snell_sampling_viewport(SnellPanel, bpy.types.Panel):
     bl_label = "Viewport"
     bl_parent_id = "RENDER_PT_snell_sampling"
@@ -113,13 +147,21 @@ class RENDER_PT_snell_sampling_viewport(SnellPanel, bpy.types.Panel):
     def draw(self, context):
         # Cycles' Sampling > Viewport: the samples the viewport's Rendered mode refines to
         # (the file's Cycles value when Snell follows it, as the Render panel does).
-        cycles = _cycles(context)
+        cycles, props = _cycles(context), context.scene.snell
         col = self.column(align=True)
         if cycles is not None:
             col.prop(cycles, "preview_samples", text="Max Samples")
         else:
-            col.prop(context.scene.snell, "viewport_spp", text="Max Samples")
-        col.prop(context.scene.snell, "viewport_time_limit", text="Time Limit")
+            col.prop(props, "viewport_spp", text="Max Samples")
+        col.prop(props, "viewport_time_limit", text="Time Limit")
+        # Cycles' Viewport > Denoise, with Open Image Denoise on the CPU whatever its denoiser.
+        owner, names = ((cycles, VIEWPORT_DENOISE_CYCLES) if cycles is not None else
+                        (props, VIEWPORT_DENOISE_SNELL))
+        self.column(heading="Denoise").prop(owner, names[0], text="")
+        sub = self.column()
+        sub.active = getattr(owner, names[0])
+        for name, label in zip(names[1:], ("Passes", "Prefilter", "Quality", "Start Sample")):
+            sub.prop(owner, name, text=label)
 
 
 class RENDER_PT_snell_denoise(SnellPanel, bpy.types.Panel):
@@ -185,23 +227,24 @@ class RENDER_PT_snell_film(SnellPanel, bpy.types.Panel):
     bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
-        # The pixel filter: Cycles' own properties when Snell follows them (editing them here
-        # is editing Cycles'), else Snell's. Cycles' Film panel would offer exposure and
-        # transparency, which Snell does not render yet: say what it does.
+        # The pixel filter, exposure and transparency: Blender's and Cycles' own properties when
+        # Snell follows them (editing them here is editing theirs), else Snell's. Cycles' Film
+        # panel also offers Transparent Glass, which Snell does not render yet: say so.
         col = self.column()
         rd, following = context.scene.render, _cycles(context)
         if following is not None:
             col.prop(following, "pixel_filter_type", text="Pixel Filter")
             col.prop(following, "filter_width", text="Width")
+            col.prop(following, "film_exposure", text="Exposure")
+            col.prop(rd, "film_transparent", text="Transparent")
         else:
             col.prop(context.scene.snell, "pixel_filter")
             col.prop(context.scene.snell, "filter_width", text="Width")
+            col.prop(context.scene.snell, "film_exposure", text="Exposure")
+            col.prop(context.scene.snell, "film_transparent", text="Transparent")
         cycles = getattr(context.scene, "cycles", None)
-        if cycles is not None and cycles.film_exposure != 1.0:
-            col.label(text=f"Exposure {cycles.film_exposure:g}: not rendered", icon="ERROR")
-        col.label(text="Transparent: not rendered, the film is opaque"
-                  + (" (set in this file)" if rd.film_transparent else ""),
-                  icon="ERROR" if rd.film_transparent else "NONE")
+        if cycles is not None and cycles.film_transparent_glass and rd.film_transparent:
+            col.label(text="Transparent Glass: not rendered, glass is opaque", icon="ERROR")
 
 
 class SnellDataPanel(SnellPanel):
@@ -308,8 +351,8 @@ class OBJECT_PT_snell_visibility(SnellPanel, bpy.types.Panel):
             col.label(text="Not rendered for meshes: every ray sees them")
 
 
-classes = (RENDER_PT_snell_sampling, RENDER_PT_snell_sampling_viewport, RENDER_PT_snell_denoise,
-           RENDER_PT_snell_light_paths,
+classes = (RENDER_PT_snell_sampling, RENDER_PT_snell_overrides, RENDER_PT_snell_sampling_viewport,
+           RENDER_PT_snell_denoise, RENDER_PT_snell_light_paths,
            RENDER_PT_snell_film, RENDER_PT_snell_performance, DATA_PT_snell_light,
            DATA_PT_snell_light_beam, DATA_PT_snell_light_settings, OBJECT_PT_snell_visibility)
 

@@ -14,13 +14,16 @@ import numpy as np
 DISPLAY_LIMIT = 65504.0
 
 
-def display_pixels(image: np.ndarray) -> np.ndarray:
+def display_pixels(image: np.ndarray, alpha: np.ndarray | None = None) -> np.ndarray:
     """The (h, w, 4) float32 texture rows (bottom row first, as OpenGL's) of a (h, w, 3) linear
-    image whose row 0 is the top: non-finite values 0, the rest clamped to [0, DISPLAY_LIMIT]."""
+    image whose row 0 is the top: non-finite values 0, the rest clamped to [0, DISPLAY_LIMIT];
+    with its (h, w) alpha (premultiplied colour: the viewport shows through), else opaque."""
     h, w = image.shape[:2]
     rgba = np.ones((h, w, 4), np.float32)
     rgba[:, :, :3] = np.nan_to_num(image[::-1], nan=0.0, posinf=0.0, neginf=0.0)
     np.clip(rgba[:, :, :3], 0.0, DISPLAY_LIMIT, out=rgba[:, :, :3])
+    if alpha is not None:
+        rgba[:, :, 3] = alpha[::-1]
     return rgba
 
 

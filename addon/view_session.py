@@ -23,6 +23,7 @@ import threading
 import time
 import traceback
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -45,6 +46,7 @@ class Frame:
     error: str | None = None
     elapsed: float = 0.0          # seconds from submit to this frame
     stats: dict = field(default_factory=dict)
+    alpha: np.ndarray | None = None   # (h, w) float32 (Film > Transparent, a Holdout); None: 1
 
 
 class Mailbox:
@@ -74,6 +76,17 @@ class Mailbox:
             return self._frame
 
 
+class ViewDenoise(NamedTuple):
+    """How the viewport denoises (Cycles' Sampling > Viewport > Denoise): the settings' values
+    of denoising_input_passes, denoising_prefilter and denoising_quality, the first sample count
+    it denoises at, and where Blender keeps Open Image Denoise (final.oidn_dirs)."""
+    input_passes: str
+    prefilter: str
+    quality: str
+    start_sample: int
+    oidn_dirs: tuple = ()
+
+
 @dataclass
 class _Job:
     generation: int
@@ -83,6 +96,7 @@ class _Job:
     time_limit: float
     submitted: float
     cancel: threading.Event = field(default_factory=threading.Event)
+    denoise: ViewDenoise | None = None
 
 
 class ViewSession:
@@ -106,16 +120,18 @@ class ViewSession:
 
     # -- main thread --------------------------------------------------------------------------
 
-    def submit(self, scene, geometry_version: int, spp: int, time_limit: float = 0.0) -> int:
+    def submit(self, scene, geometry_version: int, spp: int, time_limit: float = 0.0,
+               denoise: ViewDenoise | None = None) -> int:
         """Render a new generation (replacing any job not started); returns its number.
-        spp 0 renders until stopped; time_limit 0 has none."""
+        spp 0 renders until stopped; time_limit 0 has none; denoise: how its images are
+        denoised (None: they are not)."""
         with self._cond:
             if self._stopping:
                 raise RuntimeError("the viewport session is stopped")
             self.generation += 1
             self._job = _Job(self.generation, scene, geometry_version,
                              int(spp) if spp > 0 else UNLIMITED_SAMPLES, float(time_limit),
-                             time.perf_counter())
+                             time.perf_counter(), denoise=denoise)
             if self._running is not None:
                 self._running.cancel.set()     # ends its render within a chunk of paths
             self._cond.notify()
@@ -207,10 +223,12 @@ class ViewSession:
         t0 = time.perf_counter()
         # Every pixel to the budget: the viewport refines the whole image, never adaptively.
         # The final render's time limit is not the viewport's (viewport_time_limit, per session).
-        # The viewport does not denoise (yet): no denoising passes either.
+        # Denoising, when on, is the viewport's own (each displayed image, from its start
+        # sample on), with the passes it asks for: never the final render's.
+        guided = job.denoise is not None and job.denoise.input_passes != "color"
         settings = job.scene.settings(spp=job.spp, noise_threshold=0.0, time_limit=0.0,
                                       threads=self.threads, denoise=False,
-                                      denoising_passes=False)
+                                      denoising_passes=guided)
         renderer = integrator.Renderer(job.scene, settings,
                                        geometry=self._geometry if reuse else None)
         self._geometry, self._geometry_version = renderer.geometry, job.geometry_version
@@ -226,17 +244,41 @@ class ViewSession:
             if self._superseded(generation):
                 return
             self.mailbox.put(Frame(generation, result.mean(), 1, divisor,
-                                   elapsed=time.perf_counter() - job.submitted, stats=stats))
+                                   elapsed=time.perf_counter() - job.submitted, stats=stats,
+                                   alpha=_alpha(result)))
         start = time.perf_counter()
 
         def progress(result, done, total):
             over = job.time_limit > 0 and time.perf_counter() - start >= job.time_limit
             finished = over or result.spp >= job.spp
-            self.mailbox.put(Frame(generation, result.mean(), result.spp, 1, final=finished,
+            image, denoised = result.mean(), {}
+            if job.denoise is not None and result.spp >= job.denoise.start_sample:
+                image, denoised = _denoised(result, settings, job.denoise)
+            self.mailbox.put(Frame(generation, image, result.spp, 1, final=finished,
                                    elapsed=time.perf_counter() - job.submitted,
                                    stats={**stats, "samples_per_second":
                                           result.spp / max(result.time_s, 1e-9),
-                                          "nan_count": result.nan_count}))
+                                          "nan_count": result.nan_count, **denoised},
+                                   alpha=_alpha(result)))
             return not (over or self._superseded(generation))
 
         renderer.render(progress=progress, stop=job.cancel)
+
+
+def _alpha(result):
+    """A render's alpha for the viewport, or None where it made none (opaque)."""
+    return result.alpha() if result.has_alpha else None
+
+
+def _denoised(result, settings, how: ViewDenoise):
+    """(the image denoised as `how` says, frame stats: "denoised", and "denoise_warning" when
+    OIDN could not run or lacked its passes)."""
+    from ..tracer.denoise import denoise_result
+    outcome = denoise_result(result, settings.replace(denoising_input_passes=how.input_passes,
+                                                      denoising_prefilter=how.prefilter,
+                                                      denoising_quality=how.quality),
+                             how.oidn_dirs)
+    stats = {"denoised": outcome.denoised}
+    if outcome.warning:
+        stats["denoise_warning"] = outcome.warning
+    return outcome.image, stats

@@ -25,7 +25,7 @@ from ..tracer.scene import SceneError, aperture_radius
 from . import view_draw
 from .view_camera import ViewUnsupported, camera_from_view
 from .view_export import LiveExport
-from .view_session import ViewSession
+from .view_session import ViewDenoise, ViewSession
 from .view_updates import classify, full, snapshot
 
 RESIZE_DELAY = 0.25     # seconds a region keeps its size before the render restarts at it
@@ -53,12 +53,21 @@ def release(engine):
         setattr(engine, ATTRIBUTE, None)
 
 
-def settings(bl_scene) -> tuple[int, float, int]:
-    """(viewport samples, 0 = until stopped; time limit in seconds, 0 = none; threads)."""
+def settings(bl_scene) -> tuple[int, float, int, object]:
+    """(viewport samples, 0 = until stopped; time limit in seconds, 0 = none; threads; how the
+    images are denoised, a view_session.ViewDenoise, or None)."""
     from .export import blender_settings, blender_threads
+    from .final import oidn_dirs
 
     found = blender_settings(bl_scene)
-    return found.viewport_spp, found.viewport_time_limit, blender_threads(bl_scene, found)
+    denoise = None
+    if found.viewport_denoise:
+        denoise = ViewDenoise(
+            found.viewport_denoising_input_passes, found.viewport_denoising_prefilter,
+            found.viewport_denoising_quality, found.viewport_denoise_start_sample,
+            tuple(oidn_dirs()))
+    return (found.viewport_spp, found.viewport_time_limit, blender_threads(bl_scene, found),
+            denoise)
 
 
 def region_camera(context, depsgraph) -> dict:
@@ -193,14 +202,15 @@ class Viewport:
         if self.submitted is not None and self.submitted[0] is self.content and \
                 self.submitted[1] == self.camera:
             return
-        spp, limit, threads = settings(bl_scene)
+        spp, limit, threads, denoise = settings(bl_scene)
         if self.session is not None and self.session.threads != threads:
             self.session.stop()           # Performance > Threads changed: a new worker pool
             self.session = None
         if self.session is None:
             self.session = self.session_factory(threads=threads)
         scene = self.content.with_camera(self.camera)
-        generation = self.session.submit(scene, self.content.geometry_version, spp, limit)
+        generation = self.session.submit(scene, self.content.geometry_version, spp, limit,
+                                         denoise)
         self.generations[generation] = "first" if self.submitted is None else why
         self.submitted = (self.content, self.camera)
         self.target_spp = spp
@@ -209,10 +219,12 @@ class Viewport:
         if frame.error:
             self._report(engine, "ERROR", frame.error)
         if frame.image is not None:
-            self.texture = drawing.texture(view_draw.display_pixels(frame.image))
+            self.texture = drawing.texture(view_draw.display_pixels(frame.image, frame.alpha))
             if frame.stats.get("nan_count"):
                 self._report(engine, "WARNING",
                              f"{frame.stats['nan_count']} NaN/Inf samples counted as 0")
+            if frame.stats.get("denoise_warning"):
+                self._report(engine, "WARNING", frame.stats["denoise_warning"])
         self.frame = frame
 
     def _status(self, message) -> str:
@@ -228,7 +240,8 @@ class Viewport:
         rate = frame.stats.get("samples_per_second")
         rate = f" | {rate:.1f} samples/s" if rate else ""
         return (f"Sample {frame.samples}" + (f"/{self.target_spp}" if self.target_spp else "")
-                + rate + (" | done" if frame.final else ""))
+                + rate + (" | denoised" if frame.stats.get("denoised") else "")
+                + (" | done" if frame.final else ""))
 
     def _report(self, engine, level, message):
         """Report a message once per viewport (each edit re-exports, so warnings repeat)."""

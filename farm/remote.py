@@ -55,10 +55,10 @@ class RemoteTracer:
         return passes.light_count(self.light_paths_per_camera_path, rows, samples, share)
 
     def camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
-                    pilot=None, merge=False, features=None) -> int:
+                    pilot=None, merge=False, extra=None) -> int:
         """As Renderer.camera_pass (no merge: the schedulers that use it add in place; no
-        denoising passes, which a cluster does not trace yet: its results have none, so
-        `features` is None)."""
+        denoising passes or alpha, which a cluster does not trace yet: its results have none,
+        so `extra` is None)."""
         rows = pixels.shape[0] or self.npix
         bad = 0
         for sub in passes.sub_passes(step, rows):
@@ -145,7 +145,8 @@ def render_passes(client, scene, settings, name: str, frame: int = 0, progress=N
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)),
                               threads=tracer.threads, build_s=tracer.facts["build_s"],
                               light_in_image=tracer.split, stages=tracer.facts["stages"],
-                              spp_budget=settings.spp, noise_threshold=threshold)
+                              spp_budget=settings.spp, noise_threshold=threshold,
+                              exposure=settings.film_exposure)
         scheduler = passes.scheduler(tracer, result, settings)
         return passes.drive(tracer, scheduler, None, progress, stop, 0.0)
     finally:

@@ -14,6 +14,7 @@ from ..errors import CliError
 from ..tracer import passes
 from ..tracer.camera import Camera
 from ..tracer.result import RenderResult
+from ..tracer.shader.program import has_holdout
 from . import cluster, keys, remote, worker
 
 AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait for the client
@@ -22,12 +23,19 @@ AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait
 AHEAD_BYTES = 4 << 30
 
 
-def check_settings(settings, where: str) -> None:
-    """CliError unless a cluster can render the settings' image."""
+def check_settings(settings, where: str, scene=None) -> None:
+    """CliError unless a cluster can render the settings' (and the scene's) image."""
     if getattr(settings, "time_limit", 0):
         # The local render's samples would depend on its clock: no image to be equal to.
         raise CliError(f"{where}: a time limit is not distributed (its samples would depend on "
                        "the clock): add --time-limit 0")
+    # The workers do not return the alpha's sums yet: refuse rather than write alpha 1.
+    if getattr(settings, "film_transparent", False):
+        raise CliError(f"{where}: Film > Transparent is not rendered on a cluster yet (no "
+                       "alpha): render it without --workers/--cluster")
+    if scene is not None and has_holdout(scene.materials):
+        raise CliError(f"{where}: a Holdout is not rendered on a cluster yet (no alpha): "
+                       "render it without --workers/--cluster")
 
 
 @contextlib.contextmanager
@@ -63,7 +71,7 @@ def render_frame(client, scene, settings, name: str, frame: int = 0, progress=No
                  threads: int | None = None) -> RenderResult:
     """Render a scene's frame on the client's workers; `name` (the scene file) names it in
     errors. progress(result, passes done, passes) as Renderer.render's."""
-    check_settings(settings, name)
+    check_settings(settings, name, scene)
     threshold, _ = passes.adaptive_settings(settings)
     if threshold > 0.0 or settings.batches:
         return remote.render_passes(client, scene, settings, name, frame, progress, threads)
@@ -81,7 +89,7 @@ def _render_windows(client, scene, settings, name: str, frame: int, progress,
     # Sent once to every worker (a worker that joins later copies it from another), not per task.
     [scene_future] = client.scatter([scene], broadcast=True, hash=False)
     result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=threads,
-                          spp_budget=spp)
+                          spp_budget=spp, exposure=settings.film_exposure)
     futures, arrived = {}, {}
     tasks = _dask().as_completed()
     window_bytes = w * h * 3 * 8 * 3          # sums, sums of squares, light sums: float64 RGB

@@ -81,7 +81,8 @@ def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict,
         spec = oiio.ImageSpec(width, height, channels, typedesc)
         if channel_names is not None:
             spec.channelnames = tuple(channel_names)
-            spec.alpha_channel = -1     # a fourth channel is data, not alpha
+            # A channel named A is the alpha (EXR's premultiplied convention); others are data.
+            spec.alpha_channel = list(channel_names).index("A") if "A" in channel_names else -1
         for name, value in attributes.items():
             spec.attribute(name, value)
         ok = out.open(tmp, spec) and out.write_image(pixels)
@@ -112,10 +113,19 @@ def write_exr(path, rgb, channels=None) -> int:
     return bad
 
 
-def write_png(path, rgb) -> int:
-    """Write linear RGB as an 8-bit sRGB PNG (Standard view transform); returns NaN/Inf pixels."""
-    _, bad = sanitize(rgb)
-    _write_atomic(path, np.ascontiguousarray(to_srgb8(rgb)), "uint8", {})
+def write_png(path, rgb, alpha=None) -> int:
+    """Write linear RGB as an 8-bit sRGB PNG (Standard view transform), with an (H, W) alpha
+    (the colour premultiplied by it, as the EXR's) as straight alpha when given; returns NaN/Inf
+    pixels."""
+    clean, bad = sanitize(rgb)
+    if alpha is None:
+        _write_atomic(path, np.ascontiguousarray(to_srgb8(clean)), "uint8", {})
+        return bad
+    a = np.clip(np.nan_to_num(as_float32(alpha)), 0.0, 1.0)[..., None]
+    # PNG stores straight colour: undo the premultiplication where anything is covered.
+    straight = np.where(a > 0.0, clean / np.maximum(a, 1e-12), 0.0)
+    pixels = np.concatenate([to_srgb8(straight), np.rint(a * 255.0).astype(np.uint8)], axis=2)
+    _write_atomic(path, np.ascontiguousarray(pixels), "uint8", {}, ("R", "G", "B", "A"))
     return bad
 
 

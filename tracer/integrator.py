@@ -30,7 +30,7 @@ from .media import camera_in_medium, media_tables
 from .microfacet_tables import shipped_tables
 from .passes import CHUNK
 from .pixel_filter import make_filter, spread_splats
-from .result import RenderResult, Window, WindowSums
+from .result import ExtraRows, RenderResult, Window, WindowSums
 from .scene import Scene
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
 from .shader import program
@@ -45,7 +45,8 @@ class _Buffers(threading.local):
         """(paths, next paths, shadow rays (a light sample and a light-vertex connection per
         path), radiance, radiance without light vertices (a pilot's), active rows, counters,
         lobe scratch, (Principled parameter, shader program register and program hit row)
-        scratch, light vertices, the paths' denoising albedo and normal) for CHUNK paths."""
+        scratch, light vertices, the paths' denoising albedo and normal, their uncovered
+        shares) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
                             wavefront.new_shadows(2 * CHUNK), np.empty((CHUNK, 3)),
@@ -55,7 +56,7 @@ class _Buffers(threading.local):
                             (np.empty(lobes.P_FIELDS), program.new_registers(),
                              np.empty(CHUNK, np.int64)),
                             light_vertices_module.new_light_vertices(CHUNK),
-                            (np.zeros((CHUNK, 3)), np.zeros((CHUNK, 3))))
+                            (np.zeros((CHUNK, 3)), np.zeros((CHUNK, 3))), np.zeros(CHUNK))
         return self.buffers
 
     def light(self):
@@ -137,6 +138,9 @@ class Renderer:
         self.transparent_shadows = bool(np.any(flags & program.MAY_BE_TRANSPARENT))
         # Whether program_emitters runs: a program whose emission no light sample finds.
         self.programs_emit = bool(np.any(flags & program.EMISSION_VARIES))
+        # The film's alpha: Film > Transparent, or a Holdout, which Cycles renders either way.
+        self.film_transparent = settings.film_transparent
+        self.alpha = self.film_transparent or bool(np.any(flags & program.HAS_HOLDOUT))
         self.light_paths_per_camera_path = settings.light_paths_per_camera_path
         self.light_vertices, self._why_vertices = self._choose_light_vertices(
             settings.light_vertices)
@@ -250,18 +254,18 @@ class Renderer:
     def trace_chunk(self, start: int, n: int, in_pass: int, first_sample: int, pixels: np.ndarray,
                     bits: int, total: np.ndarray, total_sq: np.ndarray, class_a: np.ndarray,
                     vertices: bool | None = None, pilot: tuple | None = None,
-                    merge: bool = False, features: tuple | None = None):
+                    merge: bool = False, extra: ExtraRows | None = None):
         """Trace paths start .. start + n of a pass (in_pass samples per pixel of `pixels`, or of
         every pixel when it is empty; the first sample being first_sample) and add them to the
         (pixels, 3) sums, class-A samples also to `class_a` if it has rows (adaptive.py), with
         light vertices if `vertices` (default: where they run). pilot: (sums, sums of squares)
         that get the same samples without light vertices (wavefront.emitters). merge: add the
         chunk's pixels' sums of the pass, from zero, to total and total_sq (a window merged into
-        a render, RenderResult.add). features: (albedo sums, normal sums, NaN/Inf count) rows
-        of (pixels, 3) that get the Denoising Albedo and Normal passes' samples (features.py).
+        a render, RenderResult.add). extra: the rows that get the Denoising Albedo and Normal
+        passes' samples (features.py) and the alpha's (RenderResult.extra_rows).
         Returns (NaN/Inf samples, event counters)."""
         radiance, without, stats = self._trace_paths(start, n, in_pass, first_sample, pixels,
-                                                     bits, vertices, pilot is not None, features)
+                                                     bits, vertices, pilot is not None, extra)
         if merge:
             return self._merge_chunk(radiance, n, start, in_pass, first_sample, pixels, total,
                                      total_sq), stats.copy()
@@ -292,10 +296,10 @@ class Renderer:
 
     def _trace_paths(self, start: int, n: int, in_pass: int, first_sample: int,
                      pixels: np.ndarray, bits: int, vertices: bool | None, pilot: bool,
-                     features: tuple | None = None):
-        """Trace a chunk's paths (trace_chunk's), adding their denoising features to `features`
-        (trace_chunk's) if given; returns this thread's buffers of their radiance, of their
-        radiance without light vertices (rows when pilot) and counters."""
+                     extra: ExtraRows | None = None):
+        """Trace a chunk's paths (trace_chunk's), adding their denoising features and alpha to
+        `extra` (trace_chunk's) where it has their rows; returns this thread's buffers of their
+        radiance, of their radiance without light vertices (rows when pilot) and counters."""
         if not 0 < n <= CHUNK or n % in_pass or in_pass > CHUNK:
             # The compiled stages write n paths into buffers of CHUNK, unchecked.
             raise ValueError(f"trace_chunk: {n} paths of {in_pass} samples per pixel do not fit "
@@ -303,8 +307,11 @@ class Renderer:
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
         (paths, out, shadows, radiance, without, active, stats, scratch, (params, regs, programs),
-         lv, (feature_albedo, feature_normal)) = self._buffers.get()
-        with_features = features is not None
+         lv, (feature_albedo, feature_normal), transparent) = self._buffers.get()
+        with_features = extra is not None and extra.albedo is not None
+        with_alpha = extra is not None and extra.transparent is not None
+        transparent = transparent[:n] if with_alpha else transparent[:0]
+        transparent[:] = 0.0
         without = without[:n] if pilot else without[:0]
         stats[:] = 0
         stratified = self.sampler == "stratified"
@@ -337,7 +344,7 @@ class Renderer:
             kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split,
                                       self.world_split, depth, limits, m, paths, prim, t,
                                       radiance, without, active, stats, with_features,
-                                      feature_albedo)
+                                      feature_albedo, self.film_transparent, transparent)
             if self.programs_emit:
                 wavefront.program_emitters(mesh, mats, self.tables, self.split, depth, m, paths,
                                            prim, u, v, t, radiance, without, with_features,
@@ -354,7 +361,8 @@ class Renderer:
                     lights, mesh, mats, self.media, self.tables, self.next_event, bits,
                     stratified, depth, self.max_depth, n_programs, programs, paths, prim, u, v,
                     out, m, shadows, n_shadow, radiance, without, scratch, regs, stats, lv,
-                    last_connection, with_features, feature_albedo, feature_normal)
+                    last_connection, with_features, feature_albedo, feature_normal,
+                    transparent)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])
@@ -366,9 +374,14 @@ class Renderer:
                 break
         if with_features:
             with self._film_lock:
-                features[2][0] += wavefront.film_features(feature_albedo, feature_normal, n, start,
-                                                          in_pass, pixels, features[0],
-                                                          features[1])
+                extra.feature_nans[0] += wavefront.film_features(
+                    feature_albedo, feature_normal, n, start, in_pass, pixels, extra.albedo,
+                    extra.normal)
+        if with_alpha:
+            with self._film_lock:
+                extra.alpha_nans[0] += wavefront.film_alpha(transparent, n, start, in_pass,
+                                                            pixels, extra.transparent,
+                                                            extra.transparent_sq)
         return radiance, without, stats
 
     def _through_transparency(self, n_shadow, blocked, shadows, scratch, regs):
@@ -483,9 +496,11 @@ class Renderer:
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
                               build_s=self.build_s, light_in_image=self.split,
                               stages=self.stages(), spp_budget=self.settings.spp,
-                              noise_threshold=threshold)
+                              noise_threshold=threshold, exposure=self.settings.film_exposure)
         if self.features:
             result.start_features(self.camera.rotation)
+        if self.alpha:
+            result.start_alpha(self.film_transparent)
         scheduler = passes.scheduler(self, result, self.settings)
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             return passes.drive(self, scheduler, pool, progress, stop, self.settings.time_limit)
@@ -527,12 +542,12 @@ class Renderer:
 
     def trace_window(self, pool, window: Window, bits: int, pixels: np.ndarray, film,
                      merge: bool, light: np.ndarray | None, stop,
-                     features: tuple | None = None) -> WindowSums | None:
+                     extra: ExtraRows | None = None) -> WindowSums | None:
         """Trace a window: its camera samples in progressive passes into film (sums, sums of
         squares; with `merge` each pass's sums from zero, added as RenderResult.add adds a
         window's, which takes a window of one pass), then its light paths into `light` (cleared
         first). Returns the window's sums (its camera sums None when merged), None if `stop`
-        was set. features: as trace_chunk's."""
+        was set. extra: as trace_chunk's."""
         sums = WindowSums(window, None if merge else film[0], None if merge else film[1], light,
                           counters=np.zeros(len(wavefront.STATS), np.int64))
         rows = pixels.shape[0] or self.camera.width * self.camera.height
@@ -540,7 +555,7 @@ class Renderer:
         for first in range(window.first, window.end, step):
             sums.nan_count += self.camera_pass(
                 pool, passes.Pass(first, min(step, window.end - first)), pixels, bits,
-                (*film, passes.NO_ROWS), sums.counters, stop, merge=merge, features=features)
+                (*film, passes.NO_ROWS), sums.counters, stop, merge=merge, extra=extra)
             if stop is not None and stop.is_set():
                 return None
         if light is not None:
@@ -552,9 +567,9 @@ class Renderer:
     # -- one pass --------------------------------------------------------------------------
 
     def camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
-                    pilot=None, merge=False, features=None) -> int:
+                    pilot=None, merge=False, extra=None) -> int:
         """Trace a pass's camera samples (step: passes.Pass) of `pixels` into film (sums, sums
-        of squares, class-A sums; trace_chunk's merge and features) and count their events;
+        of squares, class-A sums; trace_chunk's merge and extra) and count their events;
         returns the NaN or Inf samples."""
         rows = pixels.shape[0] or self.camera.width * self.camera.height
         # Chunks hold whole pixels' samples, so that each pixel's sum is added in the same
@@ -565,7 +580,7 @@ class Renderer:
             for chunk_bad, stats in pool.map(
                     lambda job, sub=sub: (0, 0) if stop is not None and stop.is_set() else
                     self.trace_chunk(job[0], job[1], sub.samples, sub.first, pixels, bits, *film,
-                                     vertices, pilot, merge, features),
+                                     vertices, pilot, merge, extra),
                     passes.jobs(0, rows * sub.samples, sub.samples)):
                 bad += chunk_bad
                 counters += stats

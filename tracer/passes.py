@@ -201,7 +201,7 @@ class _Passes:
         self.counters = np.zeros(len(wavefront.STATS), np.int64)
         self.k = 0
         self.converged = False
-        self.features = result.feature_rows()
+        self.extra = result.extra_rows()
 
     def estimate(self) -> int:
         """The passes the render is expected to take (progress)."""
@@ -240,7 +240,7 @@ class FixedPasses(_Passes):
         # Each window's camera sums are merged into the result chunk by chunk (a window is one
         # pass), not kept whole: a render holds no third and fourth image of sums.
         sums = self.renderer.trace_window(pool, window, self.bits, ALL_PIXELS, self.film, True,
-                                          self.pass_light, stop, self.features)
+                                          self.pass_light, stop, self.extra)
         if sums is None:
             return False
         self.result.add(sums)
@@ -277,7 +277,7 @@ class BatchPasses(_Passes):
         self.pass_sum[:] = 0.0
         result.nan_count += renderer.camera_pass(
             pool, step, ALL_PIXELS, self.bits, (self.pass_sum, result.sum_sq.reshape(-1, 3), NO_ROWS),
-            self.counters, stop, features=self.features)
+            self.counters, stop, extra=self.extra)
         if stop is not None and stop.is_set():
             return False
         image = self.pass_sum / step.samples
@@ -347,7 +347,7 @@ class AdaptivePasses(_Passes):
         rays_then = renderer.ray_count
         result.nan_count += renderer.camera_pass(
             pool, step, self.sampling, self.bits, halves.film(step.first), self.counters, stop,
-            self.vertices, None if pilot is None else pilot.sums, features=self.features)
+            self.vertices, None if pilot is None else pilot.sums, extra=self.extra)
         if pilot is not None:
             pilot.rays += renderer.ray_count - rays_then
         if stop is not None and stop.is_set():

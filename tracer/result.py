@@ -11,6 +11,19 @@ from . import adaptive, wavefront
 from .image import as_float32
 
 
+class ExtraRows(NamedTuple):
+    """What a chunk adds its paths' other passes to, as rows of the image's pixels (None: the
+    render does not make that pass): the Denoising Albedo and Normal sums (pixels, 3), the sums
+    and sums of squares of each sample's uncovered share, 1 - alpha (pixels,), and the counts
+    of samples left out of each for a NaN or Inf (arrays of one)."""
+    albedo: np.ndarray | None
+    normal: np.ndarray | None
+    feature_nans: np.ndarray | None
+    transparent: np.ndarray | None
+    transparent_sq: np.ndarray | None
+    alpha_nans: np.ndarray | None
+
+
 class Window(NamedTuple):
     """Samples first .. end of a render; `index`, each window's own, keys its light paths."""
     index: int
@@ -87,6 +100,13 @@ class RenderResult:
     normal_sum: np.ndarray | None = None
     world_to_camera: np.ndarray | None = None
     feature_nans: np.ndarray | None = None
+    # The film's alpha (Film > Transparent, or a Holdout; None: opaque): per-pixel sums of each
+    # sample's uncovered share and of its squares, and the samples whose share was NaN or Inf.
+    transparent_sum: np.ndarray | None = None
+    transparent_sq: np.ndarray | None = None
+    alpha_nans: np.ndarray | None = None
+    film_transparent: bool = False   # Film > Transparent: the world is not in the image
+    exposure: float = 1.0            # Film > Exposure: mean() scales the radiance by it
 
     def start_features(self, camera_rotation: np.ndarray):
         """Keep the denoising passes' sums; camera_rotation: the camera's columns (Blender's:
@@ -97,12 +117,58 @@ class RenderResult:
                                 * np.array([1.0, 1.0, -1.0])).T
         self.feature_nans = np.zeros(1, np.int64)
 
-    def feature_rows(self):
-        """(albedo sums, normal sums, NaN/Inf count) as rows of (pixels, 3), what the stages
-        add to (Renderer.trace_chunk), or None without the passes."""
-        if self.albedo_sum is None:
+    def start_alpha(self, film_transparent: bool):
+        """Keep the alpha's sums (film_transparent: Film > Transparent is on)."""
+        self.transparent_sum = np.zeros((self.height, self.width))
+        self.transparent_sq = np.zeros((self.height, self.width))
+        self.alpha_nans = np.zeros(1, np.int64)
+        self.film_transparent = film_transparent
+
+    def extra_rows(self) -> ExtraRows | None:
+        """The rows the stages add the denoising features and the alpha to
+        (Renderer.trace_chunk), or None when the render makes neither."""
+        if self.albedo_sum is None and self.transparent_sum is None:
             return None
-        return self.albedo_sum.reshape(-1, 3), self.normal_sum.reshape(-1, 3), self.feature_nans
+        features = self.albedo_sum is not None
+        alpha = self.transparent_sum is not None
+        return ExtraRows(self.albedo_sum.reshape(-1, 3) if features else None,
+                         self.normal_sum.reshape(-1, 3) if features else None,
+                         self.feature_nans,
+                         self.transparent_sum.reshape(-1) if alpha else None,
+                         self.transparent_sq.reshape(-1) if alpha else None,
+                         self.alpha_nans)
+
+    @property
+    def has_alpha(self) -> bool:
+        """Whether the render made an alpha channel (Film > Transparent, or a Holdout)."""
+        return self.transparent_sum is not None
+
+    @property
+    def alpha_nan_count(self) -> int:
+        """Samples whose uncovered share was NaN or Inf (left out of the alpha)."""
+        return 0 if self.alpha_nans is None else int(self.alpha_nans[0])
+
+    def alpha(self) -> np.ndarray:
+        """The alpha channel, float32 (H, W): 1 less each pixel's mean uncovered share, in
+        [0, 1] as Cycles' film reads it; 1 everywhere when the render made no alpha."""
+        if self.transparent_sum is None:
+            return np.ones((self.height, self.width), np.float32)
+        count = np.maximum(self.samples().astype(np.float64), 1.0)
+        return np.clip(1.0 - self.transparent_sum / count, 0.0, 1.0).astype(np.float32)
+
+    def exr_channels(self) -> dict:
+        """The channels an EXR of this render carries after R, G, B (`snell render` and `snell
+        batch` alike): A where the render made an alpha, then each pixel's samples."""
+        alpha = {"A": self.alpha()} if self.has_alpha else {}
+        return {**alpha, "samples": self.samples()}
+
+    def alpha_variance_and_dof(self):
+        """Per-pixel variance of the alpha's mean from its samples (n - 1 degrees of freedom,
+        the smallest pixel's), (H, W) and a number."""
+        n = self.samples().astype(np.float64)
+        spread = np.maximum(self.transparent_sq - self.transparent_sum ** 2 / np.maximum(n, 1), 0)
+        variance = np.where(n >= 2, spread / np.maximum(n - 1, 1) / np.maximum(n, 1), np.inf)
+        return variance, max(int(n.min()) - 1, 1)
 
     @property
     def has_features(self) -> bool:
@@ -146,8 +212,8 @@ class RenderResult:
                       for name, count in zip(wavefront.STATS, sums.counters.tolist())}
 
     def mean(self) -> np.ndarray:
-        """The image: per-pixel mean radiance (each pixel's sum over its own sample count),
-        float32 (H, W, 3), linear."""
+        """The image: per-pixel mean radiance (each pixel's sum over its own sample count) times
+        the film's exposure, float32 (H, W, 3), linear."""
         if self.spp == 0:
             return np.zeros_like(self.sum, dtype=np.float32)
         # Divided in float64 and rounded once into the float32 image, a band at a time, without
@@ -165,6 +231,8 @@ class RenderResult:
                     end - r, self.width, 3)
             if light:
                 part += self.light_sum[band] / self.light_paths
+            if self.exposure != 1.0:
+                part *= self.exposure
             image[band] = as_float32(part)
         return image
 

@@ -76,6 +76,17 @@ class Setting:
         return value
 
 
+# Open Image Denoise's options, as Cycles' Denoise panels name them (render and viewport).
+INPUT_PASSES = (("color", "The image alone"),
+                ("albedo", "The image and the Denoising Albedo pass"),
+                ("albedo_normal", "The image, the Denoising Albedo and the Denoising Normal "
+                                  "passes"))
+PREFILTERS = (("none", "None: the passes are taken as noise-free"),
+              ("fast", "Fast: the passes are denoised with the image"),
+              ("accurate", "Accurate: the passes are denoised first, on their own"))
+QUALITIES = (("high", "High: the best quality"),
+             ("balanced", "Balanced: between quality and speed"),
+             ("fast", "Fast: the fastest"))
 FRESNEL_MODELS = ("exact", "schlick")    # the kernels' codes are positions in this tuple
 SAMPLERS = ("stratified", "independent")
 
@@ -133,31 +144,42 @@ SETTINGS = (
     Setting("filter_width", float, 1.0, "Pixel filter width in pixels (Cycles' Film > Pixel "
             "Filter > Width; Blender's default 1.5)", least=0.01, greatest=10.0, metavar="PX",
             ui={"subtype": "PIXEL", "precision": 2}),
+    Setting("film_exposure", float, 1.0, "Film > Exposure: the image is the radiance times "
+            "this (applied when the image is read, as Cycles' film does: adaptive sampling and "
+            "the alpha are unchanged)", least=0.0, metavar="X",
+            ui={"soft_max": 10.0, "precision": 3}),
+    Setting("film_transparent", bool, False, "Film > Transparent: camera rays that reach the "
+            "world see no world; the image's alpha is the share of each pixel not covered "
+            "(premultiplied colour, as Cycles')"),
     # Denoising as Cycles' Render > Denoise panel has it: names, values and defaults (but off by
     # default: Snell's images are the unbiased estimate unless asked).
     Setting("denoise", bool, False, "Denoise the final image with Open Image Denoise (the noisy "
             "image and the guiding passes are kept beside it)"),
     Setting("denoising_input_passes", str, "albedo_normal", "The passes that guide the "
-            "denoiser",
-            choices=(("color", "The image alone"),
-                     ("albedo", "The image and the Denoising Albedo pass"),
-                     ("albedo_normal", "The image, the Denoising Albedo and the Denoising "
-                                           "Normal passes")), label="Passes"),
+            "denoiser", choices=INPUT_PASSES, label="Passes"),
     Setting("denoising_prefilter", str, "accurate", "How the guiding passes are prefiltered",
-            choices=(("none", "None: the passes are taken as noise-free"),
-                     ("fast", "Fast: the passes are denoised with the image"),
-                     ("accurate", "Accurate: the passes are denoised first, on their own")),
-            label="Prefilter"),
+            choices=PREFILTERS, label="Prefilter"),
     Setting("denoising_quality", str, "high", "Open Image Denoise's quality",
-            choices=(("high", "High: the best quality"),
-                     ("balanced", "Balanced: between quality and speed"),
-                     ("fast", "Fast: the fastest")), label="Quality"),
+            choices=QUALITIES, label="Quality"),
     Setting("denoising_passes", bool, False, "Render the Denoising Albedo and Denoising Normal "
             "passes (Blender's Denoising Data) even without denoising; denoising renders them "
             "when its input passes need them", label="Denoising Data"),
     Setting("threads", int, 0, "Render threads; 0: Blender's Performance > Threads in "
             "Blender, the machine's logical cores elsewhere", scope=RUN, least=0, greatest=4096,
             metavar="T", ui={"soft_max": 256}),
+    # Cycles' Sampling > Viewport > Denoise, with its defaults (Albedo, Fast, Balanced, from
+    # the first sample).
+    Setting("viewport_denoise", bool, False, "Denoise the viewport's Rendered image with Open "
+            "Image Denoise", scope=VIEWPORT, label="Viewport Denoise"),
+    Setting("viewport_denoising_input_passes", str, "albedo", "The passes that guide the "
+            "viewport's denoiser", scope=VIEWPORT, choices=INPUT_PASSES, label="Passes"),
+    Setting("viewport_denoising_prefilter", str, "fast", "How the viewport's guiding passes "
+            "are prefiltered", scope=VIEWPORT, choices=PREFILTERS, label="Prefilter"),
+    Setting("viewport_denoising_quality", str, "balanced", "The viewport denoiser's quality",
+            scope=VIEWPORT, choices=QUALITIES, label="Quality"),
+    Setting("viewport_denoise_start_sample", int, 1, "Samples the viewport takes before it "
+            "denoises", scope=VIEWPORT, least=1, greatest=MAX_INT, label="Start Sample",
+            ui={"soft_max": 4096}),
     Setting("viewport_spp", int, 1024, "Samples per pixel the viewport's Rendered mode refines "
             "to; 0 refines until the view changes or the viewport closes", scope=VIEWPORT,
             least=0, greatest=MAX_INT, label="Viewport Samples", ui={"soft_max": 4096}),

@@ -39,11 +39,12 @@ from .pixel_filter import position as filter_position
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
 from .scatter import ray_flags, scatter_diffuse, scatter_layered, scatter_program, scatter_specular
-from .shader.closures import TOTAL_EMISSION, TOTAL_TRANSPARENCY
+from .shader.closures import TOTAL_EMISSION, TOTAL_HOLDOUT, TOTAL_TRANSPARENCY
 from .shader.inputs import LP_SHADOW
-from .shader.program import EMISSION_VARIES, MAY_BE_TRANSPARENT, run, total
+from .shader.program import (EMISSION_VARIES, HAS_HOLDOUT, MAX_REGISTERS, MAY_BE_TRANSPARENT,
+                             run, total)
 from .textures import surface_colors
-from .vec import dot, finite_row, madd, max3, mul, neg, row, store
+from .vec import dot, finite_row, madd, max3, mean3, mul, neg, row, store
 
 STRATIFIED_BOUNCES = 2    # bounces whose light and BSDF samples are stratified (then random)
 RR_START = 3              # Russian roulette from this bounce on ...
@@ -184,7 +185,8 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 
 @jit
 def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, limits, m,
-             paths, prim, t, radiance, without, active, stats, features, feature_albedo):
+             paths, prim, t, radiance, without, active, stats, features, feature_albedo,
+             film_transparent, transparent):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
@@ -205,6 +207,10 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
     With `features`, paths that still carry the denoising features add what they find to the
     Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
     written its features at its first, diffuse, hit).
+    With `film_transparent` (Film > Transparent), a camera ray that escapes having passed only
+    transparent surfaces (no bounce yet: Cycles' PATH_RAY_TRANSPARENT_BACKGROUND) sees no world
+    and adds its mean throughput to `transparent` (the path's uncovered share, 1 - alpha), as
+    Cycles' integrate_background; suns still shine, as Cycles' distant lights do.
     Shader programs whose emission varies add it in program_emitters. In a scene with media
     (media.py), the ray's segment inside them attenuates what it finds and the path's
     throughput from here on.
@@ -233,8 +239,11 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
             beta = medium.through(beta, sigma, t_surface)
             store(paths.beta, i, beta)
         if prim[i] < 0:
-            first, end = lights_at_escape(lights, not (light_tracers and world_caustics),
-                                          emitters_count)
+            clear_film = film_transparent and paths.bounce[i] == 0
+            if clear_film:
+                transparent[path] += mean3(beta)
+            first, end = lights_at_escape(lights, not (light_tracers and world_caustics
+                                                       or clear_film), emitters_count)
             for k in range(first, end):
                 found, light, pdf_light = light_at_escape(lights, k, d, kind)
                 if found:
@@ -393,11 +402,13 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
 def program_materials(lights, mesh, mats, media, tables, next_event, bits, stratified, depth,
                       max_depth, n_programs, programs, paths, prim, u, v, out, n_out, shadows,
                       n_shadow, radiance, without, lobes, regs, stats, lv, last_connection,
-                      features, feature_albedo, feature_normal):
+                      features, feature_albedo, feature_normal, transparent):
     """The materials stage for the hits on shader programs that `materials` left in
     `programs` (scatter.scatter_program), their next rays after out's first n_out and their
     shadow rays after the first n_shadow. Returns the new (n_out, n_shadow). A path past its
-    last bounce (max_depth) only passes through the surface's transparency."""
+    last bounce (max_depth) only passes through the surface's transparency. When `transparent`
+    has rows (the film's alpha is rendered), a Holdout met before the first bounce adds its
+    weight times the path's mean throughput to it, as Cycles' integrate_surface_holdout."""
     has_normals = mesh.corner_normals.shape[0] > 0
     can_sample_lights = next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0
     strat = stratified and depth < STRATIFIED_BOUNCES
@@ -415,14 +426,17 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
         ray = (row(paths.o, i), d, paths.ray_kind[i], paths.pdf_prev[i], paths.mis_t[i])
         first_shadow = n_shadow
         bounce = paths.bounce[i]
+        beta_in = row(paths.beta, i)
         (new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count,
          mis_t) = scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals,
                                   (key, sample, bits, strat), depth,
                                   (bounce, bounce >= max_depth), (u_pick, u0, u1),
-                                  row(paths.beta, i), path, ray, (p, ng, ng_f, ns_f, eps),
+                                  beta_in, path, ray, (p, ng, ng_f, ns_f, eps),
                                   entering, (mat, tri, b1, b2), connects, lv, lobes, regs,
                                   shadows, n_shadow, radiance, without, stats)
         shadows.bounce[first_shadow:n_shadow] = bounce
+        if transparent.shape[0] > 0 and bounce == 0 and mats.programs.flags[mat] & HAS_HOLDOUT:
+            transparent[path] += regs[MAX_REGISTERS + TOTAL_HOLDOUT] * mean3(beta_in)
         if media.on:
             medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
                                      first_shadow, n_shadow)
@@ -608,6 +622,22 @@ def film_features(albedo, normal, n, start, in_pass, pixels, albedo_sum, normal_
         for k in range(3):
             albedo_sum[pixel, k] += albedo[i, k]
             normal_sum[pixel, k] += normal[i, k]
+    return bad
+
+
+@jit
+def film_alpha(transparent, n, start, in_pass, pixels, total, total_sq):
+    """Add the chunk's n paths' uncovered shares (`transparent`, emitters') to their pixels'
+    sums and sums of squares; a NaN or Inf adds nothing. Returns how many there were."""
+    bad = 0
+    for i in range(n):
+        value = transparent[i]
+        if not np.isfinite(value):
+            bad += 1
+            continue
+        pixel = pixel_of(pixels, (start + i) // in_pass)
+        total[pixel] += value
+        total_sq[pixel] += value * value
     return bad
 
 

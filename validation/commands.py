@@ -85,8 +85,11 @@ def cmd_compare(args) -> int:
     html = os.path.join(args.report, "report.html")
     if result.get("cycles"):
         failed = data.get("failed_tests") or []
+        alpha = data.get("alpha_channel")
+        alpha = (f", alpha {alpha['verdict']} (mean {alpha['mean_snell']:.4f} vs "
+                 f"{alpha['mean_cycles']:.4f})" if alpha else "")
         print(f"snell compare: {data['verdict']}{' (' + ', '.join(failed) + ')' if failed else ''}: z-pass {data['z_pass_fraction']:.4f}, "
-              f"relMSE {data['relmse']:.4g}, FLIP {data['flip'] if data['flip'] is None else round(data['flip'], 4)}, "
+              f"relMSE {data['relmse']:.4g}, FLIP {data['flip'] if data['flip'] is None else round(data['flip'], 4)}{alpha}, "
               f"Snell {data['snell']['time_s']:.1f}s, Cycles {data['cycles']['time_s']:.1f}s -> {html}")
     else:
         print(f"snell compare: {data['verdict']} ({'; '.join(data['not_comparable'])}) -> {html}")

@@ -91,7 +91,7 @@ def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_thre
     # statistics hold the render's own estimate against Cycles' (and skip the guiding passes).
     settings = scene.settings(threads=threads, sampler="independent", spp=spp,
                               noise_threshold=noise_threshold, time_limit=0.0, denoise=False,
-                              denoising_passes=False,
+                              denoising_passes=False, film_exposure=1.0,
                               transparent_max_bounces=cycles.TRANSPARENT_BOUNCES,
                               **({} if caustics is None else {"caustics": caustics}))
     if noise_threshold <= 0.0:
@@ -129,6 +129,12 @@ def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label=
     a = snell_estimate(snell_result)
     b = metrics.Estimate.from_images(np.stack(cyc.images))
     stats = metrics.compare_estimates(a, b)
+    alpha = alpha_comparison(snell_result, cyc)
+    if alpha is not None:
+        stats["alpha_channel"] = alpha
+        if alpha["verdict"] == metrics.INCONSISTENT:
+            stats["verdict"] = metrics.INCONSISTENT
+            stats["failed_tests"] = stats["failed_tests"] + ["alpha"]
     stats["statistical_verdict"] = stats["verdict"]
     if not_comparable:
         stats["verdict"] = metrics.NOT_COMPARABLE
@@ -155,6 +161,25 @@ def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label=
     stats["snell_settings"] = [list(s) for s in settings]
     stats["label"] = label
     return stats
+
+
+def alpha_comparison(snell_result, cyc) -> dict | None:
+    """The alpha channel's tests (metrics.compare_estimates, without the maps) of a render that
+    made one (Film > Transparent, a Holdout) against Cycles' alpha, or None when either has
+    none. The alpha is tested as a grey image: each channel the same."""
+    if not getattr(snell_result, "has_alpha", False) or not cyc.alpha_images:
+        return None
+    variance, dof = snell_result.alpha_variance_and_dof()
+    grey = np.ones(3)
+    a = metrics.Estimate(snell_result.alpha().astype(np.float64)[..., None] * grey,
+                         variance[..., None] * grey, dof)
+    b = metrics.Estimate.from_images(np.stack(cyc.alpha_images)[..., None] * grey)
+    out = metrics.compare_estimates(a, b, error_metrics=False)
+    keep = ("verdict", "tests", "failed_tests", "pixels_failed", "tiles", "tiles_failed",
+            "tile_max_abs_z", "sharpness_z")
+    return {**{k: out[k] for k in keep}, "mean_snell": out["mean_a"]["r"],
+            "mean_cycles": out["mean_b"]["r"], "mean_z": out["mean_z"]["r"],
+            "nan_samples": snell_result.alpha_nan_count}
 
 
 def objects_in(index, names, tile):

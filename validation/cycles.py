@@ -32,8 +32,10 @@ class NoCyclesEquivalent(ValueError):
 
 def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=None):
     """[(setting, value, reason)] applied to the scene before a Cycles render. film: the Snell
-    scene's (pixel_filter, filter_width), which Cycles then renders with; None keeps the file's
-    own filter (the exported scene's when it follows the file's Cycles settings)."""
+    scene's (pixel_filter, filter_width[, film_transparent]: scene_film), which Cycles then
+    renders with; None keeps the file's own filter (the exported scene's when it follows the
+    file's Cycles settings) and an opaque film."""
+    transparent = is_transparent(film)
     if max_depth < 1:
         raise NoCyclesEquivalent(f"max depth {max_depth}: Cycles has no max_bounces equivalent "
                                  "(max_bounces = max depth - 1 >= 0)")
@@ -74,8 +76,10 @@ def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=
         ("cycles.volume_bounces", 0, "Snell has no volumes"),
         ("cycles.min_light_bounces", 0, "no forced bounces"),
         ("cycles.min_transparent_bounces", 0, "no forced bounces"),
-        ("cycles.film_exposure", 1.0, "no exposure scaling"),
-        ("render.film_transparent", False, "the world is visible"),
+        ("cycles.film_exposure", 1.0, "no exposure scaling (a linear scale of the image: "
+         "Snell's renders for the comparison are at exposure 1 too)"),
+        ("render.film_transparent", transparent, "the Snell scene's Film > Transparent"
+         if transparent else "the world is visible"),
         ("render.use_motion_blur", False, "Snell has no motion blur"),
         ("render.use_border", False, "full frame"),
         ("render.use_compositing", False, "raw render result"),
@@ -86,23 +90,35 @@ def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=
         ("view_settings.gamma", 1.0, "same display transform"),
         ("objects.shadow_terminator_*_offset", 0.0, "Cycles moves shadow-ray origins of smooth "
          "low-poly meshes off the surface by default (geometry offset 0.1); Snell does not"),
-        ("output", "OPEN_EXR 32-bit RGB", "scene-linear output, read back"),
+        ("output", OUTPUT_RGBA if transparent else "OPEN_EXR 32-bit RGB",
+         "scene-linear output, read back"),
     ]
+
+
+OUTPUT_RGBA = "OPEN_EXR 32-bit RGBA"
+
+
+def is_transparent(film) -> bool:
+    """Whether a forced_settings film renders Film > Transparent."""
+    return film is not None and len(film) > 2 and bool(film[2])
 
 
 def _film_settings(film) -> list:
     """The pixel filter entries of forced_settings: none for the file's own filter."""
     if film is None:
         return []
-    kind, width = film
+    kind, width = film[:2]
     return [("cycles.pixel_filter_type", str(kind).upper(), "the Snell scene's pixel filter, "
              "which Snell samples as Cycles does"),
             ("cycles.filter_width", float(width), "the Snell scene's filter width")]
 
 
 def scene_film(scene) -> tuple:
-    """A Snell scene's (pixel_filter, filter_width), for forced_settings' film."""
-    return scene.render["pixel_filter"], float(scene.render["filter_width"])
+    """A Snell scene's (pixel_filter, filter_width), and True after them when its film is
+    transparent, for forced_settings' film (an opaque film's pair keeps the stored
+    references' keys)."""
+    film = (scene.render["pixel_filter"], float(scene.render["filter_width"]))
+    return film + (True,) if scene.render.get("film_transparent") else film
 
 
 # The settings forced_settings uses to render exactly samples 1..spp, which adaptive_settings
@@ -207,7 +223,8 @@ def _apply(scene, settings):
         img.media_type = "MULTI_LAYER_IMAGE" if multilayer else "IMAGE"
     img.file_format = "OPEN_EXR_MULTILAYER" if multilayer else "OPEN_EXR"
     img.color_depth = "32"
-    img.color_mode = "RGB"
+    img.color_mode = "RGBA" if any(k == "output" and v == OUTPUT_RGBA
+                                   for k, v, _ in settings) else "RGB"
     img.exr_codec = "ZIP"
 
 
@@ -256,6 +273,7 @@ class CyclesResult:
     time_s: float                # render time of all seeds (file loading excluded)
     settings: list = field(default_factory=list)
     images: list = field(default_factory=list)  # per-seed images
+    alpha_images: list = field(default_factory=list)  # per-seed alphas (H, W) of a transparent film
 
 
 def _render_file(blend_path, settings, camera, out):
@@ -275,12 +293,15 @@ def _render_file(blend_path, settings, camera, out):
 
 
 def _render_one(blend_path, settings, camera, workdir):
-    from ..tracer.image import read_exr
+    """(RGB, alpha or None (an opaque film), render time, camera overrides) of one render."""
+    from ..tracer.image import read_channel, read_exr
     out = os.path.join(workdir, "cycles.exr")
     elapsed, extra = _render_file(blend_path, settings, camera, out)
     rgb = read_exr(out).astype(np.float64)
+    alpha = (read_channel(out, "A").astype(np.float64)
+             if any(k == "output" and v == OUTPUT_RGBA for k, v, _ in settings) else None)
     os.remove(out)
-    return rgb, elapsed, extra
+    return rgb, alpha, elapsed, extra
 
 
 def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), threads: int = 2,
@@ -294,15 +315,17 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     seeds = list(seeds)
     if len(seeds) < 2:
         raise ValueError("need at least two seeds for a variance")
-    images, total, extra = [], 0.0, []
+    images, alphas, total, extra = [], [], 0.0, []
     with tempfile.TemporaryDirectory(prefix="snell-cycles-") as workdir:
         for k, seed in enumerate(seeds):
             settings = forced_settings(max_depth, spp, seed, threads, film)
             if overrides:  # experiments only: replace forced values
                 settings = [(k, overrides.get(k, v), why) for k, v, why in settings]
             with stdout_silenced(quiet_blender):
-                rgb, elapsed, extra = _render_one(blend_path, settings, camera, workdir)
+                rgb, alpha, elapsed, extra = _render_one(blend_path, settings, camera, workdir)
             images.append(rgb)
+            if alpha is not None:
+                alphas.append(alpha)
             total += elapsed
             if progress is not None:
                 progress(k + 1, len(seeds), total)
@@ -313,7 +336,8 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     settings = [s for s in settings if s[0] != "cycles.seed"]
     settings.append(("cycles.seed", ", ".join(map(str, seeds)),
                      f"{len(seeds)} independent renders; variance of the mean from their spread"))
-    return CyclesResult(mean, var, spp * len(seeds), seeds, total, settings + extra, images)
+    return CyclesResult(mean, var, spp * len(seeds), seeds, total, settings + extra, images,
+                        alphas)
 
 
 # Cycles' Denoising Data passes (View Layer > Passes > Data), read from a multilayer EXR.

@@ -75,7 +75,7 @@ def metrics_json(result) -> dict:
             "max_abs_z", "mean_a", "mean_b", "mean_a_se", "mean_b_se", "mean_z", "mean_ratio",
             "mean_ratio_se", "relmse", "relmse_eps", "relmse_dropped_fraction", "rmse",
             "bias_rmse", "noise_rmse", "flip", "label", "scene", "exporter_warnings",
-            "cycles_settings", "snell_settings")
+            "cycles_settings", "snell_settings", "alpha_channel")
     out = {k: _plain(result[k]) for k in keys if k in result}
     out["snell"] = _plain({k: v for k, v in result["snell"].items() if k != "image"})
     if result.get("cycles"):

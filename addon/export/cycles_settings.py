@@ -78,6 +78,10 @@ FOLLOWED = (
              lambda c, f: str(c.pixel_filter_type).lower()),
     Followed("filter_width", "Film > Pixel Filter > Width",
              lambda c, f: float(f"{c.filter_width:.7g}")),
+    Followed("film_exposure", "Film > Exposure", lambda c, f: float(f"{c.film_exposure:.7g}")),
+    # Blender's own render setting (scene.render), shown in Cycles' Film panel.
+    Followed("film_transparent", "Film > Transparent",
+             lambda c, f: bool(c.id_data.render.film_transparent)),
     # Snell denoises with Open Image Denoise whatever Cycles' denoiser (OptiX: NOT_RENDERED).
     Followed("denoise", "Sampling > Render > Denoise", lambda c, f: bool(c.use_denoising)),
     Followed("denoising_input_passes", "Sampling > Render > Denoise > Passes",
@@ -87,6 +91,16 @@ FOLLOWED = (
     Followed("denoising_quality", "Sampling > Render > Denoise > Quality",
              lambda c, f: c.denoising_quality.lower()),
     Followed("denoising_passes", "View Layer > Passes > Data > Denoising Data", _denoising_data),
+    Followed("viewport_denoise", "Sampling > Viewport > Denoise",
+             lambda c, f: bool(c.use_preview_denoising)),
+    Followed("viewport_denoising_input_passes", "Sampling > Viewport > Denoise > Passes",
+             lambda c, f: INPUT_PASSES.get(c.preview_denoising_input_passes, "albedo")),
+    Followed("viewport_denoising_prefilter", "Sampling > Viewport > Denoise > Prefilter",
+             lambda c, f: c.preview_denoising_prefilter.lower()),
+    Followed("viewport_denoising_quality", "Sampling > Viewport > Denoise > Quality",
+             lambda c, f: c.preview_denoising_quality.lower()),
+    Followed("viewport_denoise_start_sample", "Sampling > Viewport > Denoise > Start Sample",
+             lambda c, f: int(c.preview_denoising_start_sample)),
 )
 
 
@@ -144,11 +158,13 @@ NOT_RENDERED = (
     NotRendered("denoiser", "Sampling > Render > Denoise > Denoiser", "Snell denoises with "
                 "Open Image Denoise on the CPU", lambda v, c: v == "OPENIMAGEDENOISE" or
                 not c.use_denoising),
-    NotRendered("film_exposure", "Film > Exposure", "exposure 1", lambda v, c: v == 1.0),
+    NotRendered("film_transparent_glass", "Film > Transparent > Transparent Glass", "glass is "
+                "opaque against a transparent film: the world seen through it is rendered",
+                lambda v, c: not (v and c.id_data.render.film_transparent)),
 )
 
 
-def not_rendered(cycles, film_transparent: bool = False) -> list[dict]:
+def not_rendered(cycles) -> list[dict]:
     """The Cycles settings Snell does not render, each {"label", "value", "snell", "status",
     "warn"}: status "same" (the value renders as Snell does), "noise" (only the noise differs) or
     "differs"; warn when it differs and is not Cycles' default (a difference the user set)."""
@@ -164,9 +180,6 @@ def not_rendered(cycles, film_transparent: bool = False) -> list[dict]:
         status = ("same" if entry.same(value, cycles) else
                   "noise" if entry.noise_only else "differs")
         out.append(_entry(entry.label, _shown(value), entry.snell, status, value != default))
-    out.append(_entry("Film > Transparent", _shown(film_transparent), "an opaque film: alpha 1 "
-                      "everywhere, the world visible", "differs" if film_transparent else "same",
-                      film_transparent))
     return out
 
 

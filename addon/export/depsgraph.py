@@ -16,7 +16,7 @@ from ...tracer.scene import Scene, SceneError
 from .camera import convert_camera
 from .custom_properties import instance_rgba, view_layer_rgba
 from .lights import convert_light
-from .materials import NO_MATERIAL, NO_SURFACE, convert_material
+from .materials import HOLDOUT_NAME, NO_MATERIAL, NO_SURFACE, convert_material, holdout_material
 from .meshes import mesh_arrays, to_world
 from .settings import convert_render
 from .shader.input_nodes import attribute_requests, object_attribute_key, uses_object_data
@@ -185,6 +185,8 @@ class Exporter:
             return
         slots = [s.material for s in obj.material_slots] or [None]
         mat_ids, used = mesh.material_ids(tuple(self.material_id(m, name) for m in slots))
+        if self.held_out(obj):
+            mat_ids, used = self.hold_out(name, mat_ids, used)
         object_id = len(self.objects)
         self.objects.append({"name": name, "closed": mesh.closed})
         # Kept aside: the scene's objects carry them only if a program reads them
@@ -202,6 +204,30 @@ class Exporter:
                 if scene_mod.refracts(mat):
                     self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} {OPEN_MESH}")
         self.parts.append((mesh, matrix, mat_ids, object_id))
+
+    def held_out(self, obj) -> bool:
+        """Whether the object is a holdout (Object > Visibility > Mask > Holdout, or a holdout
+        collection of the view layer), as Cycles reads it."""
+        orig = obj.original
+        try:
+            return bool(orig.holdout_get(view_layer=self.depsgraph.view_layer))
+        except (AttributeError, TypeError, RuntimeError):
+            return bool(getattr(orig, "is_holdout", False))
+
+    def hold_out(self, name, mat_ids, used):
+        """An object held out: every triangle gets one Holdout program (Cycles' object holdout
+        replaces every closure with a holdout of weight 1). Returns (material ids, used)."""
+        if HOLDOUT_KEY not in self.material_ids:
+            self.material_ids[HOLDOUT_KEY] = (len(self.materials), [])
+            self.materials.append(holdout_material())
+            self.coverage.append({"name": HOLDOUT_NAME, "kind": "program", "evaluated": [],
+                                  "replaced": []})
+        index = self.material_ids[HOLDOUT_KEY][0]
+        if any(scene_mod.refracts(self.materials[i]) for i in used):
+            # Cycles keeps a held-out surface's transparency (surface_shader_apply_holdout).
+            self.warn(f"object {name!r}: a holdout of a transparent or refracting material: "
+                      "held out whole (Cycles lets its transparency through)")
+        return np.full_like(mat_ids, index), [index]
 
     def warn_hair(self, obj, name):
         """Warn for the hair particle systems of a mesh object, which Cycles renders as curves."""
@@ -334,6 +360,7 @@ def _det3(m):
 
 # Object types Cycles renders and Snell drops, with a warning naming them.
 NOT_RENDERED = {"CURVES": "hair curves", "POINTCLOUD": "point cloud"}
+HOLDOUT_KEY = "holdout"     # material_ids' key of the object holdout's material
 
 # Notes whose cause Cycles renders the same way: a zero-area triangle covers no pixel in either
 # renderer, a zero-scale object none, glass on an open mesh refracts at the same surfaces, and a

@@ -13,6 +13,7 @@ Snell renders instead, in the material's Coverage
 from __future__ import annotations
 
 from ...tracer import scene as scene_mod
+from ...tracer.shader import closures
 from .bsdfs import BLENDER_DISTRIBUTIONS, CONVERTERS, PRINCIPLED_INPUTS  # noqa: F401
 from .coverage import Coverage, node_text
 from .mixes import NotFolded, fold, mix_factor
@@ -37,6 +38,16 @@ NO_SURFACE = "rendered black, as Cycles renders it"
 VOLUME_ONLY = ("rendered as a clear boundary (a Refraction BSDF of IOR 1) around the volume; "
                "direct light from lamps does not pass it")
 CLEAR = {"kind": "refraction", "color": [1.0, 1.0, 1.0], "ior": 1.0}
+HOLDOUT_NAME = "(object holdout)"
+
+
+def holdout_material() -> dict:
+    """The material of an object held out (Object > Visibility > Mask > Holdout): a program of
+    one Holdout closure of weight 1, as Cycles' surface_shader_apply_holdout makes it."""
+    row = [closures.HOLDOUT, -1] + [0] * 6
+    return {"name": HOLDOUT_NAME, "kind": "program",
+            "program": {"registers": 1, "constants": [], "code": [row], "data": [],
+                        "emission_varies": False, "refracts": False}}
 
 # What Snell renders instead of what a Material Output's other inputs carry.
 OUTPUT_INPUTS = {

@@ -60,6 +60,16 @@ def follows_cycles(scene) -> bool:
     return (use is None or bool(use)) and _cycles(scene) is not None
 
 
+def overridden(scene) -> set:
+    """The followed settings whose Snell value the user chose over Cycles' (the Sampling
+    panel's Overrides): names from the add-on's set, or the bit mask saved in the file."""
+    stored = _stored(scene)("overrides")
+    names = [f.name for f in cycles_settings.FOLLOWED]
+    if isinstance(stored, int):
+        return {name for k, name in enumerate(names) if stored >> k & 1}
+    return {str(item).lower() for item in (stored or ())} & set(names)
+
+
 def _cycles(scene):
     cycles = getattr(scene, "cycles", None)
     return cycles if cycles is not None and hasattr(cycles, "samples") else None
@@ -71,6 +81,8 @@ def _resolve(scene) -> tuple[dict, dict]:
     values, sources = {}, {}
     followed = (cycles_settings.followed(_cycles(scene), int(scene.frame_current))
                 if follows_cycles(scene) else {})
+    over = overridden(scene) if followed else set()
+    followed = {name: value for name, value in followed.items() if name not in over}
     follows = {f.name for f in cycles_settings.FOLLOWED}
     for setting in of_scope(SCENE, RUN, VIEWPORT):
         name = setting.name
@@ -82,7 +94,8 @@ def _resolve(scene) -> tuple[dict, dict]:
         # Followed settings read from Snell's panel override Cycles' (the user turned following
         # off); Snell's own settings are the user's where they differ from the default (a
         # registered property always reads back, so its default is not a choice).
-        if name in follows and name in own and not followed and _cycles(scene) is not None:
+        if name in over or (name in follows and name in own and not followed
+                            and _cycles(scene) is not None):
             sources[name] = FROM_SNELL
         elif values.get(name, setting.default) != setting.default:
             sources[name] = FROM_SNELL_PANEL
@@ -109,7 +122,7 @@ def not_followed(scene) -> list[dict]:
     cycles = _cycles(scene)
     if cycles is None:
         return []
-    return cycles_settings.not_rendered(cycles, bool(scene.render.film_transparent))
+    return cycles_settings.not_rendered(cycles)
 
 
 def convert_render(scene, warn=None) -> dict:

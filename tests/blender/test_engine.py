@@ -39,6 +39,12 @@ def read_exr(path):
     return img.get_pixels(oiio.FLOAT)[:, :, :3]
 
 
+def read_channel(path, name):
+    img = oiio.ImageBuf(str(path))
+    assert not img.has_error, img.geterror()
+    return img.get_pixels(oiio.FLOAT)[:, :, list(img.spec().channelnames).index(name)]
+
+
 def open_scene(path, exr_path=None):
     bpy.ops.wm.open_mainfile(filepath=str(path))
     scene = bpy.context.scene
@@ -521,6 +527,30 @@ def test_f12_snell_render_and_batch_follow_the_files_cycles_settings(blends, tmp
     channels = [oiio.ImageInput.open(str(p)).spec().channelnames
                 for p in (tmp_path / "cli.exr", batch_exr)]
     assert channels[0] == channels[1] == ("R", "G", "B", "samples"), channels
+
+
+def test_f12_snell_render_and_batch_write_the_same_alpha(blends, tmp_path):
+    """Film > Transparent (the camera pulled back so that the world shows around the box): the
+    same alpha in F12's still, `snell render`'s EXR and `snell batch`'s, clear around the box
+    and opaque on it; render and batch write the same channels (R, G, B, A, samples)."""
+    scene, _ = cycles_configured(blends, tmp_path)
+    scene.render.film_transparent = True
+    scene.render.image_settings.color_mode = "RGBA"
+    scene.camera.location = tuple(3.0 * v for v in scene.camera.location)
+    path = tmp_path / "clear.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    bpy.ops.render.render(write_still=True)
+    assert final.last_render["error"] is None
+    f12 = read_channel(str(tmp_path / "f12.exr"), "A")
+    assert f12.min() == 0.0 and f12.max() == 1.0
+    assert snell_cli("render", path, "-o", tmp_path / "cli.exr").returncode == 0
+    proc = snell_cli("batch", path, "-o", tmp_path / "b_####.exr")
+    assert proc.returncode == 0, proc.stderr
+    batch_exr = tmp_path / f"b_{scene.frame_current:04d}.exr"
+    for other in (tmp_path / "cli.exr", batch_exr):
+        np.testing.assert_allclose(read_channel(str(other), "A"), f12, atol=1e-6)
+        assert oiio.ImageInput.open(str(other)).spec().channelnames == \
+            ("R", "G", "B", "A", "samples")
 
 
 def test_f12_follows_cycles_denoise_and_keeps_the_noisy_image_as_a_pass(blends, tmp_path):

@@ -1026,7 +1026,9 @@ def test_render_settings_default(bl):
                      "pixel_filter": "blackman_harris", "filter_width": 1.5, "denoise": True}
     assert s.render["sources"] == {
         **dict.fromkeys(["spp", "noise_threshold", "min_spp", "time_limit", "seed", "max_depth",
-                         "transparent_max_bounces", "pixel_filter", "filter_width", "denoise", "denoising_input_passes",
+                         "transparent_max_bounces", "pixel_filter", "filter_width",
+                         "film_exposure", "film_transparent", "denoise",
+                         "denoising_input_passes",
                          "denoising_prefilter", "denoising_quality", "denoising_passes"],
                         "file's Cycles setting"),
         **dict.fromkeys(["fresnel", "caustics", "light_vertices"], "default")}
@@ -1038,7 +1040,7 @@ def test_render_settings_default(bl):
 
 def test_the_files_cycles_settings_are_followed(bl):
     """Samples, noise threshold, min samples, time limit, seed (animated too), max bounces and
-    the pixel filter from Cycles' panels; the Cycles settings Snell does not render, when set to
+    the pixel filter from Cycles' panels, Film > Transparent from Blender's; the Cycles settings Snell does not render, when set to
     something Snell renders differently, are warnings."""
     c = bl.cycles
     c.samples, c.adaptive_threshold, c.adaptive_min_samples, c.time_limit = 300, 0.03, 40, 12.5
@@ -1054,7 +1056,13 @@ def test_the_files_cycles_settings_are_followed(bl):
     assert (s.render["pixel_filter"], s.render["filter_width"]) == ("gaussian", 2.25)
     assert not any("Pixel Filter" in w for w in warnings)
     assert any("Diffuse bounces 2 is not rendered" in w for w in warnings), warnings
-    assert any("Film > Transparent on is not rendered" in w for w in warnings), warnings
+    assert s.render["film_transparent"] is True
+    c.film_exposure = 0.75
+    assert run()[0].render["film_exposure"] == 0.75
+    assert not any("Film > Transparent" in w for w in warnings), warnings
+    c.film_transparent_glass = True
+    assert any("Transparent Glass on is not rendered" in w for w in run()[1])
+    c.film_transparent_glass = False
     assert not any("Clamping" in w for w in warnings)       # 0: what Snell renders
     c.use_adaptive_sampling = False
     assert run()[0].render["noise_threshold"] == 0.0
@@ -1110,6 +1118,27 @@ def test_snells_own_settings_override_cycles_only_when_asked(bl):
     assert s.render["sources"]["spp"] == s.render["sources"]["max_depth"] == "Snell override"
 
 
+def test_one_setting_overridden_while_following_the_rest(bl, tmp_path):
+    """The Sampling panel's Snell Overrides: Snell's own samples over Cycles', every other
+    setting still the file's Cycles one; saved in the file and read back, and `snell info`'s
+    sources say which is which."""
+    from snell.addon import registration
+    registration.ensure_registered()
+    bl.cycles.samples, bl.cycles.max_bounces = 300, 3
+    bl.snell.spp, bl.snell.max_depth = 20, 2
+    bl.snell.overrides = {"SPP"}
+    s, _ = run()
+    assert (s.render["spp"], s.render["max_depth"]) == (20, 4)
+    assert s.render["sources"]["spp"] == "Snell override"
+    assert s.render["sources"]["max_depth"] == "file's Cycles setting"
+    path = str(tmp_path / "override.blend")
+    common.save(path)
+    bl.snell.overrides = set()
+    assert run()[0].render["spp"] == 300
+    s, _ = export.export_blend(path)          # opens the saved file (bl is gone)
+    assert (s.render["spp"], s.render["max_depth"]) == (20, 4)
+
+
 @pytest.mark.parametrize("use_adaptive, threshold", [(True, 0.05), (False, 0.0)])
 def test_sampling_panel_settings_reach_the_scene_file(bl, tmp_path, use_adaptive, threshold):
     """Noise Threshold (checkbox and value) and Min Samples, through a saved file; unchecked the
@@ -1138,6 +1167,10 @@ def test_sampling_settings_stored_without_the_addon():
     stored["snell"]["use_adaptive_sampling"] = 0
     assert export.convert_render(stored)["noise_threshold"] == 0.0
     assert export.convert_render(Stored(snell={}))["noise_threshold"] == 0.01
+    # Overrides are saved as a bit mask in FOLLOWED's order (spp first, then noise_threshold).
+    from snell.addon.export.settings import overridden
+    assert overridden(Stored(snell={"overrides": 0b11})) == {"spp", "noise_threshold"}
+    assert overridden(Stored(snell={})) == set()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1216,7 +1249,8 @@ def test_info_names_where_each_setting_came_from(bl, tmp_path):
     sources = next(line for line in lines if line.startswith("sources"))
     assert sources == ("sources    file's Cycles setting: spp, max_depth, "
                        "transparent_max_bounces, seed, noise_threshold, "
-                       "min_spp, time_limit, pixel_filter, filter_width, denoise, "
+                       "min_spp, time_limit, pixel_filter, filter_width, film_exposure, "
+                       "film_transparent, denoise, "
                        "denoising_input_passes, denoising_prefilter, denoising_quality, "
                        "denoising_passes; default: fresnel, "
                        "caustics, light_vertices"), sources

@@ -15,6 +15,7 @@ COUNTERPARTS = {
     "CYCLES_RENDER_PT_sampling": "RENDER_PT_snell_sampling",
     "CYCLES_RENDER_PT_sampling_render": "RENDER_PT_snell_sampling",
     "CYCLES_RENDER_PT_sampling_viewport": "RENDER_PT_snell_sampling_viewport",
+    "CYCLES_RENDER_PT_sampling_viewport_denoise": "RENDER_PT_snell_sampling_viewport",
     "CYCLES_RENDER_PT_sampling_advanced": "RENDER_PT_snell_sampling",    # seed, animated seed
     "CYCLES_RENDER_PT_sampling_render_denoise": "RENDER_PT_snell_denoise",
     "CYCLES_RENDER_PT_light_paths": "RENDER_PT_snell_light_paths",
@@ -41,7 +42,6 @@ ABSENT = {
                                         "way (snell info lists them as not rendered)",
     "CYCLES_RENDER_PT_sampling_path_guiding": "no path guiding",
     "CYCLES_RENDER_PT_sampling_path_guiding_debug": "no path guiding",
-    "CYCLES_RENDER_PT_sampling_viewport_denoise": "no denoising",
     "CYCLES_RENDER_PT_light_paths_caustics": "Snell always renders caustics, unfiltered "
                                              "(snell info says so when the file differs)",
     "CYCLES_RENDER_PT_light_paths_clamping": "no clamping (snell info warns when set)",
@@ -182,3 +182,61 @@ def test_the_light_panel_draws_every_field_snell_renders():
                   "temperature", "shadow_soft_size", "use_soft_falloff", "angle", "shape",
                   "size", "size_y", "spot_size", "spot_blend", "spread"):
         assert field in drawn, field
+
+
+def test_the_overrides_panel_offers_every_followed_setting():
+    """Snell Overrides (under Sampling, while Snell follows Cycles): a toggle and Snell's own
+    value for every Cycles setting Snell follows, each a property Snell has."""
+    from snell.addon.export.cycles_settings import FOLLOWED
+    registration.ensure_registered()
+    toggles, values = [], []
+
+    class Layout:
+        use_property_split = use_property_decorate = active = False
+
+        def __getattr__(self, name):
+            return lambda *a, **k: self
+
+        def prop_enum(self, owner, name, value, **kwargs):
+            toggles.append(value)
+
+        def prop(self, owner, name, **kwargs):
+            assert hasattr(owner, name), name
+            values.append(name)
+
+    scene = bpy.context.scene
+    context = types.SimpleNamespace(scene=scene, engine="SNELL")
+    assert ui.RENDER_PT_snell_overrides.poll(context)
+    layout = Layout()
+    ui.RENDER_PT_snell_overrides.draw(types.SimpleNamespace(layout=layout,
+                                                            column=lambda **o: layout), context)
+    assert toggles == [f.name.upper() for f in FOLLOWED]
+    assert values == [f.name for f in FOLLOWED]
+
+
+@pytest.mark.parametrize("follow", [True, False])
+def test_the_viewport_panel_draws_its_denoise_settings(follow):
+    """Sampling > Viewport: the samples, and Denoise with its passes, prefilter, quality and
+    start sample, from Cycles' properties while Snell follows them, else from Snell's."""
+    registration.ensure_registered()
+    drawn = []
+
+    class Layout:
+        use_property_split = use_property_decorate = active = False
+
+        def __getattr__(self, name):
+            return lambda *a, **k: self
+
+        def prop(self, owner, name, **kwargs):
+            assert hasattr(owner, name), name
+            drawn.append(name)
+
+    scene = bpy.context.scene
+    scene.snell.use_cycles_settings = follow
+    layout = Layout()
+    ui.RENDER_PT_snell_sampling_viewport.draw(
+        types.SimpleNamespace(layout=layout, column=lambda **o: layout),
+        types.SimpleNamespace(scene=scene, engine="SNELL"))
+    scene.snell.use_cycles_settings = True
+    names = ui.VIEWPORT_DENOISE_CYCLES if follow else ui.VIEWPORT_DENOISE_SNELL
+    assert drawn[-5:] == list(names)

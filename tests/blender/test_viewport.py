@@ -339,6 +339,32 @@ def test_time_limit_ends_a_generation(spheres_session):
     assert frame is not None and 1 <= frame.samples < 100000
 
 
+def test_viewport_denoises_from_its_start_sample(spheres_session):
+    """Sampling > Viewport > Denoise: frames before the start sample are the render's own;
+    from it on each frame is the render denoised with the viewport's passes and quality, as
+    the final render's denoiser makes it (the same image), and says so."""
+    from snell.addon.final import oidn_dirs
+    from snell.tracer.denoise import denoise_result
+    content, session = spheres_session
+    how = view_session.ViewDenoise("albedo", "fast", "fast", 4, tuple(oidn_dirs()))
+    scene = viewport_scene(content)
+    seen = []
+    gen = session.submit(scene, content.geometry_version, 4, denoise=how)
+    done = session.wait(lambda f: seen.append(f) or (f.generation == gen and f.final), 120)
+    assert done is not None and done.samples == 4
+    assert done.stats["denoised"], done.stats
+    early = [f for f in seen if f.generation == gen and f.samples < 4]
+    assert all(not f.stats.get("denoised") for f in early)
+    fresh = scene.with_render(spp=4, noise_threshold=0.0)
+    settings = fresh.settings(threads=1, denoising_passes=True, denoising_input_passes="albedo",
+                              denoising_prefilter="fast", denoising_quality="fast")
+    result = Renderer(fresh, settings).render()
+    expected = denoise_result(result, settings, how.oidn_dirs)
+    assert expected.denoised
+    np.testing.assert_allclose(done.image, expected.image, rtol=1e-5, atol=1e-6)
+    assert np.abs(done.image - result.mean()).max() > 1e-3     # not the noisy image
+
+
 # ---------------------------------------------------------------------------------------------
 # view_update / view_draw with a stand-in engine, context and gpu
 
@@ -553,6 +579,9 @@ def test_display_pixels_are_finite_bottom_up_rgba():
     assert rgba.dtype == np.float32 and rgba.shape == (2, 1, 4)
     assert np.array_equal(rgba[1, 0], [1.0, 0.0, 0.0, 1.0])          # the top row, last
     assert np.array_equal(rgba[0, 0], [0.0, view_draw.DISPLAY_LIMIT, 0.5, 1.0])
+    # A transparent film's alpha goes into the texture, bottom row first as the colour.
+    rgba = view_draw.display_pixels(image, np.array([[0.25], [0.75]], np.float32))
+    assert rgba[1, 0, 3] == 0.25 and rgba[0, 0, 3] == 0.75
 
 
 def _rotation_z(angle):

@@ -278,6 +278,9 @@ class StubResult:
     def samples(self):
         return np.full(self.image.shape[:2], self.spp, np.int32)
 
+    def exr_channels(self):
+        return {"samples": self.samples()}
+
 
 @pytest.fixture
 def stub_integrator(monkeypatch):
@@ -305,7 +308,8 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
                      "--max-depth", "0", "--seed", "5", "--fresnel", "schlick", "--threads", "3",
                      "--noise-threshold", "0.05", "--min-spp", "3", "--light-vertices", "off",
                      "--denoising-passes", "--denoising-prefilter", "fast",
-                     "--transparent-max-bounces", "4"])
+                     "--transparent-max-bounces", "4", "--film-exposure", "2",
+                     "--film-transparent"])
     assert code == 0
     settings = stub_integrator.calls[0]["settings"]
     assert settings.threads == 3
@@ -314,6 +318,7 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
                                     "caustics": True, "light_vertices": False,
                                     "noise_threshold": 0.05, "min_spp": 3, "time_limit": 0.0,
                                     "pixel_filter": "box", "filter_width": 1.0,
+                                    "film_exposure": 2.0, "film_transparent": True,
                                     "denoise": False, "denoising_input_passes": "albedo_normal",
                                     "denoising_prefilter": "fast", "denoising_quality": "high",
                                     "denoising_passes": True}   # a bare on/off option is on

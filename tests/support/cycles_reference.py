@@ -336,6 +336,8 @@ def save_cycles(path, cyc, normals=None):
                       precise_values=stack.reshape(len(stack), -1)[:, precise])
     else:
         arrays.update(images=stack)
+    if cyc.alpha_images:          # a transparent film's alpha, per seed
+        arrays.update(alpha=np.stack(cyc.alpha_images).astype(np.float32))
     tmp = path + ".tmp.npz"
     np.savez_compressed(tmp, **arrays)
     os.replace(tmp, path)
@@ -357,7 +359,8 @@ def load_cycles(path, normals=None):
         if "precise" in data.files:
             stack.reshape(len(stack), -1)[:, data["precise"]] = data["precise_values"]
         stack = stack.astype(np.float64)
+        alphas = list(data["alpha"].astype(np.float64)) if "alpha" in data.files else []
     # As cycles.render_seeds makes them: the mean and the variance of the mean over the seeds.
     return CyclesResult(stack.mean(axis=0), stack.var(axis=0, ddof=1) / len(stack), meta["spp"],
                         meta["seeds"], meta["time_s"], [tuple(s) for s in meta["settings"]],
-                        list(stack))
+                        list(stack), alphas)

@@ -46,6 +46,7 @@ WIDTH = {"f": 1, "v": 3, "w": 1, "n": 3, "P": closures.PRINCIPLED_BLOCK}
 # What the tracer needs to know of a program without running it (Programs.flags).
 MAY_BE_TRANSPARENT = 1     # it has a Transparent closure or a Principled BSDF's Alpha < 1
 EMISSION_VARIES = 2        # its emission is not the material's constant "emission"
+HAS_HOLDOUT = 4            # it has a Holdout closure: the film's alpha is rendered
 
 
 class Programs(NamedTuple):
@@ -58,7 +59,7 @@ class Programs(NamedTuple):
     length: np.ndarray        # (M,) int64
     const_start: np.ndarray   # (M,) int64
     const_length: np.ndarray  # (M,) int64
-    flags: np.ndarray         # (M,) int64 MAY_BE_TRANSPARENT | EMISSION_VARIES
+    flags: np.ndarray         # (M,) int64 MAY_BE_TRANSPARENT | EMISSION_VARIES | HAS_HOLDOUT
     # What bump differentials read besides Materials.camera (bump.with_view sets them for a
     # render; by default none: a bump moves no barycentrics, and pixels are 0.001 wide at
     # distance 1, about a 50 mm lens's at 700 pixels).
@@ -140,6 +141,8 @@ def program_flags(program: dict) -> int:
     for ins in program["code"]:
         if ins[0] == closures.TRANSPARENT_BSDF:
             flags |= MAY_BE_TRANSPARENT
+        elif ins[0] == closures.HOLDOUT:
+            flags |= HAS_HOLDOUT
         elif ins[0] == closures.PRINCIPLED:
             # Alpha is a constant of the block unless an instruction writes it (a link).
             alpha = ins[2] + closures.P_ALPHA
@@ -150,6 +153,12 @@ def program_flags(program: dict) -> int:
     if program.get("emission_varies"):
         flags |= EMISSION_VARIES
     return flags
+
+
+def has_holdout(materials: list) -> bool:
+    """Whether any of a scene's materials (scene format) is a program with a Holdout."""
+    return any(m.get("kind") == "program" and program_flags(m["program"]) & HAS_HOLDOUT
+               for m in materials)
 
 
 def program_tables(programs: list) -> Programs:
