@@ -135,10 +135,35 @@ def _setup_render(p):
     p.add_argument("--png", metavar="OUT.png",
                    help="also write an 8-bit PNG through the .blend's view transform, look, "
                         "exposure and gamma (a .snell file's: Standard)")
+    p.add_argument("--passes", type=_passes, metavar="LIST", default=[],
+                   help="also write these passes as layers of the EXR, named as Blender names "
+                        f"them, comma-separated: {', '.join(PASSES)}")
     _add_setting_options(p)
     _add_scale_option(p)
     _add_farm_options(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
+
+
+# The View Layer passes `--passes` writes, as Blender names their EXR layers, and the ones
+# Blender has that Snell does not render yet (left out with a warning, never written empty).
+PASSES = ("Depth", "Position", "Normal", "Object Index", "Debug Sample Count", "Denoising Albedo",
+          "Denoising Normal", "Noisy Image")
+NOT_RENDERED_PASSES = ("Mist", "Vector", "UV", "Material Index", "Emission", "Environment",
+                       "Ambient Occlusion", "Shadow Catcher", "Diffuse Direct",
+                       "Diffuse Indirect", "Diffuse Color", "Glossy Direct", "Glossy Indirect",
+                       "Glossy Color", "Transmission Direct", "Transmission Indirect",
+                       "Transmission Color", "Volume Direct", "Volume Indirect")
+
+
+def _passes(text):
+    """--passes checked when the options are parsed: Blender's pass names, any case."""
+    known = {name.lower(): name for name in PASSES + NOT_RENDERED_PASSES}
+    names = [part.strip() for part in text.split(",") if part.strip()]
+    for name in names:
+        if name.lower() not in known:
+            raise argparse.ArgumentTypeError(f"no pass {name!r} (Blender's passes Snell writes: "
+                                             f"{', '.join(PASSES)})")
+    return [known[name.lower()] for name in names]
 
 
 def _add_farm_options(p):
@@ -203,6 +228,8 @@ def cmd_render(args) -> int:
     if args.scale is not None:
         scene = scene.with_camera(resolution_percentage=args.scale)
     settings = scene.settings(**setting_overrides(args))
+    if {"Denoising Albedo", "Denoising Normal"} & set(args.passes):
+        settings = settings.replace(denoising_passes=True)
     farm = args.workers is not None or args.cluster is not None
     if farm:
         from .farm.render import check_settings
@@ -243,6 +270,7 @@ def cmd_render(args) -> int:
         rgb = result.mean()
         if getattr(result, "has_features", False):
             channels.update(pass_channels(None, result))
+    channels.update(_pass_layers(args, scene, settings, result, denoised))
     bad_pixels = image.write_exr(args.output, rgb, channels=channels)
     alpha = result.alpha() if getattr(result, "has_alpha", False) else None
     if args.png and _extension(args.scene) == ".blend":
@@ -278,6 +306,31 @@ def pass_channels(denoised, result=None) -> dict:
         for k, c in enumerate("RGB"):
             channels[f"{layer}.{c}"] = clean[..., k]
     return channels
+
+
+def _pass_layers(args, scene, settings, result, denoised) -> dict:
+    """{"<pass>.<channel>": (H, W) values} of the --passes that pass_channels does not write
+    (the denoising layers: the render makes them when they are asked for); a pass Snell cannot
+    make is left out with a warning."""
+    for name in args.passes:
+        missing = name in (ALBEDO, NORMAL) and not getattr(result, "has_features", False)
+        if name in NOT_RENDERED_PASSES or (name == NOISY and denoised is None) or missing:
+            why = ("without --denoise" if name == NOISY else
+                   "on a cluster yet" if missing else "by Snell yet")
+            print(f"snell: warning: {args.scene}: pass {name!r} is not rendered {why}: left out",
+                  file=sys.stderr)
+    layers = {}
+    if "Debug Sample Count" in args.passes:
+        layers["Debug Sample Count.X"] = result.samples()
+    from .tracer.data_passes import CHANNELS, data_passes
+    wanted = args.passes
+    data = [name for name in wanted if name in CHANNELS]
+    if data:
+        from .tracer.integrator import Renderer
+        for name, values in data_passes(Renderer(scene, settings), data).items():
+            for k, channel in enumerate(CHANNELS[name]):
+                layers[f"{name}.{channel}"] = values[..., k]
+    return layers
 
 
 def _summary(args, rgb, result, bad_pixels, denoised=None) -> str:

@@ -30,6 +30,19 @@ NOISY_PASS = ("Noisy Image", 4, "RGBA")
 FEATURE_PASSES = (("Denoising Albedo", 3, "RGB"), ("Denoising Normal", 3, "XYZ"))
 
 
+# View Layer > Passes > Data that Snell fills: the view layer's switch -> (name, channels,
+# channel ids), as Cycles adds them (tracer/data_passes.py makes them).
+DATA_PASSES = {"use_pass_z": ("Depth", 1, "Z"), "use_pass_position": ("Position", 3, "XYZ"),
+               "use_pass_normal": ("Normal", 3, "XYZ"),
+               "use_pass_object_index": ("Object Index", 1, "X")}
+
+
+def data_passes_of(view_layer) -> tuple:
+    """The data passes a view layer asks for that Snell fills (DATA_PASSES' entries)."""
+    return tuple(entry for switch, entry in DATA_PASSES.items()
+                 if getattr(view_layer, switch, False))
+
+
 def denoising_passes(settings, remote: bool = False) -> tuple:
     """The denoising passes a render with these settings fills: the noisy image when it
     denoises, the albedo and normal when it renders them (not on a cluster, remote, which does
@@ -226,6 +239,7 @@ def render(engine, depsgraph):
         if not _compile_kernels(engine, record):
             _stop_without_image(engine, record)
             return
+        renderer = None
         if remote_render is None:
             engine.update_stats("", f"Snell: building the BVH of {len(scene.triangles)} triangles")
             renderer = _integrator().Renderer(scene, settings)
@@ -235,6 +249,9 @@ def render(engine, depsgraph):
         # Before begin_result, so that the result has the pass (as Cycles adds its passes).
         engine.add_pass(SAMPLE_COUNT_PASS, 1, "X", layer=depsgraph.view_layer.name)
         for name, channels, ids in denoising_passes(settings, remote=remote_render is not None):
+            engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
+        data = data_passes_of(depsgraph.view_layer)
+        for name, channels, ids in data:
             engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
         result = engine.begin_result(0, 0, w, h)
         progress = _Progress(engine, result, w, h, spp, record, t_start)
@@ -258,6 +275,9 @@ def render(engine, depsgraph):
             engine.report({"WARNING"}, f"Snell: {rendered.alpha_nan_count} NaN/Inf alpha samples "
                                        "left out")
         _write_denoised(engine, result, progress, rendered, settings, record)
+        if data and not rendered.cancelled:
+            _write_data_passes(result, data, renderer or _integrator().Renderer(scene, settings))
+            engine.update_result(result)
         state = ("Cancelled after" if rendered.cancelled else
                  "Time limit reached after" if rendered.time_limited else "Done:")
         engine.update_stats("", f"Snell: {state} {rendered.spp}/{spp} samples in "
@@ -275,6 +295,17 @@ def render(engine, depsgraph):
         if result is not None:
             engine.end_result(result, cancel=True)
         record["total_s"] = time.perf_counter() - t_start
+
+
+def _write_data_passes(result, data, renderer):
+    """The data passes (data_passes_of's) of the render's scene and camera into the result."""
+    from ..tracer.data_passes import data_passes
+    values = data_passes(renderer, [name for name, _, _ in data])
+    passes = result.layers[0].passes
+    for name, channels, _ in data:
+        target = passes.get(name)
+        if target is not None:       # Blender's row 0 is the bottom
+            target.rect.foreach_set(np.ascontiguousarray(values[name][::-1]).ravel())
 
 
 def _write_denoised(engine, result, progress, rendered, settings, record):

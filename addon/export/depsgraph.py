@@ -188,7 +188,10 @@ class Exporter:
         if self.held_out(obj):
             mat_ids, used = self.hold_out(name, mat_ids, used)
         object_id = len(self.objects)
-        self.objects.append({"name": name, "closed": mesh.closed})
+        # The pass index for the Object Index pass (tracer/data_passes.py); 0 is left out, so
+        # files without one export as before.
+        self.objects.append({"name": name, "closed": mesh.closed,
+                             **({"pass_index": int(obj.pass_index)} if obj.pass_index else {})})
         # Kept aside: the scene's objects carry them only if a program reads them
         # (scene_objects).
         self.object_data.append(object_data(inst, matrix) if self.want_object_data else None)

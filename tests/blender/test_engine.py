@@ -584,6 +584,35 @@ def test_f12_follows_cycles_denoise_and_keeps_the_noisy_image_as_a_pass(blends, 
     assert layers["Denoising Albedo"].max() > 0.1 and np.abs(layers["Denoising Normal"]).max() > 0.5
 
 
+def test_f12_fills_the_data_passes_the_view_layer_asks_for(blends, tmp_path):
+    """View Layer > Passes > Data: Z, Normal, Position and Object Index switched on are passes
+    of F12's result, the values tracer/data_passes.py makes for the scene and camera."""
+    from snell.tracer.data_passes import data_passes
+    scene, _ = cycles_configured(blends, tmp_path)
+    layer = scene.view_layers[0]
+    layer.use_pass_z = layer.use_pass_normal = layer.use_pass_position = True
+    layer.use_pass_object_index = True
+    layers = {}
+
+    def grab(result):
+        for name in ("Depth", "Normal", "Position", "Object Index"):
+            rpass = result.layers[0].passes.get(name)
+            if rpass is not None:
+                rect = np.empty(SIZE * SIZE * rpass.channels, np.float32)
+                rpass.rect.foreach_get(rect)
+                layers[name] = rect.reshape(SIZE, SIZE, rpass.channels)[::-1]
+
+    with spying(recording([], grab)):
+        bpy.ops.render.render(write_still=True)
+    assert final.last_render["error"] is None and set(layers) == {"Depth", "Normal",
+                                                                  "Position", "Object Index"}
+    exported, _ = export_depsgraph(bpy.context.evaluated_depsgraph_get())
+    expected = data_passes(Renderer(exported, exported.settings(threads=1)), list(layers))
+    for name, values in layers.items():
+        np.testing.assert_allclose(values, expected[name], rtol=1e-6, atol=1e-6)
+    assert layers["Depth"].min() > 0.0 and np.abs(layers["Normal"]).max() > 0.9
+
+
 def test_batch_spp_threads_and_scale_options(blends, tmp_path):
     """--spp and --threads over the file's settings, --scale its resolution percentage."""
     _, path = cycles_configured(blends, tmp_path)

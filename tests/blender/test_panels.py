@@ -205,6 +205,7 @@ def test_the_overrides_panel_offers_every_followed_setting():
             values.append(name)
 
     scene = bpy.context.scene
+    scene.snell.use_cycles_settings = True       # the panel shows while Snell follows Cycles
     context = types.SimpleNamespace(scene=scene, engine="SNELL")
     assert ui.RENDER_PT_snell_overrides.poll(context)
     layout = Layout()
