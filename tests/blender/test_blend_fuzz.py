@@ -197,3 +197,22 @@ def test_program_constant_that_is_not_finite_names_node_and_input(cube_scene):
     with pytest.raises(SceneError, match=r"material 'Marble': node 'Math': input 'Value' "
                                          r"\(2 of 2\) is nan \(not a finite number\)"):
         _export()
+
+
+def test_render_region_not_applied_is_said(cube_scene, tmp_path):
+    """Fuzz finding (seed 1, scenes 4, 21, 28, 36, 56, 58): a file with a Render Region (and
+    Crop to Render Region) rendered the whole frame through `snell render` without a word,
+    where F12 renders the region. Now a warning says so; without a region, none. Deliberate
+    error: the warning left out, this test fails."""
+    import bpy
+
+    from snell.addon.export import export_blend
+    path = str(tmp_path / "region.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    assert not [w for w in export_blend(path)[1] if "Render Region" in w]
+    bpy.context.scene.render.use_border = True
+    bpy.context.scene.render.use_crop_to_border = True
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    warnings = [w for w in export_blend(path)[1] if "Render Region" in w]
+    assert warnings == ["Output > Format > Render Region is on and not applied here: the whole "
+                        "frame is rendered (F12 and `snell batch` render the region)"]

@@ -73,6 +73,27 @@ def _set(socket_owner, name, value):
 # ---------------------------------------------------------------------------------------------
 # Materials
 
+
+def _image(g: Grammar, name):
+    """A generated image of 1x1 to 8x4 pixels, some of them NaN, Inf, negative or huge; or one
+    whose file is missing."""
+    if g.chance(0.2):
+        image = bpy.data.images.new(name, 4, 4)
+        image.filepath = "//missing_texture.png"
+        image.source = "FILE"
+        g.log.append(f"{name}: a missing file")
+        return image
+    width, height = g.rng.choice([(1, 1), (2, 1), (8, 4)])
+    image = bpy.data.images.new(name, width, height, float_buffer=g.chance(0.7))
+    pixels = [g.rng.random() for _ in range(width * height * 4)]
+    if g.chance(0.5):
+        odd = g.pick(f"{name} pixel", [NAN, INF, -INF, -1.0, 1e30, 3e38])
+        pixels[g.rng.randrange(len(pixels))] = odd
+    image.pixels = pixels
+    if g.chance(0.5):
+        image.pack()
+    return image
+
 BSDFS = ["ShaderNodeBsdfPrincipled", "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlossy",
          "ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction", "ShaderNodeEmission",
          "ShaderNodeBsdfTransparent", "ShaderNodeBsdfTranslucent", "ShaderNodeHoldout",
@@ -129,12 +150,8 @@ def material(g: Grammar, name: str):
     for _ in range(g.rng.randint(0, 4)):
         kind = g.pick(f"{name} value node", VALUES)
         node = tree.nodes.new(kind)
-        if kind == "ShaderNodeTexImage" and g.chance(0.5):
-            image = bpy.data.images.new(f"{name}_image", 4, 4)
-            if g.chance(0.5):
-                image.filepath = "//missing_texture.png"
-                image.source = "FILE"
-            node.image = image
+        if kind in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment") and g.chance(0.6):
+            node.image = _image(g, f"{name}_image")
         for socket in node.inputs:
             if hasattr(socket, "default_value") and g.chance(0.2):
                 _set(node, socket.name, g.odd_number(f"{name} {kind} {socket.name}", (0.0, 2.0)))
@@ -397,6 +414,14 @@ def objects(g: Grammar):
             if g.chance(0.1):
                 obj.data.vertices[0].co = (g.rng.choice([NAN, INF, 1e30]), 0.0, 0.0)
                 g.log.append("a vertex moved to a non-finite or huge position")
+            if g.chance(0.05):
+                mesh = bpy.data.meshes.new("loose")
+                mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 1)], [])
+                obj.data = mesh
+                g.log.append("a mesh of loose vertices and an edge, no faces")
+            if g.chance(0.05) and len(obj.data.polygons):
+                obj.data.polygons[0].material_index = 7
+                g.log.append("a face's material index beyond the slots")
         elif kind == "curve":
             obj = _curve(g)
         elif kind == "text":
@@ -423,6 +448,10 @@ def objects(g: Grammar):
         if obj.type in ("MESH", "CURVE", "FONT", "META"):
             if g.chance(0.85):
                 obj.data.materials.append(material(g, f"material_{i}"))
+                if g.chance(0.1):
+                    obj.material_slots[0].link = "OBJECT"
+                    obj.material_slots[0].material = material(g, f"object_material_{i}")
+                    g.log.append("a slot linked to the object")
             if g.chance(0.1):
                 obj.data.materials.append(None)
                 g.log.append("an empty material slot")
@@ -493,8 +522,8 @@ def world(g: Grammar):
     elif kind in ("environment", "sky", "unsupported"):
         node = tree.nodes.new({"environment": "ShaderNodeTexEnvironment", "sky": "ShaderNodeTexSky",
                                "unsupported": "ShaderNodeTexNoise"}[kind])
-        if kind == "environment" and g.chance(0.5):
-            node.image = bpy.data.images.new("sky", 8, 4, float_buffer=True)
+        if kind == "environment" and g.chance(0.7):
+            node.image = _image(g, "sky")
         tree.links.new(node.outputs[0], background.inputs["Color"])
 
 
@@ -559,6 +588,9 @@ def settings(g: Grammar):
         cycles.seed = g.rng.choice([0, 2 ** 31 - 1])
     if g.chance(0.1):
         cycles.use_denoising = True
+    if g.chance(0.05):
+        scene.frame_current = g.rng.choice([-100, 0, 100000])
+        g.log.append(f"frame {scene.frame_current}")
     if g.chance(0.1):
         scene.unit_settings.scale_length = g.rng.choice([1e-5, 1e5])
         g.log.append(f"unit scale {scene.unit_settings.scale_length}")
