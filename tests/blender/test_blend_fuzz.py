@@ -216,3 +216,23 @@ def test_render_region_not_applied_is_said(cube_scene, tmp_path):
     warnings = [w for w in export_blend(path)[1] if "Render Region" in w]
     assert warnings == ["Output > Format > Render Region is on and not applied here: the whole "
                         "frame is rendered (F12 and `snell batch` render the region)"]
+
+
+def test_infinite_vertices_of_flat_faces_raise_no_python_warning(cube_scene):
+    """Fuzz finding (seed 2, scene 19): a text object of Bevel Depth inf (its vertices Inf)
+    printed NumPy's raw "invalid value encountered in subtract" RuntimeWarning from the flat
+    faces' normals (inf - inf) before its triangles were dropped. Now only Snell's warning.
+    Deliberate error: the normals computed without np.errstate, the RuntimeWarning is raised
+    (an error under this test's filter): caught."""
+    import warnings
+
+    import bpy
+    bpy.data.objects.remove(cube_scene)
+    bpy.ops.object.text_add()
+    text = bpy.context.object
+    text.data.extrude, text.data.bevel_depth = 0.04, float("inf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene, said = _export()
+    assert len(scene.triangles) == 0
+    assert [w for w in said if "NaN or Inf vertex coordinate" in w and "'Text" in w], said
