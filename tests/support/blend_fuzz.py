@@ -531,7 +531,7 @@ def camera(g: Grammar):
     scene = bpy.context.scene
     cam = scene.camera
     data = cam.data
-    data.type = g.pick("camera", ["PERSP"] * 6 + ["ORTHO", "ORTHO", "PANO"])
+    data.type = g.pick("camera", ["PERSP"] * 12 + ["ORTHO"] * 3 + ["PANO"])
     if data.type == "PERSP" and g.chance(0.3):
         data.lens = g.rng.choice([1.0, 10.0, 50.0, 5000.0])
     if data.type == "ORTHO":
@@ -599,6 +599,31 @@ def settings(g: Grammar):
     return width, height
 
 
+SNELL_SETTINGS = {
+    "max_depth": [0, 1, 64], "transparent_max_bounces": [0, 1000], "seed": [0, 2 ** 31 - 1],
+    "fresnel": ["exact", "schlick"], "caustics": [False, True], "light_vertices": [False, True],
+    "noise_threshold": [0.0, 0.001, 1.0], "min_spp": [0, 1, 100000],
+    "pixel_filter": ["box", "gaussian", "blackman_harris"], "filter_width": [0.01, 1.5, 10.0],
+    "denoise": [False, True], "denoising_input_passes": ["color", "albedo", "albedo_normal"],
+    "denoising_passes": [False, True], "batches": [0, 1, 3], "sampler": ["stratified", "independent"],
+    "next_event": [False, True], "env_sampling": [False, True], "pure_light_tracing": [False, True],
+    "light_paths_per_camera_path": [1e-6, 1.0, 16.0], "light_vertex_pilot": [False, True],
+}
+
+
+def snell_settings(g: Grammar):
+    """Snell's own settings (Follow Cycles' Settings off) with odd values, some of the time."""
+    if not g.chance(0.4):
+        return
+    from snell.addon import registration
+    registration.ensure_registered()
+    props = bpy.context.scene.snell
+    props.use_cycles_settings = False
+    for name in g.rng.sample(sorted(SNELL_SETTINGS), 5):
+        value = g.pick(f"snell {name}", SNELL_SETTINGS[name])
+        setattr(props, name, value.upper() if isinstance(value, str) else value)
+
+
 def build_scene(seed: int, index: int) -> dict:
     """Build scene `index` of `seed` in the current bpy session; what was chosen and the size."""
     bpy.ops.wm.read_factory_settings(use_empty=False)
@@ -615,6 +640,7 @@ def build_scene(seed: int, index: int) -> dict:
     world(g)
     camera(g)
     width, height = settings(g)
+    snell_settings(g)
     return {"choices": g.log, "size": [width, height],
             "objects": [o.name for o in made]}
 
