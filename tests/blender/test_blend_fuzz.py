@@ -6,11 +6,21 @@
 Never a traceback, a raw Python warning, a stderr line that is not Snell's, or another exit
 status (a crash).
 
-The quick run (default tests): seed 0's first QUICK scenes, each its own test. The long run is
-marked slow: SNELL_FUZZ_SEEDS (default "1-4") seeds of SNELL_FUZZ_COUNT (default 50) scenes each.
+The quick run (default tests): seed 3's first QUICK scenes, each its own test (about 30 s on
+an idle 2-core machine, 71-77 s loaded). The long run is marked slow: SNELL_FUZZ_SEEDS (default
+"1-4") seeds of SNELL_FUZZ_COUNT (default 50) scenes each. Deliberate error: NumPy's overflow
+RuntimeWarning raised at the start of the .blend export fails all 5 quick scenes.
 
-Runs and findings (2026-11-26, Blender 5.0.1): seeds 0-? (see docs/robustness.md for the
-table) ... filled in below by the findings' tests.
+Runs and findings (2026-11-26, Blender 5.0.1, `snell render --spp 2`): seeds 0-4, RUNS scenes
+in all, as the grammar grew. Every one ended in an image or one error: no crash, no traceback,
+no NaN or Inf pixel, no image of the wrong size, nothing left behind after an error. What broke
+the promise, each fixed with a test below:
+- a lamp of Power -inf and colour 0 printed NumPy's raw RuntimeWarning (0 x inf), and NaN or
+  Inf lamp numbers failed as the scene file's fields (seed 0, scenes 2, 6, 7 and 17);
+- a NaN in a node compiled into a shader program failed as the program's field, naming
+  neither node nor input (seed 0, scene 5);
+- a Render Region was not applied by `snell render` without a word (seed 1, 6 of 60 scenes);
+- Inf vertices on flat faces printed NumPy's raw RuntimeWarning (seed 2, scene 19).
 """
 from __future__ import annotations
 
@@ -28,7 +38,7 @@ from support.paths import SUPPORT
 
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("bpy") is None, reason="needs bpy")
 
-QUICK_SEED, QUICK = 0, 5
+QUICK_SEED, QUICK = 3, 5
 PYTHON_WARNING = re.compile(r"\w*Warning: ")     # a raw warnings.warn line (RuntimeWarning, ...)
 
 
@@ -85,7 +95,8 @@ def quick_scenes(tmp_path_factory):
 
 @pytest.mark.parametrize("index", range(QUICK))
 def test_quick_fuzz_scene_renders_or_fails_cleanly(quick_scenes, tmp_path, index):
-    """Seed 0's scene `index`: a clean image or one clean error."""
+    """Seed 3's scene `index` (0: a panoramic camera, an error; 1-4 render): a clean image
+    or one clean error."""
     directory, records = quick_scenes
     name = f"fuzz_{QUICK_SEED}_{index}.blend"
     assert problems(str(directory / name), records[name], str(tmp_path)) == [], \

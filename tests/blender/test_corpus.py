@@ -179,7 +179,7 @@ CASES = [
     ("nan_object", ("render", "export", "batch"), 1, ("object 'Cube'", "NaN")),
     ("nan_camera", ("render", "info"), 1, ("camera 'Camera'", "NaN")),
     ("nan_material", ("render", "export", "study"), 1, ("materials[0] ('Material').color", "NaN")),
-    ("inf_light", ("render", "info"), 1, ("lights[0] ('Light').intensity", "Inf")),
+    ("inf_light", ("render", "info"), 1, ("light 'Light': Power is inf (not a finite number)",)),
     ("truncated", BLEND_COMMANDS, 1, ("cannot open",)),
     ("corrupted", ("info", "compare", "batch"), 1, ("cannot open",)),
     ("text", BLEND_COMMANDS, 1, ("cannot open",)),
