@@ -7,9 +7,10 @@ Never a traceback, a raw Python warning, a stderr line that is not Snell's, or a
 status (a crash).
 
 The quick run (default tests): seed 3's first QUICK scenes, each its own test (the module's 14
-tests took 30 s on the shared 2-core machine, the 5 scenes 71-77 s with it fully loaded). The long run is marked slow: SNELL_FUZZ_SEEDS (default
-"1-4") seeds of SNELL_FUZZ_COUNT (default 50) scenes each. Deliberate error: NumPy's overflow
-RuntimeWarning raised at the start of the .blend export fails all 5 quick scenes.
+tests took 30 s on the shared 2-core machine; the 5 scenes 71-77 s with it fully loaded). The
+long run is marked slow: SNELL_FUZZ_SEEDS (default "1-4") seeds of SNELL_FUZZ_COUNT (default
+50) scenes each. Deliberate error: NumPy's overflow RuntimeWarning raised at the start of the
+.blend export fails all 5 quick scenes.
 
 Runs and findings (2026-11-26, Blender 5.0.1, `snell render --spp 2`): seeds 0-4, 320 scenes
 as the grammar grew (327 runs: 249 images, 70 errors, one scene the grammar failed to build).
