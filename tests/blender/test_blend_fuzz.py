@@ -249,3 +249,28 @@ def test_infinite_vertices_of_flat_faces_raise_no_python_warning(cube_scene):
         scene, said = _export()
     assert len(scene.triangles) == 0
     assert [w for w in said if "NaN or Inf vertex coordinate" in w and "'Text" in w], said
+
+
+@pytest.mark.parametrize("socket, value, shown", [
+    ("IOR", float("nan"), "'IOR' is nan"),
+    ("Base Color", (float("nan"), 0.5, 0.5, 1.0), "'Base Color' is [nan, 0.5, 0.5]"),
+])
+def test_fixed_kind_nan_input_names_node_and_input(cube_scene, socket, value, shown):
+    """A NaN in a BSDF's unlinked input (the scene file's fixed kinds, no shader program) failed
+    as the scene file's field (`materials[0] ('Glassy').ior: is NaN or Inf`); now the material,
+    the node and the input, as for a program's constants (fuzz seeds 2 and 3 had such inputs).
+    Inf is still clamped to the field's range, as Cycles clamps it. Deliberate error: without
+    the check, the loader's message came back for both (caught)."""
+    import bpy
+
+    from snell.tracer.scene import SceneError
+    mat = bpy.data.materials.new("Glassy")
+    cube_scene.data.materials.append(mat)
+    mat.node_tree.nodes["Principled BSDF"].inputs[socket].default_value = value
+    with pytest.raises(SceneError) as caught:
+        _export()
+    assert str(caught.value) == (f"material 'Glassy': node 'Principled BSDF': input {shown} "
+                                 "(not a number)")
+    mat.node_tree.nodes["Principled BSDF"].inputs[socket].default_value = \
+        float("inf") if socket == "IOR" else (float("inf"), 0.5, 0.5, 1.0)
+    _export()
