@@ -1,6 +1,7 @@
 """The .blend fuzzer: random Blender scenes from a grammar (support/blend_fuzz.py) rendered with
 `snell render FILE.blend`, as a user would. Every run ends in one of two ways:
-- a clean image: exit 0, the EXR at the size Blender would render, every pixel finite;
+- a clean image: exit 0, the EXR at the size Blender would render, every pixel finite, and the
+  PNG through the file's view transform (--png);
 - one clean error: exit 1, the last stderr line `snell: error: ...` and the only error line, the
   output directory empty.
 Never a traceback, a raw Python warning, a stderr line that is not Snell's, or another exit
@@ -57,8 +58,10 @@ def problems(blend, record, out):
     if "build_error" in record:
         return [f"the grammar could not build it: {record['build_error']}"]
     exr = os.path.join(out, "a.exr")
+    png = os.path.join(out, "a.png")    # through the file's view transform (addon/display.py)
     proc = subprocess.run([sys.executable, "-m", "snell.cli", "render", blend, "-o", exr,
-                           "--spp", "2", "--quiet"], capture_output=True, text=True, timeout=600)
+                           "--png", png, "--spp", "2", "--quiet"], capture_output=True,
+                          text=True, timeout=600)
     found = []
     if "Traceback" in proc.stderr + proc.stdout:
         found.append("a traceback")
@@ -68,7 +71,7 @@ def problems(blend, record, out):
     if any(not line.startswith("snell: ") for line in lines):
         found.append("stderr lines that are not Snell's")
     if proc.returncode == 0:
-        if os.listdir(out) != ["a.exr"]:
+        if sorted(os.listdir(out)) != ["a.exr", "a.png"]:
             found.append(f"outputs {sorted(os.listdir(out))}")
         else:
             from snell.tracer.image import read_exr

@@ -594,6 +594,18 @@ def settings(g: Grammar):
     if g.chance(0.1):
         scene.unit_settings.scale_length = g.rng.choice([1e-5, 1e5])
         g.log.append(f"unit scale {scene.unit_settings.scale_length}")
+    if g.chance(0.3):
+        view = scene.view_settings
+        view.view_transform = g.pick("view transform", ["Standard", "Filmic", "AgX", "Raw",
+                                                        "Khronos PBR Neutral", "False Color"])
+        view.exposure = g.pick("exposure", [-32.0, 0.0, 3.0, 32.0])
+        view.gamma = g.pick("gamma", [0.0, 0.01, 1.0, 5.0])
+        if g.chance(0.3):
+            look = g.pick("look", ["Punchy", "Base Contrast", "High Contrast", "Very Low Contrast"])
+            try:        # each view transform has its own looks
+                view.look = look
+            except TypeError:
+                g.log.append(f"look {look!r} not offered by this view transform")
     width = max(1, r.resolution_x * r.resolution_percentage // 100)
     height = max(1, r.resolution_y * r.resolution_percentage // 100)
     return width, height
