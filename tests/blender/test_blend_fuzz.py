@@ -13,8 +13,9 @@ long run is marked slow: SNELL_FUZZ_SEEDS (default "1-4") seeds of SNELL_FUZZ_CO
 50) scenes each. Deliberate error: NumPy's overflow RuntimeWarning raised at the start of the
 .blend export fails all 5 quick scenes.
 
-Runs and findings (2026-11-26, Blender 5.0.1, `snell render --spp 2`): seeds 0-4, 320 scenes
-as the grammar grew (327 runs: 249 images, 70 errors, one scene the grammar failed to build).
+Runs and findings (2026-11-26, Blender 5.0.1, `snell render --spp 2`): seeds 0-5, 420 scenes
+as the grammar grew (427 runs: 322 images, 97 errors, one scene the grammar failed to build;
+seed 5's 100 with --png).
 Every run ended in an image or one error: no crash, no traceback, no NaN or Inf pixel, no image
 of the wrong size, nothing left behind after an error. What broke the promise, each fixed with
 a test below:
