@@ -16,7 +16,7 @@ from .nodes import Inputs, active_output, follow
 # The lamp's numbers as Blender's Light properties panel names them (energy: Power, or Strength
 # for a sun).
 LABELS = {"energy": "Power", "color": "Color", "shadow_soft_size": "Radius", "size": "Size",
-          "size_y": "Size Y", "spot_size": "Spot Size", "spot_blend": "Blend", "angle": "Angle",
+          "size_y": "Size Y", "spot_size": "Beam Angle", "spot_blend": "Blend", "angle": "Angle",
           "spread": "Spread", "exposure": "Exposure"}
 
 
@@ -35,7 +35,7 @@ def _check_finite(obj):
                 label = "Strength"
             shown = values[0] if len(values) == 1 else values
             raise SceneError(f"light {obj.name!r}: {label} is {shown} (not a finite number)")
-    if light.energy < 0:    # Cycles subtracts light there; the scene file has no such lamp
+    if light.energy < 0:    # Cycles lets it subtract light; the scene file has no such lamp
         label = "Strength" if light.type == "SUN" else "Power"
         raise SceneError(f"light {obj.name!r}: {label} is {light.energy:g}: Snell renders no "
                          "negative lights")

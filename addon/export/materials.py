@@ -56,7 +56,7 @@ def convert_material(mat, resources=None):
     and texture coordinates (None: no programs)."""
     try:
         converted, coverage = _convert_fixed(mat)
-    except scene_mod.SceneError as exc:      # a node's NaN input (nodes.Inputs): name the material too
+    except scene_mod.SceneError as exc:   # a node's NaN input (nodes.Inputs): name the material
         raise scene_mod.SceneError(f"material {mat.name!r}: {exc}") from None
     whole_replaced = converted.pop("_replaced", False)
     if resources is None or mat is None or not coverage.issues or mat.node_tree is None:

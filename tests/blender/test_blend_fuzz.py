@@ -283,9 +283,9 @@ def test_fixed_kind_nan_input_names_node_and_input(cube_scene, socket, value, sh
 
 
 @pytest.mark.xfail(strict=True, raises=RuntimeWarning,
-                   reason="open: tracer/lights/tables.py (outside the exporter) divides every sun's "
-                          "irradiance by max(pi sin^2, 1e-300) before np.where drops the angle-0 "
-                          "ones, so a sun of Strength above ~1.8e8 and Angle 0 overflows")
+                   reason="open: tracer/lights/tables.py (outside the exporter) divides every "
+                          "sun's irradiance by max(pi sin^2, 1e-300) before np.where drops the "
+                          "angle-0 ones, so a sun of Strength above ~1.8e8 and Angle 0 overflows")
 def test_sharp_strong_sun_raises_no_python_warning():
     """Fuzz finding left open (seed 5, scene 32: a sun of Strength 1e30 and Angle 0): the light
     tables print NumPy's raw "overflow encountered in divide" RuntimeWarning; the table's value

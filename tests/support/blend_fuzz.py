@@ -99,7 +99,8 @@ BSDFS = ["ShaderNodeBsdfPrincipled", "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlo
          "ShaderNodeBsdfTransparent", "ShaderNodeBsdfTranslucent", "ShaderNodeHoldout",
          "ShaderNodeBsdfSheen", "ShaderNodeBsdfMetallic"]
 UNSUPPORTED = ["ShaderNodeBsdfToon", "ShaderNodeBsdfHair", "ShaderNodeSubsurfaceScattering",
-               "ShaderNodeBsdfHairPrincipled", "ShaderNodeBsdfRayPortal", "ShaderNodeAmbientOcclusion",
+               "ShaderNodeBsdfHairPrincipled", "ShaderNodeBsdfRayPortal",
+               "ShaderNodeAmbientOcclusion",
                "ShaderNodeBevel", "ShaderNodeWireframe", "ShaderNodeVolumePrincipled",
                "ShaderNodeVolumeScatter", "ShaderNodeLightFalloff", "ShaderNodeParticleInfo",
                "ShaderNodeHairInfo", "ShaderNodePointInfo", "ShaderNodeScript"]
@@ -111,7 +112,8 @@ VALUES = ["ShaderNodeTexNoise", "ShaderNodeTexVoronoi", "ShaderNodeTexChecker", 
           "ShaderNodeBump", "ShaderNodeNormalMap", "ShaderNodeBlackbody", "ShaderNodeWavelength",
           "ShaderNodeLightPath", "ShaderNodeObjectInfo", "ShaderNodeValue", "ShaderNodeRGB",
           "ShaderNodeSeparateColor", "ShaderNodeCombineXYZ", "ShaderNodeHueSaturation",
-          "ShaderNodeTexWhiteNoise", "ShaderNodeTexGabor", "ShaderNodeUVMap", "ShaderNodeVertexColor"]
+          "ShaderNodeTexWhiteNoise", "ShaderNodeTexGabor", "ShaderNodeUVMap",
+          "ShaderNodeVertexColor"]
 SHADER_INPUTS = ("Base Color", "Color", "Roughness", "Metallic", "IOR", "Strength",
                  "Emission Strength", "Transmission Weight", "Alpha", "Coat Weight",
                  "Specular IOR Level", "Anisotropic", "Sheen Weight", "Subsurface Weight")
@@ -159,7 +161,8 @@ def material(g: Grammar, name: str):
         if node.outputs and targets:
             source = g.rng.choice(list(node.outputs))
             target = g.rng.choice(targets)
-            g.log.append(f"{name} link: {kind}.{source.name} -> {target.node.bl_idname}.{target.name}")
+            g.log.append(f"{name} link: {kind}.{source.name} -> "
+                         f"{target.node.bl_idname}.{target.name}")
             tree.links.new(source, target)
     if surface.outputs:
         tree.links.new(surface.outputs[0], output.inputs["Surface"])
@@ -217,7 +220,8 @@ def _primitive(g: Grammar, kind):
     elif kind == "plane":
         ops.primitive_plane_add()
     elif kind == "grid":
-        ops.primitive_grid_add(x_subdivisions=g.rng.randint(1, 6), y_subdivisions=g.rng.randint(1, 6))
+        ops.primitive_grid_add(x_subdivisions=g.rng.randint(1, 6),
+                               y_subdivisions=g.rng.randint(1, 6))
     elif kind == "monkey":
         ops.primitive_monkey_add()
     else:
@@ -234,7 +238,8 @@ def _curve(g: Grammar):
     obj = bpy.context.object
     curve = obj.data
     if g.chance(0.6):
-        curve.bevel_depth = max(0.0, g.odd_number("bevel depth", (0.0, 0.3)) if g.chance(0.8) else 0.1)
+        depth = g.odd_number("bevel depth", (0.0, 0.3)) if g.chance(0.8) else 0.1
+        curve.bevel_depth = max(0.0, depth)
         curve.bevel_resolution = g.rng.randint(0, 4)
     if g.chance(0.3):
         curve.extrude = abs(g.odd_number("extrude", (0.0, 0.5)))
@@ -257,7 +262,8 @@ def _text(g: Grammar):
 
 
 def _metaball(g: Grammar):
-    bpy.ops.object.metaball_add(type=g.pick("metaball", ["BALL", "CAPSULE", "PLANE", "ELLIPSOID", "CUBE"]))
+    bpy.ops.object.metaball_add(type=g.pick("metaball", ["BALL", "CAPSULE", "PLANE", "ELLIPSOID",
+                                                         "CUBE"]))
     obj = bpy.context.object
     obj.data.resolution = g.rng.choice([0.2, 0.4, 1.0])
     obj.data.render_resolution = obj.data.resolution
@@ -272,7 +278,8 @@ def _geometry_nodes(g: Grammar, obj):
     group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
     nodes, links = group.nodes, group.links
     gin, gout = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
-    kind = g.pick("geometry nodes", ["subdivide and move", "points", "instances", "realized instances",
+    kind = g.pick("geometry nodes", ["subdivide and move", "points", "instances",
+                                     "realized instances",
                                      "curve to mesh", "curve with radius", "empty", "pass-through",
                                      "huge offset", "delete all", "volume cube"])
     geometry = gin.outputs[0]
@@ -501,7 +508,8 @@ def lights(g: Grammar):
 
 def world(g: Grammar):
     scene = bpy.context.scene
-    kind = g.pick("world", ["none", "colour", "strength", "environment", "sky", "unsupported", "no nodes"])
+    kind = g.pick("world", ["none", "colour", "strength", "environment", "sky", "unsupported",
+                            "no nodes"])
     if kind == "none":
         scene.world = None
         return
@@ -516,7 +524,8 @@ def world(g: Grammar):
     if background is None:
         return
     if kind == "colour":
-        background.inputs["Color"].default_value = [g.odd_number("world colour", (0.0, 1.0)) for _ in range(3)] + [1.0]
+        rgb = [g.odd_number("world colour", (0.0, 1.0)) for _ in range(3)]
+        background.inputs["Color"].default_value = rgb + [1.0]
     elif kind == "strength":
         background.inputs["Strength"].default_value = g.odd_number("world strength", (0.0, 2.0))
     elif kind in ("environment", "sky", "unsupported"):
@@ -617,7 +626,8 @@ SNELL_SETTINGS = {
     "noise_threshold": [0.0, 0.001, 1.0], "min_spp": [0, 1, 100000],
     "pixel_filter": ["box", "gaussian", "blackman_harris"], "filter_width": [0.01, 1.5, 10.0],
     "denoise": [False, True], "denoising_input_passes": ["color", "albedo", "albedo_normal"],
-    "denoising_passes": [False, True], "batches": [0, 1, 3], "sampler": ["stratified", "independent"],
+    "denoising_passes": [False, True], "batches": [0, 1, 3],
+    "sampler": ["stratified", "independent"],
     "next_event": [False, True], "env_sampling": [False, True], "pure_light_tracing": [False, True],
     "light_paths_per_camera_path": [1e-6, 1.0, 16.0], "light_vertex_pilot": [False, True],
 }

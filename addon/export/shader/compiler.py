@@ -22,8 +22,8 @@ from __future__ import annotations
 import math
 from contextlib import contextmanager
 
-from ....tracer.shader import inputs as tracer_inputs
 from ....tracer.scene import SceneError
+from ....tracer.shader import inputs as tracer_inputs
 from ....tracer.shader.program import MAX_REGISTERS, SLOTS
 from ..coverage import node_text
 from ..nodes import LUMINANCE, _as_type, source_in
