@@ -1,8 +1,10 @@
 """Image output: linear float EXR, 8-bit sRGB PNG, and NaN/Inf clean-up.
 
 Images are (H, W, 3) arrays of linear Rec.709 RGB with row 0 at the TOP, as OpenImageIO stores
-them. OpenImageIO is imported only by the functions that read or write files: the add-on running
-inside Blender hands pixels to the RenderEngine API instead and must not depend on it.
+them. EXRs are written with OpenEXR's bindings (each channel in its own type: the sample counts
+as 32-bit unsigned integers), PNGs and every read with OpenImageIO; both are imported only by
+the functions that read or write files: the add-on running inside Blender hands pixels to the
+RenderEngine API instead and must not depend on them.
 
 Writes are atomic: the image goes to a temporary file in the destination directory, then is renamed
 over the destination, so an interrupted or failed write never leaves a partial image behind.
