@@ -1,8 +1,10 @@
 """Image output: linear float EXR, 8-bit sRGB PNG, and NaN/Inf clean-up.
 
 Images are (H, W, 3) arrays of linear Rec.709 RGB with row 0 at the TOP, as OpenImageIO stores
-them. OpenImageIO is imported only by the functions that read or write files: the add-on running
-inside Blender hands pixels to the RenderEngine API instead and must not depend on it.
+them. EXRs are written with OpenEXR's bindings (each channel in its own type: the sample counts
+as 32-bit unsigned integers), PNGs and every read with OpenImageIO; both are imported only by
+the functions that read or write files: the add-on running inside Blender hands pixels to the
+RenderEngine API instead and must not depend on them.
 
 Writes are atomic: the image goes to a temporary file in the destination directory, then is renamed
 over the destination, so an interrupted or failed write never leaves a partial image behind.
@@ -81,7 +83,7 @@ def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict,
         spec = oiio.ImageSpec(width, height, channels, typedesc)
         if channel_names is not None:
             spec.channelnames = tuple(channel_names)
-            # A channel named A is the alpha (EXR's premultiplied convention); others are data.
+            # A channel named A is the alpha (a PNG's RGBA); others are data.
             spec.alpha_channel = list(channel_names).index("A") if "A" in channel_names else -1
         for name, value in attributes.items():
             spec.attribute(name, value)
@@ -95,22 +97,62 @@ def _write_atomic(path, pixels: np.ndarray, typedesc: str, attributes: dict,
 
 def write_exr(path, rgb, channels=None) -> int:
     """Write linear RGB as a 32-bit float EXR (lossless ZIP compression), top row first, plus
-    any extra named (H, W) float channels, e.g. {"samples": counts}.
+    any extra named (H, W) channels, e.g. {"samples": counts}: integer arrays as 32-bit unsigned
+    channels (every count to 2^32 - 1 exact), the others as float.
 
     NaN/Inf in the RGB are written as 0; returns how many pixels that affected.
     """
     clean, bad = sanitize(rgb)
     names = ["R", "G", "B"]
-    layers = [clean]
+    layers = [clean[..., 0], clean[..., 1], clean[..., 2]]
     for name, values in (channels or {}).items():
-        values = as_float32(values)
+        values = _channel_values(name, values)
         if values.shape != clean.shape[:2]:
             raise ValueError(f"channel {name!r}: expected shape {clean.shape[:2]}, got {values.shape}")
         names.append(name)
-        layers.append(values[..., None])
-    pixels = np.ascontiguousarray(np.concatenate(layers, axis=2))
-    _write_atomic(path, pixels, "float", {"compression": "zip"}, names)
+        layers.append(values)
+    _write_exr_atomic(path, dict(zip(names, layers)))
     return bad
+
+
+UINT32_MAX = 2 ** 32 - 1
+
+
+def _channel_values(name, values) -> np.ndarray:
+    """An extra channel's values as the EXR stores them: integers as uint32, others float32."""
+    values = np.asarray(values)
+    if values.dtype.kind not in "iu":
+        return as_float32(values)
+    if values.size and (values.min() < 0 or values.max() > UINT32_MAX):
+        raise ValueError(f"channel {name!r}: counts must lie in 0 .. {UINT32_MAX}, "
+                         f"got {values.min()} .. {values.max()}")
+    return values.astype(np.uint32)
+
+
+def _write_exr_atomic(path, planes: dict) -> None:
+    """Write named (H, W) float32 or uint32 planes as one ZIP-compressed scanline EXR.
+
+    OpenEXR's own bindings, not OpenImageIO's: OpenImageIO's Python ImageOutput takes one buffer
+    type for every channel and converts a FLOAT buffer to a UINT channel through float32 (and
+    normalised to [0, 1]), so a count of 2^24 + 1 came back as 16777218 and 2^31 - 1 as
+    2147483648 (measured with OpenImageIO 3.0.21); OpenEXR writes each array in its own type.
+    """
+    import OpenEXR
+
+    path = os.fspath(path)
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise OSError(f"{path}: cannot write image, directory {directory} does not exist")
+    if not path.lower().endswith(".exr"):
+        raise OSError(f"{path}: cannot write image (an EXR's name ends in .exr)")
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    planes = {name: np.ascontiguousarray(plane) for name, plane in planes.items()}
+    with atomic_path(path) as tmp:
+        try:
+            with OpenEXR.File(header, planes) as exr:
+                exr.write(tmp)
+        except Exception as exc:    # OpenEXR raises bare Exceptions naming the file it had
+            raise OSError(f"{path}: cannot write image ({str(exc).replace(tmp, path)})") from None
 
 
 def write_png(path, rgb, alpha=None) -> int:
@@ -139,12 +181,20 @@ def read_exr(path) -> np.ndarray:
 
 
 def read_channel(path, name) -> np.ndarray:
-    """Read one named channel of an image (e.g. "samples") as an (H, W) float32 array."""
+    """Read one named channel of an image (e.g. "samples") as an (H, W) array: uint32 for an
+    unsigned-integer channel (sample counts, exact), float32 otherwise."""
+    import OpenImageIO as oiio
+
     with _opened(path) as (inp, path):
-        names = list(inp.spec().channelnames)
+        spec = inp.spec()
+        names = list(spec.channelnames)
         if name not in names:
             raise OSError(f"{path}: no channel {name!r} (it has {', '.join(names)})")
         index = names.index(name)
+        if spec.channelformat(index).basetype == oiio.BASETYPE.UINT:
+            # Read in the file's own type: OpenImageIO converts UINT to float normalised and
+            # through float32 (2^24 + 1 would read as 2^24).
+            return _read(inp, path, index, index + 1, "uint")[..., 0]
         return _read(inp, path, index, index + 1)[..., 0]
 
 
@@ -165,10 +215,12 @@ def _opened(path):
         inp.close()
 
 
-def _read(inp, path, begin, end) -> np.ndarray:
-    """Channels begin .. end - 1 of an open image as an (H, W, end - begin) float32 array."""
+def _read(inp, path, begin, end, kind="float") -> np.ndarray:
+    """Channels begin .. end - 1 of an open image as an (H, W, end - begin) array of kind
+    ("float": float32, "uint": uint32)."""
     spec = inp.spec()
-    pixels = inp.read_image(0, 0, begin, end, "float")
+    pixels = inp.read_image(0, 0, begin, end, kind)
     if pixels is None:
         raise OSError(f"{path}: cannot read image ({inp.geterror() or 'unknown error'})")
-    return np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, end - begin)
+    dtype = np.uint32 if kind == "uint" else np.float32
+    return np.asarray(pixels, dtype=dtype).reshape(spec.height, spec.width, end - begin)

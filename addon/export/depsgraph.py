@@ -443,9 +443,15 @@ def export_blend(path):
     _prefer_render_settings()
     depsgraph = bpy.context.evaluated_depsgraph_get()
     try:
-        return export_depsgraph(depsgraph, source=os.path.basename(path))
+        scene, warnings = export_depsgraph(depsgraph, source=os.path.basename(path))
     except SceneError as exc:  # name the file too: the message names the object or field
         raise SceneError(f"{path}: {exc}") from None
+    if bpy.context.scene.render.use_border:
+        # F12 and `snell batch` render the region (addon/final.py); a scene file holds the
+        # whole frame.
+        warnings.append("Output > Format > Render Region is on and not applied here: the "
+                        "whole frame is rendered (F12 and `snell batch` render the region)")
+    return scene, warnings
 
 
 def export_to_file(blend_path, out_path):

@@ -8,8 +8,37 @@ import warnings as _pywarnings
 
 import numpy as np
 
+from ...tracer.scene import SceneError
 from .camera import unit_columns
 from .nodes import Inputs, active_output, follow
+
+
+# The lamp's numbers as Blender's Light properties panel names them (energy: Power, or Strength
+# for a sun).
+LABELS = {"energy": "Power", "color": "Color", "shadow_soft_size": "Radius", "size": "Size",
+          "size_y": "Size Y", "spot_size": "Beam Angle", "spot_blend": "Blend", "angle": "Angle",
+          "spread": "Spread", "exposure": "Exposure"}
+
+
+def _check_finite(obj):
+    """Refuse a lamp with a NaN or Inf property or a negative power, naming the lamp and the
+    property (Blender's fields take them from Python; the scene file's check would name its own
+    field instead)."""
+    light = obj.data
+    for attr, label in LABELS.items():
+        value = getattr(light, attr, None)
+        if value is None:
+            continue
+        values = [float(v) for v in value] if hasattr(value, "__len__") else [float(value)]
+        if not all(math.isfinite(v) for v in values):
+            if attr == "energy" and light.type == "SUN":
+                label = "Strength"
+            shown = values[0] if len(values) == 1 else values
+            raise SceneError(f"light {obj.name!r}: {label} is {shown} (not a finite number)")
+    if light.energy < 0:    # Cycles lets it subtract light; the scene file has no such lamp
+        label = "Strength" if light.type == "SUN" else "Power"
+        raise SceneError(f"light {obj.name!r}: {label} is {light.energy:g}: Snell renders no "
+                         "negative lights")
 
 
 def _light_color(light):
@@ -65,7 +94,12 @@ def convert_light(obj, matrix, warn):
     radius r > 0 emits radiance I / (pi r^2).
     """
     light = obj.data
-    strength = _light_color(light) * _light_nodes_factor(obj, warn)
+    _check_finite(obj)
+    with np.errstate(over="ignore", invalid="ignore"):
+        strength = _light_color(light) * _light_nodes_factor(obj, warn)
+    if not np.all(np.isfinite(strength)):
+        raise SceneError(f"light {obj.name!r}: its strength (Color x Power x its Emission "
+                         f"node) is {strength.tolist()}, not finite")
     normalize = bool(getattr(light, "normalize", True))
     common = {"name": obj.name, **_light_flags(obj)}
     if light.type == "AREA":

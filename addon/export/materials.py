@@ -65,7 +65,10 @@ def convert_material(mat, resources=None):
     Any other is compiled to a shader program (shader/), when that leaves fewer nodes
     unevaluated; `resources` (depsgraph's ImageTextures) gives a program the scene's images
     and texture coordinates (None: no programs)."""
-    converted, coverage = _convert_fixed(mat)
+    try:
+        converted, coverage = _convert_fixed(mat)
+    except scene_mod.SceneError as exc:   # a node's NaN input (nodes.Inputs): name the material
+        raise scene_mod.SceneError(f"material {mat.name!r}: {exc}") from None
     whole_replaced = converted.pop("_replaced", False)
     if resources is None or mat is None or not coverage.issues or mat.node_tree is None:
         return converted, coverage

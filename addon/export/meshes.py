@@ -251,10 +251,14 @@ def _flat_normals(flat, face_n, co, corner_verts, tri_corners, corner_n, coords)
     corner_verts, tri_corners, corner_n and coords (texcoords per corner), extended."""
     flat = np.nonzero(flat)[0]
     p = co.reshape(-1, 3)[corner_verts[tri_corners[flat]]].astype(np.float64)   # (F, 3, 3)
-    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    # A triangle with an Inf corner gets a NaN normal here (inf - inf), silently: it is dropped
+    # with its own warning (depsgraph), and NaN is neither planar nor kept below.
+    with np.errstate(invalid="ignore", over="ignore"):
+        n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
     face = face_n[flat]
-    planar = np.einsum("ij,ij->i", n, face) >= 1.0 - PLANAR
+    with np.errstate(invalid="ignore"):
+        planar = np.einsum("ij,ij->i", n, face) >= 1.0 - PLANAR
     corner_n[tri_corners[flat[planar]].ravel()] = np.repeat(face[planar], 3, axis=0)
     own = ~planar & (np.linalg.norm(n, axis=1) > 0.0)        # degenerate ones are dropped
     bent = flat[own]

@@ -5,6 +5,8 @@ and node groups, as Cycles follows them), the active output node (active_output)
 """
 from __future__ import annotations
 
+import math
+
 from ...tracer import scene as scene_mod
 from ...tracer.shader.colorspace import RGB_TO_Y
 from .coverage import node_text
@@ -169,10 +171,22 @@ class Inputs:
                              f"its unlinked value {_value_text(value)}")
         return value
 
+    def _refuse_nan(self, name, value):
+        """A scene field's unlinked value that is NaN is an error naming the node and input
+        (Inf is clamped to the field's range, as Cycles clamps it)."""
+        values = value if isinstance(value, list) else [value]
+        unlinked = source_in(self.node.inputs[name], self.groups).node is None
+        if unlinked and any(math.isnan(v) for v in values):
+            raise scene_mod.SceneError(f"node {self.node.name!r}: input {name!r} is {value} "
+                                       "(not a number)")
+
     def color(self, name, field=None):
         """The input's RGB colour (an Image Texture on it is noted in self.textures when field
         names a texturable one)."""
-        return [float(c) for c in self._socket(name, field).default_value[:3]]
+        color = [float(c) for c in self._socket(name, field).default_value[:3]]
+        if field is not None:
+            self._refuse_nan(name, color)
+        return color
 
     def value(self, name):
         """The input's number."""
@@ -186,7 +200,9 @@ class Inputs:
         """The input as the scene file's `field`: a colour, or a number clamped as Cycles does."""
         if self.node.inputs[name].type == "RGBA":
             return self.color(name, field)
-        return _clamp(float(self._socket(name, field).default_value), field)
+        value = float(self._socket(name, field).default_value)
+        self._refuse_nan(name, value)
+        return _clamp(value, field)
 
     def unsupported(self, name, neutral, rendered):
         """Note an input Snell does not render, unless it has its neutral value or is missing."""

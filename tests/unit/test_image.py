@@ -40,6 +40,70 @@ def test_exr_extra_channels_are_kept_and_rgb_reads_alone(tmp_path):
     assert not (tmp_path / "b.exr").exists()
 
 
+@pytest.mark.parametrize("count", [2 ** 24 + 1, 2 ** 31 - 1])
+def test_sample_counts_beyond_float32_are_exact(tmp_path, count):
+    """Sample counts as a 32-bit unsigned channel: 2^24 + 1 (the first integer float32 cannot
+    hold) and 2^31 - 1 (the most spp a user can ask for) come back exact, with their neighbours.
+    Deliberate error: the counts written as float32 (the channel as it was) read 16777216 and
+    2147483648, and OpenImageIO's own per-channel UINT write (a float buffer) gave 16777218 and
+    2147483648: both fail here."""
+    rgb = np.full((2, 3, 3), 0.25, np.float32)
+    counts = np.array([[count - 1, count, count + 1], [0, 1, count]], np.int64)
+    if count == 2 ** 31 - 1:
+        counts[0, 2] = count        # result.samples() is int32: nothing above 2^31 - 1
+    path = tmp_path / "counts.exr"
+    image.write_exr(path, rgb, channels={"samples": counts.astype(np.int32)})
+    back = image.read_channel(path, "samples")
+    assert back.dtype == np.uint32
+    assert np.array_equal(back.astype(np.int64), counts)
+    assert np.array_equal(image.read_exr(path), rgb)
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(str(path))
+    try:
+        formats = [str(f) for f in inp.spec().channelformats]
+        assert list(inp.spec().channelnames) == ["R", "G", "B", "samples"]
+    finally:
+        inp.close()
+    assert formats == ["float", "float", "float", "uint"]
+
+
+def test_sample_counts_out_of_range_are_refused(tmp_path):
+    """A negative count or one beyond 2^32 - 1 is a ValueError naming the channel, and no file
+    is left (uint32 would wrap it silently)."""
+    rgb = np.zeros((1, 2, 3), np.float32)
+    for bad in ([[-1, 4]], [[2 ** 32, 4]]):
+        with pytest.raises(ValueError, match="channel 'samples': counts must lie in 0"):
+            image.write_exr(tmp_path / "a.exr", rgb, channels={"samples": np.array(bad, np.int64)})
+    assert os.listdir(tmp_path) == []
+
+
+def test_batch_adds_exact_counts_to_blenders_exr(tmp_path):
+    """`snell batch` adds each pixel's samples to the EXR Blender wrote: counts of 2^24 + 1 and
+    2^31 - 1 read back exact and the RGB unchanged (deliberate error, counts cast to float32
+    before the write: 16777216 and 2147483648, caught)."""
+    from snell.addon.batch import _add_sample_counts
+    import OpenImageIO as oiio
+
+    rgb = np.full((1, 2, 3), 0.5, np.float32)
+    path = str(tmp_path / "frame.exr")
+    out = oiio.ImageOutput.create(path)      # Blender's EXR: float RGB, no samples channel
+    assert out.open(path, oiio.ImageSpec(2, 1, 3, "float")) and out.write_image(rgb)
+    out.close()
+    counts = np.array([[2 ** 24 + 1, 2 ** 31 - 1]], np.int32)
+    _add_sample_counts(path, counts)
+    assert np.array_equal(image.read_channel(path, "samples"), counts)
+    assert np.array_equal(image.read_exr(path), rgb)
+
+
+def test_float_channels_stay_float(tmp_path):
+    """A float channel (a denoising pass) is still float32, read as written."""
+    rgb = np.zeros((1, 2, 3), np.float32)
+    albedo = np.array([[0.125, 3.0e38]], np.float32)
+    image.write_exr(tmp_path / "a.exr", rgb, channels={"Denoising Albedo.R": albedo})
+    back = image.read_channel(tmp_path / "a.exr", "Denoising Albedo.R")
+    assert back.dtype == np.float32 and np.array_equal(back, albedo)
+
+
 def test_exr_top_row_first(tmp_path):
     rgb = np.zeros((4, 3, 3), np.float32)
     rgb[0] = [1.0, 0.0, 0.0]  # top row red
@@ -122,12 +186,12 @@ def test_write_errors_name_the_path_and_leave_nothing(tmp_path):
 def test_failed_write_keeps_the_previous_file(tmp_path, monkeypatch):
     path = tmp_path / "keep.exr"
     image.write_exr(path, np.ones((2, 2, 3), np.float32))
-    import OpenImageIO as oiio
+    import OpenEXR
 
     def boom(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(oiio.ImageOutput, "create", staticmethod(boom))
+    monkeypatch.setattr(OpenEXR.File, "write", boom)
     with pytest.raises(KeyboardInterrupt):
         image.write_exr(path, np.zeros((2, 2, 3), np.float32))
     monkeypatch.undo()

@@ -19,8 +19,10 @@ are all constant costs no instruction for them.
 """
 from __future__ import annotations
 
+import math
 from contextlib import contextmanager
 
+from ....tracer.scene import SceneError
 from ....tracer.shader import inputs as tracer_inputs
 from ....tracer.shader.program import MAX_REGISTERS, SLOTS
 from ..coverage import node_text
@@ -29,6 +31,15 @@ from ..nodes import LUMINANCE, _as_type, source_in
 
 class CompileError(Exception):
     """A tree the compiler cannot turn into a program (the text says why)."""
+
+
+def _input_text(node, sock):
+    """An input as the user sees it: its name, and which one where the node has several of
+    that name (a Math node's three 'Value's)."""
+    same = [s for s in node.inputs if s.name == sock.name and s.enabled]
+    if len(same) < 2:
+        return repr(sock.name)
+    return f"{sock.name!r} ({same.index(sock) + 1} of {len(same)})"
 
 
 class Reg:
@@ -168,9 +179,12 @@ class Compiler:
         sock = self._socket(node, name)
         found = source_in(sock, self.groups)
         value = _as_type(found.value or sock, sock).default_value
-        if sock.type in ("RGBA", "VECTOR"):
-            return [float(c) for c in value[:3]]
-        return float(value)
+        value = [float(c) for c in value[:3]] if sock.type in ("RGBA", "VECTOR") else float(value)
+        if not all(math.isfinite(v) for v in (value if isinstance(value, list) else [value])):
+            # A program's constants are finite (the scene file's check): say which input.
+            raise SceneError(f"material {self.name!r}: node {node.name!r}: input "
+                             f"{_input_text(node, sock)} is {value} (not a finite number)")
+        return value
 
     def is_linked(self, node, name):
         """Whether something feeds the input (through reroutes, groups and muted nodes)."""
