@@ -81,7 +81,7 @@ def test_batch_adds_exact_counts_to_blenders_exr(tmp_path):
     """`snell batch` adds each pixel's samples to the EXR Blender wrote: counts of 2^24 + 1 and
     2^31 - 1 read back exact and the RGB unchanged (deliberate error, counts cast to float32
     before the write: 16777216 and 2147483648, caught)."""
-    from snell.addon.batch import _add_sample_counts
+    from snell.addon.batch import _add_render_channels
     import OpenImageIO as oiio
 
     rgb = np.full((1, 2, 3), 0.5, np.float32)
@@ -90,7 +90,7 @@ def test_batch_adds_exact_counts_to_blenders_exr(tmp_path):
     assert out.open(path, oiio.ImageSpec(2, 1, 3, "float")) and out.write_image(rgb)
     out.close()
     counts = np.array([[2 ** 24 + 1, 2 ** 31 - 1]], np.int32)
-    _add_sample_counts(path, counts)
+    _add_render_channels(path, {"samples": counts})
     assert np.array_equal(image.read_channel(path, "samples"), counts)
     assert np.array_equal(image.read_exr(path), rgb)
 
