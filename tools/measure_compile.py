@@ -36,7 +36,7 @@ from numba.core import event
 class Recorder(event.Listener):
     def __init__(self):
         self.local = threading.local()
-        self.functions = {}   # qualname -> [own, with callees, signatures]
+        self.functions = {}   # qualname -> [own, with callees, signatures, own in LLVM]
         self.passes = {}      # (qualname, pass) -> own CPU seconds
 
     def stack(self, kind):
@@ -45,20 +45,31 @@ class Recorder(event.Listener):
 
     def on_start(self, ev):
         self.stack(ev.kind).append([time.thread_time(), 0.0])
+        if ev.kind == "numba:compile":
+            self.local.__dict__.setdefault("current", []).append(ev.data)
 
     def on_end(self, ev):
         stack = self.stack(ev.kind)
         start, nested = stack.pop()
+        if ev.kind == "numba:compile":
+            self.local.current.pop()
         took = time.thread_time() - start
         if stack:
             stack[-1][1] += took
         if ev.kind == "numba:compile":
             d = ev.data["dispatcher"]
             name = d.py_func.__module__.rsplit(".", 1)[-1] + "." + d.py_func.__qualname__
-            row = self.functions.setdefault(name, [0.0, 0.0, 0])
+            row = self.functions.setdefault(name, [0.0, 0.0, 0, 0.0])
             row[0] += took - nested
             row[1] += took
             row[2] += 1
+            row[3] += self.local.__dict__.pop(id(ev.data), 0.0)
+        elif ev.kind == "numba:llvm_lock":
+            # Every call into LLVM takes this lock: its time goes to the innermost compile.
+            compiles = self.stack("numba:compile")
+            if compiles:
+                key = id(self.local.current[-1])
+                self.local.__dict__[key] = self.local.__dict__.get(key, 0.0) + took - nested
         else:
             name = ev.data["name"]
             self.passes[name] = self.passes.get(name, 0.0) + took - nested
@@ -66,6 +77,7 @@ class Recorder(event.Listener):
 rec = Recorder()
 event.register("numba:compile", rec)
 event.register("numba:run_pass", rec)
+event.register("numba:llvm_lock", rec)
 wall, cpu = time.perf_counter(), time.process_time()
 mode = sys.argv[1]
 if mode == "warm_up":
@@ -103,24 +115,27 @@ def main(argv=None):
     runs = []
     for k in range(args.runs):
         r = run_once(target, args.spp)
-        compiling = sum(own for own, _, _ in r["functions"].values())
+        compiling = sum(row[0] for row in r["functions"].values())
         print(f"run {k + 1}: {r['cpu']:.1f} s CPU, {r['wall']:.1f} s wall, {compiling:.1f} s CPU "
               f"compiling {len(r['functions'])} functions", flush=True)
         runs.append(r)
     med = statistics.median
-    functions = {name: (med(r["functions"].get(name, [0.0])[0] for r in runs),
-                        med(r["functions"].get(name, [0, 0.0])[1] for r in runs),
-                        max(r["functions"].get(name, [0, 0, 0])[2] for r in runs))
+
+    def median_of(name, k):
+        return med(r["functions"].get(name, [0.0, 0.0, 0, 0.0])[k] for r in runs)
+    functions = {name: [median_of(name, k) for k in range(4)]
                  for r in runs for name in r["functions"]}
     print(f"\n{target}: median of {len(runs)}: {med(r['cpu'] for r in runs):.1f} s CPU, "
           f"{med(r['wall'] for r in runs):.1f} s wall, "
-          f"{med(sum(v[0] for v in r['functions'].values()) for r in runs):.1f} s CPU compiling")
-    print(f"{'function':48s} {'own s':>7s} {'with callees':>13s} {'signatures':>10s}")
+          f"{med(sum(v[0] for v in r['functions'].values()) for r in runs):.1f} s CPU compiling, "
+          f"{med(sum(v[3] for v in r['functions'].values()) for r in runs):.1f} s of it in LLVM")
+    print(f"{'function':44s} {'own s':>7s} {'in LLVM':>8s} {'with callees':>13s} {'signatures':>10s}")
     ranked = sorted(functions.items(), key=lambda item: -item[1][0])
-    for name, (own, total, sigs) in ranked[:args.top]:
-        print(f"{name:48s} {own:7.2f} {total:13.2f} {sigs:10d}")
+    for name, (own, total, sigs, llvm) in ranked[:args.top]:
+        print(f"{name:44s} {own:7.2f} {llvm:8.2f} {total:13.2f} {sigs:10.0f}")
     rest = ranked[args.top:]
-    print(f"{len(rest)} others{'':34s} {sum(v[0] for _, v in rest):7.2f}")
+    print(f"{len(rest)} others{'':30s} {sum(v[0] for _, v in rest):7.2f} "
+          f"{sum(v[3] for _, v in rest):8.2f}")
     if args.passes:
         for name, _ in ranked[:5]:
             qual = name.split(".", 1)[1]
