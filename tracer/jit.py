@@ -43,14 +43,33 @@ class Compiled:
     def __init__(self, fn):
         functools.update_wrapper(self, fn)
         self.py_func = fn
+        # Made on first use: most functions are only ever called from compiled code, kernels
+        # only from Python, and each dispatcher costs the import time to set up its cache.
+        self._inner = self._outer = None
+
+    @property
+    def _from_compiled(self):
         # Every compile of a dispatcher makes, besides the machine code compiled callers link
         # in, wrappers that unbox each argument from Python objects (for a table of 40 arrays,
         # half a second) and a C entry point. Compiled callers use neither, so their callees
-        # are compiled without: a second dispatcher, cached under a name of its own (Numba's
-        # cache keys an entry by the function's name and signature, not these options).
-        self._from_compiled = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True,
-                                         **OPTIONS)(fn)
-        self._from_python = numba.njit(**OPTIONS)(_renamed(fn, fn.__qualname__ + "_py"))
+        # are compiled without.
+        if self._inner is None:
+            with _MAKING:
+                if self._inner is None:
+                    self._inner = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True,
+                                             **OPTIONS)(self.py_func)
+        return self._inner
+
+    @property
+    def _from_python(self):
+        # Cached under a name of its own: Numba keys a cache entry by the function's name and
+        # signature, not by these options, and would load the one without wrappers.
+        if self._outer is None:
+            with _MAKING:
+                if self._outer is None:
+                    self._outer = numba.njit(**OPTIONS)(
+                        _renamed(self.py_func, self.py_func.__qualname__ + "_py"))
+        return self._outer
 
     @property
     def _numba_type_(self):
@@ -59,6 +78,9 @@ class Compiled:
 
     def __call__(self, *args):
         return self._from_python(*args)
+
+
+_MAKING = threading.Lock()
 
 
 def _renamed(fn, qualname):
