@@ -21,9 +21,10 @@ from bpy.app.handlers import persistent
 
 from ..tracer import jit
 
-# Seconds the first compile took on the 2-core development machine, idle (docs/measurements.md,
-# "Kernels"): the estimate until this machine has timed one of its own.
-DEFAULT_ESTIMATE_S = 135.0
+# Seconds the first compile takes on the 2-core development machine (docs/measurements.md,
+# "Kernel compile time": 133 s of CPU, in one thread, so about as long idle): the estimate until
+# this machine has timed one of its own.
+DEFAULT_ESTIMATE_S = 130.0
 _TIMING_FILE = "last-compile-seconds"
 _LOG_FILE = "background-compile.log"     # the process's stderr (a pipe could fill and block it)
 

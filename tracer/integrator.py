@@ -630,19 +630,27 @@ def warm_up() -> float:
     camera = {"matrix": m.tolist(), "lens": 50.0, "sensor_width": 36.0, "sensor_height": 24.0,
               "clip_start": 0.01, "clip_end": 100.0, "resolution": [2, 2],
               "dof": {"use_dof": True, "focus_distance": 2.0, "fstop": 1.0}}
-    # A diffuse triangle and a mirror one under a lamp that rays can hit: the light tracer runs.
+    # A diffuse triangle and a mirror one under a lamp that rays can hit, and out of the
+    # camera's view an emissive triangle facing them: the light tracer runs, and so do the
+    # light vertices (a mesh light starts them).
     triangles = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0],
-                          [-1, -1, 0.5], [1, -1, 0.5], [0, 1, 0.5]], np.float32)
+                          [-1, -1, 0.5], [1, -1, 0.5], [0, 1, 0.5],
+                          [2, -1, 1], [2, 1, 1], [3, 0, 1]], np.float32)
     lamp = {"name": "lamp", "kind": "point", "position": [0.0, 0.0, 1.0],
             "intensity": [1.0, 1.0, 1.0], "radius": 0.1}
-    scene = Scene(positions=triangles, triangles=np.array([[0, 1, 2], [3, 4, 5]], np.int32),
-                  material_ids=np.array([0, 1], np.int32), object_ids=np.array([0, 1], np.int32),
+    scene = Scene(positions=triangles,
+                  triangles=np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8]], np.int32),
+                  material_ids=np.array([0, 1, 2], np.int32),
+                  object_ids=np.array([0, 1, 2], np.int32),
                   materials=[{"name": "grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]},
-                             {"name": "mirror", "kind": "mirror", "color": [1.0, 1.0, 1.0]}],
+                             {"name": "mirror", "kind": "mirror", "color": [1.0, 1.0, 1.0]},
+                             {"name": "light", "kind": "emission", "color": [1.0, 1.0, 1.0],
+                              "strength": 1.0}],
                   lights=[lamp], camera=camera, world={"color": [0.1, 0.1, 0.1]},
                   render={"spp": 1, "max_depth": 2, "seed": 0, "fresnel": "exact"},
-                  objects=[{"name": "triangle", "closed": False}, {"name": "mirror", "closed": False}],
-                  normals=np.tile(np.array([0, 0, 1], np.float32), (6, 1)))
+                  objects=[{"name": "triangle", "closed": False}, {"name": "mirror", "closed": False},
+                           {"name": "light", "closed": False}],
+                  normals=np.array([[0, 0, 1]] * 6 + [[0, 0, -1]] * 3, np.float32))
     for sampler in SAMPLERS:
         Renderer(scene, scene.settings(threads=1, sampler=sampler)).render()
     jit.mark_warm()

@@ -7,7 +7,10 @@ Embree's). error_model="numpy" makes x / 0 give inf or NaN, as numpy does, inste
 the integrator counts non-finite samples and never writes them to an image. Compiled code never
 allocates, so Numba's reference counting is off (_nrt=False): with it, every call that passes a
 table of arrays to a function LLVM does not inline costs an atomic increment and decrement per
-array, which made the materials stage 1.5x slower.
+array, which made the materials stage 1.5x slower. A function compiled code calls is compiled
+for those callers without the wrappers that let Python call it (Compiled): a dispatcher's
+compile makes them for every signature, and unboxing a table of arrays from Python objects is
+half a second's compile per function.
 
 The machine code is cached on disk, under a directory named after a hash of the tracer's
 sources: Numba checks only the timestamp of the file that defines a kernel, so an edit to a
@@ -19,10 +22,12 @@ kernels' first compile out of its timings.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import threading
 import time
+import types
 
 import numba
 from numba.core import event
@@ -31,9 +36,67 @@ OPTIONS = {"nogil": True, "cache": True, "error_model": "numpy", "_nrt": False}
 TRACER_DIR = os.path.dirname(os.path.abspath(__file__))
 
 
+class Compiled:
+    """A function compiled with Snell's options: called from Python, or from compiled code
+    (where Numba types it as a dispatcher of its own that makes no Python entry point)."""
+
+    def __init__(self, fn):
+        functools.update_wrapper(self, fn)
+        self.py_func = fn
+        # Made on first use: most functions are only ever called from compiled code, kernels
+        # only from Python, and each dispatcher costs the import time to set up its cache.
+        self._inner = self._outer = None
+
+    @property
+    def _from_compiled(self):
+        # Every compile of a dispatcher makes, besides the machine code compiled callers link
+        # in, wrappers that unbox each argument from Python objects (for a table of 40 arrays,
+        # half a second) and a C entry point. Compiled callers use neither, so their callees
+        # are compiled without.
+        if self._inner is None:
+            with _MAKING:
+                if self._inner is None:
+                    self._inner = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True,
+                                             **OPTIONS)(self.py_func)
+        return self._inner
+
+    @property
+    def _from_python(self):
+        # Cached under a name of its own: Numba keys a cache entry by the function's name and
+        # signature, not by these options, and would load the one without wrappers.
+        if self._outer is None:
+            with _MAKING:
+                if self._outer is None:
+                    self._outer = numba.njit(**OPTIONS)(
+                        _renamed(self.py_func, self.py_func.__qualname__ + "_py"))
+        return self._outer
+
+    @property
+    def _numba_type_(self):
+        # What numba.typeof says this object is, where compiled code refers to it.
+        return self._from_compiled._numba_type_
+
+    def __call__(self, *args):
+        return self._from_python(*args)
+
+
+_MAKING = threading.Lock()
+
+
+def _renamed(fn, qualname):
+    """A copy of fn under another qualified name."""
+    copy = types.FunctionType(fn.__code__, fn.__globals__, fn.__name__, fn.__defaults__,
+                              fn.__closure__)
+    copy.__qualname__ = qualname
+    copy.__kwdefaults__ = fn.__kwdefaults__
+    copy.__module__ = fn.__module__
+    copy.__doc__ = fn.__doc__
+    return copy
+
+
 def jit(fn):
     """Compile fn with Snell's options (nogil, cached, numpy error model, no reference counting)."""
-    return numba.njit(**OPTIONS)(fn)
+    return Compiled(fn)
 
 
 def jit_inline(fn):

@@ -284,10 +284,10 @@ def emit(caustics, lights, mesh, u_pick, u_point, u_dir, emitter):
         # A collimated (spread 0) area lamp emits along its normal only, radiance L pi delta(w -
         # n) (irradiance pi L at normal incidence): the direction is drawn with probability one
         # (density 1 stands for the delta) and the path carries pi L A, the lamp's power.
-        w = row(lights.area_emit, i)
-        origin, weight = emit_along(lights, mesh, kind, i, y, w, 1.0, u_point[0], u_point[1])
-        return origin, w, weight
-    w, density = emission_direction(caustics, y, margin, u_pick, u_dir[0], u_dir[1])
+        w, density = row(lights.area_emit, i), 1.0
+    else:
+        w, density = emission_direction(caustics, y, margin, u_pick, u_dir[0], u_dir[1])
+    # One call for both (emit_along is inlined: each call site is compiled anew).
     origin, weight = emit_along(lights, mesh, kind, i, y, w, density, u_point[0], u_point[1])
     return origin, w, weight
 
@@ -360,10 +360,12 @@ def start_stack(caustics, lights, media, e, stacks, j):
         medium.copy_stack(media.object_start, media.object_of[lights.tri_prim[i]], stacks, j)
 
 
-@jit_inline
+@jit
 def lamp_sees(caustics, lights, e, w, s1, kind):
     """Whether the path tracer's ray from the first specular vertex s1 back along the light path
     (a ray of kind `kind`) would find emitter e of the caustics tables (dispatch.light_seen)."""
+    # Not inlined: light_bounce asks at two places, once per light path, so one compiled copy
+    # costs nothing measurable where two inlined copies cost their compile twice.
     return light_seen(lights, caustics.emitter_kind[e], caustics.emitter_index[e], s1, w, kind)
 
 

@@ -1,5 +1,5 @@
-"""What the materials stage does at a hit, one function per surface kind: DIFFUSE (Lambert),
-LAYERED (the rough and Principled lobes of lobes.py), PROGRAM (the lobes a shader program
+"""What the materials stage does at a hit, by surface kind: DIFFUSE (Lambert) and LAYERED (the
+rough and Principled lobes of lobes.py) in one function, PROGRAM (the lobes a shader program
 builds) and the smooth specular kinds (mirror, glass, refraction; specular.py).
 
 Each takes the hit (`hit`: point, geometric normal, both normals facing the incoming ray, the
@@ -35,69 +35,61 @@ from .vec import dot, neg, sub, vmul
 
 
 @jit_inline
-def scatter_diffuse(lights, mesh, can_sample_lights, rng, depth, u, beta, path, o, d, pdf_prev,
-                    hit, albedo, last_connection, connects, lv, lobes, shadows, n_shadow,
-                    radiance, without, stats):
-    """A Lambertian vertex: light sample, light-vertex connection, cosine-weighted BSDF
-    sample."""
+def scatter_lit(kind, lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u,
+                beta, path, ray, hit, entering, surface, color, trans_color, connection, lv, lobes,
+                params, shadows, n_shadow, radiance, without, stats):
+    """A DIFFUSE (Lambert) or LAYERED (rough or Principled: its lobes, lobes.setup_shader)
+    vertex: a light sample and the light-vertex connection evaluated on its surface, then a
+    cosine-weighted sample (diffuse) or a sample of one lobe. `ray`: the origin, direction and
+    BSDF density of the ray that hit; `surface`: the material, triangle and barycentrics (for
+    textures); `connection`: (the last bounce that connects to light vertices, whether this
+    one does). Returns the lobe count too (a layered hit's lobes stay in `lobes` for the
+    denoising features). One function for both kinds, so that a kernel holds one copy of the
+    light-sampling steps (each copy is compiled anew into every kernel that inlines it)."""
     key, sample, bits, strat = rng
     u_pick, u0, u1 = u
+    o, d, pdf_in = ray
     p, ng, ng_f, ns_f, eps = hit
-    stats[DIFFUSE_HITS] += 1
-    # A light vertex could stand in for this vertex if the camera path sampled it from a vertex
-    # that connects (light_vertices.py): that strategy's MIS density needs the density of the
-    # step here.
-    step = 0.0
-    if depth - 1 <= last_connection and pdf_prev > 0.0:
-        step = camera_step_density(pdf_prev, o, p, ng, d)
-    view = neg(d)
-    if can_sample_lights:
-        n_shadow = sample_direct_light(lights, mesh, key, sample, 3 + 3 * depth, bits, strat,
-                                       u_pick, VISIBLE_DIFFUSE, p, ng_f, ns_f, eps, beta, step,
-                                       DIFFUSE, albedo, lobes, 0, view, shadows, n_shadow,
-                                       radiance, without, path)
-    if connects:
-        n_shadow = connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps,
-                                           DIFFUSE, albedo, lobes, 0, view, stats)
-    wi, pdf = sample_cosine_hemisphere(ns_f, u0, u1)
-    # Shading normals can point a sample into the surface: it carries nothing.
-    beta = (0.0, 0.0, 0.0) if dot(wi, ng_f) <= 0.0 else vmul(beta, albedo)
-    connect = 0.0
-    if step > 0.0:
-        connect = dot(wi, ng_f) / step
-    caustic = FIRST_DIFFUSE if depth == 0 else NO_CAUSTIC
-    return wi, beta, VISIBLE_DIFFUSE, pdf, caustic, connect, n_shadow
-
-
-@jit_inline
-def scatter_layered(lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u,
-                    beta, path, d, hit, entering, surface, color, trans_color, connects, lv,
-                    lobes, params, shadows, n_shadow, radiance, without, stats):
-    """A rough or Principled vertex: its lobes (lobes.setup_shader), a light sample and the
-    light-vertex connection evaluated on them, then a sample of one lobe. `surface`: the
-    material, triangle and barycentrics (for textures). Returns the lobe count too (the lobes
-    stay in `lobes` for the denoising features)."""
-    key, sample, bits, strat = rng
-    u_pick, u0, u1 = u
-    p, _, ng_f, ns_f, eps = hit
     mat, tri, b1, b2 = surface
-    stats[LAYERED_HITS] += 1
+    last_connection, connects = connection
     view = neg(d)
-    n = specular.valid_reflection_normal(ng_f, view, ns_f) if has_normals else ns_f
-    roughness, shader_params = mats.roughness[mat], mats.principled[mat]
-    if mats.textured[mat]:
-        roughness, shader_params = textured_params(mats, mat, tri, b1, b2, params)
-    count = setup_shader(lobes, tables, mats.shader[mat], color, trans_color, mats.ior[mat],
-                         roughness, mats.distribution[mat], shader_params, n, ns_f, view,
-                         entering)
+    count = 0
+    step = 0.0
+    vertex_kind = VISIBLE_ANY_BSDF
+    if kind == DIFFUSE:
+        stats[DIFFUSE_HITS] += 1
+        vertex_kind = VISIBLE_DIFFUSE
+        # A light vertex could stand in for this vertex if the camera path sampled it from a
+        # vertex that connects (light_vertices.py): that strategy's MIS density needs the
+        # density of the step here.
+        if depth - 1 <= last_connection and pdf_in > 0.0:
+            step = camera_step_density(pdf_in, o, p, ng, d)
+    else:
+        stats[LAYERED_HITS] += 1
+        n = specular.valid_reflection_normal(ng_f, view, ns_f) if has_normals else ns_f
+        roughness, shader_params = mats.roughness[mat], mats.principled[mat]
+        if mats.textured[mat]:
+            roughness, shader_params = textured_params(mats, mat, tri, b1, b2, params)
+        count = setup_shader(lobes, tables, mats.shader[mat], color, trans_color, mats.ior[mat],
+                             roughness, mats.distribution[mat], shader_params, n, ns_f, view,
+                             entering)
     if can_sample_lights:
         n_shadow = sample_direct_light(lights, mesh, key, sample, 3 + 3 * depth, bits, strat,
-                                       u_pick, VISIBLE_ANY_BSDF, p, ng_f, ns_f, eps, beta, 0.0,
-                                       LAYERED, color, lobes, count, view, shadows, n_shadow,
+                                       u_pick, vertex_kind, p, ng_f, ns_f, eps, beta, step,
+                                       kind, color, lobes, count, view, shadows, n_shadow,
                                        radiance, without, path)
     if connects:
         n_shadow = connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps,
-                                           LAYERED, color, lobes, count, view, stats)
+                                           kind, color, lobes, count, view, stats)
+    if kind == DIFFUSE:
+        wi, pdf = sample_cosine_hemisphere(ns_f, u0, u1)
+        # Shading normals can point a sample into the surface: it carries nothing.
+        beta = (0.0, 0.0, 0.0) if dot(wi, ng_f) <= 0.0 else vmul(beta, color)
+        connect = 0.0
+        if step > 0.0:
+            connect = dot(wi, ng_f) / step
+        caustic = FIRST_DIFFUSE if depth == 0 else NO_CAUSTIC
+        return wi, beta, VISIBLE_DIFFUSE, pdf, caustic, connect, n_shadow, count
     new_d, factor, pdf_prev, event, valid = bsdf_sample(lobes, count, ng_f, view, u_pick, u0, u1)
     beta = vmul(beta, factor) if valid else (0.0, 0.0, 0.0)
     ray_kind = VISIBLE_DIFFUSE if event == DIFFUSE_EVENT else \
@@ -119,7 +111,7 @@ def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, 
     bounces: (the path's bounces, whether they are spent): a path past its last bounce only
     passes through the surface's transparency, as Cycles' PATH_RAY_TERMINATE_AFTER_TRANSPARENT
     paths do (their shader keeps no closure but Transparent).
-    Returns scatter_layered's results, then the new distance since the last scattering vertex."""
+    Returns scatter_lit's results, then the new distance since the last scattering vertex."""
     key, sample, bits, strat = rng
     u_pick, u0, u1 = u
     p, _, ng_f, ns_f, eps = hit

@@ -38,7 +38,7 @@ from . import media as medium
 from .pixel_filter import position as filter_position
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
-from .scatter import ray_flags, scatter_diffuse, scatter_layered, scatter_program, scatter_specular
+from .scatter import ray_flags, scatter_lit, scatter_program, scatter_specular
 from .shader.closures import TOTAL_EMISSION, TOTAL_HOLDOUT, TOTAL_TRANSPARENCY
 from .shader.inputs import LP_SHADOW
 from .shader.program import (EMISSION_VARIES, HAS_HOLDOUT, MAX_REGISTERS, MAY_BE_TRANSPARENT,
@@ -366,16 +366,12 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         rng, u_bounce, hit = (key, sample, bits, strat), (u_pick, u0, u1), (p, ng, ng_f, ns_f, eps)
         count = 0
         first_shadow = n_shadow
-        if kind == DIFFUSE:
-            new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow = scatter_diffuse(
-                lights, mesh, can_sample_lights, rng, depth, u_bounce, beta, path, row(paths.o, i),
-                d, paths.pdf_prev[i], hit, color, last_connection, connects, lv, lobes, shadows,
-                n_shadow, radiance, without, stats)
-        elif kind == LAYERED:
-            new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count = scatter_layered(
-                lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u_bounce,
-                beta, path, d, hit, entering, (mat, tri, b1, b2), color, trans_color, connects,
-                lv, lobes, params, shadows, n_shadow, radiance, without, stats)
+        if kind == DIFFUSE or kind == LAYERED:
+            new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count = scatter_lit(
+                kind, lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth,
+                u_bounce, beta, path, (row(paths.o, i), d, paths.pdf_prev[i]), hit, entering,
+                (mat, tri, b1, b2), color, trans_color, (last_connection, connects), lv, lobes,
+                params, shadows, n_shadow, radiance, without, stats)
         else:
             new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
                 kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,

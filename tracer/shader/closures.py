@@ -139,7 +139,7 @@ def execute(ins, regs, base, hit, lobes, count, tables, has_normals):
         new_lobe(lobes[count], LAMBERT if op == DIFFUSE else TRANSLUCENT, n, weight)
         return count + 1
     # The microfacet closures: their normal bent so that its mirror reflection clears the
-    # surface, as scatter_layered bends the mesh's (Cycles' maybe_ensure_valid_specular_reflection).
+    # surface, as scatter_lit bends the mesh's (Cycles' maybe_ensure_valid_specular_reflection).
     if op == PRINCIPLED:
         block = ins[2]
         n_diffuse = closure_normal(regs, ins[4], ns)
