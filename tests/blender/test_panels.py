@@ -136,6 +136,33 @@ def shown_with_snell(name) -> bool:
     return cls is not None and "SNELL" in getattr(cls, "COMPAT_ENGINES", ())
 
 
+
+class RecordingLayout:
+    """Stands in for a panel's layout: records the properties drawn (each one its owner has)
+    and the enum items drawn as toggles; every other layout call returns the layout."""
+    use_property_split = use_property_decorate = active = False
+
+    def __init__(self):
+        self.props, self.enums = [], []
+
+    def __getattr__(self, name):
+        return lambda *a, **k: self
+
+    def prop(self, owner, name, **kwargs):
+        assert hasattr(owner, name), name
+        self.props.append(name)
+
+    def prop_enum(self, owner, name, value, **kwargs):
+        self.enums.append(value)
+
+
+def draw(panel, context) -> RecordingLayout:
+    """Draw a panel class into a RecordingLayout."""
+    layout = RecordingLayout()
+    panel.draw(types.SimpleNamespace(layout=layout, column=lambda **o: layout), context)
+    return layout
+
+
 def test_every_cycles_panel_has_a_counterpart_or_a_reason():
     panels = cycles_panels()
     assert len(panels) > 60 and "CYCLES_LIGHT_PT_light" in panels
@@ -159,15 +186,6 @@ def test_the_light_panel_draws_every_field_snell_renders():
     spot size and blend and sun angle: every lamp field the exporter reads."""
     drawn = []
 
-    class Layout:
-        use_property_split = use_property_decorate = active = False
-
-        def __getattr__(self, name):
-            return lambda *a, **k: self
-
-        def prop(self, owner, name, **kwargs):
-            drawn.append(name)
-
     for kind, extra in (("POINT", {}), ("SPOT", {}), ("SUN", {}), ("AREA", {"shape": "RECTANGLE"})):
         light = bpy.data.lights.new(kind, kind)
         for key, value in extra.items():
@@ -175,9 +193,7 @@ def test_the_light_panel_draws_every_field_snell_renders():
         context = type("Context", (), {"light": light, "engine": "SNELL"})()
         for panel in (ui.DATA_PT_snell_light, ui.DATA_PT_snell_light_beam):
             if panel.poll(context):
-                layout = Layout()
-                panel.draw(types.SimpleNamespace(layout=layout, column=lambda **o: layout),
-                           context)
+                drawn += draw(panel, context).props
     for field in ("type", "color", "energy", "exposure", "normalize", "use_temperature",
                   "temperature", "shadow_soft_size", "use_soft_falloff", "angle", "shape",
                   "size", "size_y", "spot_size", "spot_blend", "spread"):
@@ -189,30 +205,13 @@ def test_the_overrides_panel_offers_every_followed_setting():
     value for every Cycles setting Snell follows, each a property Snell has."""
     from snell.addon.export.cycles_settings import FOLLOWED
     registration.ensure_registered()
-    toggles, values = [], []
-
-    class Layout:
-        use_property_split = use_property_decorate = active = False
-
-        def __getattr__(self, name):
-            return lambda *a, **k: self
-
-        def prop_enum(self, owner, name, value, **kwargs):
-            toggles.append(value)
-
-        def prop(self, owner, name, **kwargs):
-            assert hasattr(owner, name), name
-            values.append(name)
-
     scene = bpy.context.scene
     scene.snell.use_cycles_settings = True       # the panel shows while Snell follows Cycles
     context = types.SimpleNamespace(scene=scene, engine="SNELL")
     assert ui.RENDER_PT_snell_overrides.poll(context)
-    layout = Layout()
-    ui.RENDER_PT_snell_overrides.draw(types.SimpleNamespace(layout=layout,
-                                                            column=lambda **o: layout), context)
-    assert toggles == [f.name.upper() for f in FOLLOWED]
-    assert values == [f.name for f in FOLLOWED]
+    layout = draw(ui.RENDER_PT_snell_overrides, context)
+    assert layout.enums == [f.name.upper() for f in FOLLOWED]
+    assert layout.props == [f.name for f in FOLLOWED]
 
 
 @pytest.mark.parametrize("follow", [True, False])
@@ -220,24 +219,10 @@ def test_the_viewport_panel_draws_its_denoise_settings(follow):
     """Sampling > Viewport: the samples, and Denoise with its passes, prefilter, quality and
     start sample, from Cycles' properties while Snell follows them, else from Snell's."""
     registration.ensure_registered()
-    drawn = []
-
-    class Layout:
-        use_property_split = use_property_decorate = active = False
-
-        def __getattr__(self, name):
-            return lambda *a, **k: self
-
-        def prop(self, owner, name, **kwargs):
-            assert hasattr(owner, name), name
-            drawn.append(name)
-
     scene = bpy.context.scene
     scene.snell.use_cycles_settings = follow
-    layout = Layout()
-    ui.RENDER_PT_snell_sampling_viewport.draw(
-        types.SimpleNamespace(layout=layout, column=lambda **o: layout),
-        types.SimpleNamespace(scene=scene, engine="SNELL"))
+    drawn = draw(ui.RENDER_PT_snell_sampling_viewport,
+                 types.SimpleNamespace(scene=scene, engine="SNELL")).props
     scene.snell.use_cycles_settings = True
     names = ui.VIEWPORT_DENOISE_CYCLES if follow else ui.VIEWPORT_DENOISE_SNELL
     assert drawn[-5:] == list(names)
