@@ -110,6 +110,19 @@ def sample_count_pass(result):
     return rect
 
 
+def pass_grabber(names, into):
+    """An on_result for recording(): stores each named pass of a result in the dict into, as
+    (SIZE, SIZE, channels) float32 with the top row first; a pass the result lacks is skipped."""
+    def grab(result):
+        for name in names:
+            rpass = result.layers[0].passes.get(name)
+            if rpass is not None:
+                rect = np.empty(SIZE * SIZE * rpass.channels, np.float32)
+                rpass.rect.foreach_get(rect)
+                into[name] = rect.reshape(SIZE, SIZE, rpass.channels)[::-1]
+    return grab
+
+
 @contextlib.contextmanager
 def spying(spy_class):
     """The SNELL engine renders through spy_class(engine) while the context is active."""
@@ -562,18 +575,11 @@ def test_f12_follows_cycles_denoise_and_keeps_the_noisy_image_as_a_pass(blends, 
     exported, _ = export_depsgraph(bpy.context.evaluated_depsgraph_get())
     assert (exported.render["denoise"], exported.render["denoising_prefilter"],
             exported.render["denoising_quality"]) == (True, "fast", "fast")
-    layers = {}
-
-    def grab(result):
-        for name in ("Combined", "Noisy Image", "Denoising Albedo", "Denoising Normal"):
-            rpass = result.layers[0].passes.get(name)
-            if rpass is not None:
-                rect = np.empty(SIZE * SIZE * rpass.channels, np.float32)
-                rpass.rect.foreach_get(rect)
-                layers[name] = rect.reshape(SIZE, SIZE, rpass.channels)[::-1, :, :3]
-
-    with spying(recording([], grab)):
+    grabbed = {}
+    names = ("Combined", "Noisy Image", "Denoising Albedo", "Denoising Normal")
+    with spying(recording([], pass_grabber(names, grabbed))):
         bpy.ops.render.render(write_still=True)
+    layers = {name: rect[:, :, :3] for name, rect in grabbed.items()}
     record = final.last_render
     assert record["error"] is None and record["denoised"], record
     noisy = tracer_image()
@@ -593,16 +599,8 @@ def test_f12_fills_the_data_passes_the_view_layer_asks_for(blends, tmp_path):
     layer.use_pass_z = layer.use_pass_normal = layer.use_pass_position = True
     layer.use_pass_object_index = True
     layers = {}
-
-    def grab(result):
-        for name in ("Depth", "Normal", "Position", "Object Index"):
-            rpass = result.layers[0].passes.get(name)
-            if rpass is not None:
-                rect = np.empty(SIZE * SIZE * rpass.channels, np.float32)
-                rpass.rect.foreach_get(rect)
-                layers[name] = rect.reshape(SIZE, SIZE, rpass.channels)[::-1]
-
-    with spying(recording([], grab)):
+    with spying(recording([], pass_grabber(("Depth", "Normal", "Position", "Object Index"),
+                                           layers))):
         bpy.ops.render.render(write_still=True)
     assert final.last_render["error"] is None and set(layers) == {"Depth", "Normal",
                                                                   "Position", "Object Index"}
