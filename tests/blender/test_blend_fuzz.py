@@ -25,8 +25,8 @@ a test below:
   neither node nor input (seed 0, scene 5);
 - a Render Region was not applied by `snell render` without a word (seed 1, 6 of 60 scenes);
 - Inf vertices on flat faces printed NumPy's raw RuntimeWarning (seed 2, scene 19).
-Left open (a strict xfail below, in the tracer's light tables, outside the exporter): a sun of
-Strength 1e30 and Angle 0 prints NumPy's raw overflow RuntimeWarning (seed 5, scene 32).
+- a sun of Strength 1e30 and Angle 0 printed NumPy's raw overflow RuntimeWarning from the
+  tracer's light tables (seed 5, scene 32; held by tests/unit/test_lights.py).
 """
 from __future__ import annotations
 
@@ -280,22 +280,3 @@ def test_fixed_kind_nan_input_names_node_and_input(cube_scene, socket, value, sh
     mat.node_tree.nodes["Principled BSDF"].inputs[socket].default_value = \
         float("inf") if socket == "IOR" else (float("inf"), 0.5, 0.5, 1.0)
     _export()
-
-
-@pytest.mark.xfail(strict=True, raises=RuntimeWarning,
-                   reason="open: tracer/lights/tables.py (outside the exporter) divides every "
-                          "sun's irradiance by max(pi sin^2, 1e-300) before np.where drops the "
-                          "angle-0 ones, so a sun of Strength above ~1.8e8 and Angle 0 overflows")
-def test_sharp_strong_sun_raises_no_python_warning():
-    """Fuzz finding left open (seed 5, scene 32: a sun of Strength 1e30 and Angle 0): the light
-    tables print NumPy's raw "overflow encountered in divide" RuntimeWarning; the table's value
-    is right (np.where keeps 0 for a sun without a disc). The fix belongs to the tracer's light
-    tables (np.divide with where=, or np.errstate), which this branch does not edit; strict, so
-    this test fails once it is fixed and the mark can go."""
-    import warnings
-
-    from snell.tracer.lights import tables
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        tables._sun_tables([{"kind": "sun", "angle": 0.0, "irradiance": [1e9] * 3,
-                             "direction": [0.0, 0.0, -1.0]}])

@@ -154,3 +154,21 @@ def test_emitter_of_no_power_is_hit_without_error():
     assert len(renderer.lights.tables.tri_prim) == 0
     result = renderer.render()
     assert result.nan_count == 0 and np.isfinite(result.mean()).all() and result.mean().max() > 0
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-3, 0.5])
+def test_sun_radiance_of_a_strong_sun_without_a_warning(angle):
+    """A sun's disc radiance is its irradiance over pi sin^2(angle / 2), and 0 without a disc,
+    with no NumPy warning at any strength (the .blend fuzzer's seed 5, scene 32: Strength 1e30
+    at Angle 0 printed "overflow encountered in divide" when every sun was divided by a
+    placeholder 1e-300 before the angle-0 ones were dropped; that code fails this test)."""
+    import warnings
+
+    from snell.tracer.lights import tables
+    irradiance = 1e30
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sun = tables._sun_tables([{"kind": "sun", "angle": angle, "irradiance": [irradiance] * 3,
+                                   "direction": [0.0, 0.0, -1.0]}])
+    expected = irradiance / (math.pi * math.sin(0.5 * angle) ** 2) if angle else 0.0
+    np.testing.assert_allclose(sun["sun_radiance"], [[expected] * 3], rtol=1e-12)

@@ -171,7 +171,11 @@ def _sun_tables(suns: list) -> dict:
     irradiance = _rows([light["irradiance"] for light in suns])
     sin2 = np.sin(half) ** 2
     # The disc's radiance: irradiance at normal incidence over its projected solid angle.
-    radiance = np.where(sin2[:, None] > 0, irradiance / np.maximum(np.pi * sin2, 1e-300)[:, None], 0.0)
+    # A sun without a disc (angle 0) has no radiance; divide only where the disc exists, or
+    # a strong sun's irradiance over the placeholder denominator overflows.
+    disc = np.broadcast_to((sin2 > 0)[:, None], irradiance.shape)
+    radiance = np.divide(irradiance, (np.pi * sin2)[:, None], out=np.zeros_like(irradiance),
+                         where=disc)
     return dict(
         sun_dir=_unit_rows(_rows([light["direction"] for light in suns])),
         sun_irradiance=irradiance, sun_one_minus_cos=2.0 * np.sin(0.5 * half) ** 2,
