@@ -14,9 +14,12 @@ half a second's compile per function.
 
 The machine code is cached on disk, under a directory named after a hash of the tracer's
 sources: Numba checks only the timestamp of the file that defines a kernel, so an edit to a
-function it calls in another file would otherwise leave a stale kernel in the cache. The cache
-lives under Snell's user cache directory unless set_cache_dir() picks another base before the
-first kernel module is imported (inside Blender, the extension's user directory).
+function it calls in another file would otherwise leave a stale kernel in the cache. Inside that
+directory a kernel's entry is found by its module's name (SourcesLocator), not by the path and
+timestamp of its file as Numba's own locators do: the hash already says the sources are the
+same, so a cache compiled in one checkout or installation serves another of the same sources.
+The cache lives under Snell's user cache directory unless set_cache_dir() picks another base
+before the first kernel module is imported (inside Blender, the extension's user directory).
 compile_seconds() says how long this process has spent compiling, so that a render leaves its
 kernels' first compile out of its timings.
 """
@@ -30,6 +33,7 @@ import time
 import types
 
 import numba
+from numba.core import caching as _caching
 from numba.core import event
 
 OPTIONS = {"nogil": True, "cache": True, "error_model": "numpy", "_nrt": False}
@@ -120,6 +124,47 @@ def sources_hash() -> str:
     return digest.hexdigest()[:16]
 
 
+class SourcesLocator(_caching._CacheLocator):
+    """Finds the cache entry of a tracer function by its module's name under the sources-hash
+    directory, wherever the tracer's files are and whatever their timestamps."""
+
+    def __init__(self, py_func):
+        # The module's full name keeps apart the imports of one tree under two names (Blender's
+        # bl_ext.<repository>.snell and the command line's snell), whose compiled code differs.
+        self._cache_path = os.path.join(numba.config.CACHE_DIR, py_func.__module__)
+        self._lineno = py_func.__code__.co_firstlineno
+
+    def get_cache_path(self):
+        return self._cache_path
+
+    def get_source_stamp(self):
+        # The directory is the sources' hash: every entry in it is of these sources.
+        return os.path.basename(numba.config.CACHE_DIR)
+
+    def get_disambiguator(self):
+        return str(self._lineno)
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if not numba.config.CACHE_DIR or not _inside(py_file, TRACER_DIR):
+            return None                 # not a tracer function: Numba's own locators
+        self = cls(py_func)
+        try:
+            self.ensure_cache_path()
+        except OSError:
+            return None
+        return self
+
+
+def _inside(path: str, folder: str) -> bool:
+    path = os.path.abspath(path)
+    return os.path.commonpath([path, folder]) == folder
+
+
+if SourcesLocator not in _caching.CacheImpl._locator_classes:
+    _caching.CacheImpl._locator_classes.insert(0, SourcesLocator)
+
+
 def default_cache_base() -> str:
     """Snell's user cache directory for compiled kernels ($XDG_CACHE_HOME/snell/kernels)."""
     root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
@@ -140,10 +185,8 @@ def cache_dir() -> str:
 
 
 def _warm_marker() -> str:
-    # Numba keys its cache entries by the defining file's path too, so a second checkout of the
-    # same sources compiles its own: the marker is per checkout as well.
-    checkout = hashlib.sha256(TRACER_DIR.encode()).hexdigest()[:12]
-    return os.path.join(cache_dir(), f"warm-{checkout}")
+    # Per package name, as the entries are (SourcesLocator).
+    return os.path.join(cache_dir(), f"warm-{__name__.rsplit('.', 2)[0]}")
 
 
 def is_warm() -> bool:
