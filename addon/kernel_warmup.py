@@ -4,8 +4,9 @@ long it has run and about how long is left, and the first F12 or viewport render
 what is left (wait).
 
 The process imports this copy of Snell and runs integrator.warm_up into the same kernel cache
-(Numba keys a cached kernel by its source file's path: the same files, the same entries), then
-writes the warm marker that integrator.kernels_compiled reads. Not in background mode (`blender
+(jit.SourcesLocator keys a cached kernel by its module's name: the same package name, the same
+entries), then writes the warm marker that integrator.kernels_compiled reads. An extension built
+with its kernels (tools/build_kernel_cache.py) has them from the first use, and starts none. Not in background mode (`blender
 --background`, `snell batch`): there the render compiles what it needs in its own process.
 """
 from __future__ import annotations
@@ -63,11 +64,16 @@ def _package() -> tuple[str, str]:
     return __package__.rsplit(".", 1)[0], root
 
 
-def _command() -> list[str]:
-    name, root = _package()
+def warm_up_command(name: str, root: str) -> list[str]:
+    """The command that compiles every kernel of the Snell in root imported as the package name
+    (this Python; the cache is SNELL_KERNEL_CACHE's)."""
     code = _IMPORT.format(name=name, root=root)
     code += 'importlib.import_module(name + ".tracer.integrator").warm_up()\n'
     return [sys.executable, "-c", code]
+
+
+def _command() -> list[str]:
+    return warm_up_command(*_package())
 
 
 def _environment() -> dict:

@@ -13,11 +13,13 @@ compile makes them for every signature, and unboxing a table of arrays from Pyth
 half a second's compile per function.
 
 The machine code is cached on disk, under a directory named after a hash of the tracer's
-sources: Numba checks only the timestamp of the file that defines a kernel, so an edit to a
+sources, the Python version and the CPU compiled for (cache_key): Numba checks only the timestamp of the file that defines a kernel, so an edit to a
 function it calls in another file would otherwise leave a stale kernel in the cache. Inside that
 directory a kernel's entry is found by its module's name (SourcesLocator), not by the path and
 timestamp of its file as Numba's own locators do: the hash already says the sources are the
-same, so a cache compiled in one checkout or installation serves another of the same sources.
+same, so a cache compiled in one checkout or installation serves another of the same sources,
+and a cache compiled when the extension is built (tools/build_kernel_cache.py) is copied into
+the user's cache on first use.
 The cache lives under Snell's user cache directory unless set_cache_dir() picks another base
 before the first kernel module is imported (inside Blender, the extension's user directory).
 compile_seconds() says how long this process has spent compiling, so that a render leaves its
@@ -28,6 +30,8 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import shutil
+import sys
 import threading
 import time
 import types
@@ -111,7 +115,8 @@ def jit_inline(fn):
 
 
 def sources_hash() -> str:
-    """A short hash of every tracer source file (subpackages included) and the Numba version."""
+    """A short hash of every tracer source file (subpackages included) and the Numba version
+    (workers of one render must have the same)."""
     digest = hashlib.sha256(numba.__version__.encode())
     for folder, dirs, files in os.walk(TRACER_DIR):
         dirs[:] = sorted(d for d in dirs if d != "__pycache__")
@@ -165,6 +170,36 @@ if SourcesLocator not in _caching.CacheImpl._locator_classes:
     _caching.CacheImpl._locator_classes.insert(0, SourcesLocator)
 
 
+def _compile_for_any_cpu() -> tuple:
+    """Makes Numba compile for its architecture's generic CPU, unless the user chose a CPU or
+    compiling has begun; returns the target Numba compiles for (triple, CPU, features)."""
+    from numba.core.registry import cpu_target
+    if numba.config.CPU_NAME is None and numba.config.CPU_FEATURES is None:
+        # Compiled for the generic CPU, a cache made on one machine serves every machine of its
+        # architecture (a cache shipped in the extension). The kernels' hot code is scalar, and
+        # on the development machine the generic code renders the same image bit for bit at
+        # the host CPU's speed (docs/measurements.md, "Kernel cache").
+        numba.config.CPU_NAME, numba.config.CPU_FEATURES = "generic", ""
+    target = cpu_target.target_context.codegen().magic_tuple()
+    if target[1] != numba.config.CPU_NAME:
+        # Numba's code generator was made before this module (another add-on compiled first):
+        # it stays on the host CPU, and the cache key says so.
+        numba.config.CPU_NAME = numba.config.CPU_FEATURES = None
+        target = cpu_target.target_context.codegen().magic_tuple()
+    return target
+
+
+TARGET = _compile_for_any_cpu()
+
+
+def cache_key() -> str:
+    """The name of the cache directory for these sources, this Python and the CPU compiled for."""
+    digest = hashlib.sha256(sources_hash().encode())
+    digest.update(f"python {sys.version_info[0]}.{sys.version_info[1]}".encode())
+    digest.update(repr(TARGET).encode())
+    return digest.hexdigest()[:16]
+
+
 def default_cache_base() -> str:
     """Snell's user cache directory for compiled kernels ($XDG_CACHE_HOME/snell/kernels)."""
     root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
@@ -174,9 +209,29 @@ def default_cache_base() -> str:
 def set_cache_dir(base: str) -> str:
     """Cache compiled kernels under base (in a directory per source hash); call before any kernel
     module is imported. Returns the directory."""
-    path = os.path.join(base, sources_hash())
+    path = os.path.join(base, cache_key())
     numba.config.CACHE_DIR = path
+    _seed_from_shipped(path)
     return path
+
+
+def shipped_cache_dir() -> str:
+    """Where a cache compiled before packaging is, for this key (it may not exist)."""
+    return os.path.join(TRACER_DIR, "data", "kernels", cache_key())
+
+
+def _seed_from_shipped(path: str) -> None:
+    # A cache compiled when the extension was built is copied, once, into the user's cache
+    # (the extension's own folder may be read-only), so that the first render compiles nothing.
+    shipped = shipped_cache_dir()
+    marker = os.path.basename(_warm_marker())
+    if not os.path.isfile(os.path.join(shipped, marker)) or \
+            os.path.isfile(os.path.join(path, marker)):
+        return
+    try:
+        shutil.copytree(shipped, path, dirs_exist_ok=True)
+    except OSError:
+        pass            # a cache it cannot fill: the kernels are compiled as without one
 
 
 def cache_dir() -> str:
