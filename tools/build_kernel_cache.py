@@ -5,10 +5,10 @@ installing then loads them instead of compiling them for two minutes.
     .venv/bin/python tools/build_kernel_cache.py OUT [--package bl_ext.user_default.snell ...]
 
 Compiles integrator.warm_up's kernels with this Python (it must be the Python of the Blender the
-cache is for: 3.11 for Blender 4.2-5.0) for the generic CPU of this architecture (jit's default),
+cache is for: 3.11 for Blender 4.2-5.0) for the generic CPU of this architecture,
 once per package name Snell is imported under (Blender imports an extension installed from a
 file as bl_ext.user_default.snell; Numba's cache entries hold the name). Writes
-OUT/<jit.cache_key()>/ and prints its size; jit copies that folder, found under tracer/data/kernels
+OUT/<jit.cache_key_for(jit.generic_target())>/ and prints its size; jit copies that folder, found under tracer/data/kernels
 in the installed extension, into the user's cache on first use.
 """
 from __future__ import annotations
@@ -35,7 +35,9 @@ def build(out: str, packages: list[str]) -> str:
     if os.path.realpath(os.path.dirname(jit.TRACER_DIR)) != os.path.realpath(ROOT):
         sys.exit(f"build_kernel_cache: this Python imports snell from {jit.TRACER_DIR}, not "
                  f"{ROOT} (set PYTHONPATH)")
-    env = dict(os.environ, SNELL_KERNEL_CACHE=os.path.abspath(out))
+    # The generic CPU: the cache serves every machine of this architecture (tracer/jit.py).
+    env = dict(os.environ, SNELL_KERNEL_CACHE=os.path.abspath(out), NUMBA_CPU_NAME="generic",
+               NUMBA_CPU_FEATURES="")
     with tempfile.TemporaryDirectory() as tmp:
         # The package's folder must bear its last name, as in an installed extension.
         root = os.path.join(tmp, packages[0].rsplit(".", 1)[-1])
@@ -43,7 +45,7 @@ def build(out: str, packages: list[str]) -> str:
         for name in packages:
             print(f"build_kernel_cache: compiling the kernels as {name} (minutes)", flush=True)
             subprocess.run(warm_up_command(name, root), env=env, check=True, cwd=tmp)
-    return os.path.join(os.path.abspath(out), jit.cache_key())
+    return os.path.join(os.path.abspath(out), jit.cache_key_for(jit.generic_target()))
 
 
 def main(argv=None):

@@ -19,7 +19,11 @@ directory a kernel's entry is found by its module's name (SourcesLocator), not b
 timestamp of its file as Numba's own locators do: the hash already says the sources are the
 same, so a cache compiled in one checkout or installation serves another of the same sources,
 and a cache compiled when the extension is built (tools/build_kernel_cache.py) is copied into
-the user's cache on first use.
+the user's cache on first use. That cache is compiled for the architecture's generic CPU, so
+that one build serves every machine; Snell compiles for the generic CPU only when such a cache
+exists (_choose_target), and otherwise for the machine's own. On the development machine the
+generic kernels render the same image bit for bit, at 1.02-1.04x the CPU time (within the
+noise; docs/measurements.md, "Kernel cache").
 The cache lives under Snell's user cache directory unless set_cache_dir() picks another base
 before the first kernel module is imported (inside Blender, the extension's user directory).
 compile_seconds() says how long this process has spent compiling, so that a render leaves its
@@ -170,34 +174,52 @@ if SourcesLocator not in _caching.CacheImpl._locator_classes:
     _caching.CacheImpl._locator_classes.insert(0, SourcesLocator)
 
 
-def _compile_for_any_cpu() -> tuple:
-    """Makes Numba compile for its architecture's generic CPU, unless the user chose a CPU or
-    compiling has begun; returns the target Numba compiles for (triple, CPU, features)."""
+GENERIC_CPU = ("generic", "")     # Numba's CPU name and features for the architecture's baseline
+
+
+def cache_key_for(target: tuple) -> str:
+    """The name of the cache directory for these sources and this Python, compiling for target."""
+    digest = hashlib.sha256(sources_hash().encode())
+    digest.update(f"python {sys.version_info[0]}.{sys.version_info[1]}".encode())
+    digest.update(repr(tuple(target)).encode())
+    return digest.hexdigest()[:16]
+
+
+def _shipped(key: str) -> str:
+    return os.path.join(TRACER_DIR, "data", "kernels", key)
+
+
+def generic_target() -> tuple:
+    """Numba's target for the generic CPU of this machine's architecture."""
+    import llvmlite.binding as llvm
+    return (llvm.get_process_triple(), *GENERIC_CPU)
+
+
+def _choose_target() -> tuple:
+    """The target Numba compiles for, (triple, CPU, features): the architecture's generic CPU
+    when Snell ships a cache compiled for it (one build serves every machine), else this
+    machine's CPU, or the one the user chose (NUMBA_CPU_NAME)."""
     from numba.core.registry import cpu_target
-    if numba.config.CPU_NAME is None and numba.config.CPU_FEATURES is None:
-        # Compiled for the generic CPU, a cache made on one machine serves every machine of its
-        # architecture (a cache shipped in the extension). The kernels' hot code is scalar, and
-        # on the development machine the generic code renders the same image bit for bit at
-        # the host CPU's speed (docs/measurements.md, "Kernel cache").
-        numba.config.CPU_NAME, numba.config.CPU_FEATURES = "generic", ""
+    generic = generic_target()
+    chosen = numba.config.CPU_NAME is None and numba.config.CPU_FEATURES is None and \
+        os.path.isdir(_shipped(cache_key_for(generic)))
+    if chosen:
+        numba.config.CPU_NAME, numba.config.CPU_FEATURES = GENERIC_CPU
     target = cpu_target.target_context.codegen().magic_tuple()
-    if target[1] != numba.config.CPU_NAME:
-        # Numba's code generator was made before this module (another add-on compiled first):
-        # it stays on the host CPU, and the cache key says so.
+    if chosen and tuple(target) != generic:
+        # Numba's code generator was made before this module (another add-on compiled first)
+        # and stays on its CPU: the cache key says which.
         numba.config.CPU_NAME = numba.config.CPU_FEATURES = None
         target = cpu_target.target_context.codegen().magic_tuple()
-    return target
+    return tuple(target)
 
 
-TARGET = _compile_for_any_cpu()
+TARGET = _choose_target()
 
 
 def cache_key() -> str:
     """The name of the cache directory for these sources, this Python and the CPU compiled for."""
-    digest = hashlib.sha256(sources_hash().encode())
-    digest.update(f"python {sys.version_info[0]}.{sys.version_info[1]}".encode())
-    digest.update(repr(TARGET).encode())
-    return digest.hexdigest()[:16]
+    return cache_key_for(TARGET)
 
 
 def default_cache_base() -> str:
@@ -217,7 +239,7 @@ def set_cache_dir(base: str) -> str:
 
 def shipped_cache_dir() -> str:
     """Where a cache compiled before packaging is, for this key (it may not exist)."""
-    return os.path.join(TRACER_DIR, "data", "kernels", cache_key())
+    return _shipped(cache_key())
 
 
 def _seed_from_shipped(path: str) -> None:
