@@ -4,8 +4,9 @@ long it has run and about how long is left, and the first F12 or viewport render
 what is left (wait).
 
 The process imports this copy of Snell and runs integrator.warm_up into the same kernel cache
-(Numba keys a cached kernel by its source file's path: the same files, the same entries), then
-writes the warm marker that integrator.kernels_compiled reads. Not in background mode (`blender
+(jit.SourcesLocator keys a cached kernel by its module's name: the same package name, the same
+entries), then writes the warm marker that integrator.kernels_compiled reads. An extension built
+with its kernels (tools/build_kernel_cache.py) has them from the first use, and starts none. Not in background mode (`blender
 --background`, `snell batch`): there the render compiles what it needs in its own process.
 """
 from __future__ import annotations
@@ -21,10 +22,11 @@ from bpy.app.handlers import persistent
 
 from ..tracer import jit
 
-# Seconds the first compile takes on the 2-core development machine (docs/measurements.md,
-# "Kernel compile time": 133 s of CPU, in one thread, so about as long idle): the estimate until
-# this machine has timed one of its own.
-DEFAULT_ESTIMATE_S = 130.0
+# Seconds the first compile takes on the 2-core development machine: 185 s of CPU, in one
+# thread, with the shader-program stages (docs/measurements.md, "Kernel cache: shipped
+# compiled"; CPU seconds were within 2% of the idle wall time before), until this machine has
+# timed one of its own.
+DEFAULT_ESTIMATE_S = 185.0
 _TIMING_FILE = "last-compile-seconds"
 _LOG_FILE = "background-compile.log"     # the process's stderr (a pipe could fill and block it)
 
@@ -63,11 +65,16 @@ def _package() -> tuple[str, str]:
     return __package__.rsplit(".", 1)[0], root
 
 
-def _command() -> list[str]:
-    name, root = _package()
+def warm_up_command(name: str, root: str) -> list[str]:
+    """The command that compiles every kernel of the Snell in root imported as the package name
+    (this Python; the cache is SNELL_KERNEL_CACHE's)."""
     code = _IMPORT.format(name=name, root=root)
     code += 'importlib.import_module(name + ".tracer.integrator").warm_up()\n'
     return [sys.executable, "-c", code]
+
+
+def _command() -> list[str]:
+    return warm_up_command(*_package())
 
 
 def _environment() -> dict:

@@ -33,7 +33,7 @@ from .pixel_filter import make_filter, spread_splats
 from .result import ExtraRows, RenderResult, Window, WindowSums
 from .scene import Scene
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
-from .shader import program
+from .shader import closures, program
 from .shader.bump import with_view
 from .shader.object_inputs import camera_table
 
@@ -632,29 +632,47 @@ def warm_up() -> float:
               "dof": {"use_dof": True, "focus_distance": 2.0, "fstop": 1.0}}
     # A diffuse triangle and a mirror one under a lamp that rays can hit, and out of the
     # camera's view an emissive triangle facing them: the light tracer runs, and so do the
-    # light vertices (a mesh light starts them).
+    # light vertices (a mesh light starts them). Between the first two, a half-transparent,
+    # glowing node-graph material: the shader-program stages (most real files have one).
     triangles = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0],
                           [-1, -1, 0.5], [1, -1, 0.5], [0, 1, 0.5],
-                          [2, -1, 1], [2, 1, 1], [3, 0, 1]], np.float32)
+                          [2, -1, 1], [2, 1, 1], [3, 0, 1],
+                          [-1, -1, 0.25], [1, -1, 0.25], [0, 1, 0.25]], np.float32)
     lamp = {"name": "lamp", "kind": "point", "position": [0.0, 0.0, 1.0],
             "intensity": [1.0, 1.0, 1.0], "radius": 0.1}
     scene = Scene(positions=triangles,
-                  triangles=np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8]], np.int32),
-                  material_ids=np.array([0, 1, 2], np.int32),
-                  object_ids=np.array([0, 1, 2], np.int32),
+                  triangles=np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8], [9, 10, 11]], np.int32),
+                  material_ids=np.array([0, 1, 2, 3], np.int32),
+                  object_ids=np.array([0, 1, 2, 3], np.int32),
                   materials=[{"name": "grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]},
                              {"name": "mirror", "kind": "mirror", "color": [1.0, 1.0, 1.0]},
                              {"name": "light", "kind": "emission", "color": [1.0, 1.0, 1.0],
-                              "strength": 1.0}],
+                              "strength": 1.0},
+                             _warm_up_program()],
                   lights=[lamp], camera=camera, world={"color": [0.1, 0.1, 0.1]},
                   render={"spp": 1, "max_depth": 2, "seed": 0, "fresnel": "exact"},
                   objects=[{"name": "triangle", "closed": False}, {"name": "mirror", "closed": False},
-                           {"name": "light", "closed": False}],
-                  normals=np.array([[0, 0, 1]] * 6 + [[0, 0, -1]] * 3, np.float32))
+                           {"name": "light", "closed": False}, {"name": "veil", "closed": False}],
+                  normals=np.array([[0, 0, 1]] * 6 + [[0, 0, -1]] * 3 + [[0, 0, 1]] * 3,
+                                   np.float32))
     for sampler in SAMPLERS:
         Renderer(scene, scene.settings(threads=1, sampler=sampler)).render()
     jit.mark_warm()
     return time.perf_counter() - start
+
+
+def _warm_up_program() -> dict:
+    """A shader program (shader/program.py) that runs every program stage: Mix Shader of a
+    Diffuse and of a Transparent and an Emission, emission marked as varying."""
+    c = closures
+    #  registers: 0-2 colour, 3 fac, 4-6 white, 7-8 the two sides' weights
+    code = [[c.MIX_CLOSURE, 7, 8, -1, 3, 0, 0, 0],
+            [c.DIFFUSE, 7, 0, -1, 0, 0, 0, 0],
+            [c.TRANSPARENT_BSDF, 8, 4, 0, 0, 0, 0, 0],
+            [c.EMISSION, 8, 4, 3, 0, 0, 0, 0]]
+    return {"name": "veil", "kind": "program",
+            "program": {"registers": 9, "constants": [0.5, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0],
+                        "code": code, "data": [], "emission_varies": True, "refracts": False}}
 
 
 def kernels_compiled() -> bool:

@@ -13,10 +13,19 @@ compile makes them for every signature, and unboxing a table of arrays from Pyth
 half a second's compile per function.
 
 The machine code is cached on disk, under a directory named after a hash of the tracer's
-sources: Numba checks only the timestamp of the file that defines a kernel, so an edit to a
-function it calls in another file would otherwise leave a stale kernel in the cache. The cache
-lives under Snell's user cache directory unless set_cache_dir() picks another base before the
-first kernel module is imported (inside Blender, the extension's user directory).
+sources, the Python version and the CPU compiled for (cache_key): Numba checks only the timestamp of the file that defines a kernel, so an edit to a
+function it calls in another file would otherwise leave a stale kernel in the cache. Inside that
+directory a kernel's entry is found by its module's name (SourcesLocator), not by the path and
+timestamp of its file as Numba's own locators do: the hash already says the sources are the
+same, so a cache compiled in one checkout or installation serves another of the same sources,
+and a cache compiled when the extension is built (tools/build_kernel_cache.py) is copied into
+the user's cache on first use. That cache is compiled for the architecture's generic CPU, so
+that one build serves every machine; Snell compiles for the generic CPU only when such a cache
+exists (_choose_target), and otherwise for the machine's own. On the development machine the
+generic kernels render the same image bit for bit, at 1.02-1.04x the CPU time (within the
+noise; docs/measurements.md, "Kernel cache").
+The cache lives under Snell's user cache directory unless set_cache_dir() picks another base
+before the first kernel module is imported (inside Blender, the extension's user directory).
 compile_seconds() says how long this process has spent compiling, so that a render leaves its
 kernels' first compile out of its timings.
 """
@@ -25,11 +34,14 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import shutil
+import sys
 import threading
 import time
 import types
 
 import numba
+from numba.core import caching as _caching
 from numba.core import event
 
 OPTIONS = {"nogil": True, "cache": True, "error_model": "numpy", "_nrt": False}
@@ -107,7 +119,8 @@ def jit_inline(fn):
 
 
 def sources_hash() -> str:
-    """A short hash of every tracer source file (subpackages included) and the Numba version."""
+    """A short hash of every tracer source file (subpackages included) and the Numba version
+    (workers of one render must have the same)."""
     digest = hashlib.sha256(numba.__version__.encode())
     for folder, dirs, files in os.walk(TRACER_DIR):
         dirs[:] = sorted(d for d in dirs if d != "__pycache__")
@@ -120,6 +133,95 @@ def sources_hash() -> str:
     return digest.hexdigest()[:16]
 
 
+class SourcesLocator(_caching._CacheLocator):
+    """Finds the cache entry of a tracer function by its module's name under the sources-hash
+    directory, wherever the tracer's files are and whatever their timestamps."""
+
+    def __init__(self, py_func):
+        # The module's full name keeps apart the imports of one tree under two names (Blender's
+        # bl_ext.<repository>.snell and the command line's snell), whose compiled code differs.
+        self._cache_path = os.path.join(numba.config.CACHE_DIR, py_func.__module__)
+        self._lineno = py_func.__code__.co_firstlineno
+
+    def get_cache_path(self):
+        return self._cache_path
+
+    def get_source_stamp(self):
+        # The directory is the sources' hash: every entry in it is of these sources.
+        return os.path.basename(numba.config.CACHE_DIR)
+
+    def get_disambiguator(self):
+        return str(self._lineno)
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if not numba.config.CACHE_DIR or not _inside(py_file, TRACER_DIR):
+            return None                 # not a tracer function: Numba's own locators
+        self = cls(py_func)
+        try:
+            self.ensure_cache_path()
+        except OSError:
+            return None
+        return self
+
+
+def _inside(path: str, folder: str) -> bool:
+    path = os.path.abspath(path)
+    return os.path.commonpath([path, folder]) == folder
+
+
+if SourcesLocator not in _caching.CacheImpl._locator_classes:
+    _caching.CacheImpl._locator_classes.insert(0, SourcesLocator)
+
+
+GENERIC_CPU = ("generic", "")     # Numba's CPU name and features for the architecture's baseline
+
+
+def cache_key_for(target: tuple) -> str:
+    """The name of the cache directory for these sources and this Python, compiling for target."""
+    digest = hashlib.sha256(sources_hash().encode())
+    digest.update(f"python {sys.version_info[0]}.{sys.version_info[1]}".encode())
+    digest.update(repr(tuple(target)).encode())
+    return digest.hexdigest()[:16]
+
+
+def _shipped(key: str) -> str:
+    return os.path.join(TRACER_DIR, "data", "kernels", key)
+
+
+def generic_target() -> tuple:
+    """Numba's target for the generic CPU of this machine's architecture."""
+    import llvmlite.binding as llvm
+    return (llvm.get_process_triple(), *GENERIC_CPU)
+
+
+def _choose_target() -> tuple:
+    """The target Numba compiles for, (triple, CPU, features): the architecture's generic CPU
+    when Snell ships a cache compiled for it (one build serves every machine), else this
+    machine's CPU, or the one the user chose (NUMBA_CPU_NAME)."""
+    from numba.core.registry import cpu_target
+    generic = generic_target()
+    chosen = numba.config.CPU_NAME is None and numba.config.CPU_FEATURES is None and \
+        os.path.isdir(_shipped(cache_key_for(generic)))
+    if chosen:
+        numba.config.CPU_NAME, numba.config.CPU_FEATURES = GENERIC_CPU
+    target = cpu_target.target_context.codegen().magic_tuple()
+    if chosen and tuple(target) != generic:
+        # Numba's code generator was made before this module (another add-on compiled first)
+        # and stays on its CPU: the cache key says which.
+        numba.config.CPU_NAME = numba.config.CPU_FEATURES = None
+        target = cpu_target.target_context.codegen().magic_tuple()
+    return tuple(target)
+
+
+TARGET = _choose_target()
+
+
+def cache_key() -> str:
+    """The name of the cache directory for these sources, this Python and the CPU compiled for."""
+    return cache_key_for(TARGET)
+
+
 def default_cache_base() -> str:
     """Snell's user cache directory for compiled kernels ($XDG_CACHE_HOME/snell/kernels)."""
     root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
@@ -129,9 +231,29 @@ def default_cache_base() -> str:
 def set_cache_dir(base: str) -> str:
     """Cache compiled kernels under base (in a directory per source hash); call before any kernel
     module is imported. Returns the directory."""
-    path = os.path.join(base, sources_hash())
+    path = os.path.join(base, cache_key())
     numba.config.CACHE_DIR = path
+    _seed_from_shipped(path)
     return path
+
+
+def shipped_cache_dir() -> str:
+    """Where a cache compiled before packaging is, for this key (it may not exist)."""
+    return _shipped(cache_key())
+
+
+def _seed_from_shipped(path: str) -> None:
+    # A cache compiled when the extension was built is copied, once, into the user's cache
+    # (the extension's own folder may be read-only), so that the first render compiles nothing.
+    shipped = shipped_cache_dir()
+    marker = os.path.basename(_warm_marker())
+    if not os.path.isfile(os.path.join(shipped, marker)) or \
+            os.path.isfile(os.path.join(path, marker)):
+        return
+    try:
+        shutil.copytree(shipped, path, dirs_exist_ok=True)
+    except OSError:
+        pass            # a cache it cannot fill: the kernels are compiled as without one
 
 
 def cache_dir() -> str:
@@ -140,10 +262,8 @@ def cache_dir() -> str:
 
 
 def _warm_marker() -> str:
-    # Numba keys its cache entries by the defining file's path too, so a second checkout of the
-    # same sources compiles its own: the marker is per checkout as well.
-    checkout = hashlib.sha256(TRACER_DIR.encode()).hexdigest()[:12]
-    return os.path.join(cache_dir(), f"warm-{checkout}")
+    # Per package name, as the entries are (SourcesLocator).
+    return os.path.join(cache_dir(), f"warm-{__name__.rsplit('.', 2)[0]}")
 
 
 def is_warm() -> bool:
