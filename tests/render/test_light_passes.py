@@ -57,8 +57,8 @@ def test_combined_is_the_sum_of_the_light_passes(mixed):
     """Cycles' identity: Combined = (Direct + Indirect) x Color for diffuse, glossy and
     transmission, + Emission + Environment, on Snell's own output (light tracer and light
     vertices on): within float32 rounding (measured: 6.1e-5 at most, in a pixel of 955).
-    Deliberate error: the Transmission passes left out of the sum (their light lost) makes the
-    largest pixel error 1.15."""
+    Deliberate error, in light_passes.add_scattered: Transmission's weight 0 instead of
+    1 - diffuse - glossy (the glass's light lost) fails it, largest pixel error 1.148."""
     _, result = mixed
     passes = result.light_pass_images()
     total = passes["Emission"] + passes["Environment"]
@@ -98,7 +98,9 @@ def test_a_diffuse_wall_seen_directly_gives_its_colour_and_direct_light_only():
 
 def test_the_world_seen_directly_is_environment_and_an_emitter_emission():
     """Camera rays that escape give Environment (the world's colour exactly); an Emission
-    surface seen directly gives Emission; no surface, no Color."""
+    surface seen directly gives Emission; no surface, no Color. Deliberate error, in
+    light_passes.add_found: the world seen directly counted as Emission fails it (Environment
+    0 where the world is (0.2, 0.3, 0.5))."""
     light = (*quad((0.0, 0.0, -1.0), 1.0, 1.0), 0)
     scene = make_scene([light], [{"name": "L", "kind": "emission", "color": [1.0, 0.5, 0.25],
                                   "strength": 2.0}],
@@ -114,8 +116,9 @@ def test_the_world_seen_directly_is_environment_and_an_emitter_emission():
 
 
 def test_a_mirror_shows_its_reflection_in_glossy_and_glass_in_transmission():
-    """Through a white mirror the world is Glossy Direct (colour 1); through clear glass of
-    index 1 (no reflection) Transmission Direct, the emitter behind it too."""
+    """Through a white mirror the world is Glossy Direct (colour 1), none of it Environment or
+    Transmission. Deliberate error, in light_passes.add_colors: the glossy albedo 5% high fails
+    it (Glossy Color 1.05)."""
     mirror = (np.array([[-1, -1, 1], [1, -1, -1], [1, 1, -1], [-1, 1, 1]], np.float32),
               np.array([[0, 1, 2], [0, 2, 3]], np.int32), 0)
     scene = make_scene([mirror], [{"name": "M", "kind": "mirror", "color": [1.0, 1.0, 1.0]}],
