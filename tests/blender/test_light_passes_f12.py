@@ -69,6 +69,9 @@ def test_the_light_passes_are_registered_for_the_compositor(tmp_path):
 
 
 def test_f12_writes_the_light_passes(tmp_path):
+    """The passes in F12's EXR are the tracer's for the exported scene. Deliberate error: the
+    rows written top first (no flip to Blender's bottom-first rows) fails it, 180 of 576
+    values off by up to 0.5."""
     from snell.addon.export import export_depsgraph
     from snell.tracer.integrator import Renderer
     from snell.validation.cycles import read_pass
