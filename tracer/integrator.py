@@ -18,7 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import jit, light_passes, light_tracer, lobes, passes, wavefront
+from . import adaptive, jit, light_passes, light_tracer, lobes, passes, wavefront
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
@@ -386,8 +386,11 @@ class Renderer:
                     extra.normal)
         if with_passes:
             with self._film_lock:
+                # The sums of the half of the sample indices this chunk's samples are in: an
+                # adaptive pass's samples are all in one half (passes.py).
                 extra.light_nans[0] += light_passes.film_light_passes(
-                    pass_sums, n, start, in_pass, pixels, extra.light)
+                    pass_sums, n, start, in_pass, pixels,
+                    extra.light[adaptive.half_of(first_sample)])
         if with_alpha:
             with self._film_lock:
                 extra.alpha_nans[0] += wavefront.film_alpha(transparent, n, start, in_pass,

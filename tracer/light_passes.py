@@ -222,13 +222,11 @@ def safe_divide_even_color(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(zero, mean_good, q)
 
 
-def read_passes(sums: np.ndarray, light_image: np.ndarray | None, count: np.ndarray,
-                exposure: float) -> dict:
-    """{Blender's pass name: float64 (H, W, 3)} from the pixels' pass sums (H, W, COLUMNS), the
-    light tracer's image (its Diffuse Indirect share; None without it), each pixel's samples and
-    the film's exposure, as Cycles reads them: means; Direct and Indirect divided by their Color;
-    exposure on all but the Color passes."""
-    mean = sums / np.maximum(count.astype(np.float64), 1.0)[..., None]
+def read_passes(mean: np.ndarray, light_image: np.ndarray | None, exposure: float) -> dict:
+    """{Blender's pass name: float64 (H, W, 3)} from the pixels' means of the pass rows (H, W,
+    COLUMNS), the light tracer's image (its Diffuse Indirect share; None without it) and the
+    film's exposure, as Cycles reads them: Direct and Indirect divided by their Color; exposure
+    on all but the Color passes."""
     raw = {name: mean[..., 3 * k:3 * k + 3] for k, name in enumerate(PASSES)}
     if light_image is not None:
         raw["Diffuse Indirect"] = raw["Diffuse Indirect"] + light_image

@@ -355,14 +355,15 @@ def lobe_albedo(lobe, tables, wi):
 @jit
 def lobe_albedo_parts(lobe, tables, wi):
     """A lobe's albedo seen from wi, weight included, split into (reflected, transmitted), as
-    Cycles 5.0's bsdf_albedo (kernel/closure/bsdf.h) and bsdf_microfacet_estimate_albedo
-    (closure/bsdf_microfacet.h) estimate it for the Denoising Albedo and the Color passes: a
-    Lambert or Translucent lobe's weight (all reflected: Cycles counts it as diffuse); a
-    microfacet lobe's weight x its Fresnel's reflectance and transmittance at the lobe's
-    normal, a remapped (generalized Schlick) Fresnel's F = mix(f0, 1, s) and a dielectric's
-    (index above 1) read from the albedo table s for its roughness, transmittance 1 - F.
-    F82 keeps the smooth reflectance: Snell has no table of Cycles' exponent-5 Schlick
-    albedo."""
+    Cycles 5.0's bsdf_albedo (kernel/closure/bsdf.h, bsdf_microfacet_estimate_albedo) estimates
+    it for the Denoising Albedo and the Color passes: a Lambert or Translucent lobe's weight (all
+    reflected: Cycles counts it as diffuse); a microfacet lobe's weight x (reflectance,
+    transmittance) of its Fresnel at the lobe's normal, the reflectance of a remapped or
+    dielectric (index above 1) Fresnel read from the albedo table for its roughness instead.
+    The transmittance stays the Fresnel's at the normal: 1 - F of the table (Cycles' reading of
+    its code) made the Denoising Albedo inconsistent with Cycles' on the glass sphere's rim
+    (tests/validation/test_denoising_passes_compare.py). F82 keeps the smooth reflectance:
+    Snell has no table of Cycles' exponent-5 Schlick albedo."""
     weight = vec_at(lobe, WEIGHT)
     zero = (0.0, 0.0, 0.0)
     if lobe[KIND] == LAMBERT or lobe[KIND] == TRANSLUCENT:
@@ -372,16 +373,14 @@ def lobe_albedo_parts(lobe, tables, wi):
     cos_i = dot(wi, vec_at(lobe, NORMAL))
     r, t, _ = lobe_fresnel(lobe, cos_i)
     model, eta = lobe[FRESNEL], lobe[ETA]
-    rough = math.sqrt(lobe[ALPHA])
-    if model == REMAPPED:
-        f = mix_to_one3(vec_at(lobe, F0), remap_albedo(tables, rough, cos_i, eta))
-        r = mul(vmul(f, vec_at(lobe, R_TINT)), lobe[REFLECTS])
-        t = mul(vmul((1.0 - f[0], 1.0 - f[1], 1.0 - f[2]), vec_at(lobe, T_TINT)),
-                lobe[TRANSMITS])
-    elif model == DIELECTRIC and eta > 1.0:
-        f = mix_to_one(f0_from_ior(eta), remap_albedo(tables, rough, cos_i, eta))
-        r = mul((f, f, f), lobe[REFLECTS])
-        t = mul((1.0 - f, 1.0 - f, 1.0 - f), lobe[TRANSMITS])
+    if max(r[0], r[1], r[2]) > 0.0:
+        rough = math.sqrt(lobe[ALPHA])
+        if model == REMAPPED:
+            s = remap_albedo(tables, rough, cos_i, eta)
+            r = vmul(mix_to_one3(vec_at(lobe, F0), s), vec_at(lobe, R_TINT))
+        elif model == DIELECTRIC and eta > 1.0:
+            f = mix_to_one(f0_from_ior(eta), remap_albedo(tables, rough, cos_i, eta))
+            r = (f, f, f)
     return vmul(weight, r), vmul(weight, t)
 
 # ---------------------------------------------------------------------------------------------

@@ -22,7 +22,7 @@ class ExtraRows(NamedTuple):
     transparent: np.ndarray | None
     transparent_sq: np.ndarray | None
     alpha_nans: np.ndarray | None
-    light: np.ndarray | None = None          # the light passes' sums (pixels, COLUMNS)
+    light: np.ndarray | None = None          # the light passes' sums (2, pixels, COLUMNS)
     light_nans: np.ndarray | None = None
 
 
@@ -109,8 +109,9 @@ class RenderResult:
     alpha_nans: np.ndarray | None = None
     film_transparent: bool = False   # Film > Transparent: the world is not in the image
     exposure: float = 1.0            # Film > Exposure: mean() scales the radiance by it
-    # The light passes' per-pixel sums (light_passes.py; None: not rendered), (H, W, COLUMNS),
-    # and the samples whose pass row held a NaN or Inf (left out).
+    # The light passes' per-pixel sums (light_passes.py; None: not rendered), (2, H x W,
+    # COLUMNS): those of each half of the sample indices (adaptive.half_of), which an adaptive
+    # render's image weighs as its halves; and the samples whose pass row held a NaN or Inf.
     light_pass_sum: np.ndarray | None = None
     light_pass_nans: np.ndarray | None = None
 
@@ -132,7 +133,7 @@ class RenderResult:
 
     def start_light_passes(self):
         """Keep the light passes' sums."""
-        self.light_pass_sum = np.zeros((self.height, self.width, light_passes.COLUMNS))
+        self.light_pass_sum = np.zeros((2, self.height * self.width, light_passes.COLUMNS))
         self.light_pass_nans = np.zeros(1, np.int64)
 
     def extra_rows(self) -> ExtraRows | None:
@@ -150,7 +151,7 @@ class RenderResult:
                          self.transparent_sum.reshape(-1) if alpha else None,
                          self.transparent_sq.reshape(-1) if alpha else None,
                          self.alpha_nans,
-                         self.light_pass_sum.reshape(-1, light_passes.COLUMNS) if light else None,
+                         self.light_pass_sum if light else None,
                          self.light_pass_nans)
 
     @property
@@ -166,11 +167,22 @@ class RenderResult:
     def light_pass_images(self) -> dict:
         """The light passes as Blender names them, float32 (H, W, 3) each, read as Cycles reads
         them (light_passes.read_passes): Direct and Indirect divided by their Color pass, the
-        light tracer's splats in Diffuse Indirect (their Lambert surface's indirect light)."""
+        light tracer's splats in Diffuse Indirect (their Lambert surface's indirect light). Each
+        pixel's mean is the image's: with adaptive sampling the mean of its halves' means
+        (adaptive.Halves.mean), so that the passes add up to the image exactly."""
         if self.light_pass_sum is None:
             raise ValueError("the render has no light passes (settings: light_passes)")
+        sums = self.light_pass_sum
+        if self.halves is None:
+            count = np.maximum(self.samples().reshape(-1, 1).astype(np.float64), 1.0)
+            mean = sums.sum(axis=0) / count
+        else:
+            count = self.halves.count[..., None].astype(np.float64)
+            weights = (count > 0).astype(np.float64)
+            mean = (sums / np.maximum(count, 1.0) * weights).sum(axis=0) \
+                / np.maximum(weights.sum(axis=0), 1.0)
         splats = self.light_image() if self.light_in_image and self.light_paths else None
-        passes = light_passes.read_passes(self.light_pass_sum, splats, self.samples(),
+        passes = light_passes.read_passes(mean.reshape(self.height, self.width, -1), splats,
                                           self.exposure)
         return {name: as_float32(values) for name, values in passes.items()}
 
