@@ -146,13 +146,13 @@ def _setup_render(p):
 
 # The View Layer passes `--passes` writes, as Blender names their EXR layers, and the ones
 # Blender has that Snell does not render yet (left out with a warning, never written empty).
+LIGHT_PASSES = ("Emission", "Environment", "Diffuse Direct", "Diffuse Indirect", "Diffuse Color",
+                "Glossy Direct", "Glossy Indirect", "Glossy Color", "Transmission Direct",
+                "Transmission Indirect", "Transmission Color")
 PASSES = ("Depth", "Position", "Normal", "Object Index", "Debug Sample Count", "Denoising Albedo",
-          "Denoising Normal", "Noisy Image")
-NOT_RENDERED_PASSES = ("Mist", "Vector", "UV", "Material Index", "Emission", "Environment",
-                       "Ambient Occlusion", "Shadow Catcher", "Diffuse Direct",
-                       "Diffuse Indirect", "Diffuse Color", "Glossy Direct", "Glossy Indirect",
-                       "Glossy Color", "Transmission Direct", "Transmission Indirect",
-                       "Transmission Color", "Volume Direct", "Volume Indirect")
+          "Denoising Normal", "Noisy Image") + LIGHT_PASSES
+NOT_RENDERED_PASSES = ("Mist", "Vector", "UV", "Material Index", "Ambient Occlusion",
+                       "Shadow Catcher", "Volume Direct", "Volume Indirect")
 
 
 def _passes(text):
@@ -230,6 +230,8 @@ def cmd_render(args) -> int:
     settings = scene.settings(**setting_overrides(args))
     if {"Denoising Albedo", "Denoising Normal"} & set(args.passes):
         settings = settings.replace(denoising_passes=True)
+    if set(LIGHT_PASSES) & set(args.passes):
+        settings = settings.replace(light_passes=True)
     farm = args.workers is not None or args.cluster is not None
     if farm:
         from .farm.render import check_settings
@@ -312,8 +314,10 @@ def _pass_layers(args, scene, settings, result, denoised) -> dict:
     """{"<pass>.<channel>": (H, W) values} of the --passes that pass_channels does not write
     (the denoising layers: the render makes them when they are asked for); a pass Snell cannot
     make is left out with a warning."""
+    lit = getattr(result, "has_light_passes", False)
     for name in args.passes:
-        missing = name in (ALBEDO, NORMAL) and not getattr(result, "has_features", False)
+        missing = (name in (ALBEDO, NORMAL) and not getattr(result, "has_features", False)
+                   or name in LIGHT_PASSES and not lit)
         if name in NOT_RENDERED_PASSES or (name == NOISY and denoised is None) or missing:
             why = ("without --denoise" if name == NOISY else
                    "on a cluster yet" if missing else "by Snell yet")
@@ -322,6 +326,14 @@ def _pass_layers(args, scene, settings, result, denoised) -> dict:
     layers = {}
     if "Debug Sample Count" in args.passes:
         layers["Debug Sample Count.X"] = result.samples()
+    light = [name for name in args.passes if name in LIGHT_PASSES]
+    if light and lit:
+        from .tracer import image
+        values = result.light_pass_images()
+        for name in light:
+            clean, _ = image.sanitize(values[name])
+            for k, channel in enumerate("RGB"):
+                layers[f"{name}.{channel}"] = clean[..., k]
     from .tracer.data_passes import CHANNELS, data_passes
     wanted = args.passes
     data = [name for name in wanted if name in CHANNELS]

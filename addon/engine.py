@@ -46,6 +46,8 @@ class SnellRenderEngine(bpy.types.RenderEngine):
         for name, channels, ids in final.denoising_passes(settings):
             self.register_pass(scene, renderlayer, name, channels, ids,
                                "VECTOR" if ids == "XYZ" else "COLOR")
+        for name, channels, ids in final.light_passes_of(renderlayer):
+            self.register_pass(scene, renderlayer, name, channels, ids, "COLOR")
         for name, channels, ids in final.data_passes_of(renderlayer):
             self.register_pass(scene, renderlayer, name, channels, ids,
                                "VALUE" if channels == 1 else "VECTOR")

@@ -37,6 +37,26 @@ DATA_PASSES = {"use_pass_z": ("Depth", 1, "Z"), "use_pass_position": ("Position"
                "use_pass_object_index": ("Object Index", 1, "X")}
 
 
+# View Layer > Passes > Light that Snell fills: the view layer's switch -> Blender's pass name
+# (tracer/light_passes.py makes them, as Cycles defines them), each RGB.
+LIGHT_PASSES = {"use_pass_emit": "Emission", "use_pass_environment": "Environment",
+                "use_pass_diffuse_direct": "Diffuse Direct",
+                "use_pass_diffuse_indirect": "Diffuse Indirect",
+                "use_pass_diffuse_color": "Diffuse Color",
+                "use_pass_glossy_direct": "Glossy Direct",
+                "use_pass_glossy_indirect": "Glossy Indirect",
+                "use_pass_glossy_color": "Glossy Color",
+                "use_pass_transmission_direct": "Transmission Direct",
+                "use_pass_transmission_indirect": "Transmission Indirect",
+                "use_pass_transmission_color": "Transmission Color"}
+
+
+def light_passes_of(view_layer) -> tuple:
+    """The light passes a view layer asks for, as (name, channels, channel ids) entries."""
+    return tuple((name, 3, "RGB") for switch, name in LIGHT_PASSES.items()
+                 if getattr(view_layer, switch, False))
+
+
 def data_passes_of(view_layer) -> tuple:
     """The data passes a view layer asks for that Snell fills (DATA_PASSES' entries)."""
     return tuple(entry for switch, entry in DATA_PASSES.items()
@@ -234,6 +254,17 @@ def render(engine, depsgraph):
         x0, y0, w, h = _border(bl_scene.render, engine.resolution_x, engine.resolution_y)
         scene = scene.with_camera(**window.window_camera(scene.camera, x0, y0, w, h))
         settings = _settings(bl_scene, scene)
+        light = light_passes_of(depsgraph.view_layer)
+        if light and remote_render is not None:
+            # A cluster's render does not carry the passes back yet: no empty layer is
+            # presented as real.
+            message = ("the light passes are not rendered on a cluster yet: "
+                       + ", ".join(name for name, _, _ in light) + " left out")
+            record["warnings"].append(message)
+            engine.report({"WARNING"}, f"Snell: {message}")
+            light = ()
+        if light:
+            settings = settings.replace(light_passes=True)
         spp = settings.spp
         record["target_spp"] = spp
         if not _compile_kernels(engine, record):
@@ -251,7 +282,7 @@ def render(engine, depsgraph):
         for name, channels, ids in denoising_passes(settings, remote=remote_render is not None):
             engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
         data = data_passes_of(depsgraph.view_layer)
-        for name, channels, ids in data:
+        for name, channels, ids in light + data:
             engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
         result = engine.begin_result(0, 0, w, h)
         progress = _Progress(engine, result, w, h, spp, record, t_start)
@@ -275,6 +306,8 @@ def render(engine, depsgraph):
             engine.report({"WARNING"}, f"Snell: {rendered.alpha_nan_count} NaN/Inf alpha samples "
                                        "left out")
         _write_denoised(engine, result, progress, rendered, settings, record)
+        if light and rendered.has_light_passes:
+            _write_light_passes(engine, result, light, rendered)
         if data and not rendered.cancelled:
             _write_data_passes(result, data, renderer or _integrator().Renderer(scene, settings))
             engine.update_result(result)
@@ -295,6 +328,22 @@ def render(engine, depsgraph):
         if result is not None:
             engine.end_result(result, cancel=True)
         record["total_s"] = time.perf_counter() - t_start
+
+
+def _write_light_passes(engine, result, light, rendered):
+    """The light passes (light_passes_of's) of a render into the result."""
+    from ..tracer.image import sanitize
+    values = rendered.light_pass_images()
+    passes = result.layers[0].passes
+    for name, _, _ in light:
+        target = passes.get(name)
+        if target is not None:       # Blender's row 0 is the bottom
+            clean, _ = sanitize(values[name])
+            target.rect.foreach_set(np.ascontiguousarray(clean[::-1], np.float32).ravel())
+    if rendered.light_pass_nan_count:
+        engine.report({"WARNING"}, f"Snell: {rendered.light_pass_nan_count} NaN/Inf light-pass "
+                                   "samples left out")
+    engine.update_result(result)
 
 
 def _write_data_passes(result, data, renderer):

@@ -123,6 +123,7 @@ def deliver_light(shadows, n_shadow, radiance, without, path, light, light_witho
     if flags & CASTS_SHADOW:
         store(shadows.contrib, n_shadow, light)
         store(shadows.without, n_shadow, light_without)
+        shadows.pass_direct[n_shadow] = 1     # direct light, if cast from the first hit
         queue_shadow(shadows, n_shadow, path, origin, wi, target, infinite)
         return n_shadow + 1
     add_light(radiance, path, light, (1.0, 1.0, 1.0), 1.0)
@@ -142,6 +143,7 @@ def connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, eps, w, d2,
         return n_shadow
     store(shadows.contrib, n_shadow, vmul(beta, light))
     store(shadows.without, n_shadow, (0.0, 0.0, 0.0))
+    shadows.pass_direct[n_shadow] = 0     # light that bounced at least once more: indirect
     queue_shadow(shadows, n_shadow, path, offset_origin(p, ng_f, eps, w), w,
                  row(lv.point, path), False)
     stats[CONNECTIONS] += 1

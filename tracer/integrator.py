@@ -18,7 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import jit, light_tracer, lobes, passes, wavefront
+from . import adaptive, jit, light_passes, light_tracer, lobes, passes, wavefront
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
@@ -46,7 +46,7 @@ class _Buffers(threading.local):
         path), radiance, radiance without light vertices (a pilot's), active rows, counters,
         lobe scratch, (Principled parameter, shader program register and program hit row)
         scratch, light vertices, the paths' denoising albedo and normal, their uncovered
-        shares) for CHUNK paths."""
+        shares, their light passes' rows) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
                             wavefront.new_shadows(2 * CHUNK), np.empty((CHUNK, 3)),
@@ -56,7 +56,8 @@ class _Buffers(threading.local):
                             (np.empty(lobes.P_FIELDS), program.new_registers(),
                              np.empty(CHUNK, np.int64)),
                             light_vertices_module.new_light_vertices(CHUNK),
-                            (np.zeros((CHUNK, 3)), np.zeros((CHUNK, 3))), np.zeros(CHUNK))
+                            (np.zeros((CHUNK, 3)), np.zeros((CHUNK, 3))), np.zeros(CHUNK),
+                            np.zeros((CHUNK, light_passes.COLUMNS)))
         return self.buffers
 
     def light(self):
@@ -146,6 +147,7 @@ class Renderer:
             settings.light_vertices)
         self.light_vertex_pilot = settings.light_vertex_pilot
         self.features = settings.wants_features
+        self.light_passes = settings.light_passes
         self._buffers = _Buffers()
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
@@ -262,7 +264,8 @@ class Renderer:
         that get the same samples without light vertices (wavefront.emitters). merge: add the
         chunk's pixels' sums of the pass, from zero, to total and total_sq (a window merged into
         a render, RenderResult.add). extra: the rows that get the Denoising Albedo and Normal
-        passes' samples (features.py) and the alpha's (RenderResult.extra_rows).
+        passes' samples (features.py), the alpha's and the light passes' (RenderResult.
+        extra_rows).
         Returns (NaN/Inf samples, event counters)."""
         radiance, without, stats = self._trace_paths(start, n, in_pass, first_sample, pixels,
                                                      bits, vertices, pilot is not None, extra)
@@ -307,11 +310,14 @@ class Renderer:
         geom, lights, mats = self.geometry, self.lights.tables, self.materials
         mesh = geom.mesh
         (paths, out, shadows, radiance, without, active, stats, scratch, (params, regs, programs),
-         lv, (feature_albedo, feature_normal), transparent) = self._buffers.get()
+         lv, (feature_albedo, feature_normal), transparent, pass_sums) = self._buffers.get()
         with_features = extra is not None and extra.albedo is not None
         with_alpha = extra is not None and extra.transparent is not None
+        with_passes = extra is not None and extra.light is not None
         transparent = transparent[:n] if with_alpha else transparent[:0]
         transparent[:] = 0.0
+        pass_sums = pass_sums[:n] if with_passes else pass_sums[:0]
+        pass_sums[:] = 0.0
         without = without[:n] if pilot else without[:0]
         stats[:] = 0
         stratified = self.sampler == "stratified"
@@ -344,31 +350,32 @@ class Renderer:
             kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split,
                                       self.world_split, depth, limits, m, paths, prim, t,
                                       radiance, without, active, stats, with_features,
-                                      feature_albedo, self.film_transparent, transparent)
+                                      feature_albedo, self.film_transparent, transparent,
+                                      pass_sums)
             if self.programs_emit:
                 wavefront.program_emitters(mesh, mats, self.tables, self.split, depth, m, paths,
                                            prim, u, v, t, radiance, without, with_features,
-                                           feature_albedo, scratch, regs)
+                                           feature_albedo, scratch, regs, pass_sums)
             if kept == 0:
                 break
             m, n_shadow, n_programs = wavefront.materials(
                 lights, mesh, mats, self.media, self.tables, self.fresnel, self.next_event, bits,
                 stratified, depth, kept, active, paths, prim, u, v, out, shadows, radiance,
                 without, scratch, params, stats, lv, last_connection, with_features,
-                feature_albedo, feature_normal, programs)
+                feature_albedo, feature_normal, programs, pass_sums)
             if n_programs:
                 m, n_shadow = wavefront.program_materials(
                     lights, mesh, mats, self.media, self.tables, self.next_event, bits,
                     stratified, depth, self.max_depth, n_programs, programs, paths, prim, u, v,
                     out, m, shadows, n_shadow, radiance, without, scratch, regs, stats, lv,
                     last_connection, with_features, feature_albedo, feature_normal,
-                    transparent)
+                    transparent, pass_sums)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])
                 if self.transparent_shadows:
                     self._through_transparency(n_shadow, blocked, shadows, scratch, regs)
-                wavefront.shadow_rays(n_shadow, blocked, shadows, radiance, without)
+                wavefront.shadow_rays(n_shadow, blocked, shadows, radiance, without, pass_sums)
             paths, out = out, paths
             if m == 0:
                 break
@@ -377,6 +384,13 @@ class Renderer:
                 extra.feature_nans[0] += wavefront.film_features(
                     feature_albedo, feature_normal, n, start, in_pass, pixels, extra.albedo,
                     extra.normal)
+        if with_passes:
+            with self._film_lock:
+                # The sums of the half of the sample indices this chunk's samples are in: an
+                # adaptive pass's samples are all in one half (passes.py).
+                extra.light_nans[0] += light_passes.film_light_passes(
+                    pass_sums, n, start, in_pass, pixels,
+                    extra.light[adaptive.half_of(first_sample)])
         if with_alpha:
             with self._film_lock:
                 extra.alpha_nans[0] += wavefront.film_alpha(transparent, n, start, in_pass,
@@ -501,6 +515,8 @@ class Renderer:
             result.start_features(self.camera.rotation)
         if self.alpha:
             result.start_alpha(self.film_transparent)
+        if self.light_passes:
+            result.start_light_passes()
         scheduler = passes.scheduler(self, result, self.settings)
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             return passes.drive(self, scheduler, pool, progress, stop, self.settings.time_limit)

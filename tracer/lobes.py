@@ -347,16 +347,29 @@ def bsdf_sample(lobes, count, ng, wi, u_pick, u0, u1):
 @jit
 def lobe_albedo(lobe, tables, wi):
     """A lobe's albedo seen from wi, weight included, as Cycles estimates it for the Denoising
-    Albedo pass (bsdf_albedo, bsdf_microfacet_estimate_albedo): a Lambert lobe's weight; a
-    microfacet lobe's weight x (reflectance + transmittance) of its Fresnel at the lobe's normal,
-    the reflectance of a remapped or dielectric (index above 1) Fresnel read from the albedo
-    table for its roughness instead. F82 keeps the smooth reflectance: Snell has no table of
-    Cycles' exponent-5 Schlick albedo."""
+    Albedo pass (bsdf_albedo with reflection and transmission): lobe_albedo_parts' sum."""
+    reflected, transmitted = lobe_albedo_parts(lobe, tables, wi)
+    return add(reflected, transmitted)
+
+
+@jit
+def lobe_albedo_parts(lobe, tables, wi):
+    """A lobe's albedo seen from wi, weight included, split into (reflected, transmitted), as
+    Cycles 5.0's bsdf_albedo (kernel/closure/bsdf.h, bsdf_microfacet_estimate_albedo) estimates
+    it for the Denoising Albedo and the Color passes: a Lambert or Translucent lobe's weight (all
+    reflected: Cycles counts it as diffuse); a microfacet lobe's weight x (reflectance,
+    transmittance) of its Fresnel at the lobe's normal, the reflectance of a remapped or
+    dielectric (index above 1) Fresnel read from the albedo table for its roughness instead.
+    The transmittance stays the Fresnel's at the normal: 1 - F of the table (Cycles' reading of
+    its code) made the Denoising Albedo inconsistent with Cycles' on the glass sphere's rim
+    (tests/validation/test_denoising_passes_compare.py). F82 keeps the smooth reflectance:
+    Snell has no table of Cycles' exponent-5 Schlick albedo."""
     weight = vec_at(lobe, WEIGHT)
+    zero = (0.0, 0.0, 0.0)
     if lobe[KIND] == LAMBERT or lobe[KIND] == TRANSLUCENT:
-        return weight
+        return weight, zero
     if lobe[KIND] == TRANSPARENT:
-        return (0.0, 0.0, 0.0)
+        return zero, zero
     cos_i = dot(wi, vec_at(lobe, NORMAL))
     r, t, _ = lobe_fresnel(lobe, cos_i)
     model, eta = lobe[FRESNEL], lobe[ETA]
@@ -368,7 +381,7 @@ def lobe_albedo(lobe, tables, wi):
         elif model == DIELECTRIC and eta > 1.0:
             f = mix_to_one(f0_from_ior(eta), remap_albedo(tables, rough, cos_i, eta))
             r = (f, f, f)
-    return vmul(weight, add(r, t))
+    return vmul(weight, r), vmul(weight, t)
 
 # ---------------------------------------------------------------------------------------------
 # Shaders: the lobes of one hit

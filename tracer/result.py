@@ -7,7 +7,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import adaptive, wavefront
+from . import adaptive, light_passes, wavefront
 from .image import as_float32
 
 
@@ -22,6 +22,8 @@ class ExtraRows(NamedTuple):
     transparent: np.ndarray | None
     transparent_sq: np.ndarray | None
     alpha_nans: np.ndarray | None
+    light: np.ndarray | None = None          # the light passes' sums (2, pixels, COLUMNS)
+    light_nans: np.ndarray | None = None
 
 
 class Window(NamedTuple):
@@ -107,6 +109,11 @@ class RenderResult:
     alpha_nans: np.ndarray | None = None
     film_transparent: bool = False   # Film > Transparent: the world is not in the image
     exposure: float = 1.0            # Film > Exposure: mean() scales the radiance by it
+    # The light passes' per-pixel sums (light_passes.py; None: not rendered), (2, H x W,
+    # COLUMNS): those of each half of the sample indices (adaptive.half_of), which an adaptive
+    # render's image weighs as its halves; and the samples whose pass row held a NaN or Inf.
+    light_pass_sum: np.ndarray | None = None
+    light_pass_nans: np.ndarray | None = None
 
     def start_features(self, camera_rotation: np.ndarray):
         """Keep the denoising passes' sums; camera_rotation: the camera's columns (Blender's:
@@ -124,19 +131,60 @@ class RenderResult:
         self.alpha_nans = np.zeros(1, np.int64)
         self.film_transparent = film_transparent
 
+    def start_light_passes(self):
+        """Keep the light passes' sums."""
+        self.light_pass_sum = np.zeros((2, self.height * self.width, light_passes.COLUMNS))
+        self.light_pass_nans = np.zeros(1, np.int64)
+
     def extra_rows(self) -> ExtraRows | None:
-        """The rows the stages add the denoising features and the alpha to
-        (Renderer.trace_chunk), or None when the render makes neither."""
-        if self.albedo_sum is None and self.transparent_sum is None:
+        """The rows the stages add the denoising features, the alpha and the light passes to
+        (Renderer.trace_chunk), or None when the render makes none of them."""
+        if self.albedo_sum is None and self.transparent_sum is None \
+                and self.light_pass_sum is None:
             return None
         features = self.albedo_sum is not None
         alpha = self.transparent_sum is not None
+        light = self.light_pass_sum is not None
         return ExtraRows(self.albedo_sum.reshape(-1, 3) if features else None,
                          self.normal_sum.reshape(-1, 3) if features else None,
                          self.feature_nans,
                          self.transparent_sum.reshape(-1) if alpha else None,
                          self.transparent_sq.reshape(-1) if alpha else None,
-                         self.alpha_nans)
+                         self.alpha_nans,
+                         self.light_pass_sum if light else None,
+                         self.light_pass_nans)
+
+    @property
+    def has_light_passes(self) -> bool:
+        """Whether the render made the light passes."""
+        return self.light_pass_sum is not None
+
+    @property
+    def light_pass_nan_count(self) -> int:
+        """Samples whose light-pass row held a NaN or Inf (left out of the passes)."""
+        return 0 if self.light_pass_nans is None else int(self.light_pass_nans[0])
+
+    def light_pass_images(self) -> dict:
+        """The light passes as Blender names them, float32 (H, W, 3) each, read as Cycles reads
+        them (light_passes.read_passes): Direct and Indirect divided by their Color pass, the
+        light tracer's splats in Diffuse Indirect (their Lambert surface's indirect light). Each
+        pixel's mean is the image's: with adaptive sampling the mean of its halves' means
+        (adaptive.Halves.mean), so that the passes add up to the image exactly."""
+        if self.light_pass_sum is None:
+            raise ValueError("the render has no light passes (settings: light_passes)")
+        sums = self.light_pass_sum
+        if self.halves is None:
+            count = np.maximum(self.samples().reshape(-1, 1).astype(np.float64), 1.0)
+            mean = sums.sum(axis=0) / count
+        else:
+            count = self.halves.count[..., None].astype(np.float64)
+            weights = (count > 0).astype(np.float64)
+            mean = (sums / np.maximum(count, 1.0) * weights).sum(axis=0) \
+                / np.maximum(weights.sum(axis=0), 1.0)
+        splats = self.light_image() if self.light_in_image and self.light_paths else None
+        passes = light_passes.read_passes(mean.reshape(self.height, self.width, -1), splats,
+                                          self.exposure)
+        return {name: as_float32(values) for name, values in passes.items()}
 
     @property
     def has_alpha(self) -> bool:

@@ -205,6 +205,10 @@ SETTINGS = (
     Setting("light_paths_per_camera_path", float, LIGHT_PATHS_PER_CAMERA_PATH, "Light paths "
             "the light tracer traces per camera path", scope=ESTIMATOR, least=0.0,
             least_excluded=True),
+    Setting("light_passes", bool, False, "Render the light passes (Emission, Environment, "
+            "Diffuse, Glossy and Transmission Direct, Indirect and Color) beside the image; "
+            "Blender's View Layer switches and `snell render --passes` ask for them",
+            scope=ESTIMATOR),
     Setting("light_vertex_pilot", bool, True, "An adaptive render measures in its first "
             "samples whether light vertices pay; off: keep them throughout", scope=ESTIMATOR),
 )

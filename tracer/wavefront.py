@@ -29,7 +29,9 @@ from .features import add_feature_light, record_features, smooth_lobes
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit, jit_inline
 from .light_tracer import CAUSTIC, NO_CAUSTIC
-from .lights.codes import VISIBLE_CAMERA
+from .light_passes import (ONE, ZERO, add_colors, add_found, add_shadow, pass_weights,
+                           shadow_weights)
+from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY
 from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lights_at_escape,
                               triangle_hit)
 from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
@@ -85,6 +87,8 @@ class Paths(NamedTuple):
     bounce: np.ndarray       # (n,) int64: the path's bounces so far, Cycles' `bounce`: a pass
     #                          through a transparent surface is none (the wavefront's depth
     #                          minus this is the path's transparent bounces)
+    pass_diffuse: np.ndarray  # (n, 3) the light passes' diffuse and glossy weights, set at the
+    pass_glossy: np.ndarray   # (n, 3) first bounce (light_passes.py), when a render makes them
 
 
 class Shadows(NamedTuple):
@@ -96,6 +100,9 @@ class Shadows(NamedTuple):
     contrib: np.ndarray      # (n, 3) radiance the path gets if the segment is free
     without: np.ndarray      # (n, 3) the same without light vertices (a pilot's, see emitters)
     bounce: np.ndarray       # (n,) int64: the bounces of the path that cast it (Paths.bounce)
+    pass_diffuse: np.ndarray  # (n, 3) its light's diffuse and glossy pass weights, and whether
+    pass_glossy: np.ndarray   # (n, 3) it is Direct light (1: a light sample of the first hit),
+    pass_direct: np.ndarray   # (n,) int64 when a render makes the light passes (light_passes.py)
 
 
 def new_paths(n: int) -> Paths:
@@ -105,14 +112,15 @@ def new_paths(n: int) -> Paths:
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                  np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n),
                  np.empty((n, 3)), np.zeros(n, np.int64), np.zeros(n), empty_stacks(n),
-                 np.zeros(n, np.int64))
+                 np.zeros(n, np.int64), np.zeros((n, 3)), np.zeros((n, 3)))
 
 
 def new_shadows(n: int) -> Shadows:
     """Uninitialised shadow-ray buffers for n rays."""
     return Shadows(np.empty(n, np.int64), np.empty((n, 3), np.float32),
                    np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
-                   np.empty((n, 3)), np.zeros(n, np.int64))
+                   np.empty((n, 3)), np.zeros(n, np.int64), np.zeros((n, 3)), np.zeros((n, 3)),
+                   np.zeros(n, np.int64))
 
 
 @jit
@@ -186,7 +194,7 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 @jit
 def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, limits, m,
              paths, prim, t, radiance, without, active, stats, features, feature_albedo,
-             film_transparent, transparent):
+             film_transparent, transparent, pass_sums):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
@@ -213,9 +221,13 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
     Cycles' integrate_background; suns still shine, as Cycles' distant lights do.
     Shader programs whose emission varies add it in program_emitters. In a scene with media
     (media.py), the ray's segment inside them attenuates what it finds and the path's
-    throughput from here on.
+    throughput from here on. When pass_sums has rows (the render makes the light passes),
+    each light found is also added to the path's row of them (light_passes.add_found); with
+    Film > Transparent the world a camera ray sees still goes to Environment, as in Cycles'
+    integrate_background.
     """
     kept = 0
+    light_passes = pass_sums.shape[0] > 0
     for i in range(m):
         o, d = row(paths.o, i), row(paths.d, i)
         beta, path, kind = row(paths.beta, i), paths.path[i], paths.ray_kind[i]
@@ -231,10 +243,12 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                 if media.on:
                     light = medium.through(light, sigma, medium.lamp_distance(lights, lamp, o, d))
                 w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
-                add_light_both(radiance, without, path, beta, light,
-                               mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex), w_without)
+                w = mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex)
+                add_light_both(radiance, without, path, beta, light, w, w_without)
                 if features and paths.feature_on[i] != 0:
                     add_feature_light(feature_albedo, paths, i, beta, light, w_without)
+                if light_passes:
+                    add_found(pass_sums, paths, i, beta, light, w, False)
         if media.on and medium.absorbs(sigma):
             beta = medium.through(beta, sigma, t_surface)
             store(paths.beta, i, beta)
@@ -242,6 +256,10 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
             clear_film = film_transparent and paths.bounce[i] == 0
             if clear_film:
                 transparent[path] += mean3(beta)
+                if light_passes and lights.has_world:
+                    found, light, _ = light_at_escape(lights, 0, d, kind)
+                    if found:
+                        add_found(pass_sums, paths, i, beta, light, 1.0, True)
             first, end = lights_at_escape(lights, not (light_tracers and world_caustics
                                                        or clear_film), emitters_count)
             for k in range(first, end):
@@ -251,6 +269,9 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                     add_light_both(radiance, without, path, beta, light, w, w)
                     if features and paths.feature_on[i] != 0:
                         add_feature_light(feature_albedo, paths, i, beta, light, w)
+                    if light_passes:
+                        add_found(pass_sums, paths, i, beta, light, w,
+                                  lights.has_world and k == 0)
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
@@ -258,10 +279,12 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
             pdf_light, pdf_vertex = triangle_hit(lights, prim[i], madd(o, -mis_t, d), d,
                                                  t_surface + mis_t, connect)
             w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
-            add_light_both(radiance, without, path, beta, emission,
-                           mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex), w_without)
+            w = mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex)
+            add_light_both(radiance, without, path, beta, emission, w, w_without)
             if features and paths.feature_on[i] != 0:
                 add_feature_light(feature_albedo, paths, i, beta, emission, w_without)
+            if light_passes:
+                add_found(pass_sums, paths, i, beta, emission, w, False)
         if mats.kind[mat] == EMISSION:
             continue
         if ended(mats, mat, depth, paths.bounce[i], limits):
@@ -288,7 +311,7 @@ def ended(mats, mat, depth, bounce, limits):
 
 @jit
 def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, t, radiance,
-                     without, features, feature_albedo, lobes, regs):
+                     without, features, feature_albedo, lobes, regs, pass_sums):
     """The emission of the shader programs whose emission varies over the surface or with
     the ray (shader/program.py; `lobes` and `regs` their scratch), each run at the hit of
     every path of the m: no light sample finds such emission, so it weighs 1 (a path the
@@ -314,13 +337,15 @@ def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, 
         add_light_both(radiance, without, paths.path[i], beta, emission, 1.0, 1.0)
         if features and paths.feature_on[i] != 0:
             add_feature_light(feature_albedo, paths, i, beta, emission, 1.0)
+        if pass_sums.shape[0] > 0:
+            add_found(pass_sums, paths, i, beta, emission, 1.0, False)
 
 
 @jit
 def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits, stratified,
               depth, n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes,
               params, stats, lv, last_connection, features, feature_albedo, feature_normal,
-              programs):
+              programs, pass_sums):
     """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
     layered vertices sample a light (a shadow ray, or direct light for lamps that cast no
     shadow) and, up to bounce last_connection (-1: never), connect to the path's light vertex
@@ -333,13 +358,15 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
     in the media they cross and the next rays carry their path's stack of media, entered or
     left where they pass through the surface (media.py). Hits on shader programs are left for
     program_materials, their rows written into `programs` (as pbrt-v4 queues each material
-    type for a kernel of its own: this one stays the size it was without programs).
+    type for a kernel of its own: this one stays the size it was without programs). When
+    pass_sums has rows, hits add to the light passes (record_passes).
 
     Returns (paths in out, shadow rays queued, program hits left).
     """
     n_out = 0
     n_shadow = 0
     n_programs = 0
+    light_passes = pass_sums.shape[0] > 0
     has_normals = mesh.corner_normals.shape[0] > 0
     can_sample_lights = next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0
     strat = stratified and depth < STRATIFIED_BOUNCES
@@ -359,6 +386,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         u_pick, u_roulette = sample_pair(key, sample, 2 + 3 * depth, bits, strat)
         u0, u1 = sample_pair(key, sample, 4 + 3 * depth, bits, strat)
         beta = row(paths.beta, i)
+        beta_in = beta
         path = paths.path[i]
         connects = depth <= last_connection and lv.found[path]
         # Passed as tuples: a call of more than 30 arguments compiles to a *args call, which
@@ -380,31 +408,67 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         if media.on:
             medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
                                      first_shadow, n_shadow)
-        if features and paths.feature_on[i] != 0:
-            # The layered kinds' lobes are still in `lobes` from their scatter.
-            if kind != LAYERED:
-                count = smooth_lobes(kind, lobes, tables, neg(d), ns_f, entering, color,
-                                     trans_color, mats.ior[mat])
+        with_features = features and paths.feature_on[i] != 0
+        weights = (ONE, ZERO)
+        if light_passes:
+            # Before smooth_lobes: a diffuse hit's shadow rays need no lobes, a layered one's
+            # are still in `lobes` from its scatter.
+            weights = pass_weights_of(kind, paths, i, shadows, first_shadow, n_shadow, lobes,
+                                      count, neg(d), ray_kind, pdf_prev, new_d)
+        if kind != LAYERED and (with_features or light_passes and paths.bounce[i] == 0):
+            count = smooth_lobes(kind, lobes, tables, neg(d), ns_f, entering, color,
+                                 trans_color, mats.ior[mat])
+        if with_features:
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
-        n_out = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
-                                                        caustic, connect, 0.0),
-                      offset_origin(p, ng, eps, new_d), features, stats, media,
-                      (tri, mat, entering, ng_f))
+        if light_passes and paths.bounce[i] == 0:
+            add_colors(pass_sums, path, lobes, count, tables, neg(d), beta_in)
+        kept = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
+                                                       caustic, connect, 0.0),
+                     offset_origin(p, ng, eps, new_d), features, stats, media,
+                     (tri, mat, entering, ng_f))
+        if light_passes and kept > n_out:
+            store(out.pass_diffuse, n_out, weights[0])
+            store(out.pass_glossy, n_out, weights[1])
+        n_out = kept
     return n_out, n_shadow, n_programs
+
+
+@jit_inline
+def pass_weights_of(kind, paths, i, shadows, first_shadow, n_shadow, lobes, count, wi,
+                    ray_kind, pdf_bsdf, wo):
+    """The light passes' weights at path i's hit (light_passes.py): its shadow rays'
+    (first_shadow .. n_shadow), and the (diffuse, glossy) weights its next ray carries: the
+    path's own after its first bounce; at it, those of the sampled direction wo (a Lambert
+    surface's all diffuse; a singular sample's by its kind, glossy for a reflection)."""
+    bounce = paths.bounce[i]
+    own = (row(paths.pass_diffuse, i), row(paths.pass_glossy, i))
+    shadow_weights(shadows, first_shadow, n_shadow, bounce, own[0], own[1], lobes, count, wi,
+                   kind == DIFFUSE)
+    if bounce > 0:
+        return own
+    if kind == DIFFUSE:
+        return ONE, ZERO
+    if pdf_bsdf == 0.0:
+        if ray_kind == VISIBLE_DIFFUSE:
+            return ONE, ZERO
+        return (ZERO, ONE) if ray_kind == VISIBLE_GLOSSY else (ZERO, ZERO)
+    return pass_weights(lobes, count, wi, wo)
 
 
 @jit
 def program_materials(lights, mesh, mats, media, tables, next_event, bits, stratified, depth,
                       max_depth, n_programs, programs, paths, prim, u, v, out, n_out, shadows,
                       n_shadow, radiance, without, lobes, regs, stats, lv, last_connection,
-                      features, feature_albedo, feature_normal, transparent):
+                      features, feature_albedo, feature_normal, transparent, pass_sums):
     """The materials stage for the hits on shader programs that `materials` left in
     `programs` (scatter.scatter_program), their next rays after out's first n_out and their
     shadow rays after the first n_shadow. Returns the new (n_out, n_shadow). A path past its
     last bounce (max_depth) only passes through the surface's transparency. When `transparent`
     has rows (the film's alpha is rendered), a Holdout met before the first bounce adds its
-    weight times the path's mean throughput to it, as Cycles' integrate_surface_holdout."""
+    weight times the path's mean throughput to it, as Cycles' integrate_surface_holdout.
+    pass_sums as materials'."""
+    light_passes = pass_sums.shape[0] > 0
     has_normals = mesh.corner_normals.shape[0] > 0
     can_sample_lights = next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0
     strat = stratified and depth < STRATIFIED_BOUNCES
@@ -439,10 +503,20 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
         if features and paths.feature_on[i] != 0:
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
-        n_out = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
-                                                        caustic, connect, mis_t),
-                      offset_origin(p, ng, eps, new_d), features, stats, media,
-                      (tri, mat, entering, ng_f))
+        weights = (ONE, ZERO)
+        if light_passes:
+            weights = pass_weights_of(LAYERED, paths, i, shadows, first_shadow, n_shadow, lobes,
+                                      count, neg(d), ray_kind, pdf_prev, new_d)
+            if bounce == 0:
+                add_colors(pass_sums, path, lobes, count, tables, neg(d), beta_in)
+        kept = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
+                                                       caustic, connect, mis_t),
+                     offset_origin(p, ng, eps, new_d), features, stats, media,
+                     (tri, mat, entering, ng_f))
+        if light_passes and kept > n_out:
+            store(out.pass_diffuse, n_out, weights[0])
+            store(out.pass_glossy, n_out, weights[1])
+        n_out = kept
     return n_out, n_shadow
 
 
@@ -503,16 +577,20 @@ def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, 
 
 
 @jit
-def shadow_rays(n, blocked, shadows, radiance, without):
+def shadow_rays(n, blocked, shadows, radiance, without, pass_sums):
     """Add the light of every shadow ray that nothing blocked (Embree: 0 where blocked), and
-    when `without` has rows their light without light vertices to it."""
+    when `without` has rows their light without light vertices to it; when pass_sums has rows,
+    to the light passes too (light_passes.add_shadow)."""
     tracking = without.shape[0] > 0
+    light_passes = pass_sums.shape[0] > 0
     for j in range(n):
         if blocked[j] != 0:
             for k in range(3):
                 radiance[shadows.path[j], k] += shadows.contrib[j, k]
                 if tracking:
                     without[shadows.path[j], k] += shadows.without[j, k]
+            if light_passes:
+                add_shadow(pass_sums, shadows, j)
 
 
 @jit

@@ -1,5 +1,5 @@
-"""`snell render --passes` (#33): Blender's data passes as layers of the EXR, exact on a scene
-whose answers are known, and the passes Snell cannot make left out with a warning. Against
+"""`snell render --passes` (#33): Blender's data and light passes as layers of the EXR, exact on
+a scene whose answers are known, and the passes Snell cannot make left out with a warning. Against
 Cycles' own passes: tests/validation/test_data_passes_compare.py."""
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from snell.tracer import image
 from snell.tracer.data_passes import BACKGROUND_DEPTH, data_passes
 from snell.tracer.integrator import Renderer
 from snell.tracer.scene import save
-from support.builders import tiny_scene
+from support.builders import EMISSION, tiny_scene
 
 
 def quad_scene():
@@ -53,16 +53,25 @@ def test_snell_render_writes_the_passes_as_blender_names_them(tmp_path):
     save(quad_scene(), str(path))
     proc = subprocess.run([sys.executable, "-m", "snell.cli", "render", str(path), "-o",
                            str(out), "--threads", "1",
-                           "--passes", "depth,Normal,object index,Debug Sample Count,Emission"],
+                           "--passes", "depth,Normal,object index,Debug Sample Count,Mist,"
+                                       "Emission,environment,Diffuse Color,Glossy Direct"],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
-    assert "pass 'Emission' is not rendered by Snell yet: left out" in proc.stderr
+    assert "pass 'Mist' is not rendered by Snell yet: left out" in proc.stderr
+    assert "Emission" not in proc.stderr
     assert np.allclose(image.read_channel(str(out), "Depth.Z")[:3], 2.0)
     assert np.all(image.read_channel(str(out), "Object Index.X")[:3] == 7.0)
     assert np.allclose(image.read_channel(str(out), "Normal.Z")[:3], 1.0)
     assert np.all(image.read_channel(str(out), "Debug Sample Count.X") == 4)
+    # The light passes (tracer/light_passes.py): the emissive quad seen directly is Emission,
+    # the black world Environment; no surface scatters, so no Color and no Direct light.
+    assert np.allclose(image.read_channel(str(out), "Emission.R")[:3], EMISSION)
+    assert np.all(image.read_channel(str(out), "Emission.G")[5:] == 0.0)
+    assert np.all(image.read_channel(str(out), "Environment.B") == 0.0)
+    assert np.all(image.read_channel(str(out), "Diffuse Color.R") == 0.0)
+    assert np.all(image.read_channel(str(out), "Glossy Direct.G") == 0.0)
     with pytest.raises(OSError):
-        image.read_channel(str(out), "Emission.R")
+        image.read_channel(str(out), "Mist.R")
 
 
 def test_an_unknown_pass_is_a_usage_error(tmp_path, capsys):
