@@ -3,12 +3,13 @@ case where a denoiser's guiding passes must follow the specular chain (issue 33'
 
 Run: python scenes/glass_wall.py OUT.blend
 A hollow tumbler (smooth Glass BSDF, IOR 1.5, walls 4 cm thick, a 6 cm base) stands on a white
-floor before a wall with a checker image (16 x 16 cells, Closest, written beside OUT.blend as
-glass_wall_checker.png), lit by an area lamp and a dim grey world. 256x256, Standard view.
+floor before a wall with a checker image (16 x 16 cells, Closest, packed into the .blend), lit
+by an area lamp and a dim grey world. 256x256, Standard view.
 """
 import math
 import os
 import sys
+import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bpy  # noqa: E402
@@ -69,14 +70,15 @@ def tumbler(name, location, mat):
 
 
 def build(path):
-    """Build the scene (its checker image beside path) and save it to path."""
-    folder = os.path.dirname(os.path.abspath(path))
-    os.makedirs(folder, exist_ok=True)
-    checker = checker_png(os.path.join(folder, "glass_wall_checker.png"))
+    """Build the scene (its checker image packed into it) and save it to path."""
     scene = common.reset()
     common.setup_render(scene, (256, 256))
     common.set_world(scene, (0.08, 0.08, 0.09))
-    wall_mat = image_material("CheckerWall", "diffuse", checker, "Color", "Closest", "sRGB")
+    with tempfile.TemporaryDirectory() as folder:
+        checker = checker_png(os.path.join(folder, "glass_wall_checker.png"))
+        wall_mat = image_material("CheckerWall", "diffuse", checker, "Color", "Closest", "sRGB")
+        image = next(n for n in wall_mat.node_tree.nodes if n.bl_idname == "ShaderNodeTexImage")
+        image.image.pack()                                # one self-contained file
     bpy.ops.mesh.primitive_plane_add(size=3.0, location=(0.0, 0.7, 1.2),
                                      rotation=(math.pi / 2, 0.0, 0.0))
     wall = bpy.context.active_object                      # 3 m square, facing -y, into the floor
