@@ -1,5 +1,7 @@
 """`snell bench`: Snell and Cycles at a ladder of sample counts against a converged reference,
-then both adaptive at the same noise thresholds ("as users render", _adaptive_comparison).
+then both adaptive at the same noise thresholds ("as users render", _adaptive_comparison), and
+with --denoise both denoised by Open Image Denoise (_denoised_comparison; not tested: the
+validator never sees a denoised image, only this bench and its page, marked so, do).
 
 For each scene: a reference (a long Cycles render as K seeds, cached on disk, see cache_key),
 then for each renderer the ladder 1, 2, 4, ... spp until max_spp or until the next point is

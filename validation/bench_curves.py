@@ -14,6 +14,9 @@ Definitions (stated again in bench.json under "definitions"):
 - as users render: both renderers adaptive at the same noise thresholds; at each threshold,
   Snell's time to Cycles' relMSE along Snell's threshold curve (the same interpolation) over
   Cycles' time, and the plain time and relMSE ratios (equal_threshold).
+- denoised: the time-to-equal-error rule on both denoised ladders, on relMSE and FLIP (target
+  (a), denoised_time_target), and each denoised point's FLIP over the undenoised ladder's at 10
+  times its samples (target (b), fewer_samples_target).
 """
 from __future__ import annotations
 
