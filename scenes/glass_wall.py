@@ -87,7 +87,10 @@ def build(path):
     white = common.material("Floor", "diffuse", (0.5, 0.5, 0.5))
     common.quad("Floor", [(-2, -3, 0), (2, -3, 0), (2, 0.7, 0), (-2, 0.7, 0)], white)
     glass = common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5)
-    tumbler("Tumbler", (0.0, 0.1, 0.0), glass)
+    # 2 mm above the floor: a base coplanar with the floor is two surfaces at one depth, which
+    # the two renderers order differently (measured: Snell's base came out light grey where
+    # Cycles' is dark, a relMSE floor of 0.09 in the bench).
+    tumbler("Tumbler", (0.0, 0.1, 0.002), glass)
     light = bpy.data.lights.new("Lamp", "AREA")
     light.energy = 120.0
     light.size = 1.0
