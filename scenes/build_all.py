@@ -11,7 +11,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 SCENES = ["cornell_spheres", "cornell_dragon", "cornell_rough", "caustic_floor", "furnace", "slab",
-          "lens", "node_materials"]
+          "lens", "node_materials", "glass_wall"]
 
 
 def build_all(out_dir=HERE):

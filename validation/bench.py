@@ -1,5 +1,7 @@
 """`snell bench`: Snell and Cycles at a ladder of sample counts against a converged reference,
-then both adaptive at the same noise thresholds ("as users render", _adaptive_comparison).
+then both adaptive at the same noise thresholds ("as users render", _adaptive_comparison), and
+with --denoise both denoised by Open Image Denoise (_denoised_comparison; not tested: the
+validator never sees a denoised image, only this bench and its page, marked so, do).
 
 For each scene: a reference (a long Cycles render as K seeds, cached on disk, see cache_key),
 then for each renderer the ladder 1, 2, 4, ... spp until max_spp or until the next point is
@@ -30,14 +32,20 @@ from ..addon.console import stdout_silenced
 from ..pages.sample_map import sample_map_png
 from ..tracer.atomic import atomic_directory, atomic_path
 from . import cycles, metrics
-from .bench_curves import (ADAPTIVE_RENDERERS, CAUSTIC_SHARE, efficiency_summary, equal_error,
-                           equal_threshold, errors, gain_at_equal_time, light_share, median_run,
-                           nearest_threshold, next_spp, reference_noise, sample_summary)
-from .bench_report import SCHEMA, share_map_png, svg_plot, write_html, write_json
+from .bench_curves import (ADAPTIVE_RENDERERS, CAUSTIC_SHARE, FEWER_SAMPLES, TIME_SHARE_TARGET,
+                           denoised_time_target, efficiency_summary, equal_error, equal_threshold,
+                           equal_time_pair, errors, fewer_samples_target, flip_map,
+                           gain_at_equal_time, light_share, median_run, nearest_threshold,
+                           next_spp, reference_noise, sample_summary)
+from .bench_report import (SCHEMA, denoised_figures_png, share_map_png, svg_plot, write_html,
+                           write_json)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_SCENES = [os.path.join(REPO, "scenes", "cornell_spheres.blend"),
                   os.path.join(REPO, "scenes", "cornell_dragon.blend")]
+# Added to the default scenes by --denoise: a textured wall seen through a drinking glass, where
+# a denoiser's guiding passes must follow the specular chain.
+DENOISE_SCENES = [os.path.join(REPO, "scenes", "glass_wall.blend")]
 SNELL_SEED = 7          # Snell's seed for every ladder point
 CYCLES_SEED = 90001     # Cycles' seed for every ladder point (the reference uses seeds 1..K)
 
@@ -59,6 +67,11 @@ class Options:
     # adaptive_max_spp samples (empty: no such comparison).
     thresholds: tuple = (0.1, 0.03, 0.01, 0.003)
     adaptive_max_spp: int = 1024
+    # The denoised comparison: a ladder of each renderer denoised by Open Image Denoise, guided
+    # by albedo and normal, with this prefilter and quality (Cycles' defaults) for both.
+    denoise: bool = False
+    denoise_prefilter: str = "accurate"
+    denoise_quality: str = "high"
 
 
 QUICK = dict(scale=25, min_spp=4, max_spp=16, time_cap_s=20.0, ref_seeds=4, ref_spp=64, quick=True,
@@ -85,16 +98,34 @@ def _snell_point(spec):
         scene = scene.with_camera(resolution_percentage=spec["scale"])
     t = time.perf_counter()
     # Ladder points sample every pixel equally (threshold 0, whatever the scene says); adaptive
-    # points use Cycles' automatic minimum (min_spp 0), as Cycles does beside them.
-    renderer = Renderer(scene, scene.settings(threads=spec["threads"], caustics=spec["caustics"],
-                                              noise_threshold=spec["threshold"] or 0.0, min_spp=0,
-                                              time_limit=0.0, denoise=False,
-                                              denoising_passes=False))
+    # points use Cycles' automatic minimum (min_spp 0), as Cycles does beside them. A denoised
+    # point renders the Denoising Albedo and Normal passes and denoises as `snell render
+    # --denoise` does, whatever the file's own Denoise settings.
+    denoise = spec.get("denoise")
+    settings = scene.settings(threads=spec["threads"], caustics=spec["caustics"],
+                              noise_threshold=spec["threshold"] or 0.0, min_spp=0,
+                              time_limit=0.0, denoise=bool(denoise),
+                              denoising_passes=bool(denoise),
+                              **({"denoising_input_passes": "albedo_normal",
+                                  "denoising_prefilter": denoise["prefilter"],
+                                  "denoising_quality": denoise["quality"]} if denoise else {}))
+    renderer = Renderer(scene, settings)
     build_s = time.perf_counter() - t
     result = renderer.render()
+    image = noisy = result.mean()
+    extra = {}
+    if denoise:
+        from ..tracer.denoise import denoise_result
+        t = time.perf_counter()
+        outcome = denoise_result(result, settings)
+        if not outcome.denoised:      # never report a noisy image as a denoised one
+            raise RuntimeError(f"denoising failed: {outcome.warning}")
+        extra = {"denoise_s": time.perf_counter() - t, "oidn_s": outcome.seconds,
+                 "nan_guides": outcome.nan_guides}
+        image = outcome.image
     wall = time.perf_counter() - start
     light = result.light_image().astype(np.float32) if result.light_in_image else None
-    return result.mean(), light, result.samples(), {
+    return image, (noisy if denoise else None), light, result.samples(), {**extra,
         "saved_share": result.saved_share, "export_s": export_s, "build_s": build_s, "render_s": result.time_s, "wall_s": wall,
         "rays_per_second": result.rays_per_second, "rays": result.rays,
         "embree_share": result.embree_share,
@@ -116,6 +147,9 @@ def _cycles_point(spec):
     else:
         settings = cycles.forced_settings(spec["max_depth"], spec["spp"], CYCLES_SEED,
                                           spec["threads"])
+    if spec.get("denoise"):
+        settings = cycles_denoised(settings, spec["denoise"]["prefilter"],
+                                   spec["denoise"]["quality"])
     camera = {"resolution_percentage": spec["scale"]} if spec["scale"] != 100 else None
     with tempfile.TemporaryDirectory(prefix="snell-bench-") as workdir:
         out = os.path.join(workdir, "cycles.exr")
@@ -153,16 +187,16 @@ def _child(spec_path, out_path):
     from ..tracer import integrator
     # Loaded once per session in an open Blender: not part of what a render point costs.
     integrator.warm_up()
-    light = counts = None
+    light = counts = noisy = None
     if spec["kind"] == "baseline":
         image, stats = np.zeros((1, 1, 3), np.float32), {}
     elif spec["kind"] == "snell":
-        image, light, counts, stats = _snell_point(spec)
+        image, noisy, light, counts, stats = _snell_point(spec)
     else:
         image, counts, stats = _cycles_point(spec)
     stats["peak_rss_mb"] = _own_peak_rss_mb()
     np.save(out_path + ".npy", image)
-    for suffix, array in (("_light", light), ("_samples", counts)):
+    for suffix, array in (("_light", light), ("_samples", counts), ("_noisy", noisy)):
         if array is not None:
             np.save(out_path + suffix + ".npy", array)
     with open(out_path + ".json", "w") as f:
@@ -188,13 +222,17 @@ class PointError(RuntimeError):
     pass
 
 
-def run_point(kind, blend, spp, opts: Options, caustics=True, threshold=None):
-    """(image, light tracer's image or None, per-pixel samples or None, stats) of one point in a
-    child process; stats gain peak_rss_mb (the child's). threshold: adaptive sampling at that
-    noise threshold with at most spp samples per pixel (None: spp in every pixel)."""
+def run_point(kind, blend, spp, opts: Options, caustics=True, threshold=None, denoise=False):
+    """(image, light tracer's image or None, per-pixel samples or None, stats, noisy image or
+    None) of one point in a child process; stats gain peak_rss_mb (the child's). threshold:
+    adaptive sampling at that noise threshold with at most spp samples per pixel (None: spp in
+    every pixel). denoise: the image denoised with opts' prefilter and quality (Snell's noisy
+    image beside it)."""
     spec = {"kind": kind, "blend": os.path.abspath(blend) if blend else None, "spp": spp,
             "max_depth": opts.max_depth, "threads": opts.threads, "scale": opts.scale,
-            "caustics": caustics, "threshold": threshold}
+            "caustics": caustics, "threshold": threshold,
+            "denoise": {"prefilter": opts.denoise_prefilter,
+                        "quality": opts.denoise_quality} if denoise else None}
     with tempfile.TemporaryDirectory(prefix="snell-bench-") as tmp:
         spec_path, out = os.path.join(tmp, "spec.json"), os.path.join(tmp, "out")
         with open(spec_path, "w") as f:
@@ -206,12 +244,28 @@ def run_point(kind, blend, spp, opts: Options, caustics=True, threshold=None):
             tail = err.decode(errors="replace").strip().splitlines()[-5:]
             raise PointError(f"{kind} {spp} spp on {blend}: child exited {proc.returncode}: "
                              + " / ".join(tail))
-        image, light, counts = (np.load(out + suffix + ".npy")
-                                if os.path.exists(out + suffix + ".npy") else None
-                                for suffix in ("", "_light", "_samples"))
+        image, light, counts, noisy = (np.load(out + suffix + ".npy")
+                                       if os.path.exists(out + suffix + ".npy") else None
+                                       for suffix in ("", "_light", "_samples", "_noisy"))
         with open(out + ".json") as f:
             stats = json.load(f)
-    return image, light, counts, stats
+    return image, light, counts, stats, noisy
+
+
+def cycles_denoised(settings, prefilter: str, quality: str) -> list:
+    """The settings with Cycles' own denoising on: Open Image Denoise on the CPU, guided by
+    albedo and normal, with the prefilter and quality given (Snell's names, lower case)."""
+    replaced = {"cycles.use_denoising": (True, "the denoised comparison: Cycles' own denoiser, "
+                                         "its time in the render's")}
+    out = [(k, *replaced[k]) if k in replaced else (k, v, why) for k, v, why in settings]
+    return out + [
+        ("cycles.denoiser", "OPENIMAGEDENOISE", "the denoiser Snell uses"),
+        ("cycles.denoising_use_gpu", False, "on the CPU, as Snell"),
+        ("cycles.denoising_input_passes", "RGB_ALBEDO_NORMAL", "guided by albedo and normal, "
+         "as Snell"),
+        ("cycles.denoising_prefilter", prefilter.upper(), "the same prefilter as Snell"),
+        ("cycles.denoising_quality", quality.upper(), "the same quality as Snell"),
+    ]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -290,11 +344,13 @@ def reference(blend, opts: Options, cache_dir, log):
 # The bench
 
 
-def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, threshold=None):
+def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, threshold=None,
+           denoise=False):
     """(point, image, light tracer's image or None, per-pixel samples) of one measured point."""
     # Repeats of a point render the same image (same seed); only the timings differ.
-    runs = [run_point(kind, blend, spp, opts, caustics, threshold) for _ in range(opts.repeat)]
-    image, light, counts, _ = runs[0]
+    runs = [run_point(kind, blend, spp, opts, caustics, threshold, denoise)
+            for _ in range(opts.repeat)]
+    image, light, counts, _, noisy = runs[0]
     stats = median_run([r[3] for r in runs])
     if image.shape != ref.shape:
         raise PointError(f"{kind} image {image.shape} differs from the reference {ref.shape}")
@@ -303,10 +359,13 @@ def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, thresho
         counts = np.full((h, w), spp, np.int32)
     # The child's stats last: Snell's saved_share is its own (RenderResult.saved_share).
     p = {"spp": spp, **errors(image, ref), **sample_summary(counts, spp), **stats}
+    if noisy is not None:       # a denoised Snell point: its own noisy image's errors too
+        p.update({f"noisy_{k}": v for k, v in errors(noisy, ref).items()})
     p["peak_rss_above_baseline_mb"] = p["peak_rss_mb"] - baseline_mb
     p["efficiency"] = p["relmse"] * p["wall_s"]
     p["samples_per_second"] = h * w * p["mean_spp"] / p["render_s"] if p["render_s"] > 0 else 0.0
     label = kind if caustics or kind != "snell" else "snell-pt"
+    label += "+dn" if denoise else ""
     at = f"T {threshold:<6g}" if threshold else f"{spp:5d} spp"
     log(f"  {label:8s} {at}  wall {p['wall_s']:7.2f} s  relMSE {p['relmse']:.4g}  "
         f"RMSE {p['rmse']:.4g}  FLIP {p['flip']:.4g}  mean {p['mean_spp']:.1f} spp  "
@@ -314,11 +373,12 @@ def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, thresho
     return p, image, light, counts
 
 
-def _ladder(kind, blend, ref, opts, baseline_mb, log, caustics=True):
+def _ladder(kind, blend, ref, opts, baseline_mb, log, caustics=True, denoise=False):
     """The ladder's points, with each point's image and light tracer's image (or None)."""
     points, images, spp = [], [], opts.min_spp
     while spp is not None:
-        p, image, light, _ = _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics)
+        p, image, light, _ = _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics,
+                                    denoise=denoise)
         points.append(p)
         images.append((image, light))
         spp = next_spp(spp, p["wall_s"], max_spp=opts.max_spp, time_cap_s=opts.time_cap_s)
@@ -367,6 +427,25 @@ def _caustic_region(light, ref):
                                                 / max(ref.sum(), 1e-300)),
                   "share_threshold": CAUSTIC_SHARE}
 
+
+
+def _denoised_comparison(scene, ladders, ref):
+    """(the scene's "denoised" entry, its figures): targets (a) and (b) (bench_curves), the
+    equal-time pair and their per-pixel FLIP maps."""
+    (sd, sd_images), (cd, cd_images) = ladders["snell_denoised"], ladders["cycles_denoised"]
+    i, j = equal_time_pair(sd, cd)
+    snell_image, cycles_image = sd_images[i][0], cd_images[j][0]
+    maps = {"snell": flip_map(ref, snell_image), "cycles": flip_map(ref, cycles_image)}
+    entry = {
+        "time_target": denoised_time_target(sd, cd),
+        "fewer_samples_target": fewer_samples_target(sd, scene["snell"]["points"]),
+        "equal_time": {"snell_spp": sd[i]["spp"], "snell_s": sd[i]["wall_s"],
+                       "snell_flip": sd[i]["flip"], "cycles_spp": cd[j]["spp"],
+                       "cycles_s": cd[j]["wall_s"], "cycles_flip": cd[j]["flip"]},
+        "below_noisy": [{"spp": p["spp"], "relmse_ratio": p["relmse"] / p["noisy_relmse"],
+                         "flip_ratio": p["flip"] / p["noisy_flip"]} for p in sd],
+    }
+    return entry, denoised_figures_png(ref, snell_image, cycles_image, maps, entry["equal_time"])
 
 
 def definitions(opts: Options) -> dict:
@@ -435,6 +514,30 @@ def definitions(opts: Options) -> dict:
                            "(along = cycles), the target is Snell's relMSE and Cycles' time to it "
                            "is interpolated along Cycles' curve. time_ratio, relmse_ratio, "
                            "mean_spp_ratio: Snell / Cycles at the same threshold",
+        "denoised": "not tested (a denoised image is biased and its pixels are not independent: "
+                    "compare and study never see one). Each renderer denoised by Open Image "
+                    "Denoise guided by its Denoising Albedo and Normal, prefilter "
+                    f"{opts.denoise_prefilter}, quality {opts.denoise_quality}, on the CPU with "
+                    "the render's threads; Snell: `snell render --denoise` in the point's child "
+                    "(the passes rendered, then OIDN through tracer/denoise.py; wall_s includes "
+                    "both, denoise_s the denoising), Cycles: its own use_denoising with the "
+                    "OPENIMAGEDENOISE denoiser (its denoising inside its render time). Errors "
+                    "against the same undenoised reference; noisy_*: a Snell point's own "
+                    "image before denoising",
+        "time_target": f"target (a): denoised Snell reaches Cycles + OIDN's denoised error in at "
+                       f"most {TIME_SHARE_TARGET:g} of Cycles' time, on relMSE and on FLIP: "
+                       "time_to_equal_error's rule along the two denoised ladders (interpolation "
+                       "only, no slope fits: denoised curves flatten); at_cycles_points: at "
+                       "each Cycles point, Snell's time to its error over its time",
+        "fewer_samples_target": f"target (b): Snell denoised at 1/{FEWER_SAMPLES} of the samples "
+                                "has a lower FLIP than Snell undenoised: each denoised point at "
+                                f"n spp against the undenoised ladder's FLIP at {FEWER_SAMPLES} n "
+                                "spp, linear in log FLIP against log spp between its ladder "
+                                "points (never extrapolated; points without both neighbours "
+                                "are left out); met when every evaluated ratio is below 1",
+        "equal_time": "the denoised images shown side by side: Cycles + OIDN's last ladder point "
+                      "and the Snell + OIDN point nearest its wall time (log time), with "
+                      "per-pixel FLIP maps against the reference",
         "reference_noise": "the reference's own expected contribution to a point's relMSE and RMSE: "
                            "mean of var / (R^2 + eps) and sqrt(mean var), var = its across-seed "
                            "variance of the mean; measured errors include it (not subtracted)",
@@ -452,9 +555,9 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
     for blend in scenes:
         with stdout_silenced():
             export_blend(blend)
-    *_, base = run_point("baseline", None, 0, opts)
+    _, _, _, base, _ = run_point("baseline", None, 0, opts)
     baseline_mb = base["peak_rss_mb"]
-    out_scenes, maps, sample_maps = [], {}, {}
+    out_scenes, maps, sample_maps, denoised_figures = [], {}, {}, {}
     for blend in scenes:
         name = os.path.splitext(os.path.basename(blend))[0]
         ref, ref_info = reference(blend, opts, cache_dir, log)
@@ -465,6 +568,12 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
             ladders["snell_path_tracer"] = _ladder("snell", blend, ref, opts, baseline_mb, log,
                                                    caustics=False)
         ladders["cycles"] = _ladder("cycles", blend, ref, opts, baseline_mb, log)
+        if opts.denoise:
+            log(f"{name}: denoised ladders (not tested: the validator never sees them)")
+            ladders["snell_denoised"] = _ladder("snell", blend, ref, opts, baseline_mb, log,
+                                                caustics=opts.caustics != "off", denoise=True)
+            ladders["cycles_denoised"] = _ladder("cycles", blend, ref, opts, baseline_mb, log,
+                                                 denoise=True)
         # The light tracer's image at the largest point of the Snell ladder (None if it did not
         # run): it defines the caustic region and the share map.
         light = ladders["snell"][1][-1][1]
@@ -489,6 +598,9 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
                     "caustic_relmse")
         if light is not None:
             maps[name] = share_map_png(light, ref)
+        if opts.denoise:
+            scene["denoised"], denoised_figures[name] = _denoised_comparison(
+                scene, ladders, ref)
         if opts.thresholds:
             log(f"{name}: as users render (adaptive)")
             scene["adaptive"], sample_maps[name] = _adaptive_comparison(
@@ -512,7 +624,11 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
         with open(os.path.join(tmp, "bench.svg"), "w") as f:
             f.write(svg)
         write_json(os.path.join(tmp, "bench.json"), data)
-        write_html(os.path.join(tmp, "bench.html"), data, svg, maps, sample_maps)
+        write_html(os.path.join(tmp, "bench.html"), data, svg, maps, sample_maps,
+                   denoised_figures)
+        for name, figure in denoised_figures.items():
+            with open(os.path.join(tmp, f"denoised_{name}.png"), "wb") as f:
+                f.write(figure["strip"])
     return data
 
 

@@ -14,6 +14,9 @@ Definitions (stated again in bench.json under "definitions"):
 - as users render: both renderers adaptive at the same noise thresholds; at each threshold,
   Snell's time to Cycles' relMSE along Snell's threshold curve (the same interpolation) over
   Cycles' time, and the plain time and relMSE ratios (equal_threshold).
+- denoised: the time-to-equal-error rule on both denoised ladders, on relMSE and FLIP (target
+  (a), denoised_time_target), and each denoised point's FLIP over the undenoised ladder's at 10
+  times its samples (target (b), fewer_samples_target).
 """
 from __future__ import annotations
 
@@ -110,19 +113,30 @@ def unit_slope_fit(times, errs):
     return {"slope": -1.0, "intercept": a}
 
 
+def time_to_equal(snell_points, cycles_points, key="relmse") -> dict:
+    """Snell's and Cycles' times to the larger of their two smallest `key` errors along their
+    ladders (time_at_error, so both reach it), and Snell / Cycles (NaN where not reached)."""
+    ts, es = [p["wall_s"] for p in snell_points], [p[key] for p in snell_points]
+    tc, ec = [p["wall_s"] for p in cycles_points], [p[key] for p in cycles_points]
+    target = max(min(es), min(ec))
+    t_s, t_c = time_at_error(ts, es, target), time_at_error(tc, ec, target)
+    nan = float("nan")
+    return {"target": target, "snell_s": nan if t_s is None else t_s,
+            "cycles_s": nan if t_c is None else t_c,
+            "ratio": nan if not (t_s and t_c) else t_s / t_c}
+
+
 def equal_error(snell_points, cycles_points) -> dict:
     """Time-to-equal-error of Snell over Cycles at the larger of the two smallest relMSEs."""
     ts, es = [p["wall_s"] for p in snell_points], [p["relmse"] for p in snell_points]
     tc, ec = [p["wall_s"] for p in cycles_points], [p["relmse"] for p in cycles_points]
-    target = max(min(es), min(ec))
-    t_s, t_c = time_at_error(ts, es, target), time_at_error(tc, ec, target)
+    eq = time_to_equal(snell_points, cycles_points)
     us, uc = unit_slope_fit(ts, es), unit_slope_fit(tc, ec)
-    nan = float("nan")
     return {
-        "target_relmse": target,
-        "snell_s": nan if t_s is None else t_s,
-        "cycles_s": nan if t_c is None else t_c,
-        "ratio": nan if not (t_s and t_c) else t_s / t_c,
+        "target_relmse": eq["target"],
+        "snell_s": eq["snell_s"],
+        "cycles_s": eq["cycles_s"],
+        "ratio": eq["ratio"],
         # free least-squares slopes, to judge the ladder (-1 once fixed costs no longer dominate)
         "snell_slope": loglog_fit(ts, es)["slope"],
         "cycles_slope": loglog_fit(tc, ec)["slope"],
@@ -221,3 +235,85 @@ def efficiency_summary(points) -> dict:
     """relMSE x wall time per point; the median over the ladder and the value at the last point."""
     eff = [p["relmse"] * p["wall_s"] for p in points]
     return {"median": float(np.median(eff)), "last": float(eff[-1])}
+
+
+# ---------------------------------------------------------------------------------------------
+# The denoised comparison: both renderers denoised by Open Image Denoise, held against the same
+# (undenoised) reference. A denoised image is biased, so its error curve flattens instead of
+# falling as 1 / time: only interpolation along the ladder (time_to_equal) is used, no fits.
+
+# Target (a): denoised Snell reaches Cycles + OIDN's denoised error in at most this share of
+# Cycles' time. Target (b): Snell denoised at 1 / FEWER_SAMPLES of the samples has a lower FLIP
+# than Snell undenoised.
+TIME_SHARE_TARGET = 0.5
+FEWER_SAMPLES = 10
+
+
+def denoised_time_target(snell_points, cycles_points) -> dict:
+    """Target (a) on relMSE and on FLIP: time_to_equal along the two denoised ladders, whether
+    Snell / Cycles is at most TIME_SHARE_TARGET, and at each Cycles point Snell's time to that
+    point's error over its time (reached False where Snell's ladder never gets as low)."""
+    out = {"share": TIME_SHARE_TARGET}
+    for key in ("relmse", "flip"):
+        eq = time_to_equal(snell_points, cycles_points, key)
+        ts, es = [p["wall_s"] for p in snell_points], [p[key] for p in snell_points]
+        each = []
+        for c in cycles_points:
+            t = time_at_error(ts, es, c[key])
+            row = {"spp": c["spp"], "cycles_s": c["wall_s"], "error": c[key], "reached": t is not None}
+            if t is not None:
+                row.update(snell_s=t, ratio=t / c["wall_s"])
+            each.append(row)
+        out[key] = {**eq, "met": bool(eq["ratio"] <= TIME_SHARE_TARGET), "at_cycles_points": each}
+    out["met"] = out["relmse"]["met"] and out["flip"]["met"]
+    return out
+
+
+def value_at_spp(points, spp, key):
+    """`key` at `spp` samples along a ladder: linear in log-log between the two ladder points
+    around it; None outside the ladder (never extrapolated)."""
+    pts = sorted((p["spp"], p[key]) for p in points if p["spp"] > 0 and p[key] > 0)
+    for (n0, e0), (n1, e1) in zip(pts, pts[1:]):
+        if n0 <= spp <= n1:
+            if n1 == n0:
+                return e0
+            f = (math.log(spp) - math.log(n0)) / (math.log(n1) - math.log(n0))
+            return math.exp(math.log(e0) + f * (math.log(e1) - math.log(e0)))
+    if pts and pts[-1][0] == spp:
+        return pts[-1][1]
+    return None
+
+
+def fewer_samples_target(denoised_points, noisy_points, factor=FEWER_SAMPLES) -> dict:
+    """Target (b): for each denoised point at n spp whose n x factor lies on the noisy ladder,
+    its FLIP over the noisy ladder's FLIP at n x factor spp (value_at_spp); met when there is at
+    least one such point and every ratio is below 1."""
+    rows = []
+    for p in denoised_points:
+        noisy = value_at_spp(noisy_points, p["spp"] * factor, "flip")
+        if noisy is not None:
+            rows.append({"spp": p["spp"], "noisy_spp": p["spp"] * factor,
+                         "denoised_flip": p["flip"], "noisy_flip": noisy,
+                         "ratio": p["flip"] / noisy})
+    return {"factor": factor, "points": rows, "evaluated": len(rows),
+            "met": bool(rows) and all(r["ratio"] < 1.0 for r in rows)}
+
+
+def equal_time_pair(snell_points, cycles_points) -> tuple:
+    """(Snell index, Cycles index) of the images shown side by side: Cycles' last (most
+    converged) point and the Snell point nearest its wall time in log time."""
+    j = len(cycles_points) - 1
+    t = math.log(cycles_points[j]["wall_s"])
+    i = min(range(len(snell_points)), key=lambda k: abs(math.log(snell_points[k]["wall_s"]) - t))
+    return i, j
+
+
+def flip_map(reference, image) -> np.ndarray:
+    """Per-pixel HDR-FLIP of image against reference, (H, W); its mean is metrics.flip's."""
+    import flip_evaluator
+    ref = np.ascontiguousarray(np.clip(np.nan_to_num(reference), 0, None), np.float32)
+    tst = np.ascontiguousarray(np.clip(np.nan_to_num(image), 0, None), np.float32)
+    if not ref.any() and not tst.any():
+        return np.zeros(ref.shape[:2], np.float32)
+    error, _, _ = flip_evaluator.evaluate(ref, tst, "HDR", applyMagma=False)
+    return np.asarray(error, np.float32).reshape(ref.shape[:2])

@@ -11,8 +11,10 @@ import os
 import numpy as np
 
 from ..pages.html_page import data_uri, page
-from ..pages.images import png_bytes
+from ..pages.images import png_bytes, text_label, upscale
 from ..pages.plots import loglog_svg
+from ..pages.sample_map import ramp
+from ..tracer.image import to_srgb8
 from ..tracer.provenance import provenance
 from .bench_curves import ADAPTIVE_RENDERERS, light_share
 
@@ -63,21 +65,29 @@ def write_json(path, data):
 # Plot: log-log relMSE against wall time, one panel per scene, one polyline per renderer
 
 
-COLOURS = {"snell": "#d62728", "snell_path_tracer": "#ff9896", "cycles": "#1f77b4"}
-LABELS = {"snell": "Snell", "snell_path_tracer": "Snell, path tracer only", "cycles": "Cycles"}
+COLOURS = {"snell": "#d62728", "snell_path_tracer": "#ff9896", "cycles": "#1f77b4",
+           "snell_denoised": "#7a0a0a", "cycles_denoised": "#0a2f5c"}
+LABELS = {"snell": "Snell", "snell_path_tracer": "Snell, path tracer only", "cycles": "Cycles",
+          "snell_denoised": "Snell + OIDN", "cycles_denoised": "Cycles + OIDN"}
+LADDERS = ("snell", "snell_path_tracer", "cycles", "snell_denoised", "cycles_denoised")
 
 
 def renderers(scene) -> list:
     """The ladders a bench scene has, in display order."""
-    return [r for r in ("snell", "snell_path_tracer", "cycles") if r in scene]
+    return [r for r in LADDERS if r in scene]
 
 
-def svg_plot(scenes) -> str:
-    """One inline SVG: a log-log panel of relMSE against wall time for each scene."""
+def is_snell(ladder) -> bool:
+    """Whether a ladder is one of Snell's (its points have Snell's timings and counters)."""
+    return ladder.startswith("snell")
+
+
+def svg_plot(scenes, key="relmse", label="relMSE") -> str:
+    """One inline SVG: a log-log panel of `key` against wall time for each scene."""
     return loglog_svg([(sc["name"], [(LABELS[r], COLOURS[r],
-                                      [(p["wall_s"], p["relmse"]) for p in sc[r]["points"]])
+                                      [(p["wall_s"], p[key]) for p in sc[r]["points"]])
                                      for r in renderers(sc)]) for sc in scenes],
-                      "wall time (s)", "relMSE")
+                      "wall time (s)", label)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -98,10 +108,12 @@ def table_rows(data):
     rows = []
     for sc in data["scenes"]:
         for r in renderers(sc):
-            snell = r != "cycles"
+            snell = is_snell(r)
             for p in sc[r]["points"]:
                 parts = (f"export {p['export_s']:.2f} + build {p['build_s']:.2f} + render {p['render_s']:.2f}"
                          if snell else f"load {p['load_s']:.2f} + render {p['render_s']:.2f}")
+                if "denoise_s" in p:
+                    parts += f" + denoise {p['denoise_s']:.2f}"
                 rows.append([sc["name"], LABELS[r], p["spp"],
                              f"{p['wall_s']:.2f}", parts, fmt(p["relmse"]),
                              fmt(p.get("caustic_relmse")), fmt(p["rmse"]), fmt(p["flip"]),
@@ -168,6 +180,32 @@ ADAPTIVE_HEADER = ["scene", "threshold", "Snell s", "Cycles s", "Snell relMSE", 
                    "time ratio", "relMSE ratio"]
 
 
+def denoised_rows(data):
+    """One row per scene of the denoised comparison: targets (a) and (b), measured."""
+    rows = []
+    for sc in data["scenes"]:
+        dn = sc.get("denoised")
+        if not dn:
+            continue
+        a, b = dn["time_target"], dn["fewer_samples_target"]
+        ratios = [r["ratio"] for r in b["points"]]
+        rows.append([sc["name"], f"{sc['width']}x{sc['height']}",
+                     fmt(a["relmse"]["target"]), fmt(a["relmse"]["snell_s"]),
+                     fmt(a["relmse"]["cycles_s"]), fmt(a["relmse"]["ratio"]),
+                     fmt(a["flip"]["target"]), fmt(a["flip"]["ratio"]),
+                     "met" if a["met"] else "not met",
+                     (f"{fmt(min(ratios))}-{fmt(max(ratios))} ({len(ratios)} points)"
+                      if ratios else "n/a (no point)"),
+                     "met" if b["met"] else "not met"])
+    return rows
+
+
+DENOISED_HEADER = ["scene", "size", "target relMSE (denoised)", "Snell + OIDN s",
+                   "Cycles + OIDN s", "Snell / Cycles (relMSE)", "target FLIP (denoised)",
+                   "Snell / Cycles (FLIP)", "(a) at most 0.5", "(b) FLIP denoised at n / "
+                   "undenoised at 10 n", "(b) below 1"]
+
+
 def _table(rows, header):
     out = ["<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>"]
     out += ["<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows]
@@ -182,7 +220,79 @@ def markdown_table(data) -> str:
     out = md(summary_rows(data), SUMMARY_HEADER) + "\n\n" + md(table_rows(data), HEADER)
     if adaptive_rows(data):
         out += "\n\n" + md(adaptive_rows(data), ADAPTIVE_HEADER)
+    if denoised_rows(data):
+        out += "\n\n" + md(denoised_rows(data), DENOISED_HEADER)
     return out
+
+
+FLIP_SCALE = 0.5   # the FLIP maps' colour scale: 0 (dark) to this value and above (yellow)
+
+
+def flip_map_rgb(values) -> np.ndarray:
+    """A per-pixel FLIP map on the viridis ramp, 0 to FLIP_SCALE, uint8 (H, W, 3)."""
+    return ramp(np.asarray(values, np.float64) / FLIP_SCALE)
+
+
+def denoised_figures_png(reference, snell, cycles, maps, equal_time) -> dict:
+    """PNGs of the denoised pair at equal time: {"reference", "snell", "cycles", "snell_flip",
+    "cycles_flip"} each alone, and "strip": the five side by side under labels."""
+    width = 256
+    tiles = {"reference": to_srgb8(reference), "snell": to_srgb8(snell),
+             "cycles": to_srgb8(cycles), "snell_flip": flip_map_rgb(maps["snell"]),
+             "cycles_flip": flip_map_rgb(maps["cycles"])}
+    tiles = {k: upscale(v, width) for k, v in tiles.items()}
+    e = equal_time
+    captions = {"reference": "reference (undenoised)",
+                "snell": f"Snell+OIDN {e['snell_spp']} spp {e['snell_s']:.1f} s",
+                "snell_flip": f"Snell FLIP {e['snell_flip']:.3f}",
+                "cycles": f"Cycles+OIDN {e['cycles_spp']} spp {e['cycles_s']:.1f} s",
+                "cycles_flip": f"Cycles FLIP {e['cycles_flip']:.3f}"}
+    order = ("reference", "snell", "snell_flip", "cycles", "cycles_flip")
+    h = max(t.shape[0] for t in tiles.values())
+    gap = np.full((h + 22, 4, 3), 255, np.uint8)
+    columns = []
+    for k in order:
+        t = tiles[k]
+        padded = np.zeros((h, t.shape[1], 3), np.uint8)
+        padded[:t.shape[0]] = t
+        columns += [np.concatenate([text_label(captions[k], t.shape[1]), padded]), gap]
+    out = {k: png_bytes(v) for k, v in tiles.items()}
+    out["strip"] = png_bytes(np.concatenate(columns[:-1], axis=1))
+    return out
+
+
+def _denoised_section(data, figures):
+    """The HTML of the denoised comparison, marked as not tested: its table, FLIP against time
+    and each scene's denoised pair at equal time with their FLIP maps."""
+    rows = denoised_rows(data)
+    if not rows:
+        return ""
+    d = data["definitions"]
+    scenes = [sc for sc in data["scenes"] if sc.get("denoised")]
+    out = [f"<h2>Denoised (not tested)</h2>\n<p class='small'><b>Not tested:</b> "
+           f"{html.escape(d['denoised'])}</p>\n{_table(rows, DENOISED_HEADER)}\n"
+           f"<p class='small'>{html.escape(d['time_target'])}</p>\n"
+           f"<p class='small'>{html.escape(d['fewer_samples_target'])}</p>\n"
+           f"<h3>FLIP against wall time</h3>\n{svg_plot(scenes, 'flip', 'FLIP')}\n"
+           f"<p class='small'>{html.escape(d['equal_time'])}; FLIP maps from 0 (dark) to "
+           f"{FLIP_SCALE:g} and above (yellow).</p>"]
+    for sc in scenes:
+        fig = (figures or {}).get(sc["name"])
+        if not fig:
+            continue
+        e = sc["denoised"]["equal_time"]
+        captions = {"reference": "reference (undenoised)",
+                    "snell": f"Snell + OIDN, {e['snell_spp']} spp, {e['snell_s']:.2f} s "
+                             "(not tested)",
+                    "snell_flip": f"Snell + OIDN's FLIP map, mean {e['snell_flip']:.3g}",
+                    "cycles": f"Cycles + OIDN, {e['cycles_spp']} spp, {e['cycles_s']:.2f} s "
+                              "(not tested)",
+                    "cycles_flip": f"Cycles + OIDN's FLIP map, mean {e['cycles_flip']:.3g}"}
+        out.append(f"<h3>{html.escape(sc['name'])}: denoised at equal time</h3>\n<div>"
+                   + "".join(f"<figure><img src='{data_uri(fig[k])}'><figcaption>"
+                             f"{html.escape(c)}</figcaption></figure>"
+                             for k, c in captions.items()) + "</div>")
+    return "\n".join(out) + "\n"
 
 
 def share_map_png(light, reference) -> bytes:
@@ -231,9 +341,10 @@ def _adaptive_section(data, sample_maps):
                f"{s['adaptive_max_spp']}).</p>\n" + "\n".join(figures) + "\n" if figures else ""))
 
 
-def write_html(path, data, svg, maps=None, sample_maps=None):
+def write_html(path, data, svg, maps=None, sample_maps=None, denoised_figures=None):
     """The bench page; maps: {scene name: PNG of the light tracer's share}; sample_maps: {scene
-    name: {renderer: PNG of its samples per pixel}}."""
+    name: {renderer: PNG of its samples per pixel}}; denoised_figures: {scene name:
+    denoised_figures_png's PNGs}."""
     d = data["definitions"]
     s = data["settings"]
     refs = "".join(
@@ -252,6 +363,7 @@ def write_html(path, data, svg, maps=None, sample_maps=None):
         f"<p class='small'>{html.escape(d['time_to_equal_error'])}</p>\n"
         f"{_share_maps(data, maps)}"
         f"{_adaptive_section(data, sample_maps)}"
+        f"{_denoised_section(data, denoised_figures)}"
         f"<h2>Ladder points</h2>\n{_table(table_rows(data), HEADER)}\n"
         f"<h2>Definitions</h2><ul>" + "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>"
                                                for k, v in d.items()) + "</ul>\n"

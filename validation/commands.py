@@ -217,6 +217,14 @@ def setup_bench(p):
     p.add_argument("--adaptive-max-spp", type=int_at_least(1, MOST_SPP), metavar="N",
                    help="per-pixel sample cap of both renderers in that comparison "
                         "(default 1024, --quick 256)")
+    p.add_argument("--denoise", action="store_true",
+                   help="also a ladder of each renderer denoised by Open Image Denoise (albedo "
+                        "and normal), held against the same reference (not tested: a denoised "
+                        "image is biased); without SCENEs also scenes/glass_wall.blend")
+    p.add_argument("--denoise-prefilter", choices=("none", "fast", "accurate"),
+                   help="both renderers' denoising prefilter (default accurate, Cycles')")
+    p.add_argument("--denoise-quality", choices=("high", "balanced", "fast"),
+                   help="both renderers' denoising quality (default high, Cycles')")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/snell/bench)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
@@ -230,9 +238,9 @@ def cmd_bench(args) -> int:
         if exc.name != "bpy":
             raise
         raise CliError("snell bench needs Blender's bpy module (pip install 'snell[blender]')") from None
-    scenes = args.scenes or bench.DEFAULT_SCENES
+    scenes = args.scenes or bench.DEFAULT_SCENES + (bench.DENOISE_SCENES if args.denoise else [])
     for s in scenes:
-        if s in bench.DEFAULT_SCENES and not os.path.exists(s):
+        if s in bench.DEFAULT_SCENES + bench.DENOISE_SCENES and not os.path.exists(s):
             raise CliError(f"{s}: no such file (build it with scenes/build_all.py)")
         check_input_file(s)
     check_writable_directory(args.report, "--report", report=True)
@@ -240,9 +248,12 @@ def cmd_bench(args) -> int:
     for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),
                        ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"), ("ref_seeds", "ref_seeds"),
                        ("ref_spp", "ref_spp"), ("repeat", "repeat"), ("caustics", "caustics"),
-                       ("thresholds", "thresholds"), ("adaptive_max_spp", "adaptive_max_spp")):
+                       ("thresholds", "thresholds"), ("adaptive_max_spp", "adaptive_max_spp"),
+                       ("denoise_prefilter", "denoise_prefilter"),
+                       ("denoise_quality", "denoise_quality")):
         if getattr(args, name) is not None:
             setattr(opts, attr, getattr(args, name))
+    opts.denoise = args.denoise
     log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr, flush=True))
     try:
         data = bench.run(scenes, args.report, opts, cache_dir=args.cache, log=log)
@@ -266,6 +277,15 @@ def cmd_bench(args) -> int:
             print(f"snell bench: {sc['name']}: adaptive at threshold {at:g}: Snell / Cycles at "
                   f"equal error = {fmt(eq['ratio'])} (time {fmt(eq['time_ratio'])}, "
                   f"relMSE {fmt(eq['relmse_ratio'])} at equal threshold)")
+        if "denoised" in sc:
+            a, b = sc["denoised"]["time_target"], sc["denoised"]["fewer_samples_target"]
+            print(f"snell bench: {sc['name']}: denoised (not tested): (a) time to Cycles + OIDN's "
+                  f"error, Snell / Cycles = {fmt(a['relmse']['ratio'])} on relMSE, "
+                  f"{fmt(a['flip']['ratio'])} on FLIP (target at most {a['share']:g}: "
+                  f"{'met' if a['met'] else 'not met'}); (b) FLIP denoised at n / undenoised at "
+                  f"{b['factor']} n: " + (", ".join(f"{r['spp']} spp {fmt(r['ratio'])}"
+                                                    for r in b["points"]) or "no point")
+                  + f" (below 1: {'met' if b['met'] else 'not met'})")
     print(f"snell bench: {data['total_s']:.1f} s -> {os.path.join(args.report, 'bench.html')}")
     return 0
 

@@ -83,7 +83,9 @@ def test_the_comparison_catches_deliberate_errors(reference, change):
 def test_the_validator_never_sees_a_denoised_image(reference):
     """A file that denoises (Cycles' Denoise on, followed) is validated on its noisy estimate:
     compare renders neither the passes nor a denoised image, and its image is the render's own
-    mean; no validator module calls the denoiser."""
+    mean; no validator module calls the denoiser but the bench's denoised comparison
+    (bench.py, whose page marks its denoised images as not tested). Teeth: an import of the
+    denoiser added to compare.py fails it ({'bench.py', 'compare.py'}, measured)."""
     import ast
     import os
 
@@ -99,12 +101,17 @@ def test_the_validator_never_sees_a_denoised_image(reference):
     plain = compare.snell_render(reference.scene, 16)
     assert np.array_equal(result.mean(), plain.mean())
     folder = os.path.join(ROOT, "validation")
+    denoising = set()
     for name in sorted(os.listdir(folder)):
         if name.endswith(".py"):
             with open(os.path.join(folder, name)) as f:
                 tree = ast.parse(f.read())
             imported = {f"{node.module or ''}.{alias.name}" for node in ast.walk(tree)
                         if isinstance(node, ast.ImportFrom) for alias in node.names}
+            imported |= {f"{node.module or ''}" for node in ast.walk(tree)
+                         if isinstance(node, ast.ImportFrom)}
             imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import)
                          for alias in node.names}
-            assert not any("denoise" in module for module in imported), name
+            if any("denoise" in module for module in imported):
+                denoising.add(name)
+    assert denoising <= {"bench.py"}, denoising
