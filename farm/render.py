@@ -11,7 +11,7 @@ import time
 import numpy as np
 
 from ..errors import CliError
-from ..tracer import passes
+from ..tracer import passes, wavefront
 from ..tracer.camera import Camera
 from ..tracer.result import RenderResult
 from ..tracer.shader.program import has_holdout
@@ -23,19 +23,12 @@ AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait
 AHEAD_BYTES = 4 << 30
 
 
-def check_settings(settings, where: str, scene=None) -> None:
-    """CliError unless a cluster can render the settings' (and the scene's) image."""
+def check_settings(settings, where: str) -> None:
+    """CliError unless a cluster can render the settings' image."""
     if getattr(settings, "time_limit", 0):
         # The local render's samples would depend on its clock: no image to be equal to.
         raise CliError(f"{where}: a time limit is not distributed (its samples would depend on "
                        "the clock): add --time-limit 0")
-    # The workers do not return the alpha's sums yet: refuse rather than write alpha 1.
-    if getattr(settings, "film_transparent", False):
-        raise CliError(f"{where}: Film > Transparent is not rendered on a cluster yet (no "
-                       "alpha): render it without --workers/--cluster")
-    if scene is not None and has_holdout(scene.materials):
-        raise CliError(f"{where}: a Holdout is not rendered on a cluster yet (no alpha): "
-                       "render it without --workers/--cluster")
 
 
 @contextlib.contextmanager
@@ -71,7 +64,7 @@ def render_frame(client, scene, settings, name: str, frame: int = 0, progress=No
                  threads: int | None = None) -> RenderResult:
     """Render a scene's frame on the client's workers; `name` (the scene file) names it in
     errors. progress(result, passes done, passes) as Renderer.render's."""
-    check_settings(settings, name, scene)
+    check_settings(settings, name)
     threshold, _ = passes.adaptive_settings(settings)
     if threshold > 0.0 or settings.batches:
         return remote.render_passes(client, scene, settings, name, frame, progress, threads)
@@ -93,6 +86,9 @@ def _render_windows(client, scene, settings, name: str, frame: int, progress,
     futures, arrived = {}, {}
     tasks = _dask().as_completed()
     window_bytes = w * h * 3 * 8 * 3          # sums, sums of squares, light sums: float64 RGB
+    # With the alpha or the denoising passes a window also sends each sample's (WindowExtra).
+    window_bytes += w * h * windows.step * 8 * ((1 if _has_alpha(settings, scene) else 0)
+                                                + (6 if settings.wants_features else 0))
     ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, AHEAD_BYTES // window_bytes))
     start = time.perf_counter()
 
@@ -114,7 +110,10 @@ def _render_windows(client, scene, settings, name: str, frame: int, progress,
             future.release()
             # Only the next window is added: float sums depend on their order.
             while merged in arrived:
-                _add(result, arrived.pop(merged))
+                reply = arrived.pop(merged)
+                if reply.extra is not None and merged == 0:
+                    _start_extra(result, reply.extra, camera)
+                _add(result, reply)
                 merged += 1
                 result.time_s = time.perf_counter() - start
                 if merged + ahead - 1 < len(windows):
@@ -148,5 +147,41 @@ def _add(result: RenderResult, reply: worker.WindowReply) -> None:
         result.stages, result.build_s = reply.stages, reply.build_s
         result.light_in_image = reply.split
     result.add(reply.sums)
+    if reply.extra is not None:
+        add_extra(result, reply.extra)
     result.rays += reply.rays
     result.embree_time_s += reply.embree_s
+
+
+def _has_alpha(settings, scene) -> bool:
+    """Whether a render may make an alpha (Film > Transparent, or a material with a Holdout):
+    the client's memory bound counts its samples."""
+    return bool(settings.film_transparent or has_holdout(scene.materials))
+
+
+def _start_extra(result: RenderResult, extra: worker.WindowExtra, camera: Camera) -> None:
+    """Keep the alpha's and the denoising passes' sums where the windows bring samples of them."""
+    if extra.albedo is not None:
+        result.start_features(camera.rotation)
+    if extra.transparent is not None:
+        result.start_alpha(extra.film_transparent)
+
+
+def add_extra(result: RenderResult, extra: worker.WindowExtra) -> None:
+    """Add a window's alpha and denoising samples to the result's sums one sample at a time,
+    with the tracer's own additions (wavefront.film_alpha, film_features): the local render's
+    sums bit for bit, as each of its pixels gets its samples in sample order."""
+    rows = result.extra_rows()
+    npix = result.width * result.height
+    count = (extra.transparent if extra.transparent is not None else extra.albedo).shape[0]
+    for k in range(count):
+        if extra.transparent is not None:
+            wavefront.film_alpha(extra.transparent[k], npix, 0, 1, passes.ALL_PIXELS,
+                                 rows.transparent, rows.transparent_sq)
+        if extra.albedo is not None:
+            wavefront.film_features(extra.albedo[k], extra.normal[k], npix, 0, 1,
+                                    passes.ALL_PIXELS, rows.albedo, rows.normal)
+    if extra.transparent is not None:
+        result.alpha_nans[0] += extra.alpha_nans
+    if extra.albedo is not None:
+        result.feature_nans[0] += extra.feature_nans
