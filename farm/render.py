@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import sys
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -34,8 +35,8 @@ def check_settings(settings, where: str) -> None:
 @contextlib.contextmanager
 def session(address: str | None, workers: int | None, quiet: bool = False):
     """Render with the scheduler at `address`, or a LocalCluster of `workers` processes started
-    and stopped here: yields render(scene, settings, name, frame=0, progress=None) ->
-    RenderResult (with .workers); says where on stderr unless quiet."""
+    and stopped here: yields a Session (render(scene, settings, name, frame=0, progress=None)
+    -> RenderResult with .workers, and its prefetch); says where on stderr unless quiet."""
     with cluster.connect(address, workers) as client:
         threads = cluster.check_workers(client)
         processes = len(client.nthreads())
@@ -44,12 +45,86 @@ def session(address: str | None, workers: int | None, quiet: bool = False):
             print(f"snell: rendering on {processes} Dask worker{'s' if processes != 1 else ''} "
                   f"({threads} threads){', dashboard ' + board if board else ''}",
                   file=sys.stderr, flush=True)
+        frames = Session(client, threads, processes)
+        try:
+            yield frames
+        finally:
+            frames.drop()
 
-        def render(scene, settings, name: str, frame: int = 0, progress=None) -> RenderResult:
-            result = render_frame(client, scene, settings, name, frame, progress, threads)
-            result.workers = processes
-            return result
-        yield render
+
+class Session:
+    """A cluster's frames, rendered one after the other (`snell batch`): calling it renders a
+    frame; prefetch(scene, settings, name, frame) first starts a frame to come, whose tasks
+    Dask runs only where the frames before it have none ready (a lower priority), so that the
+    workers trace it during the last frame's tail instead of waiting for the next export."""
+
+    def __init__(self, client, threads: int, processes: int):
+        self.client, self.threads, self.processes = client, threads, processes
+        self.order = 0              # frames begun: a frame's tasks have priority -order
+        self.started: dict = {}     # frame -> Started (prefetched, not rendered yet)
+        self.prefetched = 0         # frames that found their windows started (measurements)
+
+    def __call__(self, scene, settings, name: str, frame: int = 0, progress=None) -> RenderResult:
+        started = self.started.pop(frame, None)
+        if started is not None and started.key != keys.render_key(scene, settings):
+            started.cancel(self.client)      # another scene than prefetched: start afresh
+            started = None
+        if started is None:
+            self.order += 1
+            priority = -self.order
+        else:
+            self.prefetched += 1
+            priority = started.priority
+        result = render_frame(self.client, scene, settings, name, frame, progress, self.threads,
+                              started, priority)
+        result.workers = self.processes
+        return result
+
+    def prefetch(self, scene, settings, name: str, frame: int) -> None:
+        """Start a frame to come (fixed samples: its first windows; adaptive sampling and
+        batches, whose passes the client schedules: its renderer on every worker)."""
+        if frame in self.started or getattr(settings, "time_limit", 0):
+            return
+        self.order += 1
+        threshold, _ = passes.adaptive_settings(settings)
+        if threshold > 0.0 or settings.batches:
+            self.started[frame] = _build_renderers(self.client, scene, settings, -self.order)
+        else:
+            self.started[frame] = start_windows(self.client, scene, settings, frame,
+                                                self.threads, -self.order)
+
+    def drop(self) -> None:
+        """Cancel what was prefetched and not rendered."""
+        for started in self.started.values():
+            started.cancel(self.client)
+        self.started.clear()
+
+
+@dataclass
+class Started:
+    """A frame's tasks submitted ahead: its render key, scattered scene, the windows in flight
+    (index -> future; none for a frame of passes, whose renderers are being built), how many
+    may be, their priority, and other futures to release."""
+    key: str
+    scene: object
+    futures: dict
+    ahead: int
+    priority: int
+    others: list
+
+    def cancel(self, client) -> None:
+        client.cancel(list(self.futures.values()) + self.others + [self.scene])
+
+
+def _build_renderers(client, scene, settings, priority: int) -> Started:
+    """Every worker builds a frame's Renderer (BVH, tables) at a low priority: a frame of passes
+    cannot start its windows before the client schedules them."""
+    key = keys.render_key(scene, settings)
+    [scene_future] = client.scatter([scene], broadcast=True, hash=False)
+    builds = [client.submit(worker.renderer_facts, scene_future, key, settings, workers=[address],
+                            allow_other_workers=False, priority=priority, pure=False)
+              for address in client.nthreads()]
+    return Started(key, scene_future, {}, 0, priority, builds)
 
 
 def render_on(address: str | None, workers: int | None, scene, settings, name: str,
@@ -61,19 +136,27 @@ def render_on(address: str | None, workers: int | None, scene, settings, name: s
 
 
 def render_frame(client, scene, settings, name: str, frame: int = 0, progress=None,
-                 threads: int | None = None) -> RenderResult:
+                 threads: int | None = None, started: Started | None = None,
+                 priority: int = 0) -> RenderResult:
     """Render a scene's frame on the client's workers; `name` (the scene file) names it in
-    errors. progress(result, passes done, passes) as Renderer.render's."""
+    errors. progress(result, passes done, passes) as Renderer.render's. started: the frame's
+    tasks already submitted (Session.prefetch); priority: Dask's, of its tasks."""
     check_settings(settings, name)
     threshold, _ = passes.adaptive_settings(settings)
     if threshold > 0.0 or settings.batches:
-        return remote.render_passes(client, scene, settings, name, frame, progress, threads)
-    return _render_windows(client, scene, settings, name, frame, progress, threads)
+        try:
+            return remote.render_passes(client, scene, settings, name, frame, progress, threads)
+        finally:
+            if started is not None:
+                started.cancel(client)
+    return _render_windows(client, scene, settings, name, frame, progress, threads, started,
+                           priority)
 
 
-def _render_windows(client, scene, settings, name: str, frame: int, progress,
-                    threads: int | None) -> RenderResult:
-    """A fixed-sample frame's windows traced as tasks and added in window order."""
+def start_windows(client, scene, settings, frame: int, threads: int | None,
+                  priority: int = 0) -> Started:
+    """Scatter a fixed-sample frame's scene and submit its first windows (as many as may be in
+    flight at once: the client's memory bound)."""
     key = keys.render_key(scene, settings)
     camera = Camera(scene.camera)
     w, h, spp = camera.width, camera.height, settings.spp
@@ -81,27 +164,41 @@ def _render_windows(client, scene, settings, name: str, frame: int, progress,
     threads = threads or sum(client.nthreads().values())
     # Sent once to every worker (a worker that joins later copies it from another), not per task.
     [scene_future] = client.scatter([scene], broadcast=True, hash=False)
-    result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=threads,
-                          spp_budget=spp, exposure=settings.film_exposure)
-    futures, arrived = {}, {}
-    tasks = _dask().as_completed()
     window_bytes = w * h * 3 * 8 * 3          # sums, sums of squares, light sums: float64 RGB
     # With the alpha or the denoising passes a window also sends each sample's (WindowExtra).
     window_bytes += w * h * windows.step * 8 * ((1 if _has_alpha(settings, scene) else 0)
                                                 + (6 if settings.wants_features else 0))
     ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, AHEAD_BYTES // window_bytes))
+    started = Started(key, scene_future, {}, ahead, priority, [])
+    for i in range(min(ahead, len(windows))):
+        _submit(client, started, settings, frame, windows[i])
+    return started
+
+
+def _submit(client, started: Started, settings, frame: int, window) -> None:
+    """Submit one window's task."""
+    started.futures[window.index] = client.submit(
+        worker.trace_window, started.scene, started.key, window, settings.spp, settings,
+        key=keys.window_key(started.key, frame, window.index, settings.seed), retries=2,
+        priority=started.priority)
+
+
+def _render_windows(client, scene, settings, name: str, frame: int, progress,
+                    threads: int | None, started: Started | None = None,
+                    priority: int = 0) -> RenderResult:
+    """A fixed-sample frame's windows traced as tasks and added in window order."""
+    camera = Camera(scene.camera)
+    w, h, spp = camera.width, camera.height, settings.spp
+    windows = passes.fixed_windows(w * h, spp)
+    threads = threads or sum(client.nthreads().values())
+    started = started or start_windows(client, scene, settings, frame, threads, priority)
+    result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=threads,
+                          spp_budget=spp, exposure=settings.film_exposure)
+    futures, arrived, ahead = started.futures, {}, started.ahead
+    tasks = _dask().as_completed(list(futures.values()))
     start = time.perf_counter()
 
-    def submit(i):
-        window = windows[i]
-        futures[i] = client.submit(worker.trace_window, scene_future, key, window, spp, settings,
-                                   key=keys.window_key(key, frame, window.index, settings.seed),
-                                   retries=2)
-        tasks.add(futures[i])
-
     try:
-        for i in range(min(ahead, len(windows))):
-            submit(i)
         merged = 0
         for future in tasks:
             i = next(k for k, f in futures.items() if f is future)
@@ -117,12 +214,13 @@ def _render_windows(client, scene, settings, name: str, frame: int, progress,
                 merged += 1
                 result.time_s = time.perf_counter() - start
                 if merged + ahead - 1 < len(windows):
-                    submit(merged + ahead - 1)
+                    _submit(client, started, settings, frame, windows[merged + ahead - 1])
+                    tasks.add(futures[merged + ahead - 1])
                 if progress is not None and progress(result, merged, len(windows)) is False:
                     result.cancelled = merged < len(windows)
                     return result
     finally:
-        client.cancel(list(futures.values()) + [scene_future])
+        started.cancel(client)
     result.time_s = time.perf_counter() - start
     return result
 
