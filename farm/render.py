@@ -1,7 +1,7 @@
 """A frame on a Dask cluster. Fixed samples: its windows (Renderer.windows, fixed by the image
-size and spp, not by the workers) traced as tasks, and added in window order as they arrive,
-which makes the local render's float sums bit for bit (RenderResult.add). Adaptive sampling and
-batches: their passes, scheduled here and traced on the workers (remote.py)."""
+size and spp, not by the workers) traced as tasks, a few ahead, and fetched and added in window
+order, which makes the local render's float sums bit for bit (RenderResult.add). Adaptive
+sampling and batches: their passes, scheduled here and traced on the workers (remote.py)."""
 from __future__ import annotations
 
 import contextlib
@@ -19,9 +19,11 @@ from ..tracer.shader.program import has_holdout
 from . import cluster, keys, remote, worker
 
 AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait for the client
-# ...but no more than about this many bytes of window sums (a 3840x2160 window is 600 MB): the
-# client holds at most the windows in flight, so its memory stays bounded however long the render.
-AHEAD_BYTES = 4 << 30
+# ...but no more than about this many bytes of window sums per worker thread (a 3840x2160
+# window is 600 MB). The client fetches the windows in window order, one at a time, so a window
+# that finished early waits on its worker: the client holds one window and the image whatever
+# the workers, and the workers the windows in flight.
+AHEAD_BYTES = 2 << 30
 
 
 def check_settings(settings, where: str) -> None:
@@ -168,7 +170,7 @@ def start_windows(client, scene, settings, frame: int, threads: int | None,
     # With the alpha or the denoising passes a window also sends each sample's (WindowExtra).
     window_bytes += w * h * windows.step * 8 * ((1 if _has_alpha(settings, scene) else 0)
                                                 + (6 if settings.wants_features else 0))
-    ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, AHEAD_BYTES // window_bytes))
+    ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, threads * AHEAD_BYTES // window_bytes))
     started = Started(key, scene_future, {}, ahead, priority, [])
     for i in range(min(ahead, len(windows))):
         _submit(client, started, settings, frame, windows[i])
@@ -194,40 +196,28 @@ def _render_windows(client, scene, settings, name: str, frame: int, progress,
     started = started or start_windows(client, scene, settings, frame, threads, priority)
     result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=threads,
                           spp_budget=spp, exposure=settings.film_exposure)
-    futures, arrived, ahead = started.futures, {}, started.ahead
-    tasks = _dask().as_completed(list(futures.values()))
+    futures, ahead = started.futures, started.ahead
     start = time.perf_counter()
-
     try:
-        merged = 0
-        for future in tasks:
-            i = next(k for k, f in futures.items() if f is future)
-            arrived[i] = _reply(future, name, windows[i])
-            del futures[i]
+        for merged in range(len(windows)):
+            # In window order (float sums depend on their order); the windows after it trace
+            # meanwhile, and those that finish first wait on their workers, not here.
+            future = futures.pop(merged)
+            reply = _reply(future, name, windows[merged])
             future.release()
-            # Only the next window is added: float sums depend on their order.
-            while merged in arrived:
-                reply = arrived.pop(merged)
-                if reply.extra is not None and merged == 0:
-                    _start_extra(result, reply.extra, camera)
-                _add(result, reply)
-                merged += 1
-                result.time_s = time.perf_counter() - start
-                if merged + ahead - 1 < len(windows):
-                    _submit(client, started, settings, frame, windows[merged + ahead - 1])
-                    tasks.add(futures[merged + ahead - 1])
-                if progress is not None and progress(result, merged, len(windows)) is False:
-                    result.cancelled = merged < len(windows)
-                    return result
+            if reply.extra is not None and merged == 0:
+                _start_extra(result, reply.extra, camera)
+            _add(result, reply)
+            result.time_s = time.perf_counter() - start
+            if merged + ahead < len(windows):
+                _submit(client, started, settings, frame, windows[merged + ahead])
+            if progress is not None and progress(result, merged + 1, len(windows)) is False:
+                result.cancelled = merged + 1 < len(windows)
+                return result
     finally:
         started.cancel(client)
     result.time_s = time.perf_counter() - start
     return result
-
-
-def _dask():
-    import distributed
-    return distributed
 
 
 def _reply(future, name: str, window) -> worker.WindowReply:

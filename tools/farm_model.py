@@ -12,7 +12,9 @@ The inputs (defaults: docs/measurements.md, "Rendering on Dask workers"):
   --scene-mib  the pickled scene, scattered from the client to every worker;
   --merge-gbps the client's in-order add of a window's sums (RenderResult.add), GB/s of sums;
   --net-gbps   the client's network link, GB/s (1.25: 10 GbE);
-  --sched-ms   the Dask scheduler's own time per task (Dask's documentation: about 1 ms).
+  --sched-ms   the Dask scheduler's own time per task (Dask's documentation: about 1 ms);
+  --ahead-gib  the client's bound on window sums submitted and not yet added (farm/render.py's
+               AHEAD_BYTES), which also bounds how many workers trace at once.
 
 A window of a fixed-sample render is samples_per_pass(pixels) samples of every pixel
 (tracer/passes.py: 2^17 paths, at least one sample), traced by one worker thread; it sends back
@@ -20,9 +22,9 @@ A window of a fixed-sample render is samples_per_pass(pixels) samples of every p
 windows one at a time, in window order: it is a serial resource, as is the scheduler. The frame
 time on W single-threaded workers is then
 
-    setup + max(ceil(N / W) * (t_window + task), N * (bytes / net + bytes / merge), N * sched)
+    setup + max(ceil(N / B) * (t_window + task), N * (bytes / net + bytes / merge), N * sched)
 
-with setup = the scene sent W times over the client's link, plus one build. Equal windows make
+with B = min(W, the windows the client lets be in flight), setup = the scene sent W times over the client's link, plus one build. Equal windows make
 ceil(N / W) rounds exact for the compute term (the last round's idle workers are the tail).
 The speed-up is against one such worker thread doing it all (N * t_window). An animation is a
 run of such frames whose setups overlap the frame before (snell batch's prefetch).
@@ -37,13 +39,17 @@ import heapq
 import math
 import random
 
-PASS_PATHS = 1 << 17        # tracer/passes.py
+from snell.farm.render import AHEAD_BYTES, AHEAD_PER_THREAD
+from snell.tracer.passes import samples_per_pass as samples_per_window
+
 BYTES_PER_PIXEL = 72        # sums, sums of squares, light sums: 3 x float64 RGB
 
 
-def samples_per_window(pixels: int) -> int:
-    """tracer/passes.samples_per_pass for a whole image."""
-    return max(1, PASS_PATHS // pixels)
+def in_flight(pixels: int, workers: int, ahead_bytes: int = AHEAD_BYTES) -> int:
+    """The windows farm/render.py lets be submitted and not yet added (the workers' memory
+    bound, ahead_bytes per worker thread): at most this many workers trace at once."""
+    return max(2, min(AHEAD_PER_THREAD * workers + 1,
+                      workers * ahead_bytes // (pixels * BYTES_PER_PIXEL)))
 
 
 def frame(pixels: int, spp: int, workers: int, a) -> dict:
@@ -52,18 +58,19 @@ def frame(pixels: int, spp: int, workers: int, a) -> dict:
     windows = math.ceil(spp / per_window)
     t_window = pixels * per_window * a.path_us * 1e-6
     window_bytes = pixels * BYTES_PER_PIXEL
-    compute = math.ceil(windows / workers) * (t_window + a.task_ms * 1e-3)
+    busy = min(workers, in_flight(pixels, workers, a.ahead_gib * 2**30))
+    compute = math.ceil(windows / busy) * (t_window + a.task_ms * 1e-3)
     client = windows * (window_bytes / (a.net_gbps * 1e9) + window_bytes / (a.merge_gbps * 1e9))
     scheduler = windows * a.sched_ms * 1e-3
     setup = workers * a.scene_mib * 2**20 / (a.net_gbps * 1e9) + a.build_s
-    bound = max(("workers", compute), ("client", client), ("scheduler", scheduler),
-                key=lambda kv: kv[1])
+    bound = max(("workers" if busy == workers else "memory bound", compute),
+                ("client", client), ("scheduler", scheduler), key=lambda kv: kv[1])
     total = setup + bound[1]
     one = windows * t_window
     return {"windows": windows, "per_window": per_window, "t_window": t_window,
             "window_mb": window_bytes / 1e6, "compute": compute, "client": client,
             "scheduler": scheduler, "setup": setup, "total": total, "bound": bound[0],
-            "speedup": one / total, "one": one}
+            "speedup": one / total, "one": one, "busy": busy}
 
 
 def saturation(pixels: int, spp: int, a) -> int:
@@ -77,41 +84,57 @@ def saturation(pixels: int, spp: int, a) -> int:
 def lost_work(windows: int, t_window: float, workers: int, kills: int, restart: float,
               rng: random.Random) -> tuple[float, float]:
     """(thread-seconds traced twice, makespan) of a frame of equal windows on `workers`, with
-    `kills` workers killed at times uniform over the frame's failure-free makespan."""
+    `kills` workers killed at times uniform over the frame's failure-free makespan. The client
+    fetches windows in window order as soon as each is done (fetch time left out), so a killed
+    worker loses its running window and the windows it finished that are not fetched yet (done
+    while an earlier window still ran), all traced again, first in line."""
     clean = math.ceil(windows / workers) * t_window
-    kill_times = sorted(rng.uniform(0, clean) for _ in range(kills))
+    kills_left = sorted(rng.uniform(0, clean) for _ in range(kills))
     free = [(0.0, w) for w in range(workers)]        # (time the worker is free, worker)
     heapq.heapify(free)
-    queue = list(range(windows))                     # windows not yet done, in order
-    redone, end = 0.0, 0.0
+    queue = list(range(windows))                     # windows to trace, in order
     running = {}                                     # worker -> (start, finish, window)
-    while queue or running:
-        # The next event: a worker free to take a window, a running window ending, or a kill.
-        next_kill = kill_times[0] if kill_times else math.inf
+    held = {w: [] for w in range(workers)}           # finished, not fetched: worker -> windows
+    done, fetched = set(), 0
+    redone, end = 0.0, 0.0
+    while fetched < windows:
+        next_kill = kills_left[0] if kills_left else math.inf
         next_finish = min((f for _, f, _ in running.values()), default=math.inf)
         next_free = free[0][0] if free and queue else math.inf
         now = min(next_kill, next_finish, next_free)
-        if now == math.inf:
-            break
         if now == next_kill:
-            kill_times.pop(0)
-            busy = [w for w in running]
-            if busy:
-                victim = rng.choice(busy)
+            kills_left.pop(0)
+            victim = rng.choice([w for w in range(workers) if running.get(w) or held[w]]
+                                or list(range(workers)))
+            lost = []
+            if victim in running:
                 start, _, window = running.pop(victim)
                 redone += now - start
-                queue.insert(0, window)              # traced again, first in line
-                heapq.heappush(free, (now + restart, victim))
-            continue
-        if now == next_finish:
+                lost.append(window)
+            for window in held[victim]:
+                redone += t_window
+                done.discard(window)
+                lost.append(window)
+            held[victim] = []
+            queue[:0] = sorted(lost)
+            free = [(t, w) for t, w in free if w != victim]
+            heapq.heapify(free)
+            heapq.heappush(free, (now + restart, victim))
+        elif now == next_finish:
             worker = next(w for w, (_, f, _) in running.items() if f == now)
-            running.pop(worker)
-            end = max(end, now)
+            _, _, window = running.pop(worker)
+            done.add(window)
+            held[worker].append(window)
             heapq.heappush(free, (now, worker))
-            continue
-        at, worker = heapq.heappop(free)
-        window = queue.pop(0)
-        running[worker] = (at, at + t_window, window)
+            while fetched in done:               # the client takes the next in order
+                for w in held:
+                    if fetched in held[w]:
+                        held[w].remove(fetched)
+                fetched += 1
+            end = now
+        else:
+            at, worker = heapq.heappop(free)
+            running[worker] = (at, at + t_window, queue.pop(0))
     return redone, end
 
 
@@ -125,12 +148,14 @@ def main():
     ap.add_argument("--net-gbps", type=float, default=1.25)
     ap.add_argument("--sched-ms", type=float, default=1.0)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--ahead-gib", type=float, default=AHEAD_BYTES / 2**30,
+                    help="the client's bound on window sums in flight (farm/render.py)")
     a = ap.parse_args()
     uhd, hd = 3840 * 2160, 1920 * 1080
     print("3840x2160 at 4096 spp:")
     for workers in (1, 4, 16, 64):
         f = frame(uhd, 4096, workers, a)
-        print(f"  {workers:3d} workers: {f['total'] / 60:7.1f} min, speed-up "
+        print(f"  {workers:3d} workers ({f['busy']} busy): {f['total'] / 60:7.1f} min, speed-up "
               f"{f['speedup']:5.1f} (bound: {f['bound']}; workers {f['compute'] / 60:.1f} min, "
               f"client {f['client'] / 60:.1f} min, scheduler {f['scheduler']:.0f} s)")
     f = frame(uhd, 4096, 1, a)
@@ -141,7 +166,7 @@ def main():
     for workers in (1, 4, 16, 64):
         f = frame(hd, 256, workers, a)
         total = frames * (f["total"] - f["setup"]) + f["setup"]
-        print(f"  {workers:3d} workers: {total / 3600:6.2f} h, speed-up "
+        print(f"  {workers:3d} workers ({f['busy']} busy): {total / 3600:6.2f} h, speed-up "
               f"{frames * f['one'] / total:5.1f} (bound: {f['bound']})")
     print(f"  saturates at {saturation(hd, 256, a)} workers")
     rng = random.Random(a.seed)

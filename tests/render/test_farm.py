@@ -113,7 +113,8 @@ def test_the_merge_order_is_what_makes_it_exact(client, small_windows, monkeypat
 
 def test_the_client_holds_a_bounded_number_of_windows(client, small_windows, monkeypatch):
     """With room for two windows' sums, never more than two windows are submitted and not yet
-    added (the client's memory), and the image is still the local render's."""
+    added (the workers' memory: the client fetches one window at a time, in window order), and
+    the image is still the local render's."""
     monkeypatch.setattr(render_module, "AHEAD_BYTES", 1)
     scene = glass_room()
     local = Renderer(scene, scene.settings()).render()
