@@ -1,8 +1,8 @@
 """A model of a fixed-sample render on Dask workers (farm/), from measured costs: where adding
 workers stops paying, and how much work a lost worker costs.
 
-    .venv/bin/python tools/farm_model.py [--path-us 1.6] [--task-ms 8] [--build-s 1.3]
-        [--scene-mib 1.2] [--merge-gbps 1.5] [--net-gbps 1.25] [--sched-ms 1] [--seed 1]
+    .venv/bin/python tools/farm_model.py [--path-us 1.4] [--task-ms 5.8] [--build-s 0.94]
+        [--scene-mib 0.25] [--merge-gbps 5.9] [--net-gbps 1.25] [--sched-ms 1] [--seed 1]
 
 The inputs (defaults: docs/measurements.md, "Rendering on Dask workers"):
   --path-us    a worker thread's microseconds per camera path, the light tracer's share included
@@ -28,6 +28,8 @@ with B = min(W, the windows the client lets be in flight), setup = the scene sen
 ceil(N / W) rounds exact for the compute term (the last round's idle workers are the tail).
 The speed-up is against one such worker thread doing it all (N * t_window). An animation is a
 run of such frames whose setups overlap the frame before (snell batch's prefetch).
+
+Workers are worker threads (a `dask worker --nthreads 4` is 4), each tracing one window at a time.
 
 The worker-loss simulation replays a frame's windows on W workers, each window taking t_window,
 with workers killed at random times (uniform over the frame): a killed worker's running window
@@ -140,11 +142,11 @@ def lost_work(windows: int, t_window: float, workers: int, kills: int, restart: 
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--path-us", type=float, default=1.6)
-    ap.add_argument("--task-ms", type=float, default=8.0)
-    ap.add_argument("--build-s", type=float, default=1.3)
-    ap.add_argument("--scene-mib", type=float, default=1.2)
-    ap.add_argument("--merge-gbps", type=float, default=1.5)
+    ap.add_argument("--path-us", type=float, default=1.4)
+    ap.add_argument("--task-ms", type=float, default=5.8)
+    ap.add_argument("--build-s", type=float, default=0.94)
+    ap.add_argument("--scene-mib", type=float, default=0.25)
+    ap.add_argument("--merge-gbps", type=float, default=5.9)
     ap.add_argument("--net-gbps", type=float, default=1.25)
     ap.add_argument("--sched-ms", type=float, default=1.0)
     ap.add_argument("--seed", type=int, default=1)
