@@ -313,8 +313,10 @@ def _pass_layers(args, scene, settings, result, denoised) -> dict:
     (the denoising layers: the render makes them when they are asked for); a pass Snell cannot
     make is left out with a warning."""
     for name in args.passes:
-        if name in NOT_RENDERED_PASSES or (name == NOISY and denoised is None):
-            why = "without --denoise" if name == NOISY else "by Snell yet"
+        missing = name in (ALBEDO, NORMAL) and not getattr(result, "has_features", False)
+        if name in NOT_RENDERED_PASSES or (name == NOISY and denoised is None) or missing:
+            why = ("without --denoise" if name == NOISY else
+                   "on a cluster yet" if missing else "by Snell yet")
             print(f"snell: warning: {args.scene}: pass {name!r} is not rendered {why}: left out",
                   file=sys.stderr)
     layers = {}
