@@ -235,7 +235,7 @@ def cmd_render(args) -> int:
     farm = args.workers is not None or args.cluster is not None
     if farm:
         from .farm.render import check_settings
-        check_settings(settings, args.scene, scene)
+        check_settings(settings, args.scene)
     from .tracer import image
     from .tracer.integrator import kernels_compiled, render, warm_up
 

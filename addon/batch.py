@@ -153,13 +153,41 @@ def _ctrl_c_stops_the_render(stop):
         stop.clear()
 
 
+def _prefetch(bpy, final, scene, frame: int, prefetch) -> None:
+    """Export a frame to come and have the cluster start it (final.remote_render.prefetch).
+    Exported from the view layer's depsgraph: Blender makes a render's only inside the render,
+    so a frame whose render evaluation differs (a modifier's render levels) is started for
+    nothing and renders afresh when its turn comes; an export that fails is left to the render
+    to report. Leaves the scene at `frame`: the next render sets its own."""
+    from ..tracer.camera import Camera
+    from . import window
+    from .export import export_depsgraph
+    try:
+        scene.frame_set(frame)
+        exported, _ = export_depsgraph(bpy.context.evaluated_depsgraph_get(),
+                                       source=final._source_name())
+        full = Camera(exported.camera)
+        x0, y0, w, h = final._border(scene.render, full.width, full.height)
+        exported = exported.with_camera(**window.window_camera(exported.camera, x0, y0, w, h))
+        prefetch(exported, final._settings(scene, exported), final._source_name(), frame)
+    except Exception:  # noqa: BLE001  (the frame's own render reports what is wrong)
+        pass
+
+
 def _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, stream, exact=None):
     """Render the frames; `exact`: the one frame's image goes to this path as given (-o without
     #), renamed from the numbered name Blender writes."""
     pattern = scene.render.filepath
     failed, seen_warnings, reasons = 0, set(), set()
+    prefetch = getattr(final.remote_render, "prefetch", None)
+    if prefetch is not None:
+        _prefetch(bpy, final, scene, frame_list[0], prefetch)
     for i, frame in enumerate(frame_list, 1):
         head = f"snell: frame {frame} ({i}/{len(frame_list)})"
+        if prefetch is not None and i < len(frame_list):
+            # The next frame starts on the cluster before this one: its tasks take the workers
+            # this frame's last windows leave idle (farm/render.py's Session).
+            _prefetch(bpy, final, scene, frame_list[i], prefetch)
         path = scene.render.frame_path(frame=frame)
         start = time.perf_counter()
         error = None

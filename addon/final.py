@@ -63,12 +63,11 @@ def data_passes_of(view_layer) -> tuple:
                  if getattr(view_layer, switch, False))
 
 
-def denoising_passes(settings, remote: bool = False) -> tuple:
+def denoising_passes(settings) -> tuple:
     """The denoising passes a render with these settings fills: the noisy image when it
-    denoises, the albedo and normal when it renders them (not on a cluster, remote, which does
-    not trace them yet: no empty layer is presented as real)."""
+    denoises, the albedo and normal when it renders them (on a cluster too)."""
     return (((NOISY_PASS,) if settings.denoise else ())
-            + (FEATURE_PASSES if settings.wants_features and not remote else ()))
+            + (FEATURE_PASSES if settings.wants_features else ()))
 
 
 def oidn_dirs() -> list:
@@ -279,7 +278,7 @@ def render(engine, depsgraph):
                 return
         # Before begin_result, so that the result has the pass (as Cycles adds its passes).
         engine.add_pass(SAMPLE_COUNT_PASS, 1, "X", layer=depsgraph.view_layer.name)
-        for name, channels, ids in denoising_passes(settings, remote=remote_render is not None):
+        for name, channels, ids in denoising_passes(settings):
             engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
         data = data_passes_of(depsgraph.view_layer)
         for name, channels, ids in light + data:

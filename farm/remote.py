@@ -16,7 +16,7 @@ import numpy as np
 
 from ..tracer import passes
 from ..tracer.camera import Camera
-from ..tracer.result import RenderResult
+from ..tracer.result import ExtraRows, RenderResult
 from . import cluster, keys, worker
 
 TASKS_PER_THREAD = 2   # tasks per worker thread in a pass: a slow task delays a pass the less
@@ -56,9 +56,8 @@ class RemoteTracer:
 
     def camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
                     pilot=None, merge=False, extra=None) -> int:
-        """As Renderer.camera_pass (no merge: the schedulers that use it add in place; no
-        denoising passes or alpha, which a cluster does not trace yet: its results have none,
-        so `extra` is None)."""
+        """As Renderer.camera_pass (no merge: the schedulers that use it add in place); the
+        alpha's and denoising passes' rows (extra) go with the pixels and come back likewise."""
         rows = pixels.shape[0] or self.npix
         bad = 0
         for sub in passes.sub_passes(step, rows):
@@ -70,11 +69,12 @@ class RemoteTracer:
                 index = pixels[r0:r1] if pixels.shape[0] else np.arange(r0, r1, dtype=np.int64)
                 block = tuple(a[index] if a.shape[0] else a for a in film)
                 block_pilot = None if pilot is None else tuple(a[index] for a in pilot)
+                block_extra = None if extra is None else _rows_of(extra, index)
                 local = [(start // sub.samples - r0, (start + n) // sub.samples - r0)
                          for start, n in group]
                 future = self.client.submit(
                     worker.trace_rows, self.scene, self.key, self.settings, sub.samples,
-                    sub.first, bits, index, block, block_pilot, local, vertices,
+                    sub.first, bits, index, block, block_pilot, local, vertices, block_extra,
                     key=keys.pass_key(self.key, self.frame, "camera", sub.first, r0,
                                       self.settings.seed), retries=2)
                 tasks.append((index, future))
@@ -86,6 +86,8 @@ class RemoteTracer:
                 if pilot is not None:
                     for whole, part in zip(pilot, reply.pilot):
                         whole[index] = part
+                if extra is not None:
+                    _put_rows(extra, index, reply.extra)
                 bad += reply.bad
                 counters += reply.counters
                 self._count(reply)
@@ -126,6 +128,28 @@ class RemoteTracer:
             future.release()
 
 
+EXTRA_SUMS = ("albedo", "normal", "transparent", "transparent_sq")   # ExtraRows' rows
+
+
+def _rows_of(extra: ExtraRows, index: np.ndarray) -> ExtraRows:
+    """The rows of `index` of the render's alpha and denoising sums, with NaN counts from 0."""
+    rows = {name: None if getattr(extra, name) is None else getattr(extra, name)[index]
+            for name in EXTRA_SUMS}
+    return extra._replace(**rows, feature_nans=np.zeros(1, np.int64),
+                          alpha_nans=np.zeros(1, np.int64))
+
+
+def _put_rows(extra: ExtraRows, index: np.ndarray, rows: ExtraRows) -> None:
+    """Put a task's rows of the alpha and denoising sums back, and add its NaN counts."""
+    for name in EXTRA_SUMS:
+        if getattr(extra, name) is not None:
+            getattr(extra, name)[index] = getattr(rows, name)
+    if extra.feature_nans is not None:
+        extra.feature_nans[0] += rows.feature_nans[0]
+    if extra.alpha_nans is not None:
+        extra.alpha_nans[0] += rows.alpha_nans[0]
+
+
 def _groups(jobs: list, most: int) -> list[list]:
     """Consecutive jobs in at most `most` groups of near-equal count."""
     count = max(1, min(most, len(jobs)))
@@ -147,6 +171,10 @@ def render_passes(client, scene, settings, name: str, frame: int = 0, progress=N
                               light_in_image=tracer.split, stages=tracer.facts["stages"],
                               spp_budget=settings.spp, noise_threshold=threshold,
                               exposure=settings.film_exposure)
+        if tracer.facts["features"]:
+            result.start_features(camera.rotation)
+        if tracer.facts["alpha"]:
+            result.start_alpha(tracer.facts["film_transparent"])
         scheduler = passes.scheduler(tracer, result, settings)
         return passes.drive(tracer, scheduler, None, progress, stop, 0.0)
     finally:

@@ -1,48 +1,44 @@
 """A frame on a Dask cluster. Fixed samples: its windows (Renderer.windows, fixed by the image
-size and spp, not by the workers) traced as tasks, and added in window order as they arrive,
-which makes the local render's float sums bit for bit (RenderResult.add). Adaptive sampling and
-batches: their passes, scheduled here and traced on the workers (remote.py)."""
+size and spp, not by the workers) traced as tasks, a few ahead, and fetched and added in window
+order, which makes the local render's float sums bit for bit (RenderResult.add). Adaptive
+sampling and batches: their passes, scheduled here and traced on the workers (remote.py)."""
 from __future__ import annotations
 
 import contextlib
 import sys
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import CliError
-from ..tracer import passes
+from ..tracer import passes, wavefront
 from ..tracer.camera import Camera
 from ..tracer.result import RenderResult
 from ..tracer.shader.program import has_holdout
 from . import cluster, keys, remote, worker
 
 AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait for the client
-# ...but no more than about this many bytes of window sums (a 3840x2160 window is 600 MB): the
-# client holds at most the windows in flight, so its memory stays bounded however long the render.
-AHEAD_BYTES = 4 << 30
+# ...but no more than about this many bytes of window sums per worker thread (a 3840x2160
+# window is 600 MB). The client fetches the windows in window order, one at a time, so a window
+# that finished early waits on its worker: the client holds one window and the image whatever
+# the workers, and the workers the windows in flight.
+AHEAD_BYTES = 2 << 30
 
 
-def check_settings(settings, where: str, scene=None) -> None:
-    """CliError unless a cluster can render the settings' (and the scene's) image."""
+def check_settings(settings, where: str) -> None:
+    """CliError unless a cluster can render the settings' image."""
     if getattr(settings, "time_limit", 0):
         # The local render's samples would depend on its clock: no image to be equal to.
         raise CliError(f"{where}: a time limit is not distributed (its samples would depend on "
                        "the clock): add --time-limit 0")
-    # The workers do not return the alpha's sums yet: refuse rather than write alpha 1.
-    if getattr(settings, "film_transparent", False):
-        raise CliError(f"{where}: Film > Transparent is not rendered on a cluster yet (no "
-                       "alpha): render it without --workers/--cluster")
-    if scene is not None and has_holdout(scene.materials):
-        raise CliError(f"{where}: a Holdout is not rendered on a cluster yet (no alpha): "
-                       "render it without --workers/--cluster")
 
 
 @contextlib.contextmanager
 def session(address: str | None, workers: int | None, quiet: bool = False):
     """Render with the scheduler at `address`, or a LocalCluster of `workers` processes started
-    and stopped here: yields render(scene, settings, name, frame=0, progress=None) ->
-    RenderResult (with .workers); says where on stderr unless quiet."""
+    and stopped here: yields a Session (render(scene, settings, name, frame=0, progress=None)
+    -> RenderResult with .workers, and its prefetch); says where on stderr unless quiet."""
     with cluster.connect(address, workers) as client:
         threads = cluster.check_workers(client)
         processes = len(client.nthreads())
@@ -51,12 +47,86 @@ def session(address: str | None, workers: int | None, quiet: bool = False):
             print(f"snell: rendering on {processes} Dask worker{'s' if processes != 1 else ''} "
                   f"({threads} threads){', dashboard ' + board if board else ''}",
                   file=sys.stderr, flush=True)
+        frames = Session(client, threads, processes)
+        try:
+            yield frames
+        finally:
+            frames.drop()
 
-        def render(scene, settings, name: str, frame: int = 0, progress=None) -> RenderResult:
-            result = render_frame(client, scene, settings, name, frame, progress, threads)
-            result.workers = processes
-            return result
-        yield render
+
+class Session:
+    """A cluster's frames, rendered one after the other (`snell batch`): calling it renders a
+    frame; prefetch(scene, settings, name, frame) first starts a frame to come, whose tasks
+    Dask runs only where the frames before it have none ready (a lower priority), so that the
+    workers trace it during the last frame's tail instead of waiting for the next export."""
+
+    def __init__(self, client, threads: int, processes: int):
+        self.client, self.threads, self.processes = client, threads, processes
+        self.order = 0              # frames begun: a frame's tasks have priority -order
+        self.started: dict = {}     # frame -> Started (prefetched, not rendered yet)
+        self.prefetched = 0         # frames that found their windows started (measurements)
+
+    def __call__(self, scene, settings, name: str, frame: int = 0, progress=None) -> RenderResult:
+        started = self.started.pop(frame, None)
+        if started is not None and started.key != keys.render_key(scene, settings):
+            started.cancel(self.client)      # another scene than prefetched: start afresh
+            started = None
+        if started is None:
+            self.order += 1
+            priority = -self.order
+        else:
+            self.prefetched += 1
+            priority = started.priority
+        result = render_frame(self.client, scene, settings, name, frame, progress, self.threads,
+                              started, priority)
+        result.workers = self.processes
+        return result
+
+    def prefetch(self, scene, settings, name: str, frame: int) -> None:
+        """Start a frame to come (fixed samples: its first windows; adaptive sampling and
+        batches, whose passes the client schedules: its renderer on every worker)."""
+        if frame in self.started or getattr(settings, "time_limit", 0):
+            return
+        self.order += 1
+        threshold, _ = passes.adaptive_settings(settings)
+        if threshold > 0.0 or settings.batches:
+            self.started[frame] = _build_renderers(self.client, scene, settings, -self.order)
+        else:
+            self.started[frame] = start_windows(self.client, scene, settings, frame,
+                                                self.threads, -self.order)
+
+    def drop(self) -> None:
+        """Cancel what was prefetched and not rendered."""
+        for started in self.started.values():
+            started.cancel(self.client)
+        self.started.clear()
+
+
+@dataclass
+class Started:
+    """A frame's tasks submitted ahead: its render key, scattered scene, the windows in flight
+    (index -> future; none for a frame of passes, whose renderers are being built), how many
+    may be, their priority, and other futures to release."""
+    key: str
+    scene: object
+    futures: dict
+    ahead: int
+    priority: int
+    others: list
+
+    def cancel(self, client) -> None:
+        client.cancel(list(self.futures.values()) + self.others + [self.scene])
+
+
+def _build_renderers(client, scene, settings, priority: int) -> Started:
+    """Every worker builds a frame's Renderer (BVH, tables) at a low priority: a frame of passes
+    cannot start its windows before the client schedules them."""
+    key = keys.render_key(scene, settings)
+    [scene_future] = client.scatter([scene], broadcast=True, hash=False)
+    builds = [client.submit(worker.renderer_facts, scene_future, key, settings, workers=[address],
+                            allow_other_workers=False, priority=priority, pure=False)
+              for address in client.nthreads()]
+    return Started(key, scene_future, {}, 0, priority, builds)
 
 
 def render_on(address: str | None, workers: int | None, scene, settings, name: str,
@@ -68,19 +138,27 @@ def render_on(address: str | None, workers: int | None, scene, settings, name: s
 
 
 def render_frame(client, scene, settings, name: str, frame: int = 0, progress=None,
-                 threads: int | None = None) -> RenderResult:
+                 threads: int | None = None, started: Started | None = None,
+                 priority: int = 0) -> RenderResult:
     """Render a scene's frame on the client's workers; `name` (the scene file) names it in
-    errors. progress(result, passes done, passes) as Renderer.render's."""
-    check_settings(settings, name, scene)
+    errors. progress(result, passes done, passes) as Renderer.render's. started: the frame's
+    tasks already submitted (Session.prefetch); priority: Dask's, of its tasks."""
+    check_settings(settings, name)
     threshold, _ = passes.adaptive_settings(settings)
     if threshold > 0.0 or settings.batches:
-        return remote.render_passes(client, scene, settings, name, frame, progress, threads)
-    return _render_windows(client, scene, settings, name, frame, progress, threads)
+        try:
+            return remote.render_passes(client, scene, settings, name, frame, progress, threads)
+        finally:
+            if started is not None:
+                started.cancel(client)
+    return _render_windows(client, scene, settings, name, frame, progress, threads, started,
+                           priority)
 
 
-def _render_windows(client, scene, settings, name: str, frame: int, progress,
-                    threads: int | None) -> RenderResult:
-    """A fixed-sample frame's windows traced as tasks and added in window order."""
+def start_windows(client, scene, settings, frame: int, threads: int | None,
+                  priority: int = 0) -> Started:
+    """Scatter a fixed-sample frame's scene and submit its first windows (as many as may be in
+    flight at once: the client's memory bound)."""
     key = keys.render_key(scene, settings)
     camera = Camera(scene.camera)
     w, h, spp = camera.width, camera.height, settings.spp
@@ -88,49 +166,58 @@ def _render_windows(client, scene, settings, name: str, frame: int, progress,
     threads = threads or sum(client.nthreads().values())
     # Sent once to every worker (a worker that joins later copies it from another), not per task.
     [scene_future] = client.scatter([scene], broadcast=True, hash=False)
+    window_bytes = w * h * 3 * 8 * 3          # sums, sums of squares, light sums: float64 RGB
+    # With the alpha or the denoising passes a window also sends each sample's (WindowExtra).
+    window_bytes += w * h * windows.step * 8 * ((1 if _has_alpha(settings, scene) else 0)
+                                                + (6 if settings.wants_features else 0))
+    ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, threads * AHEAD_BYTES // window_bytes))
+    started = Started(key, scene_future, {}, ahead, priority, [])
+    for i in range(min(ahead, len(windows))):
+        _submit(client, started, settings, frame, windows[i])
+    return started
+
+
+def _submit(client, started: Started, settings, frame: int, window) -> None:
+    """Submit one window's task."""
+    started.futures[window.index] = client.submit(
+        worker.trace_window, started.scene, started.key, window, settings.spp, settings,
+        key=keys.window_key(started.key, frame, window.index, settings.seed), retries=2,
+        priority=started.priority)
+
+
+def _render_windows(client, scene, settings, name: str, frame: int, progress,
+                    threads: int | None, started: Started | None = None,
+                    priority: int = 0) -> RenderResult:
+    """A fixed-sample frame's windows traced as tasks and added in window order."""
+    camera = Camera(scene.camera)
+    w, h, spp = camera.width, camera.height, settings.spp
+    windows = passes.fixed_windows(w * h, spp)
+    threads = threads or sum(client.nthreads().values())
+    started = started or start_windows(client, scene, settings, frame, threads, priority)
     result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=threads,
                           spp_budget=spp, exposure=settings.film_exposure)
-    futures, arrived = {}, {}
-    tasks = _dask().as_completed()
-    window_bytes = w * h * 3 * 8 * 3          # sums, sums of squares, light sums: float64 RGB
-    ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, AHEAD_BYTES // window_bytes))
+    futures, ahead = started.futures, started.ahead
     start = time.perf_counter()
-
-    def submit(i):
-        window = windows[i]
-        futures[i] = client.submit(worker.trace_window, scene_future, key, window, spp, settings,
-                                   key=keys.window_key(key, frame, window.index, settings.seed),
-                                   retries=2)
-        tasks.add(futures[i])
-
     try:
-        for i in range(min(ahead, len(windows))):
-            submit(i)
-        merged = 0
-        for future in tasks:
-            i = next(k for k, f in futures.items() if f is future)
-            arrived[i] = _reply(future, name, windows[i])
-            del futures[i]
+        for merged in range(len(windows)):
+            # In window order (float sums depend on their order); the windows after it trace
+            # meanwhile, and those that finish first wait on their workers, not here.
+            future = futures.pop(merged)
+            reply = _reply(future, name, windows[merged])
             future.release()
-            # Only the next window is added: float sums depend on their order.
-            while merged in arrived:
-                _add(result, arrived.pop(merged))
-                merged += 1
-                result.time_s = time.perf_counter() - start
-                if merged + ahead - 1 < len(windows):
-                    submit(merged + ahead - 1)
-                if progress is not None and progress(result, merged, len(windows)) is False:
-                    result.cancelled = merged < len(windows)
-                    return result
+            if reply.extra is not None and merged == 0:
+                _start_extra(result, reply.extra, camera)
+            _add(result, reply)
+            result.time_s = time.perf_counter() - start
+            if merged + ahead < len(windows):
+                _submit(client, started, settings, frame, windows[merged + ahead])
+            if progress is not None and progress(result, merged + 1, len(windows)) is False:
+                result.cancelled = merged + 1 < len(windows)
+                return result
     finally:
-        client.cancel(list(futures.values()) + [scene_future])
+        started.cancel(client)
     result.time_s = time.perf_counter() - start
     return result
-
-
-def _dask():
-    import distributed
-    return distributed
 
 
 def _reply(future, name: str, window) -> worker.WindowReply:
@@ -148,5 +235,41 @@ def _add(result: RenderResult, reply: worker.WindowReply) -> None:
         result.stages, result.build_s = reply.stages, reply.build_s
         result.light_in_image = reply.split
     result.add(reply.sums)
+    if reply.extra is not None:
+        add_extra(result, reply.extra)
     result.rays += reply.rays
     result.embree_time_s += reply.embree_s
+
+
+def _has_alpha(settings, scene) -> bool:
+    """Whether a render may make an alpha (Film > Transparent, or a material with a Holdout):
+    the client's memory bound counts its samples."""
+    return bool(settings.film_transparent or has_holdout(scene.materials))
+
+
+def _start_extra(result: RenderResult, extra: worker.WindowExtra, camera: Camera) -> None:
+    """Keep the alpha's and the denoising passes' sums where the windows bring samples of them."""
+    if extra.albedo is not None:
+        result.start_features(camera.rotation)
+    if extra.transparent is not None:
+        result.start_alpha(extra.film_transparent)
+
+
+def add_extra(result: RenderResult, extra: worker.WindowExtra) -> None:
+    """Add a window's alpha and denoising samples to the result's sums one sample at a time,
+    with the tracer's own additions (wavefront.film_alpha, film_features): the local render's
+    sums bit for bit, as each of its pixels gets its samples in sample order."""
+    rows = result.extra_rows()
+    npix = result.width * result.height
+    count = (extra.transparent if extra.transparent is not None else extra.albedo).shape[0]
+    for k in range(count):
+        if extra.transparent is not None:
+            wavefront.film_alpha(extra.transparent[k], npix, 0, 1, passes.ALL_PIXELS,
+                                 rows.transparent, rows.transparent_sq)
+        if extra.albedo is not None:
+            wavefront.film_features(extra.albedo[k], extra.normal[k], npix, 0, 1,
+                                    passes.ALL_PIXELS, rows.albedo, rows.normal)
+    if extra.transparent is not None:
+        result.alpha_nans[0] += extra.alpha_nans
+    if extra.albedo is not None:
+        result.feature_nans[0] += extra.feature_nans

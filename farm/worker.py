@@ -6,11 +6,13 @@ import os
 import threading
 import time
 from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..tracer.result import Window, WindowSums
+from ..tracer import passes, wavefront
+from ..tracer.result import ExtraRows, Window, WindowSums
 
 KEEP = 2      # renderers kept per process: a batch's next frame builds while the last finishes
 _renderers: OrderedDict = OrderedDict()
@@ -18,9 +20,24 @@ _lock = threading.Lock()
 
 
 @dataclass
+class WindowExtra:
+    """A window's samples of the film's alpha and of the Denoising Albedo and Normal passes, one
+    row per sample (samples, pixels[, 3]), NaN or Inf samples as 0 and counted: the local render
+    adds them to its running sums one sample at a time (RenderResult.extra_rows), which sums of
+    the window could not reproduce, so the client adds these in the same order (add_extra)."""
+    transparent: np.ndarray | None
+    albedo: np.ndarray | None
+    normal: np.ndarray | None
+    alpha_nans: int
+    feature_nans: int
+    film_transparent: bool
+
+
+@dataclass
 class WindowReply:
     """A window's sums and what the summary line adds up: rays, Embree and task seconds, and
-    which process traced it (the fault tests)."""
+    which process traced it (the fault tests); its alpha and denoising samples if the render
+    makes them."""
     sums: WindowSums
     rays: int
     embree_s: float
@@ -29,6 +46,7 @@ class WindowReply:
     build_s: float
     stages: dict
     split: bool
+    extra: WindowExtra | None = None
 
 
 def renderer_for(key: str, scene, settings):
@@ -52,17 +70,53 @@ def trace_window(scene, key: str, window: Window, spp: int, settings) -> WindowR
     geometry = renderer.geometry
     # Counted around the task: exact with one task at a time per process, shared otherwise.
     rays, embree, start = geometry.ray_count, geometry.embree_time, time.perf_counter()
-    sums = renderer.render_window(window, spp)
+    if renderer.alpha or renderer.features:
+        sums, extra = window_by_sample(renderer, window, spp)
+    else:
+        sums, extra = renderer.render_window(window, spp), None
     return WindowReply(sums, geometry.ray_count - rays, geometry.embree_time - embree,
                        time.perf_counter() - start, os.getpid(), renderer.build_s,
-                       renderer.stages(), renderer.split)
+                       renderer.stages(), renderer.split, extra)
+
+
+def window_by_sample(renderer, window: Window, spp: int) -> tuple[WindowSums, WindowExtra]:
+    """A window of every pixel traced one sample per pass: its sums, as render_window's (each
+    pixel's samples added in sample order from zero), and each sample's alpha and denoising
+    features, which a one-sample pass's sums from zero are exactly (0 + x = x)."""
+    npix = renderer.camera.width * renderer.camera.height
+    count = window.end - window.first
+    film = (np.zeros((npix, 3)), np.zeros((npix, 3)))
+    light = np.zeros((npix, 3)) if renderer.caustics is not None else None
+    sums = WindowSums(window, *film, light, counters=np.zeros(len(wavefront.STATS), np.int64))
+    alpha = np.zeros((count, npix)) if renderer.alpha else None
+    albedo = np.zeros((count, npix, 3)) if renderer.features else None
+    normal = np.zeros((count, npix, 3)) if renderer.features else None
+    squares = np.zeros(npix)          # the alpha's squares: the client squares each sample itself
+    alpha_nans, feature_nans = np.zeros(1, np.int64), np.zeros(1, np.int64)
+    bits = max(1, (int(spp) - 1).bit_length())
+    with ThreadPoolExecutor(max_workers=renderer.threads) as pool:
+        for k in range(count):
+            extra = ExtraRows(None if albedo is None else albedo[k],
+                              None if normal is None else normal[k], feature_nans,
+                              None if alpha is None else alpha[k],
+                              None if alpha is None else squares, alpha_nans)
+            sums.nan_count += renderer.camera_pass(
+                pool, passes.Pass(window.first + k, 1), passes.ALL_PIXELS, bits,
+                (*film, passes.NO_ROWS), sums.counters, None, extra=extra)
+        if light is not None:       # as Renderer.trace_window
+            sums.light_paths = renderer.light_count(npix, count)
+            sums.nan_count += renderer.light_pass(pool, window.index, sums.light_paths,
+                                                   sums.light_paths, light, None, sums.counters)
+    return sums, WindowExtra(alpha, albedo, normal, int(alpha_nans[0]), int(feature_nans[0]),
+                             renderer.film_transparent)
 
 
 @dataclass
 class PassReply:
     """A task's share of a pass: its pixels' rows of the film and of the pilot's sums, traced
     into (camera pass), or its light chunks' splats in chunk order (light pass); with the NaN/Inf
-    samples, event counters, rays and Embree seconds."""
+    samples, event counters, rays and Embree seconds; the rows of the alpha and denoising sums
+    (ExtraRows, with their NaN counts) if the pass makes them."""
     film: tuple | None
     pilot: tuple | None
     splats: list | None
@@ -70,6 +124,7 @@ class PassReply:
     counters: np.ndarray
     rays: int
     embree_s: float
+    extra: ExtraRows | None = None
 
 
 def renderer_facts(scene, key: str, settings) -> dict:
@@ -79,19 +134,26 @@ def renderer_facts(scene, key: str, settings) -> dict:
             "light_vertices": renderer.light_vertices,
             "light_vertex_pilot": renderer.light_vertex_pilot,
             "light_paths_per_camera_path": renderer.light_paths_per_camera_path,
-            "stages": renderer.stages(), "build_s": renderer.build_s}
+            "stages": renderer.stages(), "build_s": renderer.build_s,
+            "alpha": renderer.alpha, "film_transparent": renderer.film_transparent,
+            "features": renderer.features}
 
 
 def trace_rows(scene, key: str, settings, in_pass: int, first_sample: int, bits: int,
                pixels: np.ndarray, film: tuple, pilot: tuple | None, jobs: list,
-               vertices: bool | None) -> PassReply:
+               vertices: bool | None, extra: ExtraRows | None = None) -> PassReply:
     """The task of a camera pass: its jobs' pixels (rows r0 .. r1 of `pixels` each, in order)
-    traced into their rows of film and pilot (Renderer.trace_rows), which come back."""
-    from ..tracer import wavefront
+    traced into their rows of film and pilot (Renderer.trace_rows) and of the alpha's and
+    denoising passes' sums (extra: RenderResult.extra_rows' rows of `pixels`), which come back."""
     renderer = renderer_for(key, scene, settings)
     geometry = renderer.geometry
     rays, embree = geometry.ray_count, geometry.embree_time
     counters, bad = np.zeros(len(wavefront.STATS), np.int64), 0
+    if extra is not None:
+        bad = rows_with_extra(renderer, in_pass, first_sample, bits, pixels, film, pilot, jobs,
+                              vertices, extra, counters)
+        return PassReply(film, pilot, None, bad, counters, geometry.ray_count - rays,
+                         geometry.embree_time - embree, extra)
     for r0, r1 in jobs:
         rows = tuple(a[r0:r1] if a.shape[0] else a for a in film)
         pilot_rows = None if pilot is None else tuple(a[r0:r1] for a in pilot)
@@ -103,9 +165,44 @@ def trace_rows(scene, key: str, settings, in_pass: int, first_sample: int, bits:
                      geometry.embree_time - embree)
 
 
+def rows_with_extra(renderer, in_pass: int, first_sample: int, bits: int, pixels: np.ndarray,
+                    film: tuple, pilot: tuple | None, jobs: list, vertices: bool | None,
+                    extra: ExtraRows, counters: np.ndarray) -> int:
+    """trace_rows' jobs with the alpha and denoising passes: Renderer.trace_chunk adds those
+    to rows of the whole image (Renderer.trace_rows makes neither), so the task's rows are put
+    at `pixels` in image-sized copies, traced into there and copied back (the same additions in
+    the same order as the local render's). Returns the NaN or Inf samples."""
+    npix = renderer.camera.width * renderer.camera.height
+
+    def whole(rows):
+        if rows is None or rows.shape[0] == 0:
+            return rows
+        image = np.zeros((npix,) + rows.shape[1:])
+        image[pixels] = rows
+        return image
+    film_image = tuple(whole(a) for a in film)
+    pilot_image = None if pilot is None else tuple(whole(a) for a in pilot)
+    extra_image = extra._replace(albedo=whole(extra.albedo), normal=whole(extra.normal),
+                                 transparent=whole(extra.transparent),
+                                 transparent_sq=whole(extra.transparent_sq))
+    bad = 0
+    for r0, r1 in jobs:
+        chunk_bad, stats = renderer.trace_chunk(r0 * in_pass, (r1 - r0) * in_pass, in_pass,
+                                                first_sample, pixels, bits, *film_image,
+                                                vertices, pilot_image, False, extra_image)
+        bad += chunk_bad
+        counters += stats
+    sums = ("albedo", "normal", "transparent", "transparent_sq")
+    pairs = (list(zip(film, film_image)) + list(zip(pilot or (), pilot_image or ()))
+             + [(getattr(extra, name), getattr(extra_image, name)) for name in sums])
+    for rows, image in pairs:
+        if rows is not None and rows.shape[0]:
+            rows[:] = image[pixels]
+    return bad
+
+
 def trace_light(scene, key: str, settings, pass_index: int, jobs: list) -> PassReply:
     """The task of a light pass: its jobs' light paths (start, count), their splats in order."""
-    from ..tracer import wavefront
     renderer = renderer_for(key, scene, settings)
     geometry = renderer.geometry
     rays, embree = geometry.ray_count, geometry.embree_time
