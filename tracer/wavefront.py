@@ -242,13 +242,10 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
             if crossed:
                 if media.on:
                     light = medium.through(light, sigma, medium.lamp_distance(lights, lamp, o, d))
-                w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
-                w = mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex)
-                add_light_both(radiance, without, path, beta, light, w, w_without)
-                if features and paths.feature_on[i] != 0:
-                    add_feature_light(feature_albedo, paths, i, beta, light, w_without)
-                if light_passes:
-                    add_found(pass_sums, paths, i, beta, light, w, False)
+                add_found_light(radiance, without, paths, i, beta, light,
+                                mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
+                                mis_weight(next_event, pdf_prev, pdf_light, 0.0), features,
+                                feature_albedo, pass_sums, False)
         if media.on and medium.absorbs(sigma):
             beta = medium.through(beta, sigma, t_surface)
             store(paths.beta, i, beta)
@@ -266,25 +263,18 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                 found, light, pdf_light = light_at_escape(lights, k, d, kind)
                 if found:
                     w = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
-                    add_light_both(radiance, without, path, beta, light, w, w)
-                    if features and paths.feature_on[i] != 0:
-                        add_feature_light(feature_albedo, paths, i, beta, light, w)
-                    if light_passes:
-                        add_found(pass_sums, paths, i, beta, light, w,
-                                  lights.has_world and k == 0)
+                    add_found_light(radiance, without, paths, i, beta, light, w, w, features,
+                                    feature_albedo, pass_sums, lights.has_world and k == 0)
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
         if emitters_count and max3(emission) > 0.0:     # Emission, or a Principled BSDF's
             pdf_light, pdf_vertex = triangle_hit(lights, prim[i], madd(o, -mis_t, d), d,
                                                  t_surface + mis_t, connect)
-            w_without = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
-            w = mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex)
-            add_light_both(radiance, without, path, beta, emission, w, w_without)
-            if features and paths.feature_on[i] != 0:
-                add_feature_light(feature_albedo, paths, i, beta, emission, w_without)
-            if light_passes:
-                add_found(pass_sums, paths, i, beta, emission, w, False)
+            add_found_light(radiance, without, paths, i, beta, emission,
+                            mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
+                            mis_weight(next_event, pdf_prev, pdf_light, 0.0), features,
+                            feature_albedo, pass_sums, False)
         if mats.kind[mat] == EMISSION:
             continue
         if ended(mats, mat, depth, paths.bounce[i], limits):
@@ -293,6 +283,28 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
         active[kept] = i
         kept += 1
     return kept
+
+
+@jit_inline
+def add_found_light(radiance, without, paths, i, beta, light, w, w_without, features,
+                    feature_albedo, pass_sums, environment):
+    """Light path i finds, throughput beta: to its radiance at MIS weight w and to its radiance
+    without light vertices at w_without, to the Denoising Albedo while the path carries the
+    features, and to the light passes when the render makes them (environment: the world's)."""
+    add_light_both(radiance, without, paths.path[i], beta, light, w, w_without)
+    if features and paths.feature_on[i] != 0:
+        add_feature_light(feature_albedo, paths, i, beta, light, w_without)
+    if pass_sums.shape[0] > 0:
+        add_found(pass_sums, paths, i, beta, light, w, environment)
+
+
+@jit_inline
+def carry_pass_weights(out, n_out, kept, weights):
+    """Give the next ray go_on queued (row n_out of out, if kept > n_out) the light passes'
+    (diffuse, glossy) weights."""
+    if kept > n_out:
+        store(out.pass_diffuse, n_out, weights[0])
+        store(out.pass_glossy, n_out, weights[1])
 
 
 @jit_inline
@@ -334,11 +346,8 @@ def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, 
         run(mats, mat, regs, hit, lobes, tables, has_normals)
         emission = total(regs, TOTAL_EMISSION)
         beta = row(paths.beta, i)
-        add_light_both(radiance, without, paths.path[i], beta, emission, 1.0, 1.0)
-        if features and paths.feature_on[i] != 0:
-            add_feature_light(feature_albedo, paths, i, beta, emission, 1.0)
-        if pass_sums.shape[0] > 0:
-            add_found(pass_sums, paths, i, beta, emission, 1.0, False)
+        add_found_light(radiance, without, paths, i, beta, emission, 1.0, 1.0, features,
+                        feature_albedo, pass_sums, False)
 
 
 @jit
@@ -427,9 +436,8 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
                                                        caustic, connect, 0.0),
                      offset_origin(p, ng, eps, new_d), features, stats, media,
                      (tri, mat, entering, ng_f))
-        if light_passes and kept > n_out:
-            store(out.pass_diffuse, n_out, weights[0])
-            store(out.pass_glossy, n_out, weights[1])
+        if light_passes:
+            carry_pass_weights(out, n_out, kept, weights)
         n_out = kept
     return n_out, n_shadow, n_programs
 
@@ -513,9 +521,8 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
                                                        caustic, connect, mis_t),
                      offset_origin(p, ng, eps, new_d), features, stats, media,
                      (tri, mat, entering, ng_f))
-        if light_passes and kept > n_out:
-            store(out.pass_diffuse, n_out, weights[0])
-            store(out.pass_glossy, n_out, weights[1])
+        if light_passes:
+            carry_pass_weights(out, n_out, kept, weights)
         n_out = kept
     return n_out, n_shadow
 
