@@ -118,9 +118,11 @@ def jit_inline(fn):
     return numba.njit(inline="always", **OPTIONS)(fn)
 
 
+@functools.lru_cache(maxsize=None)
 def sources_hash() -> str:
     """A short hash of every tracer source file (subpackages included) and the Numba version
     (workers of one render must have the same)."""
+    # Read once per process: the cache key, the shipped cache and the farm's check all ask.
     digest = hashlib.sha256(numba.__version__.encode())
     for folder, dirs, files in os.walk(TRACER_DIR):
         dirs[:] = sorted(d for d in dirs if d != "__pycache__")
