@@ -254,14 +254,6 @@ def render(engine, depsgraph):
         scene = scene.with_camera(**window.window_camera(scene.camera, x0, y0, w, h))
         settings = _settings(bl_scene, scene)
         light = light_passes_of(depsgraph.view_layer)
-        if light and remote_render is not None:
-            # A cluster's render does not carry the passes back yet: no empty layer is
-            # presented as real.
-            message = ("the light passes are not rendered on a cluster yet: "
-                       + ", ".join(name for name, _, _ in light) + " left out")
-            record["warnings"].append(message)
-            engine.report({"WARNING"}, f"Snell: {message}")
-            light = ()
         if light:
             settings = settings.replace(light_passes=True)
         spp = settings.spp

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CliError
-from ..tracer import passes, wavefront
+from ..tracer import adaptive, light_passes, passes, wavefront
 from ..tracer.camera import Camera
 from ..tracer.result import RenderResult
 from ..tracer.shader.program import has_holdout
@@ -167,9 +167,11 @@ def start_windows(client, scene, settings, frame: int, threads: int | None,
     # Sent once to every worker (a worker that joins later copies it from another), not per task.
     [scene_future] = client.scatter([scene], broadcast=True, hash=False)
     window_bytes = w * h * 3 * 8 * 3          # sums, sums of squares, light sums: float64 RGB
-    # With the alpha or the denoising passes a window also sends each sample's (WindowExtra).
-    window_bytes += w * h * windows.step * 8 * ((1 if _has_alpha(settings, scene) else 0)
-                                                + (6 if settings.wants_features else 0))
+    # With the alpha, the denoising or the light passes a window also sends each sample's
+    # (WindowExtra).
+    window_bytes += w * h * windows.step * 8 * (
+        (1 if _has_alpha(settings, scene) else 0) + (6 if settings.wants_features else 0)
+        + (light_passes.COLUMNS if settings.light_passes else 0))
     ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, threads * AHEAD_BYTES // window_bytes))
     started = Started(key, scene_future, {}, ahead, priority, [])
     for i in range(min(ahead, len(windows))):
@@ -236,7 +238,7 @@ def _add(result: RenderResult, reply: worker.WindowReply) -> None:
         result.light_in_image = reply.split
     result.add(reply.sums)
     if reply.extra is not None:
-        add_extra(result, reply.extra)
+        add_extra(result, reply.extra, reply.sums.window)
     result.rays += reply.rays
     result.embree_time_s += reply.embree_s
 
@@ -248,28 +250,37 @@ def _has_alpha(settings, scene) -> bool:
 
 
 def _start_extra(result: RenderResult, extra: worker.WindowExtra, camera: Camera) -> None:
-    """Keep the alpha's and the denoising passes' sums where the windows bring samples of them."""
+    """Keep the alpha's, the denoising and the light passes' sums where the windows bring
+    samples of them."""
     if extra.albedo is not None:
         result.start_features(camera.rotation)
     if extra.transparent is not None:
         result.start_alpha(extra.film_transparent)
+    if extra.light is not None:
+        result.start_light_passes()
 
 
-def add_extra(result: RenderResult, extra: worker.WindowExtra) -> None:
-    """Add a window's alpha and denoising samples to the result's sums one sample at a time,
-    with the tracer's own additions (wavefront.film_alpha, film_features): the local render's
-    sums bit for bit, as each of its pixels gets its samples in sample order."""
+def add_extra(result: RenderResult, extra: worker.WindowExtra, window) -> None:
+    """Add a window's alpha, denoising and light-pass samples to the result's sums one sample
+    at a time, with the tracer's own additions (wavefront.film_alpha, film_features,
+    light_passes.film_light_passes): the local render's sums bit for bit, as each of its pixels
+    gets its samples in sample order. The light passes go to the half of the sample indices of
+    the window's first sample, where the local render's one pass of the window adds them."""
     rows = result.extra_rows()
     npix = result.width * result.height
-    count = (extra.transparent if extra.transparent is not None else extra.albedo).shape[0]
-    for k in range(count):
+    light = None if extra.light is None else rows.light[adaptive.half_of(window.first)]
+    for k in range(extra.samples):
         if extra.transparent is not None:
             wavefront.film_alpha(extra.transparent[k], npix, 0, 1, passes.ALL_PIXELS,
                                  rows.transparent, rows.transparent_sq)
         if extra.albedo is not None:
             wavefront.film_features(extra.albedo[k], extra.normal[k], npix, 0, 1,
                                     passes.ALL_PIXELS, rows.albedo, rows.normal)
+        if light is not None:
+            light_passes.film_light_passes(extra.light[k], npix, 0, 1, passes.ALL_PIXELS, light)
     if extra.transparent is not None:
         result.alpha_nans[0] += extra.alpha_nans
     if extra.albedo is not None:
         result.feature_nans[0] += extra.feature_nans
+    if light is not None:
+        result.light_pass_nans[0] += extra.light_nans
