@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import time
 
 from ..errors import CliError, one_line
 from ..tracer import jit
@@ -25,9 +26,10 @@ def _dask():
 
 @contextlib.contextmanager
 def connect(address: str | None = None, workers: int | None = None,
-            timeout: float | None = None):
+            timeout: float | None = None, origin: str | None = None):
     """A Dask Client: of the scheduler at `address`, or of a LocalCluster of `workers` processes
-    (one thread each) closed on exit. Unreachable scheduler: CliError."""
+    (one thread each) closed on exit. Unreachable scheduler: CliError, starting with `origin`
+    (what asked for the address; default "--cluster ADDRESS")."""
     distributed = _dask()
     if address is None:
         # Processes, not threads: the tracer releases the GIL but Python between its kernels does
@@ -41,13 +43,13 @@ def connect(address: str | None = None, workers: int | None = None,
         finally:
             cluster.close()
         return
+    origin = origin or f"--cluster {address}"
     try:
         client = distributed.Client(address, timeout=timeout or CONNECT_TIMEOUT)
     except (OSError, TimeoutError) as exc:
-        raise CliError(f"--cluster {address}: cannot reach the scheduler "
-                       f"({_reason(exc)})") from None
+        raise CliError(f"{origin}: cannot reach the scheduler ({_reason(exc)})") from None
     except ValueError as exc:     # not an address: no port, an unknown scheme
-        raise CliError(f"--cluster {address}: {_reason(exc)}") from None
+        raise CliError(f"{origin}: {_reason(exc)}") from None
     with client:
         yield client
 
@@ -88,6 +90,20 @@ def dashboard(client) -> str:
         return client.dashboard_link or ""
     except Exception:  # noqa: BLE001  (no dashboard: bokeh missing, or disabled)
         return ""
+
+
+STOP_POLL_S = 0.05   # how often a wait for a task looks at its stop (Esc in Blender)
+
+
+def finished(future, stop=None) -> bool:
+    """Wait for a task; False if `stop` (anything with is_set(), None: never) was set first."""
+    if stop is None:
+        return True
+    while not future.done():
+        if stop.is_set():
+            return False
+        time.sleep(STOP_POLL_S)
+    return True
 
 
 def failure(name: str, what: str, exc: BaseException) -> CliError:

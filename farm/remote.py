@@ -79,8 +79,16 @@ class RemoteTracer:
                     key=keys.pass_key(self.key, self.frame, "camera", sub.first, r0,
                                       self.settings.seed), retries=2)
                 tasks.append((index, future))
+            replies = []
             for index, future in tasks:
-                reply = self._wait(future, f"samples {sub.first}-{sub.first + sub.samples}")
+                if not cluster.finished(future, stop):
+                    # Esc: nothing of the pass is added (the scheduler drops it) and its tasks
+                    # are cancelled.
+                    self.client.cancel([f for _, f in tasks])
+                    return bad
+                replies.append((index, self._wait(future, f"samples {sub.first}-"
+                                                          f"{sub.first + sub.samples}")))
+            for index, reply in replies:
                 for whole, part in zip(film, reply.film):
                     if whole.shape[0]:
                         whole[index] = part
