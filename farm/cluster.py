@@ -8,8 +8,9 @@ import time
 
 from ..errors import CliError, one_line
 from ..tracer import jit
-from . import worker
+from . import aliases, worker
 
+PACKAGE = __name__.rsplit(".", 2)[0]   # snell, or bl_ext.<repository>.snell inside Blender
 CONNECT_TIMEOUT = 10.0   # seconds to reach a scheduler
 WORKERS_TIMEOUT = 60.0   # seconds for a scheduler's first worker to join
 
@@ -71,6 +72,8 @@ def check_workers(client, timeout: float | None = None) -> int:
                        f"in {timeout:g} s") from None
     here = jit.sources_hash()
     try:
+        # Blender's extension is bl_ext.<repository>.snell, a worker's Snell `snell`.
+        aliases.share(client, PACKAGE)
         described = client.run(worker.describe)
     except Exception as exc:  # noqa: BLE001  (a worker without snell cannot even unpickle it)
         raise CliError(f"a Dask worker cannot run Snell ({type(exc).__name__}: "

@@ -501,6 +501,46 @@ def test_an_unreachable_scheduler_is_one_error(tmp_path, capsys, monkeypatch):
     assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
 
 
+EXTENSION_CLIENT = """
+import sys, numpy as np
+sys.path.insert(0, sys.argv[1])
+from bl_ext.user_default.snell.farm import render
+from bl_ext.user_default.snell.tracer.scene import load
+scene = load(sys.argv[2])
+with render.session(sys.argv[3], None, quiet=True) as frames:
+    result = frames(scene, scene.settings(), "room.snell")
+np.save(sys.argv[4], result.sum)
+print(type(result).__module__, "snell" in sys.modules, sys.modules["snell"].__name__)
+"""
+
+
+def test_a_client_that_imports_snell_as_blenders_extension_renders_on_the_cluster(
+        client, tmp_path):
+    """Blender imports the extension as bl_ext.user_default.snell, the workers have `snell`:
+    a client under the extension's name renders on them (farm/aliases.py: the scheduler and
+    workers alias its name to their snell, the client `snell` to its package, one copy each),
+    the local render's sums bit for bit. Deliberate error caught: no alias (aliases.share a
+    no-op): "a Dask worker cannot run Snell (... No module named 'bl_ext')", exit 1."""
+    import subprocess
+    root = tmp_path / "extensions"
+    (root / "bl_ext" / "user_default").mkdir(parents=True)
+    (root / "bl_ext" / "__init__.py").write_text("")
+    (root / "bl_ext" / "user_default" / "__init__.py").write_text("")
+    os.symlink(os.path.dirname(cli.__file__), root / "bl_ext" / "user_default" / "snell")
+    path, out = tmp_path / "room.snell", tmp_path / "sum.npy"
+    save(glass_room(), str(path))
+    proc = subprocess.run([sys.executable, "-c", EXTENSION_CLIENT, str(root), str(path),
+                           client.scheduler.address, str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    # The result's class is the extension's, and `snell` there is the extension's package.
+    assert proc.stdout.split() == ["bl_ext.user_default.snell.tracer.result", "True",
+                                   "bl_ext.user_default.snell"]
+    scene = glass_room()
+    local = Renderer(scene, scene.settings()).render()
+    assert np.array_equal(np.load(out), local.sum)
+
+
 def test_task_keys_are_the_render_content_frame_window_and_seed():
     """The same scene and settings give the same keys (a retried task is the same task); the
     scene, a setting of the image, the frame, the window or the seed each change it, the threads
