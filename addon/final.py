@@ -10,6 +10,8 @@ so far stays. Failures end with one clear message through report() and error_set
 """
 from __future__ import annotations
 
+import contextlib
+import importlib.util
 import os
 import sys
 import threading
@@ -90,13 +92,66 @@ stop_requested = threading.Event()
 # they reach the render without being written into the file's properties.
 overrides: dict = {}
 # Set by `snell batch --workers/--cluster`: the frames render through it instead of this
-# process's Renderer: render(scene, settings, name, frame, progress) -> RenderResult (the
-# command line passes farm/'s; the add-on itself does not import Dask).
+# process's Renderer: render(scene, settings, name, frame, progress, stop=) -> RenderResult
+# (farm/render.py's Session). Without it, a scene whose Render On (scene.snell.render_on) is
+# a Dask cluster renders through a Session of its own (_cluster_session); the add-on imports
+# farm/ and Dask only then.
 remote_render = None
+# Render On's choices (addon/properties.py): this process, a scheduler's address, or Dask
+# worker processes started on this computer for the render.
+THIS_COMPUTER, DASK_SCHEDULER, LOCAL_WORKERS = "THIS_COMPUTER", "DASK_SCHEDULER", "LOCAL_WORKERS"
 
 
 def _should_stop(engine) -> bool:
     return engine.test_break() or stop_requested.is_set()
+
+
+class _Esc:
+    """Esc (or `snell batch`'s Ctrl-C) as the farm's stop: is_set() asks the engine."""
+
+    def __init__(self, engine):
+        self.engine = engine
+
+    def is_set(self) -> bool:
+        return _should_stop(self.engine)
+
+
+def cluster_of(props) -> tuple:
+    """(scheduler address, local worker processes) of a scene's Render On (scene.snell): one of
+    them None; None for This Computer. RenderFailed for a Dask Scheduler without an address."""
+    where = getattr(props, "render_on", THIS_COMPUTER)
+    if where == DASK_SCHEDULER:
+        address = props.cluster_address.strip()
+        if not address:
+            raise RenderFailed("Render On is Dask Scheduler, but the scheduler's address is "
+                               "empty (Render Properties > Performance > Scheduler)")
+        return address, None
+    if where == LOCAL_WORKERS:
+        return None, int(props.cluster_workers)
+    return None
+
+
+@contextlib.contextmanager
+def _cluster_session(engine, props):
+    """A Dask session for the frame (farm/render.py's Session, closed on exit) when Render On
+    is a cluster, else None: yields what renders the frame instead of a Renderer."""
+    where = cluster_of(props)
+    if where is None:
+        yield None
+        return
+    address, workers = where
+    if importlib.util.find_spec("distributed") is None:
+        raise RenderFailed("rendering on a Dask cluster needs Dask in Blender's Python: "
+                           f"{sys.executable} -m pip install distributed (and Snell on every "
+                           "worker: pip install 'snell[distributed]'), or set Render On to "
+                           "This Computer")
+    from ..farm.render import session
+    engine.update_stats("", f"Snell: connecting to the Dask scheduler {address}" if address else
+                        f"Snell: starting {workers} Dask worker process"
+                        + ("es" if workers != 1 else ""))
+    origin = f"Render On: Dask Scheduler {address}" if address else "Render On: Local Dask Workers"
+    with session(address, workers, quiet=True, origin=origin) as render:
+        yield render
 
 
 class RenderFailed(Exception):
@@ -243,6 +298,7 @@ def render(engine, depsgraph):
     last_render.update(record)
     record = last_render
     result = None
+    resources = contextlib.ExitStack()     # the cluster's session, if Render On is one
     try:
         engine.update_stats("", "Snell: exporting the scene")
         scene = _export(engine, depsgraph, record)
@@ -254,23 +310,27 @@ def render(engine, depsgraph):
         scene = scene.with_camera(**window.window_camera(scene.camera, x0, y0, w, h))
         settings = _settings(bl_scene, scene)
         light = light_passes_of(depsgraph.view_layer)
-        if light and remote_render is not None:
-            # A cluster's render does not carry the passes back yet: no empty layer is
-            # presented as real.
-            message = ("the light passes are not rendered on a cluster yet: "
-                       + ", ".join(name for name, _, _ in light) + " left out")
-            record["warnings"].append(message)
-            engine.report({"WARNING"}, f"Snell: {message}")
-            light = ()
         if light:
             settings = settings.replace(light_passes=True)
         spp = settings.spp
         record["target_spp"] = spp
+        remote = remote_render
+        if remote is None and cluster_of(bl_scene.snell) is not None:
+            from ..farm.render import check_settings
+            check_settings(settings, _source_name(), "set Sampling > Time Limit to 0, or "
+                                                     "Render On to This Computer")
+        # Local workers load the kernels this compiles from the disk cache.
         if not _compile_kernels(engine, record):
             _stop_without_image(engine, record)
             return
+        if remote is None:
+            remote = resources.enter_context(_cluster_session(engine, bl_scene.snell))
+            record["workers"] = getattr(remote, "processes", 0)
+        if _should_stop(engine):
+            _stop_without_image(engine, record)
+            return
         renderer = None
-        if remote_render is None:
+        if remote is None:
             engine.update_stats("", f"Snell: building the BVH of {len(scene.triangles)} triangles")
             renderer = _integrator().Renderer(scene, settings)
             if _should_stop(engine):
@@ -286,11 +346,13 @@ def render(engine, depsgraph):
         result = engine.begin_result(0, 0, w, h)
         progress = _Progress(engine, result, w, h, spp, record, t_start)
         engine.update_stats("", f"Snell: rendering, sample 0/{spp}")
-        if remote_render is None:
+        if remote is None:
             rendered = renderer.render(progress=progress)
         else:
-            rendered = remote_render(scene, settings, _source_name(),
-                                     bl_scene.frame_current, progress)
+            rendered = remote(scene, settings, _source_name(), bl_scene.frame_current, progress,
+                              stop=_Esc(engine))
+            if rendered.spp == 0:       # Esc before the cluster's first window: a black image
+                progress.write(rendered)
         adaptive = describe_adaptive(rendered)
         record.update(spp=rendered.spp, cancelled=rendered.cancelled, time_s=rendered.time_s,
                       compile_s=rendered.compile_s,
@@ -312,8 +374,10 @@ def render(engine, depsgraph):
             engine.update_result(result)
         state = ("Cancelled after" if rendered.cancelled else
                  "Time limit reached after" if rendered.time_limited else "Done:")
+        workers = getattr(rendered, "workers", 0)
+        on = f" on {workers} Dask worker{'s' if workers != 1 else ''}" if workers else ""
         engine.update_stats("", f"Snell: {state} {rendered.spp}/{spp} samples in "
-                                f"{_duration(time.perf_counter() - t_start)} "
+                                f"{_duration(time.perf_counter() - t_start)}{on} "
                                 f"({rendered.rays_per_second / 1e6:.2f} M rays/s)"
                                 + (f" | {adaptive}" if adaptive else ""))
         engine.end_result(result)
@@ -326,6 +390,11 @@ def render(engine, depsgraph):
     finally:
         if result is not None:
             engine.end_result(result, cancel=True)
+        try:
+            resources.close()        # the cluster's client, and the local workers stopped
+        except Exception as exc:  # noqa: BLE001  (closing must not hide the render's outcome)
+            print(f"Snell: closing the Dask session: {type(exc).__name__}: {exc}",
+                  file=sys.stderr)
         record["total_s"] = time.perf_counter() - t_start
 
 

@@ -3,10 +3,11 @@ setting of tracer/settings.py that Blender shows (scopes SCENE, RUN and VIEWPORT
 schema's name, documentation, default and range.
 
 addon/export/settings.py reads them back (blender_settings); the viewport reads viewport_spp and
-viewport_time_limit, the render engine threads.
+viewport_time_limit, the render engine threads and where F12 renders (render_on, with the
+scheduler's address or the local workers: addon/final.py).
 """
 import bpy
-from bpy.props import BoolProperty, EnumProperty
+from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
 from ..tracer.settings import RUN, SCENE, VIEWPORT, of_scope
 from .export.cycles_settings import FOLLOWED
@@ -34,6 +35,28 @@ OVERRIDES = EnumProperty(
     items=[(f.name.upper(), f.label.rsplit(" > ", 1)[-1], f"Snell's own {f.name} instead of "
             f"Cycles' {f.label}", 1 << k) for k, f in enumerate(FOLLOWED)],
     description="The Cycles settings Snell's own values override")
+
+
+# Where F12 renders (addon/final.py's cluster_of): Blender's alone, as the Performance panel's
+# threads are; `snell batch --workers/--cluster` overrides it. Never the viewport.
+RENDER_ON = EnumProperty(
+    name="Render On", default="THIS_COMPUTER",
+    items=[("THIS_COMPUTER", "This Computer", "Render in Blender's process"),
+           ("DASK_SCHEDULER", "Dask Scheduler",
+            "Send the frame's sample windows to the workers of a Dask scheduler (each with the "
+            "same Snell installed): the same image, bit for bit"),
+           ("LOCAL_WORKERS", "Local Dask Workers",
+            "Start Dask worker processes on this computer for the render and stop them after "
+            "it (a test of the cluster on one machine): the same image, bit for bit")],
+    description="Where F12 renders: in Blender, or on the workers of a Dask cluster "
+                "(pip install distributed in Blender's Python)")
+CLUSTER_ADDRESS = StringProperty(
+    name="Scheduler", default="tcp://127.0.0.1:8786",
+    description="The Dask scheduler's address (printed by `dask scheduler`)")
+CLUSTER_WORKERS = IntProperty(
+    name="Workers", default=2, min=1, soft_max=64, max=1024,
+    description="Dask worker processes started on this computer for the render (one thread "
+                "each)")
 
 
 def enum_items(setting) -> list:
@@ -66,6 +89,9 @@ def _annotations() -> dict:
     props["use_adaptive_sampling"] = USE_ADAPTIVE_SAMPLING
     props["use_cycles_settings"] = USE_CYCLES_SETTINGS
     props["overrides"] = OVERRIDES
+    props["render_on"] = RENDER_ON
+    props["cluster_address"] = CLUSTER_ADDRESS
+    props["cluster_workers"] = CLUSTER_WORKERS
     return props
 
 

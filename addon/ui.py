@@ -219,7 +219,15 @@ class RENDER_PT_snell_performance(SnellPanel, bpy.types.Panel):
     bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
-        self.column().prop(context.scene.snell, "threads")
+        props = context.scene.snell
+        self.column().prop(props, "threads")
+        # F12 on a Dask cluster (addon/final.py): the threads are then the workers'.
+        col = self.column()
+        col.prop(props, "render_on")
+        if props.render_on == "DASK_SCHEDULER":
+            col.prop(props, "cluster_address")
+        elif props.render_on == "LOCAL_WORKERS":
+            col.prop(props, "cluster_workers")
 
 
 class RENDER_PT_snell_film(SnellPanel, bpy.types.Panel):

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import time
 
 from ..errors import CliError, one_line
 from ..tracer import jit
-from . import worker
+from . import aliases, worker
 
+PACKAGE = __name__.rsplit(".", 2)[0]   # snell, or bl_ext.<repository>.snell inside Blender
 CONNECT_TIMEOUT = 10.0   # seconds to reach a scheduler
 WORKERS_TIMEOUT = 60.0   # seconds for a scheduler's first worker to join
 
@@ -25,9 +27,10 @@ def _dask():
 
 @contextlib.contextmanager
 def connect(address: str | None = None, workers: int | None = None,
-            timeout: float | None = None):
+            timeout: float | None = None, origin: str | None = None):
     """A Dask Client: of the scheduler at `address`, or of a LocalCluster of `workers` processes
-    (one thread each) closed on exit. Unreachable scheduler: CliError."""
+    (one thread each) closed on exit. Unreachable scheduler: CliError, starting with `origin`
+    (what asked for the address; default "--cluster ADDRESS")."""
     distributed = _dask()
     if address is None:
         # Processes, not threads: the tracer releases the GIL but Python between its kernels does
@@ -41,13 +44,13 @@ def connect(address: str | None = None, workers: int | None = None,
         finally:
             cluster.close()
         return
+    origin = origin or f"--cluster {address}"
     try:
         client = distributed.Client(address, timeout=timeout or CONNECT_TIMEOUT)
     except (OSError, TimeoutError) as exc:
-        raise CliError(f"--cluster {address}: cannot reach the scheduler "
-                       f"({_reason(exc)})") from None
+        raise CliError(f"{origin}: cannot reach the scheduler ({_reason(exc)})") from None
     except ValueError as exc:     # not an address: no port, an unknown scheme
-        raise CliError(f"--cluster {address}: {_reason(exc)}") from None
+        raise CliError(f"{origin}: {_reason(exc)}") from None
     with client:
         yield client
 
@@ -69,6 +72,8 @@ def check_workers(client, timeout: float | None = None) -> int:
                        f"in {timeout:g} s") from None
     here = jit.sources_hash()
     try:
+        # Blender's extension is bl_ext.<repository>.snell, a worker's Snell `snell`.
+        aliases.share(client, PACKAGE)
         described = client.run(worker.describe)
     except Exception as exc:  # noqa: BLE001  (a worker without snell cannot even unpickle it)
         raise CliError(f"a Dask worker cannot run Snell ({type(exc).__name__}: "
@@ -88,6 +93,20 @@ def dashboard(client) -> str:
         return client.dashboard_link or ""
     except Exception:  # noqa: BLE001  (no dashboard: bokeh missing, or disabled)
         return ""
+
+
+STOP_POLL_S = 0.05   # how often a wait for a task looks at its stop (Esc in Blender)
+
+
+def finished(future, stop=None) -> bool:
+    """Wait for a task; False if `stop` (anything with is_set(), None: never) was set first."""
+    if stop is None:
+        return True
+    while not future.done():
+        if stop.is_set():
+            return False
+        time.sleep(STOP_POLL_S)
+    return True
 
 
 def failure(name: str, what: str, exc: BaseException) -> CliError:

@@ -57,7 +57,8 @@ class RemoteTracer:
     def camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
                     pilot=None, merge=False, extra=None) -> int:
         """As Renderer.camera_pass (no merge: the schedulers that use it add in place); the
-        alpha's and denoising passes' rows (extra) go with the pixels and come back likewise."""
+        rows of the alpha's, denoising and light passes' sums (extra) go with the pixels and
+        come back likewise."""
         rows = pixels.shape[0] or self.npix
         bad = 0
         for sub in passes.sub_passes(step, rows):
@@ -78,8 +79,16 @@ class RemoteTracer:
                     key=keys.pass_key(self.key, self.frame, "camera", sub.first, r0,
                                       self.settings.seed), retries=2)
                 tasks.append((index, future))
+            replies = []
             for index, future in tasks:
-                reply = self._wait(future, f"samples {sub.first}-{sub.first + sub.samples}")
+                if not cluster.finished(future, stop):
+                    # Esc: nothing of the pass is added (the scheduler drops it) and its tasks
+                    # are cancelled.
+                    self.client.cancel([f for _, f in tasks])
+                    return bad
+                replies.append((index, self._wait(future, f"samples {sub.first}-"
+                                                          f"{sub.first + sub.samples}")))
+            for index, reply in replies:
                 for whole, part in zip(film, reply.film):
                     if whole.shape[0]:
                         whole[index] = part
@@ -132,22 +141,26 @@ EXTRA_SUMS = ("albedo", "normal", "transparent", "transparent_sq")   # ExtraRows
 
 
 def _rows_of(extra: ExtraRows, index: np.ndarray) -> ExtraRows:
-    """The rows of `index` of the render's alpha and denoising sums, with NaN counts from 0."""
+    """The rows of `index` of the render's alpha, denoising and light-pass sums (the light
+    passes' of both halves), with NaN counts from 0."""
     rows = {name: None if getattr(extra, name) is None else getattr(extra, name)[index]
             for name in EXTRA_SUMS}
-    return extra._replace(**rows, feature_nans=np.zeros(1, np.int64),
-                          alpha_nans=np.zeros(1, np.int64))
+    light = None if extra.light is None else extra.light[:, index]
+    return extra._replace(**rows, light=light, feature_nans=np.zeros(1, np.int64),
+                          alpha_nans=np.zeros(1, np.int64), light_nans=np.zeros(1, np.int64))
 
 
 def _put_rows(extra: ExtraRows, index: np.ndarray, rows: ExtraRows) -> None:
-    """Put a task's rows of the alpha and denoising sums back, and add its NaN counts."""
+    """Put a task's rows of the alpha, denoising and light-pass sums back, and add its NaN
+    counts."""
     for name in EXTRA_SUMS:
         if getattr(extra, name) is not None:
             getattr(extra, name)[index] = getattr(rows, name)
-    if extra.feature_nans is not None:
-        extra.feature_nans[0] += rows.feature_nans[0]
-    if extra.alpha_nans is not None:
-        extra.alpha_nans[0] += rows.alpha_nans[0]
+    if extra.light is not None:
+        extra.light[:, index] = rows.light
+    for name in ("feature_nans", "alpha_nans", "light_nans"):
+        if getattr(extra, name) is not None:
+            getattr(extra, name)[0] += getattr(rows, name)[0]
 
 
 def _groups(jobs: list, most: int) -> list[list]:
@@ -175,6 +188,8 @@ def render_passes(client, scene, settings, name: str, frame: int = 0, progress=N
             result.start_features(camera.rotation)
         if tracer.facts["alpha"]:
             result.start_alpha(tracer.facts["film_transparent"])
+        if tracer.facts["light_passes"]:
+            result.start_light_passes()
         scheduler = passes.scheduler(tracer, result, settings)
         return passes.drive(tracer, scheduler, None, progress, stop, 0.0)
     finally:

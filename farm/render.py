@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CliError
-from ..tracer import passes, wavefront
+from ..tracer import adaptive, light_passes, passes, wavefront
 from ..tracer.camera import Camera
 from ..tracer.result import RenderResult
 from ..tracer.shader.program import has_holdout
@@ -26,20 +26,22 @@ AHEAD_PER_THREAD = 2   # windows in flight per worker thread: workers never wait
 AHEAD_BYTES = 2 << 30
 
 
-def check_settings(settings, where: str) -> None:
-    """CliError unless a cluster can render the settings' image."""
+def check_settings(settings, where: str, fix: str = "add --time-limit 0") -> None:
+    """CliError unless a cluster can render the settings' image; `fix` says what to change."""
     if getattr(settings, "time_limit", 0):
         # The local render's samples would depend on its clock: no image to be equal to.
         raise CliError(f"{where}: a time limit is not distributed (its samples would depend on "
-                       "the clock): add --time-limit 0")
+                       f"the clock): {fix}")
 
 
 @contextlib.contextmanager
-def session(address: str | None, workers: int | None, quiet: bool = False):
+def session(address: str | None, workers: int | None, quiet: bool = False,
+            origin: str | None = None):
     """Render with the scheduler at `address`, or a LocalCluster of `workers` processes started
-    and stopped here: yields a Session (render(scene, settings, name, frame=0, progress=None)
-    -> RenderResult with .workers, and its prefetch); says where on stderr unless quiet."""
-    with cluster.connect(address, workers) as client:
+    and stopped here: yields a Session (render(scene, settings, name, frame=0, progress=None,
+    stop=None) -> RenderResult with .workers, and its prefetch); says where on stderr unless
+    quiet. origin: what asked for the address, in errors (cluster.connect)."""
+    with cluster.connect(address, workers, origin=origin) as client:
         threads = cluster.check_workers(client)
         processes = len(client.nthreads())
         if not quiet:
@@ -66,7 +68,8 @@ class Session:
         self.started: dict = {}     # frame -> Started (prefetched, not rendered yet)
         self.prefetched = 0         # frames that found their windows started (measurements)
 
-    def __call__(self, scene, settings, name: str, frame: int = 0, progress=None) -> RenderResult:
+    def __call__(self, scene, settings, name: str, frame: int = 0, progress=None,
+                 stop=None) -> RenderResult:
         started = self.started.pop(frame, None)
         if started is not None and started.key != keys.render_key(scene, settings):
             started.cancel(self.client)      # another scene than prefetched: start afresh
@@ -78,7 +81,7 @@ class Session:
             self.prefetched += 1
             priority = started.priority
         result = render_frame(self.client, scene, settings, name, frame, progress, self.threads,
-                              started, priority)
+                              started, priority, stop)
         result.workers = self.processes
         return result
 
@@ -139,20 +142,23 @@ def render_on(address: str | None, workers: int | None, scene, settings, name: s
 
 def render_frame(client, scene, settings, name: str, frame: int = 0, progress=None,
                  threads: int | None = None, started: Started | None = None,
-                 priority: int = 0) -> RenderResult:
+                 priority: int = 0, stop=None) -> RenderResult:
     """Render a scene's frame on the client's workers; `name` (the scene file) names it in
     errors. progress(result, passes done, passes) as Renderer.render's. started: the frame's
-    tasks already submitted (Session.prefetch); priority: Dask's, of its tasks."""
+    tasks already submitted (Session.prefetch); priority: Dask's, of its tasks. stop (anything
+    with is_set(): Esc in Blender): once set, the render ends cancelled with the windows or
+    passes added so far, without waiting for the task under way; its tasks are cancelled."""
     check_settings(settings, name)
     threshold, _ = passes.adaptive_settings(settings)
     if threshold > 0.0 or settings.batches:
         try:
-            return remote.render_passes(client, scene, settings, name, frame, progress, threads)
+            return remote.render_passes(client, scene, settings, name, frame, progress, threads,
+                                        stop)
         finally:
             if started is not None:
                 started.cancel(client)
     return _render_windows(client, scene, settings, name, frame, progress, threads, started,
-                           priority)
+                           priority, stop)
 
 
 def start_windows(client, scene, settings, frame: int, threads: int | None,
@@ -167,9 +173,11 @@ def start_windows(client, scene, settings, frame: int, threads: int | None,
     # Sent once to every worker (a worker that joins later copies it from another), not per task.
     [scene_future] = client.scatter([scene], broadcast=True, hash=False)
     window_bytes = w * h * 3 * 8 * 3          # sums, sums of squares, light sums: float64 RGB
-    # With the alpha or the denoising passes a window also sends each sample's (WindowExtra).
-    window_bytes += w * h * windows.step * 8 * ((1 if _has_alpha(settings, scene) else 0)
-                                                + (6 if settings.wants_features else 0))
+    # With the alpha, the denoising or the light passes a window also sends each sample's
+    # (WindowExtra).
+    window_bytes += w * h * windows.step * 8 * (
+        (1 if _has_alpha(settings, scene) else 0) + (6 if settings.wants_features else 0)
+        + (light_passes.COLUMNS if settings.light_passes else 0))
     ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, threads * AHEAD_BYTES // window_bytes))
     started = Started(key, scene_future, {}, ahead, priority, [])
     for i in range(min(ahead, len(windows))):
@@ -187,7 +195,7 @@ def _submit(client, started: Started, settings, frame: int, window) -> None:
 
 def _render_windows(client, scene, settings, name: str, frame: int, progress,
                     threads: int | None, started: Started | None = None,
-                    priority: int = 0) -> RenderResult:
+                    priority: int = 0, stop=None) -> RenderResult:
     """A fixed-sample frame's windows traced as tasks and added in window order."""
     camera = Camera(scene.camera)
     w, h, spp = camera.width, camera.height, settings.spp
@@ -203,6 +211,10 @@ def _render_windows(client, scene, settings, name: str, frame: int, progress,
             # In window order (float sums depend on their order); the windows after it trace
             # meanwhile, and those that finish first wait on their workers, not here.
             future = futures.pop(merged)
+            if not cluster.finished(future, stop):
+                result.cancelled = True          # the windows in flight are cancelled below
+                futures[merged] = future
+                break
             reply = _reply(future, name, windows[merged])
             future.release()
             if reply.extra is not None and merged == 0:
@@ -236,7 +248,7 @@ def _add(result: RenderResult, reply: worker.WindowReply) -> None:
         result.light_in_image = reply.split
     result.add(reply.sums)
     if reply.extra is not None:
-        add_extra(result, reply.extra)
+        add_extra(result, reply.extra, reply.sums.window)
     result.rays += reply.rays
     result.embree_time_s += reply.embree_s
 
@@ -248,28 +260,37 @@ def _has_alpha(settings, scene) -> bool:
 
 
 def _start_extra(result: RenderResult, extra: worker.WindowExtra, camera: Camera) -> None:
-    """Keep the alpha's and the denoising passes' sums where the windows bring samples of them."""
+    """Keep the alpha's, the denoising and the light passes' sums where the windows bring
+    samples of them."""
     if extra.albedo is not None:
         result.start_features(camera.rotation)
     if extra.transparent is not None:
         result.start_alpha(extra.film_transparent)
+    if extra.light is not None:
+        result.start_light_passes()
 
 
-def add_extra(result: RenderResult, extra: worker.WindowExtra) -> None:
-    """Add a window's alpha and denoising samples to the result's sums one sample at a time,
-    with the tracer's own additions (wavefront.film_alpha, film_features): the local render's
-    sums bit for bit, as each of its pixels gets its samples in sample order."""
+def add_extra(result: RenderResult, extra: worker.WindowExtra, window) -> None:
+    """Add a window's alpha, denoising and light-pass samples to the result's sums one sample
+    at a time, with the tracer's own additions (wavefront.film_alpha, film_features,
+    light_passes.film_light_passes): the local render's sums bit for bit, as each of its pixels
+    gets its samples in sample order. The light passes go to the half of the sample indices of
+    the window's first sample, where the local render's one pass of the window adds them."""
     rows = result.extra_rows()
     npix = result.width * result.height
-    count = (extra.transparent if extra.transparent is not None else extra.albedo).shape[0]
-    for k in range(count):
+    light = None if extra.light is None else rows.light[adaptive.half_of(window.first)]
+    for k in range(extra.samples):
         if extra.transparent is not None:
             wavefront.film_alpha(extra.transparent[k], npix, 0, 1, passes.ALL_PIXELS,
                                  rows.transparent, rows.transparent_sq)
         if extra.albedo is not None:
             wavefront.film_features(extra.albedo[k], extra.normal[k], npix, 0, 1,
                                     passes.ALL_PIXELS, rows.albedo, rows.normal)
+        if light is not None:
+            light_passes.film_light_passes(extra.light[k], npix, 0, 1, passes.ALL_PIXELS, light)
     if extra.transparent is not None:
         result.alpha_nans[0] += extra.alpha_nans
     if extra.albedo is not None:
         result.feature_nans[0] += extra.feature_nans
+    if light is not None:
+        result.light_pass_nans[0] += extra.light_nans

@@ -142,13 +142,13 @@ def test_build_makes_one_zip_per_platform_with_its_wheels(built):
                                                       ".git", "dist/"))
                     or "__pycache__" in n or n.endswith(".blend")]
         assert not [n for n in names if "numpy" in n.lower()]
-        # The extension is addon/, tracer/, errors.py and __init__.py: not the command line nor
-        # what only it runs (the validator, snell stress, their pages), which Blender cannot import.
-        assert not [n for n in names if n.startswith(("validation/", "stress/", "pages/", "compare/",
-                                                      "farm/"))
+        # The extension is addon/, tracer/, farm/ (F12 on a Dask cluster), errors.py and
+        # __init__.py: not the command line nor what only it runs (the validator, snell stress,
+        # their pages), which Blender cannot import.
+        assert not [n for n in names if n.startswith(("validation/", "stress/", "pages/", "compare/"))
                     or n == "cli.py"]
         assert {m for m in shipped_modules(built / name) if "." not in m} == {
-            "", "addon", "errors", "tracer"}
+            "", "addon", "errors", "farm", "tracer"}
         # Everything in addon/ ships.
         addon = sorted(os.path.relpath(os.path.join(d, f), ROOT).replace(os.sep, "/")
                        for d, _, files in os.walk(os.path.join(ROOT, "addon")) if "__pycache__" not in d

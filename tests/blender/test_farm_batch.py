@@ -29,9 +29,10 @@ def test_batch_starts_each_frame_before_the_last_ends(blender_scenes, tmp_path, 
     real = render_module.render_frame
 
     def watched(client, scene, settings, name, frame=0, progress=None, threads=None,
-                started=None, priority=0):
+                started=None, priority=0, stop=None):
         seen.append((frame, started is not None and bool(started.futures), priority))
-        return real(client, scene, settings, name, frame, progress, threads, started, priority)
+        return real(client, scene, settings, name, frame, progress, threads, started, priority,
+                    stop)
     monkeypatch.setattr(render_module, "render_frame", watched)
     blend = str(blender_scenes / "animated.blend")
     assert cli.main(["batch", blend, *ARGS, "-o", str(tmp_path / "local_####.exr")]) == 0

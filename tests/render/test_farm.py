@@ -224,17 +224,70 @@ def test_alpha_and_denoising_passes_of_passes_on_the_cluster_are_the_local_rende
         assert local.samples().min() < local.samples().max()      # it did adapt
 
 
+# ---------------------------------------------------------------------------------------------
+# The light passes
+
+def same_light_passes(a, b) -> bool:
+    """The same light-pass sums of both halves and NaN counts, bit for bit (both made)."""
+    return (a.has_light_passes and b.has_light_passes
+            and np.array_equal(a.light_pass_sum, b.light_pass_sum)
+            and a.light_pass_nan_count == b.light_pass_nan_count)
+
+
+def test_the_light_passes_on_the_cluster_are_the_local_render(client, monkeypatch):
+    """Fixed samples in windows of 3 (20 spp: window 5, samples 15-17, straddles the halves'
+    boundary at 16): the workers send each sample's pass rows, the client adds them in sample
+    order to the half of the window's first sample: the local sums of both halves bit for bit,
+    with the denoising passes beside them, and every pass read from them. Deliberate errors
+    caught (measured): each sample's rows added to its own half (what the one-sample passes on
+    the worker do): the halves differ in 256 of 256 pixels; each window's first sample left
+    out on the client: 256 of 256 pixels."""
+    monkeypatch.setattr(passes, "PASS_PATHS", 3 * SIZE * SIZE)
+    scene = glass_room(spp=20)
+    settings = scene.settings(light_passes=True, denoising_passes=True)
+    local = Renderer(scene, settings).render()
+    merged = render_module.render_frame(client, scene, settings, "room.snell")
+    assert [w.first for w in passes.fixed_windows(SIZE * SIZE, 20)][5] == 15
+    assert local.light_pass_sum[1].any() and local.light_pass_sum[0].any()
+    assert same_image(local, merged) and same_extra(local, merged)
+    assert same_light_passes(local, merged)
+    ours, theirs = local.light_pass_images(), merged.light_pass_images()
+    for name in ("Diffuse Direct", "Diffuse Indirect", "Glossy Indirect", "Transmission Color"):
+        assert ours[name].any(), name        # the scene has light in each kind
+    for name in ours:
+        assert np.array_equal(ours[name], theirs[name]), name
+
+
+@pytest.mark.parametrize("render", [ADAPTIVE, {"batches": 3}], ids=["adaptive", "batches"])
+def test_the_light_passes_of_passes_on_the_cluster_are_the_local_render(client, render):
+    """Adaptive sampling and batches: each task's rows of both halves of the light-pass sums go
+    to the worker with its pixels and come back with the pass's samples added: bit for bit.
+    Deliberate error caught (measured): a task's light rows not put back on the client
+    (remote._put_rows): 256 of 256 pixels differ (adaptive and batches)."""
+    scene = glass_room()
+    settings = scene.settings(light_passes=True, **render)
+    local = Renderer(scene, settings).render()
+    merged = render_module.render_frame(client, scene, settings, "room.snell")
+    assert same_image(local, merged) and same_light_passes(local, merged)
+    assert np.array_equal(local.samples(), merged.samples())
+    ours, theirs = local.light_pass_images(), merged.light_pass_images()
+    for name in ours:
+        assert np.array_equal(ours[name], theirs[name]), name
+
+
 def test_render_workers_writes_the_local_alpha_passes_and_denoised_image(tmp_path):
     """`snell render --workers 2` with a transparent film, a Holdout, --denoise and --passes
     writes the local render's EXR: every channel (R, G, B, A, samples, the noisy image, the
-    denoising and data passes) bit for bit. Deliberate error caught: each window's first
-    sample of the features left out on the client: `Denoising Albedo.R` differs (4.51 against
-    4.14 in the first pixel)."""
+    denoising, data and light passes) bit for bit. Deliberate errors caught: each window's
+    first sample of the features left out on the client: `Denoising Albedo.R` differs (4.51
+    against 4.14 in the first pixel); of the light passes: `Emission.R` differs."""
     import OpenImageIO as oiio
+    from snell.tracer.light_passes import PASSES as LIGHT
     path = tmp_path / "held.snell"
     save(held_out(), str(path))
     options = ["--film-transparent", "--denoise", "--passes",
-               "Depth,Normal,Denoising Albedo,Denoising Normal,Noisy Image", "--quiet"]
+               ",".join(("Depth,Normal,Denoising Albedo,Denoising Normal,Noisy Image",) + LIGHT),
+               "--quiet"]
     local, farm = tmp_path / "local.exr", tmp_path / "farm.exr"
     assert cli.main(["render", str(path), "-o", str(local), *options]) == 0
     assert cli.main(["render", str(path), "-o", str(farm), "--workers", "2", *options]) == 0
@@ -245,6 +298,8 @@ def test_render_workers_writes_the_local_alpha_passes_and_denoised_image(tmp_pat
         return names, {name: image.read_channel(str(exr), name) for name in names}
     names, ours = channels(local)
     assert {"A", "samples", "Noisy Image.R", "Denoising Normal.B", "Depth.Z"} <= set(names)
+    assert {f"{name}.G" for name in LIGHT} <= set(names)
+    assert ours["Emission.R"].any() and ours["Environment.B"].any()
     farm_names, theirs = channels(farm)
     assert farm_names == names
     for name in names:
@@ -444,6 +499,46 @@ def test_an_unreachable_scheduler_is_one_error(tmp_path, capsys, monkeypatch):
                              "the scheduler")
     assert time.monotonic() - start < 30
     assert sorted(os.listdir(tmp_path)) == ["tiny.snell"]
+
+
+EXTENSION_CLIENT = """
+import sys, numpy as np
+sys.path.insert(0, sys.argv[1])
+from bl_ext.user_default.snell.farm import render
+from bl_ext.user_default.snell.tracer.scene import load
+scene = load(sys.argv[2])
+with render.session(sys.argv[3], None, quiet=True) as frames:
+    result = frames(scene, scene.settings(), "room.snell")
+np.save(sys.argv[4], result.sum)
+print(type(result).__module__, "snell" in sys.modules, sys.modules["snell"].__name__)
+"""
+
+
+def test_a_client_that_imports_snell_as_blenders_extension_renders_on_the_cluster(
+        client, tmp_path):
+    """Blender imports the extension as bl_ext.user_default.snell, the workers have `snell`:
+    a client under the extension's name renders on them (farm/aliases.py: the scheduler and
+    workers alias its name to their snell, the client `snell` to its package, one copy each),
+    the local render's sums bit for bit. Deliberate error caught: no alias (aliases.share a
+    no-op): "a Dask worker cannot run Snell (... No module named 'bl_ext')", exit 1."""
+    import subprocess
+    root = tmp_path / "extensions"
+    (root / "bl_ext" / "user_default").mkdir(parents=True)
+    (root / "bl_ext" / "__init__.py").write_text("")
+    (root / "bl_ext" / "user_default" / "__init__.py").write_text("")
+    os.symlink(os.path.dirname(cli.__file__), root / "bl_ext" / "user_default" / "snell")
+    path, out = tmp_path / "room.snell", tmp_path / "sum.npy"
+    save(glass_room(), str(path))
+    proc = subprocess.run([sys.executable, "-c", EXTENSION_CLIENT, str(root), str(path),
+                           client.scheduler.address, str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    # The result's class is the extension's, and `snell` there is the extension's package.
+    assert proc.stdout.split() == ["bl_ext.user_default.snell.tracer.result", "True",
+                                   "bl_ext.user_default.snell"]
+    scene = glass_room()
+    local = Renderer(scene, scene.settings()).render()
+    assert np.array_equal(np.load(out), local.sum)
 
 
 def test_task_keys_are_the_render_content_frame_window_and_seed():

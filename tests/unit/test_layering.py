@@ -21,15 +21,16 @@ SUBPACKAGES = ("addon", "farm", "pages", "stress", "tracer", "validation")
 # own modules cli and errors each on its own; "snell" is the root's __init__, the extension's
 # register()): the tracer at the bottom, errors.py beside it, the Blender add-on above them, then
 # the Cycles validator and `snell stress`, which make their pages with pages/ (above the tracer
-# only, below both), and the command line on top.
+# only, below both), and the command line on top. farm/ (Dask) sits between the tracer and the
+# add-on, whose F12 renders on a cluster through it.
 PACKAGE_IMPORTS = {
     "snell.tracer": set(),
     "snell.errors": set(),
-    "snell.addon": {"snell.tracer", "snell.errors"},
+    "snell.addon": {"snell.farm", "snell.tracer", "snell.errors"},   # farm: F12 on a cluster
     "snell.pages": {"snell.tracer"},
     "snell.validation": {"snell.addon", "snell.pages", "snell.tracer", "snell.errors"},
     "snell.stress": {"snell.addon", "snell.pages", "snell.tracer", "snell.errors"},
-    # Distributed rendering on Dask: above the tracer (and errors.py), below the command line.
+    # Distributed rendering on Dask: above the tracer (and errors.py), below the add-on.
     "snell.farm": {"snell.tracer", "snell.errors"},
     "snell.cli": {"snell.validation", "snell.stress", "snell.farm", "snell.addon",
                   "snell.pages", "snell.tracer", "snell.errors"},
