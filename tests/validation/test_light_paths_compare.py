@@ -81,6 +81,55 @@ def test_the_total_alone_is_caught(limits):
     assert v == "inconsistent", detail
 
 
+def build_caustic(path):
+    """A glass sphere's caustic on a floor under a small emitter, with Cycles' Transmission 0:
+    a camera path from the floor ends inside the sphere, so Cycles renders no caustic, and
+    Snell's light tracer must drop its paths at their second (non-last) transmission."""
+    scene = common.reset()
+    common.setup_render(scene, (32, 32))
+    scene.cycles.transmission_bounces = 0
+    common.quad("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)],
+                common.material("Floor", "diffuse", (0.8, 0.8, 0.8)))
+    common.uv_sphere("Glass", (0.0, 0.0, 0.6), 0.5,
+                     common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5),
+                     segments=32, rings=16)
+    s = 0.15
+    common.quad("Light", [(-s, -s, 2.5), (-s, s, 2.5), (s, s, 2.5), (s, -s, 2.5)],
+                common.material("Light", "emission", (1.0, 1.0, 1.0), Strength=200.0))
+    common.camera(scene, (0.0, -3.0, 2.5), (0.0, 0.0, 0.2), lens=35.0)
+    return common.save(path)
+
+
+@pytest.fixture(scope="module")
+def caustic(tmp_path_factory):
+    blend = build_caustic(str(tmp_path_factory.mktemp("caustic") / "caustic.blend"))
+    return Reference(blend, framing=FULL)
+
+
+def test_the_light_tracer_keeps_the_limits(caustic):
+    """Snell's light tracer renders the caustic's paths only as far as the limits let a camera
+    path go (light_tracer.count_scattering)."""
+    from snell.tracer.integrator import Renderer
+    assert Renderer(caustic.scene, caustic.scene.settings()).caustics is not None
+    v, detail = _verdict(caustic.compare())
+    assert v == "consistent", detail
+
+
+def test_the_light_tracer_drops_paths_past_a_limit(caustic):
+    """With Transmission 0 only the glass's reflections reach the floor (a light path's first
+    vertex is free: towards the light in the camera path's order); every refracted path has a
+    second transmission. Measured: 76 splats at Transmission 0 against 539 at 1 and 1024 (16
+    spp); with count_scattering's limit check removed, 539 at each."""
+    from snell.tracer.integrator import Renderer
+    splats = {}
+    for limit in (0, 1, 1024):
+        scene = caustic.scene.with_render(transmission_bounces=limit)
+        result = Renderer(scene, scene.settings(spp=16, light_vertices=False)).render()
+        splats[limit] = result.stats["caustic_splats"]
+    assert splats[1] == splats[1024] > 0
+    assert 0 < splats[0] < 0.3 * splats[1], splats
+
+
 # Clamping: each scene's pixels, all alike (8 x 8, a narrow camera).
 EMISSION = 5.0              # the emitter's strength: its radiance
 SUN = 10.0                  # W/m^2
