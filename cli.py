@@ -477,6 +477,7 @@ def describe(scene) -> list[str]:
         f"render     {settings.spp} spp, max depth {settings.max_depth}, seed {settings.seed}, "
         f"fresnel {settings.fresnel}, pixel filter {settings.pixel_filter.replace('_', '-')} "
         f"{settings.filter_width:g} px",
+        f"paths      {light_paths(settings)}",
         f"sampling   {adaptive_sampling(settings)}"
         + (f", time limit {settings.time_limit:g} s" if settings.time_limit else ""),
         f"sources    {setting_sources(scene.render)}",
@@ -486,6 +487,17 @@ def describe(scene) -> list[str]:
         f"skips      {skipped}",
         f"features   {', '.join(features) or 'none'}",
     ]
+
+
+def light_paths(settings) -> str:
+    """The bounce limits of each kind and the clamps, as Cycles' Light Paths panel has them."""
+    kinds = ", ".join(f"{name} {getattr(settings, name + '_bounces')}"
+                      for name in ("diffuse", "glossy", "transmission"))
+    clamps = ", ".join(f"{name} {value:g}" if value > 0 else f"{name} off"
+                       for name, value in (("direct", settings.sample_clamp_direct),
+                                           ("indirect", settings.sample_clamp_indirect)))
+    return (f"bounces {kinds}, transparent {settings.transparent_max_bounces}; "
+            f"clamp {clamps}")
 
 
 def setting_sources(render: dict) -> str:

@@ -201,13 +201,24 @@ class RENDER_PT_snell_light_paths(SnellPanel, bpy.types.Panel):
         props, cycles = context.scene.snell, _cycles(context)
         col = self.column()
         if cycles is not None:
+            # Cycles' own properties, which Snell renders (cycles_settings.FOLLOWED).
             col.prop(cycles, "max_bounces", text="Max Bounces")
-            col.label(text=f"Snell: Max Depth {cycles.max_bounces + 1}; per-kind limits, "
-                           "clamping and Filter Glossy are not rendered")
+            for prop, text in (("diffuse_bounces", "Diffuse"), ("glossy_bounces", "Glossy"),
+                               ("transmission_bounces", "Transmission"),
+                               ("transparent_max_bounces", "Transparent")):
+                col.prop(cycles, prop, text=text)
+            col.label(text=f"Snell: Max Depth {cycles.max_bounces + 1}")
+            col.prop(cycles, "sample_clamp_direct", text="Clamp Direct")
+            col.prop(cycles, "sample_clamp_indirect", text="Clamp Indirect")
+            col.label(text="Filter Glossy and the caustics switches are not rendered")
         else:
             col.prop(props, "max_depth")
             col.label(text=f"Cycles: Max Bounces {props.max_depth - 1}" if props.max_depth > 0
                       else "No Cycles equivalent (emitters only)")
+            for name in ("diffuse_bounces", "glossy_bounces", "transmission_bounces",
+                         "transparent_max_bounces", "sample_clamp_direct",
+                         "sample_clamp_indirect"):
+                col.prop(props, name)
         # What Snell adds: its own whether or not it follows Cycles.
         col.prop(props, "fresnel")
         col.prop(props, "caustics")

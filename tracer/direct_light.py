@@ -19,6 +19,7 @@ from .lights.codes import CASTS_SHADOW, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE
 from .lights.dispatch import light_vertex_density, pick_light, sample_light
 from .lobes import DIFFUSE_EVENT, REFLECT_EVENT, TRANSMIT_EVENT, bsdf_eval
 from .material_kinds import DIFFUSE
+from .path_limits import clamp_light
 from .sampler import sample_pair
 from .sampling import power_heuristic3
 from .vec import dot, max3, mul, row, store, sub, vmul
@@ -44,12 +45,13 @@ def evaluate_surface(kind, albedo, lobes, count, view, ns_f, ng_f, w, events, sh
 @jit_inline
 def sample_direct_light(lights, mesh, key, sample, dimension, bits, strat, u_pick, vertex_kind,
                         p, ng_f, ns_f, eps, beta, step, kind, albedo, lobes, count, view,
-                        shadows, n_shadow, radiance, without, path):
+                        shadows, n_shadow, radiance, without, path, limit):
     """Next-event estimation at p (a vertex of this surface kind, scattering rays of
     vertex_kind): sample a light (u_pick, and the sampler's pair `dimension`), evaluate the
     surface towards it, weight it by MIS and queue its shadow ray (deliver_light). step > 0: the
     density of the camera's step to p when a light vertex could stand in for p (a third
-    strategy). Returns the new shadow-ray count."""
+    strategy). `limit`: the clamp of direct light at this vertex (path_limits). Returns the new
+    shadow-ray count."""
     l0, l1 = sample_pair(key, sample, dimension, bits, strat)
     wi, target, infinite, weight, pdf_light, flags = sample_light(
         lights, mesh, p, ns_f, vertex_kind, u_pick, l0, l1)
@@ -75,7 +77,7 @@ def sample_direct_light(lights, mesh, key, sample, dimension, bits, strat, u_pic
     light = mul(vmul(vmul(beta, color), weight), scale)
     return deliver_light(shadows, n_shadow, radiance, without, path, mul(light, w),
                          mul(light, w_without), flags, offset_origin(p, ng_f, eps, wi), wi,
-                         target, infinite)
+                         target, infinite, limit)
 
 
 @jit_inline
@@ -107,28 +109,28 @@ def lit_events(flags):
 
 
 @jit
-def add_light(radiance, path, beta, light, w):
-    """radiance[path] += beta * light * w."""
+def add_light(radiance, path, contribution):
+    """radiance[path] += contribution."""
     for k in range(3):
-        radiance[path, k] += beta[k] * light[k] * w
+        radiance[path, k] += contribution[k]
 
 
 @jit
 def deliver_light(shadows, n_shadow, radiance, without, path, light, light_without, flags,
-                  origin, wi, target, infinite):
+                  origin, wi, target, infinite, limit):
     """A light sample's contribution (light_without: its share without light vertices, for
     `without` as in wavefront.emitters): behind a shadow ray from origin (queued as ray
-    n_shadow), or added at once for a lamp that casts no shadow (lights.codes flags). Returns
-    the new shadow-ray count."""
+    n_shadow), or added at once, clamped to `limit` (path_limits), for a lamp that casts no
+    shadow (lights.codes flags). Returns the new shadow-ray count."""
     if flags & CASTS_SHADOW:
         store(shadows.contrib, n_shadow, light)
         store(shadows.without, n_shadow, light_without)
         shadows.pass_direct[n_shadow] = 1     # direct light, if cast from the first hit
         queue_shadow(shadows, n_shadow, path, origin, wi, target, infinite)
         return n_shadow + 1
-    add_light(radiance, path, light, (1.0, 1.0, 1.0), 1.0)
+    add_light(radiance, path, clamp_light(light, limit))
     if without.shape[0] > 0:
-        add_light(without, path, light_without, (1.0, 1.0, 1.0), 1.0)
+        add_light(without, path, clamp_light(light_without, limit))
     return n_shadow
 
 

@@ -18,7 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import adaptive, jit, light_passes, light_tracer, lobes, passes, wavefront
+from . import adaptive, jit, light_passes, light_tracer, lobes, passes, path_limits, wavefront
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
@@ -124,6 +124,12 @@ class Renderer:
                                    env_sampling=settings.env_sampling)
         self.media = media_tables(scene, self.lights.tables)
         self.max_depth = settings.max_depth
+        # Cycles' bounce limits and clamping, as the stages read them (path_limits.py).
+        self.limits = path_limits.bounce_limits(
+            settings.max_depth, settings.transparent_max_bounces, settings.diffuse_bounces,
+            settings.glossy_bounces, settings.transmission_bounces)
+        self.clamp = path_limits.clamp_limits(settings.sample_clamp_direct,
+                                              settings.sample_clamp_indirect)
         self.seed = settings.seed
         self.fresnel = FRESNEL_MODELS.index(settings.fresnel)
         pure = settings.pure_light_tracing
@@ -343,30 +349,30 @@ class Renderer:
         m = n
         # Passing a transparent surface is no bounce (wavefront.Paths.bounce): the wavefront
         # goes as deep as the bounces and transparent bounces together allow.
-        limits = (self.max_depth, self.settings.transparent_max_bounces)
+        limits, clamp = self.limits, self.clamp
         deepest = self.max_depth + (limits[1] if self.transparent_shadows else 0)
         for depth in range(deepest + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
             kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split,
-                                      self.world_split, depth, limits, m, paths, prim, t,
+                                      self.world_split, depth, limits, clamp, m, paths, prim, t,
                                       radiance, without, active, stats, with_features,
                                       feature_albedo, self.film_transparent, transparent,
                                       pass_sums)
             if self.programs_emit:
                 wavefront.program_emitters(mesh, mats, self.tables, self.split, depth, m, paths,
                                            prim, u, v, t, radiance, without, with_features,
-                                           feature_albedo, scratch, regs, pass_sums)
+                                           feature_albedo, scratch, regs, pass_sums, clamp)
             if kept == 0:
                 break
             m, n_shadow, n_programs = wavefront.materials(
                 lights, mesh, mats, self.media, self.tables, self.fresnel, self.next_event, bits,
-                stratified, depth, kept, active, paths, prim, u, v, out, shadows, radiance,
-                without, scratch, params, stats, lv, last_connection, with_features,
+                stratified, depth, limits, clamp, kept, active, paths, prim, u, v, out, shadows,
+                radiance, without, scratch, params, stats, lv, last_connection, with_features,
                 feature_albedo, feature_normal, programs, pass_sums)
             if n_programs:
                 m, n_shadow = wavefront.program_materials(
                     lights, mesh, mats, self.media, self.tables, self.next_event, bits,
-                    stratified, depth, self.max_depth, n_programs, programs, paths, prim, u, v,
+                    stratified, depth, limits, clamp, n_programs, programs, paths, prim, u, v,
                     out, m, shadows, n_shadow, radiance, without, scratch, regs, stats, lv,
                     last_connection, with_features, feature_albedo, feature_normal,
                     transparent, pass_sums)
@@ -375,7 +381,8 @@ class Renderer:
                                         shadows.tmax[:n_shadow])
                 if self.transparent_shadows:
                     self._through_transparency(n_shadow, blocked, shadows, scratch, regs)
-                wavefront.shadow_rays(n_shadow, blocked, shadows, radiance, without, pass_sums)
+                wavefront.shadow_rays(n_shadow, blocked, shadows, radiance, without, pass_sums,
+                                      clamp)
             paths, out = out, paths
             if m == 0:
                 break
@@ -451,7 +458,7 @@ class Renderer:
                 break
             prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
             m, n_conn = light_tracer.light_bounce(caustics, lights, mesh, mats, self.media, cam,
-                                                  margin, self.fresnel, self.max_depth, m, paths,
+                                                  margin, self.fresnel, self.limits, m, paths,
                                                   prim, u, v, out, connections, raster)
             if n_conn:
                 visible = geom.occluded(connections.o32[:n_conn], connections.d32[:n_conn],

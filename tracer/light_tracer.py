@@ -52,6 +52,7 @@ from .lights.dispatch import emission_anchor, emit_along, light_seen, starts_lig
 from .lights.sun import sun_emission
 from .lights.world import world_emission
 from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, PROGRAM, REFRACTION
+from .path_limits import DIFFUSE_BOUNCE, GLOSSY_BOUNCE, TRANSMISSION_BOUNCE, within_limits
 from . import media as medium
 from .media import empty_stacks
 from .sampler import mix, random_pair
@@ -94,13 +95,16 @@ class LightPaths(NamedTuple):
     bounces: np.ndarray      # (n,) int64 vertices so far (all specular unless pure or delta)
     lamp: np.ndarray         # (n,) int64 the emitter's row in Caustics (for its flags)
     medium: np.ndarray       # (n, media.MAX_MEDIA) int64 the media the ray is inside (media.py)
+    kinds: np.ndarray        # (n, 3) int64 its diffuse, glossy and transmission scatterings
+    #                          after the first vertex (path_limits.py; see light_bounce)
 
 
 def new_light_paths(n: int) -> LightPaths:
     """Uninitialised buffers for n light paths."""
     return LightPaths(np.empty(n, np.uint64), np.empty((n, 3), np.float32),
                       np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
-                      np.empty(n, np.int64), np.empty(n, np.int64), empty_stacks(n))
+                      np.empty(n, np.int64), np.empty(n, np.int64), empty_stacks(n),
+                      np.zeros((n, 3), np.int64))
 
 
 def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caustics | None:
@@ -305,6 +309,21 @@ def set_light_path(paths, j, key, origin, direction, beta, bounces, lamp):
     store(paths.beta, j, beta)
     paths.bounces[j] = bounces
     paths.lamp[j] = lamp
+    for k in range(3):
+        paths.kinds[j, k] = 0
+
+
+@jit_inline
+def count_scattering(paths, i, out, j, kind, limits):
+    """Give light path j of `out`, scattered from path i of `paths` by an event of this kind
+    (path_limits), i's counts and this event's, unless at i's first vertex: in the camera
+    path's order that vertex's event is the last, towards the light, which no limit stops.
+    Returns whether the counts are within the limits."""
+    for k in range(3):
+        out.kinds[j, k] = paths.kinds[i, k]
+    if paths.bounces[i] > 0:
+        out.kinds[j, kind] += 1
+    return within_limits(out.kinds[j], limits)
 
 
 @jit
@@ -370,14 +389,18 @@ def lamp_sees(caustics, lights, e, w, s1, kind):
 
 
 @jit
-def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model, max_depth, m,
+def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model, limits, m,
                  paths, prim, u, v, out, connections, raster):
     """Scatter light paths at specular hits (into `out`); at the first diffuse vertex after one
     or more specular ones, queue the connection to the camera (its nearest image pixel, and in
     `raster` its raster point for the pixel filter; margin: how far past the image the filter
     reaches). In a scene with media, the light is attenuated along its segments and the
     connection in the media they cross, and the stack of media goes with each path (media.py).
+    limits (path_limits.bounce_limits) bound the camera path each connection makes: its
+    bounces, and each kind's count of scatterings but the last (the first vertex's, towards the
+    light), so that the light tracer owns exactly the paths the path tracer would have ended.
     Returns (paths in out, connections queued)."""
+    max_depth = limits[0]
     n_out = 0
     n_conn = 0
     has_normals = mesh.corner_normals.shape[0] > 0
@@ -413,6 +436,10 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
             if bounces == 0 and not lamp_sees(caustics, lights, paths.lamp[i], d, p,
                                               VISIBLE_DIFFUSE):
                 continue
+            # The camera path's diffuse reflection here comes before its last unless this is
+            # the first vertex.
+            if bounces > 0 and paths.kinds[i, DIFFUSE_BOUNCE] + 1 > limits[2]:
+                continue
             lens0, lens1 = random_pair(key, 1 + bounces, 3)
             # A delta lamp's path goes on from here: no camera path renders light that left a
             # delta lamp towards a specular vertex, diffusely reflected or not (the path
@@ -421,10 +448,13 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
             # diffuse vertex.
             if (caustics.pure or caustics.emitter_delta[paths.lamp[i]]) \
                     and bounces + 2 <= max_depth:
-                n_out = diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, color,
-                                       random_pair(key, 1 + bounces, 4))
-                if media.on:
-                    medium.copy_stack(paths.medium, i, out.medium, n_out - 1)
+                kept = diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, color,
+                                      random_pair(key, 1 + bounces, 4))
+                if kept > n_out and count_scattering(paths, i, out, n_out, DIFFUSE_BOUNCE,
+                                                     limits):
+                    if media.on:
+                        medium.copy_stack(paths.medium, i, out.medium, n_out)
+                    n_out = kept
             n_conn = connect_to_camera(cam, margin, (lens0, lens1), connections, raster, n_conn, p,
                                        ng, ns, eps, d, vmul(beta, color), sigma)
             continue
@@ -448,6 +478,10 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
             continue
         set_light_path(out, n_out, key, offset_origin(p, ng, eps, new_d), new_d, beta,
                        bounces + 1, paths.lamp[i])
+        if not count_scattering(paths, i, out, n_out,
+                                TRANSMISSION_BOUNCE if event == specular.TRANSMITTED
+                                else GLOSSY_BOUNCE, limits):
+            continue          # past a limit: no connection from here on would count
         if media.on:
             medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
                          event == specular.TRANSMITTED)

@@ -37,13 +37,14 @@ from .vec import dot, neg, sub, vmul
 @jit_inline
 def scatter_lit(kind, lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u,
                 beta, path, ray, hit, entering, surface, color, trans_color, connection, lv, lobes,
-                params, shadows, n_shadow, radiance, without, stats):
+                params, shadows, n_shadow, radiance, without, stats, clamp_direct):
     """A DIFFUSE (Lambert) or LAYERED (rough or Principled: its lobes, lobes.setup_shader)
     vertex: a light sample and the light-vertex connection evaluated on its surface, then a
     cosine-weighted sample (diffuse) or a sample of one lobe. `ray`: the origin, direction and
     BSDF density of the ray that hit; `surface`: the material, triangle and barycentrics (for
     textures); `connection`: (the last bounce that connects to light vertices, whether this
-    one does). Returns the lobe count too (a layered hit's lobes stay in `lobes` for the
+    one does); `clamp_direct` the clamp of its light samples (path_limits). Returns the lobe
+    count too (a layered hit's lobes stay in `lobes` for the
     denoising features). One function for both kinds, so that a kernel holds one copy of the
     light-sampling steps (each copy is compiled anew into every kernel that inlines it)."""
     key, sample, bits, strat = rng
@@ -77,7 +78,7 @@ def scatter_lit(kind, lights, mesh, mats, tables, can_sample_lights, has_normals
         n_shadow = sample_direct_light(lights, mesh, key, sample, 3 + 3 * depth, bits, strat,
                                        u_pick, vertex_kind, p, ng_f, ns_f, eps, beta, step,
                                        kind, color, lobes, count, view, shadows, n_shadow,
-                                       radiance, without, path)
+                                       radiance, without, path, clamp_direct)
     if connects:
         n_shadow = connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps,
                                            kind, color, lobes, count, view, stats)
@@ -108,9 +109,10 @@ def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, 
     as a layered vertex's do. `ray`: (origin, direction, kind and BSDF density of the ray that
     hit, the distance it went since its last scattering vertex). A Transparent sample lets the
     path go on unbent as the same ray: its kind and density stay, and the distance grows.
-    bounces: (the path's bounces, whether they are spent): a path past its last bounce only
-    passes through the surface's transparency, as Cycles' PATH_RAY_TERMINATE_AFTER_TRANSPARENT
-    paths do (their shader keeps no closure but Transparent).
+    bounces: (the path's bounces, whether they are spent, the clamp of the vertex's light
+    samples): a path past its last bounce only passes through the surface's transparency, as
+    Cycles' PATH_RAY_TERMINATE_AFTER_TRANSPARENT paths do (their shader keeps no closure but
+    Transparent).
     Returns scatter_lit's results, then the new distance since the last scattering vertex."""
     key, sample, bits, strat = rng
     u_pick, u0, u1 = u
@@ -121,7 +123,7 @@ def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, 
     view = neg(d)
     segment = sub(p, o)
     length = math.sqrt(dot(segment, segment))
-    bounce, spent = bounces
+    bounce, spent, clamp_direct = bounces
     count = run(mats, mat, regs, (p, ng_f, ns_f, view, entering, tri, b1, b2,
                                   ray_flags(kind_in, pdf_in), bounce, length),
                 lobes, tables, has_normals)
@@ -132,7 +134,7 @@ def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, 
         n_shadow = sample_direct_light(lights, mesh, key, sample, 3 + 3 * depth, bits, strat,
                                        u_pick, VISIBLE_ANY_BSDF, p, ng_f, ns_f, eps, beta, 0.0,
                                        LAYERED, mats.color[mat], lobes, count, view, shadows,
-                                       n_shadow, radiance, without, path)
+                                       n_shadow, radiance, without, path, clamp_direct)
     if connects:
         n_shadow = connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps,
                                            LAYERED, mats.color[mat], lobes, count, view, stats)

@@ -102,6 +102,24 @@ SETTINGS = (
             "a shadow ray is blocked; they do not count towards Max Depth",
             least=0, greatest=MAX_INT, metavar="N", label="Transparent Bounces",
             ui={"soft_max": 64}),
+    # Cycles' Light Paths > Max Bounces of each kind and Clamping, with Cycles' meaning (a scene
+    # file without them is limited by max_depth alone: 1024 is in practice no limit).
+    Setting("diffuse_bounces", int, 1024, "Diffuse reflections a path takes at most before "
+            "its last (Cycles' Max Bounces > Diffuse): after one more it ends at the next surface",
+            least=0, greatest=MAX_INT, metavar="N", label="Diffuse", ui={"soft_max": 64}),
+    Setting("glossy_bounces", int, 1024, "Glossy reflections, a mirror's and glass's included, "
+            "a path takes at most before its last (Cycles' Max Bounces > Glossy)",
+            least=0, greatest=MAX_INT, metavar="N", label="Glossy", ui={"soft_max": 64}),
+    Setting("transmission_bounces", int, 1024, "Transmissions (refraction, translucency) a path "
+            "takes at most before its last (Cycles' Max Bounces > Transmission)",
+            least=0, greatest=MAX_INT, metavar="N", label="Transmission", ui={"soft_max": 64}),
+    Setting("sample_clamp_direct", float, 0.0, "Scale down each sample of direct light whose "
+            "red + green + blue exceeds 3 x this (Cycles' Clamping > Direct Light): fewer "
+            "fireflies, a darker image where they were; 0 is off", least=0.0, metavar="C",
+            label="Direct Light", ui={"soft_max": 100.0, "precision": 2}),
+    Setting("sample_clamp_indirect", float, 0.0, "The same for indirect light (Cycles' "
+            "Clamping > Indirect Light, 10 by default in Blender); 0 is off", least=0.0,
+            metavar="C", label="Indirect Light", ui={"soft_max": 100.0, "precision": 2}),
     Setting("seed", int, 0, "Random seed: the same seed and sample count give the same image, "
             "whatever the thread count", least=0, greatest=MAX_INT, metavar="S"),
     Setting("fresnel", str, "exact", "Fresnel model for glass",

@@ -37,6 +37,8 @@ from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lig
 from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
 from .media import empty_stacks
 from . import media as medium
+from .path_limits import (DIFFUSE_BOUNCE, bounce_kind, clamp_light, clamp_limit,
+                          past_last_bounce)
 from .pixel_filter import position as filter_position
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
@@ -46,7 +48,7 @@ from .shader.inputs import LP_SHADOW
 from .shader.program import (EMISSION_VARIES, HAS_HOLDOUT, MAX_REGISTERS, MAY_BE_TRANSPARENT,
                              run, total)
 from .textures import surface_colors
-from .vec import dot, finite_row, madd, max3, mean3, mul, neg, row, store
+from .vec import dot, finite_row, madd, max3, mean3, mul, neg, row, store, vmul
 
 STRATIFIED_BOUNCES = 2    # bounces whose light and BSDF samples are stratified (then random)
 RR_START = 3              # Russian roulette from this bounce on ...
@@ -89,6 +91,8 @@ class Paths(NamedTuple):
     #                          minus this is the path's transparent bounces)
     pass_diffuse: np.ndarray  # (n, 3) the light passes' diffuse and glossy weights, set at the
     pass_glossy: np.ndarray   # (n, 3) first bounce (light_passes.py), when a render makes them
+    kind_bounce: np.ndarray   # (n, 3) int64: its diffuse, glossy and transmission bounces
+    #                           (path_limits.py)
 
 
 class Shadows(NamedTuple):
@@ -112,7 +116,8 @@ def new_paths(n: int) -> Paths:
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                  np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n),
                  np.empty((n, 3)), np.zeros(n, np.int64), np.zeros(n), empty_stacks(n),
-                 np.zeros(n, np.int64), np.zeros((n, 3)), np.zeros((n, 3)))
+                 np.zeros(n, np.int64), np.zeros((n, 3)), np.zeros((n, 3)),
+                 np.zeros((n, 3), np.int64))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -142,15 +147,6 @@ def mis_weight(next_event, pdf_bsdf, pdf_light, pdf_vertex):
     if pdf_bsdf == 0.0 or not next_event:
         return 1.0
     return power_heuristic3(pdf_bsdf, pdf_light, pdf_vertex)
-
-
-@jit
-def add_light_both(radiance, without, path, beta, light, w, w_without):
-    """add_light with weight w and, when `without` has rows (a pilot), to the radiance without
-    light vertices with w_without, their weight where no light vertex competes."""
-    add_light(radiance, path, beta, light, w)
-    if without.shape[0] > 0:
-        add_light(without, path, beta, light, w_without)
 
 
 @jit
@@ -185,6 +181,8 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
         paths.connect[i] = 0.0
         paths.mis_t[i] = 0.0
         paths.bounce[i] = 0
+        for k in range(3):
+            paths.kind_bounce[i, k] = 0
         if features:
             for k in range(3):
                 paths.feature[i, k] = 1.0
@@ -192,8 +190,8 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 
 
 @jit
-def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, limits, m,
-             paths, prim, t, radiance, without, active, stats, features, feature_albedo,
+def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, limits, clamp,
+             m, paths, prim, t, radiance, without, active, stats, features, feature_albedo,
              film_transparent, transparent, pass_sums):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
@@ -208,10 +206,11 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
     are this stage's. With `caustics` (the light tracer runs), paths in the CAUSTIC state get no
     light from lamps, emissive triangles or suns, and with `world_caustics` (it starts paths on
     the world) none from the world: those paths are the light tracer's to count.
-    limits: (max depth, transparent max bounces). A path ends at a surface after its last
-    bounce, or after as many transparent surfaces as the second allows, as in Cycles
-    (path_state_next): what it ends on still adds its light, and after the last bounce a path
-    still passes through transparent surfaces (program_materials), since shadow rays do.
+    limits (path_limits.bounce_limits): a path ends at a surface after its last bounce (of
+    all, or of one kind), or after as many transparent surfaces as the second allows, as in
+    Cycles (path_state_next): what it ends on still adds its light, and after the last bounce a
+    path still passes through transparent surfaces (program_materials), since shadow rays do.
+    What a path finds is clamped by `clamp` (path_limits.clamp_limits) as Cycles' film.
     With `features`, paths that still carry the denoising features add what they find to the
     Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
     written its features at its first, diffuse, hit).
@@ -245,7 +244,7 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                 add_found_light(radiance, without, paths, i, beta, light,
                                 mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
                                 mis_weight(next_event, pdf_prev, pdf_light, 0.0), features,
-                                feature_albedo, pass_sums, False)
+                                feature_albedo, pass_sums, False, clamp)
         if media.on and medium.absorbs(sigma):
             beta = medium.through(beta, sigma, t_surface)
             store(paths.beta, i, beta)
@@ -256,7 +255,8 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                 if light_passes and lights.has_world:
                     found, light, _ = light_at_escape(lights, 0, d, kind)
                     if found:
-                        add_found(pass_sums, paths, i, beta, light, 1.0, True)
+                        add_found(pass_sums, paths, i, ONE,
+                                  clamp_light(vmul(beta, light), clamp[0]), 1.0, True)
             first, end = lights_at_escape(lights, not (light_tracers and world_caustics
                                                        or clear_film), emitters_count)
             for k in range(first, end):
@@ -264,7 +264,7 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                 if found:
                     w = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
                     add_found_light(radiance, without, paths, i, beta, light, w, w, features,
-                                    feature_albedo, pass_sums, lights.has_world and k == 0)
+                                    feature_albedo, pass_sums, lights.has_world and k == 0, clamp)
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
@@ -274,10 +274,10 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
             add_found_light(radiance, without, paths, i, beta, emission,
                             mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
                             mis_weight(next_event, pdf_prev, pdf_light, 0.0), features,
-                            feature_albedo, pass_sums, False)
+                            feature_albedo, pass_sums, False, clamp)
         if mats.kind[mat] == EMISSION:
             continue
-        if ended(mats, mat, depth, paths.bounce[i], limits):
+        if ended(mats, mat, depth, paths, i, limits):
             stats[DEPTH_LIMITED] += 1     # the depth limit, not the scene, ends this path
             continue
         active[kept] = i
@@ -287,15 +287,22 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
 
 @jit_inline
 def add_found_light(radiance, without, paths, i, beta, light, w, w_without, features,
-                    feature_albedo, pass_sums, environment):
-    """Light path i finds, throughput beta: to its radiance at MIS weight w and to its radiance
-    without light vertices at w_without, to the Denoising Albedo while the path carries the
-    features, and to the light passes when the render makes them (environment: the world's)."""
-    add_light_both(radiance, without, paths.path[i], beta, light, w, w_without)
+                    feature_albedo, pass_sums, environment, clamp):
+    """Light path i finds, throughput beta, clamped (path_limits): to its radiance at MIS
+    weight w and to its radiance without light vertices at w_without, to the Denoising Albedo
+    while the path carries the features, and to the light passes when the render makes them
+    (environment: the world's)."""
+    # Cycles' film_clamp_light(bounce - 1): direct up to the first bounce's ray.
+    limit = clamp_limit(clamp, paths.bounce[i] <= 1)
+    found = vmul(beta, light)
+    contribution = clamp_light(mul(found, w), limit)
+    add_light(radiance, paths.path[i], contribution)
+    if without.shape[0] > 0:
+        add_light(without, paths.path[i], clamp_light(mul(found, w_without), limit))
     if features and paths.feature_on[i] != 0:
         add_feature_light(feature_albedo, paths, i, beta, light, w_without)
     if pass_sums.shape[0] > 0:
-        add_found(pass_sums, paths, i, beta, light, w, environment)
+        add_found(pass_sums, paths, i, ONE, contribution, 1.0, environment)
 
 
 @jit_inline
@@ -308,22 +315,22 @@ def carry_pass_weights(out, n_out, kept, weights):
 
 
 @jit_inline
-def ended(mats, mat, depth, bounce, limits):
-    """Whether a path of `bounce` bounces at wavefront depth `depth` ends at a surface of
-    material mat (emitters' limits)."""
-    max_depth, transparent_max = limits
+def ended(mats, mat, depth, paths, i, limits):
+    """Whether path i, at wavefront depth `depth`, ends at a surface of material mat
+    (emitters' limits)."""
+    bounce = paths.bounce[i]
     crossed = depth - bounce
-    if crossed > 0 and crossed >= transparent_max:
+    if crossed > 0 and crossed >= limits[1]:
         return True     # Cycles' PATH_RAY_TERMINATE_ON_NEXT_SURFACE
     # After the last bounce only a transparent surface lets the path go on (Cycles'
     # PATH_RAY_TERMINATE_AFTER_TRANSPARENT).
-    return bounce >= max_depth and not (mats.kind[mat] == PROGRAM
-                                        and mats.programs.flags[mat] & MAY_BE_TRANSPARENT)
+    return past_last_bounce(bounce, paths.kind_bounce[i], limits) and not (
+        mats.kind[mat] == PROGRAM and mats.programs.flags[mat] & MAY_BE_TRANSPARENT)
 
 
 @jit
 def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, t, radiance,
-                     without, features, feature_albedo, lobes, regs, pass_sums):
+                     without, features, feature_albedo, lobes, regs, pass_sums, clamp):
     """The emission of the shader programs whose emission varies over the surface or with
     the ray (shader/program.py; `lobes` and `regs` their scratch), each run at the hit of
     every path of the m: no light sample finds such emission, so it weighs 1 (a path the
@@ -347,14 +354,14 @@ def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, 
         emission = total(regs, TOTAL_EMISSION)
         beta = row(paths.beta, i)
         add_found_light(radiance, without, paths, i, beta, emission, 1.0, 1.0, features,
-                        feature_albedo, pass_sums, False)
+                        feature_albedo, pass_sums, False, clamp)
 
 
 @jit
 def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits, stratified,
-              depth, n_active, active, paths, prim, u, v, out, shadows, radiance, without, lobes,
-              params, stats, lv, last_connection, features, feature_albedo, feature_normal,
-              programs, pass_sums):
+              depth, limits, clamp, n_active, active, paths, prim, u, v, out, shadows, radiance,
+              without, lobes, params, stats, lv, last_connection, features, feature_albedo,
+              feature_normal, programs, pass_sums):
     """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
     layered vertices sample a light (a shadow ray, or direct light for lamps that cast no
     shadow) and, up to bounce last_connection (-1: never), connect to the path's light vertex
@@ -368,7 +375,8 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
     left where they pass through the surface (media.py). Hits on shader programs are left for
     program_materials, their rows written into `programs` (as pbrt-v4 queues each material
     type for a kernel of its own: this one stays the size it was without programs). When
-    pass_sums has rows, hits add to the light passes (record_passes).
+    pass_sums has rows, hits add to the light passes (record_passes). A lamp that casts no
+    shadow adds its light at once, clamped by `clamp` as emitters'; `limits` as emitters'.
 
     Returns (paths in out, shadow rays queued, program hits left).
     """
@@ -397,7 +405,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         beta = row(paths.beta, i)
         beta_in = beta
         path = paths.path[i]
-        connects = depth <= last_connection and lv.found[path]
+        connects = can_connect(depth, last_connection, lv, paths, i, limits)
         # Passed as tuples: a call of more than 30 arguments compiles to a *args call, which
         # Numba cannot inline.
         rng, u_bounce, hit = (key, sample, bits, strat), (u_pick, u0, u1), (p, ng, ng_f, ns_f, eps)
@@ -408,7 +416,8 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
                 kind, lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth,
                 u_bounce, beta, path, (row(paths.o, i), d, paths.pdf_prev[i]), hit, entering,
                 (mat, tri, b1, b2), color, trans_color, (last_connection, connects), lv, lobes,
-                params, shadows, n_shadow, radiance, without, stats)
+                params, shadows, n_shadow, radiance, without, stats,
+                clamp_limit(clamp, paths.bounce[i] == 0))
         else:
             new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
                 kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,
@@ -443,6 +452,15 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
 
 
 @jit_inline
+def can_connect(depth, last_connection, lv, paths, i, limits):
+    """Whether path i's vertex connects to its light vertex (light_vertices.py): up to bounce
+    last_connection, and only if one more diffuse bounce (towards the light vertex, which then
+    scatters towards its light) is within the diffuse limit."""
+    return (depth <= last_connection and lv.found[paths.path[i]]
+            and paths.kind_bounce[i, DIFFUSE_BOUNCE] < limits[2])
+
+
+@jit_inline
 def pass_weights_of(kind, paths, i, shadows, first_shadow, n_shadow, lobes, count, wi,
                     ray_kind, pdf_bsdf, wo):
     """The light passes' weights at path i's hit (light_passes.py): its shadow rays'
@@ -466,13 +484,13 @@ def pass_weights_of(kind, paths, i, shadows, first_shadow, n_shadow, lobes, coun
 
 @jit
 def program_materials(lights, mesh, mats, media, tables, next_event, bits, stratified, depth,
-                      max_depth, n_programs, programs, paths, prim, u, v, out, n_out, shadows,
+                      limits, clamp, n_programs, programs, paths, prim, u, v, out, n_out, shadows,
                       n_shadow, radiance, without, lobes, regs, stats, lv, last_connection,
                       features, feature_albedo, feature_normal, transparent, pass_sums):
     """The materials stage for the hits on shader programs that `materials` left in
     `programs` (scatter.scatter_program), their next rays after out's first n_out and their
     shadow rays after the first n_shadow. Returns the new (n_out, n_shadow). A path past its
-    last bounce (max_depth) only passes through the surface's transparency. When `transparent`
+    last bounce (`limits`, as emitters') only passes through the surface's transparency. When `transparent`
     has rows (the film's alpha is rendered), a Holdout met before the first bounce adds its
     weight times the path's mean throughput to it, as Cycles' integrate_surface_holdout.
     pass_sums as materials'."""
@@ -490,7 +508,7 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
         u_pick, u_roulette = sample_pair(key, sample, 2 + 3 * depth, bits, strat)
         u0, u1 = sample_pair(key, sample, 4 + 3 * depth, bits, strat)
         path = paths.path[i]
-        connects = depth <= last_connection and lv.found[path]
+        connects = can_connect(depth, last_connection, lv, paths, i, limits)
         ray = (row(paths.o, i), d, paths.ray_kind[i], paths.pdf_prev[i], paths.mis_t[i])
         first_shadow = n_shadow
         bounce = paths.bounce[i]
@@ -498,7 +516,8 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
         (new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count,
          mis_t) = scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals,
                                   (key, sample, bits, strat), depth,
-                                  (bounce, bounce >= max_depth), (u_pick, u0, u1),
+                                  (bounce, past_last_bounce(bounce, paths.kind_bounce[i], limits),
+                                   clamp_limit(clamp, bounce == 0)), (u_pick, u0, u1),
                                   beta_in, path, ray, (p, ng, ng_f, ns_f, eps),
                                   entering, (mat, tri, b1, b2), connects, lv, lobes, regs,
                                   shadows, n_shadow, radiance, without, stats)
@@ -551,7 +570,8 @@ def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, 
     peak = max3(beta)
     if not peak > 0.0:
         return n_out
-    bounce = paths.bounce[i] + (0 if mis_t > 0.0 else 1)
+    scattered_here = mis_t == 0.0       # else it passed a transparent surface: no bounce
+    bounce = paths.bounce[i] + (1 if scattered_here else 0)
     if bounce >= RR_START:
         # Survival probability throughput / 0.1: in a closed room a path's remaining light
         # is large, and killing paths at throughput 0.5 (q = throughput) cost more
@@ -572,8 +592,12 @@ def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, 
     out.connect[n_out] = connect
     out.mis_t[n_out] = mis_t
     out.bounce[n_out] = bounce
+    tri, mat, entering, ng_f = surface
+    for k in range(3):
+        out.kind_bounce[n_out, k] = paths.kind_bounce[i, k]
+    if scattered_here:
+        out.kind_bounce[n_out, bounce_kind(ray_kind, dot(new_d, ng_f) < 0.0)] += 1
     if media.on:
-        tri, mat, entering, ng_f = surface
         medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
                      dot(new_d, ng_f) < 0.0)
     if features:
@@ -584,18 +608,22 @@ def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, 
 
 
 @jit
-def shadow_rays(n, blocked, shadows, radiance, without, pass_sums):
-    """Add the light of every shadow ray that nothing blocked (Embree: 0 where blocked), and
-    when `without` has rows their light without light vertices to it; when pass_sums has rows,
-    to the light passes too (light_passes.add_shadow)."""
+def shadow_rays(n, blocked, shadows, radiance, without, pass_sums, clamp):
+    """Add the light of every shadow ray that nothing blocked (Embree: 0 where blocked),
+    clamped (path_limits: direct for a light sample of the first hit), and when `without` has
+    rows their light without light vertices to it; when pass_sums has rows, to the light passes
+    too (light_passes.add_shadow)."""
     tracking = without.shape[0] > 0
     light_passes = pass_sums.shape[0] > 0
     for j in range(n):
         if blocked[j] != 0:
-            for k in range(3):
-                radiance[shadows.path[j], k] += shadows.contrib[j, k]
-                if tracking:
-                    without[shadows.path[j], k] += shadows.without[j, k]
+            path = shadows.path[j]
+            limit = clamp_limit(clamp, shadows.bounce[j] == 0 and shadows.pass_direct[j] != 0)
+            contribution = clamp_light(row(shadows.contrib, j), limit)
+            store(shadows.contrib, j, contribution)
+            add_light(radiance, path, contribution)
+            if tracking:
+                add_light(without, path, clamp_light(row(shadows.without, j), limit))
             if light_passes:
                 add_shadow(pass_sums, shadows, j)
 

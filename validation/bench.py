@@ -102,7 +102,9 @@ def _snell_point(spec):
     # point renders the Denoising Albedo and Normal passes and denoises as `snell render
     # --denoise` does, whatever the file's own Denoise settings.
     denoise = spec.get("denoise")
+    # Both renderers as validation.cycles.forced_settings has Cycles render (AS_FORCED).
     settings = scene.settings(threads=spec["threads"], caustics=spec["caustics"],
+                              **cycles.AS_FORCED,
                               noise_threshold=spec["threshold"] or 0.0, min_spp=0,
                               time_limit=0.0, denoise=bool(denoise),
                               denoising_passes=bool(denoise),

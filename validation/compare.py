@@ -92,6 +92,7 @@ def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_thre
     settings = scene.settings(threads=threads, sampler="independent", spp=spp,
                               noise_threshold=noise_threshold, time_limit=0.0, denoise=False,
                               denoising_passes=False, film_exposure=1.0,
+                              sample_clamp_direct=0.0, sample_clamp_indirect=0.0,
                               transparent_max_bounces=cycles.TRANSPARENT_BOUNCES,
                               **({} if caustics is None else {"caustics": caustics}))
     if noise_threshold <= 0.0:
@@ -110,13 +111,15 @@ def snell_estimate(result) -> metrics.Estimate:
 
 
 def cycles_render(blend_path, *, spp, max_depth, seed, n_seeds=DEFAULT_CYCLES_SEEDS, camera=None,
-                  progress=None, threads=2, film=None):
+                  progress=None, threads=2, film=None, bounces=None):
     """Cycles' images of the file at spp samples in n_seeds seeds; film: the pixel filter
-    (pixel_filter, filter_width) of the Snell scene compared (None: the file's own)."""
+    (pixel_filter, filter_width) of the Snell scene compared (None: the file's own); bounces:
+    its bounce limits of each kind (cycles.scene_bounces)."""
     per_seed = max(1, math.ceil(spp / n_seeds))
     return cycles.render_seeds(blend_path, spp=per_seed, max_depth=max_depth,
                                seeds=cycles.seeds_for(n_seeds, seed), camera=camera,
-                               progress=progress, threads=threads, film=film)
+                               progress=progress, threads=threads, film=film,
+                               bounces=bounces)
 
 
 def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label="",
@@ -249,7 +252,8 @@ def compare_blend(blend_path, *, spp=None, max_depth=None, seed=None, scale=None
     try:
         cyc = cycles_render(blend_path, spp=r["spp"], max_depth=r["max_depth"], seed=r["seed"],
                             n_seeds=n_seeds, camera=cam_over, progress=progress.cycles(),
-                            threads=threads, film=cycles.scene_film(scene))
+                            threads=threads, film=cycles.scene_film(scene),
+                            bounces=cycles.scene_bounces(scene))
     except cycles.NoCyclesEquivalent as exc:
         return snell_only(snell_result, scene, str(exc))
     out = compare_renders(snell_result, cyc, not_comparable=not_comparable,

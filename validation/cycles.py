@@ -30,11 +30,13 @@ class NoCyclesEquivalent(ValueError):
     """A Snell setting that Cycles cannot reproduce (e.g. max depth 0)."""
 
 
-def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=None):
+def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=None,
+                    bounces=None):
     """[(setting, value, reason)] applied to the scene before a Cycles render. film: the Snell
     scene's (pixel_filter, filter_width[, film_transparent]: scene_film), which Cycles then
     renders with; None keeps the file's own filter (the exported scene's when it follows the
-    file's Cycles settings) and an opaque film."""
+    file's Cycles settings) and an opaque film. bounces: the Snell scene's (diffuse, glossy,
+    transmission) limits (scene_bounces); None: each kind limited by the total alone."""
     transparent = is_transparent(film)
     if max_depth < 1:
         raise NoCyclesEquivalent(f"max depth {max_depth}: Cycles has no max_bounces equivalent "
@@ -59,17 +61,15 @@ def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=
         ("cycles.use_denoising", False, "unbiased, sample-count matched"),
         ("cycles.use_adaptive_sampling", False, "same samples in every pixel"),
         ("cycles.time_limit", 0.0, "sample-count matched"),
-        ("cycles.sample_clamp_direct", 0.0, "no clamping (biased)"),
-        ("cycles.sample_clamp_indirect", 0.0, "no clamping (biased)"),
+        ("cycles.sample_clamp_direct", 0.0, CLAMP_REASON),
+        ("cycles.sample_clamp_indirect", 0.0, CLAMP_REASON),
         ("cycles.blur_glossy", 0.0, "no filter glossy (biased)"),
         ("cycles.caustics_reflective", True, "Snell renders caustics"),
         ("cycles.caustics_refractive", True, "Snell renders caustics"),
         ("cycles.use_guiding", False, "plain path tracing"),
         ("cycles.light_sampling_threshold", 0.0, "no probabilistic shadow-ray termination"),
         ("cycles.max_bounces", b, bounce),
-        ("cycles.diffuse_bounces", b, "per-kind limits equal to max_bounces"),
-        ("cycles.glossy_bounces", b, "per-kind limits equal to max_bounces"),
-        ("cycles.transmission_bounces", b, "per-kind limits equal to max_bounces"),
+        *_bounce_settings(b, bounces),
         ("cycles.transparent_max_bounces", TRANSPARENT_BOUNCES, "Cycles counts each crossing "
          "of a light object as a transparent bounce (a workaround in shade_light.h); Snell's "
          "lamps have no such limit, so the limit is lifted for both"),
@@ -96,6 +96,33 @@ def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=
 
 
 OUTPUT_RGBA = "OPEN_EXR 32-bit RGBA"
+# Both renderers are compared unclamped (validation.compare gives Snell the same).
+CLAMP_REASON = ("no clamping: a clamp biases each renderer by the values of its own samples, "
+                "which differ between two correct renderers")
+KIND_LIMITS = ("diffuse_bounces", "glossy_bounces", "transmission_bounces")
+
+
+def _bounce_settings(total: int, bounces) -> list:
+    """The per-kind limit entries of forced_settings: the Snell scene's where they are below
+    the total, which alone limits the others (a count of one kind never exceeds the total)."""
+    limits = bounces or (total,) * len(KIND_LIMITS)
+    return [(f"cycles.{name}", min(int(limit), total),
+             "the Snell scene's limit" if limit < total else "limited by max_bounces alone")
+            for name, limit in zip(KIND_LIMITS, limits)]
+
+
+# Snell's settings for a render compared with one under forced_settings(bounces=None): unclamped,
+# and each kind limited by the total alone.
+AS_FORCED = {"sample_clamp_direct": 0.0, "sample_clamp_indirect": 0.0,
+             **{name: 1024 for name in KIND_LIMITS}}
+
+
+def scene_bounces(scene):
+    """A Snell scene's (diffuse, glossy, transmission) bounce limits for forced_settings, or
+    None when none is below its total (max depth - 1) and so none changes the image."""
+    limits = tuple(int(scene.render.get(name, 1024)) for name in KIND_LIMITS)
+    total = int(scene.render["max_depth"]) - 1
+    return limits if any(limit < total for limit in limits) else None
 
 
 def is_transparent(film) -> bool:
@@ -130,11 +157,11 @@ MULTILAYER = "OPEN_EXR_MULTILAYER 32-bit, Combined and Debug Sample Count"
 
 
 def adaptive_settings(max_depth: int, threshold: float, max_spp: int, seed: int, threads: int = 2,
-                      film=None):
+                      film=None, bounces=None):
     """[(setting, value, reason)] for Cycles' adaptive sampling as a user renders with it: the
     forced settings, but noise threshold `threshold`, automatic minimum samples, at most
-    `max_spp` per pixel, all samples (no subset), and the per-pixel sample count pass (film: as
-    forced_settings')."""
+    `max_spp` per pixel, all samples (no subset), and the per-pixel sample count pass (film and
+    bounces: as forced_settings')."""
     if threshold <= 0:
         raise ValueError(f"noise threshold {threshold}: adaptive sampling needs one above 0")
     replaced = {
@@ -144,7 +171,7 @@ def adaptive_settings(max_depth: int, threshold: float, max_spp: int, seed: int,
         "output": (MULTILAYER, "the render and each pixel's sample count, read back"),
     }
     out = []
-    for key, value, why in forced_settings(max_depth, max_spp, seed, threads, film):
+    for key, value, why in forced_settings(max_depth, max_spp, seed, threads, film, bounces):
         if key in _SUBSET_KEYS:
             continue
         out.append((key, *replaced[key]) if key in replaced else (key, value, why))
@@ -306,9 +333,9 @@ def _render_one(blend_path, settings, camera, workdir):
 
 def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), threads: int = 2,
                  camera=None, progress=None, quiet_blender=True, overrides=None,
-                 film=None) -> CyclesResult:
+                 film=None, bounces=None) -> CyclesResult:
     """Render the file once per seed with `spp` samples each; mean and variance of the mean.
-    film: the pixel filter (forced_settings').
+    film and bounces: forced_settings'.
 
     progress(done, total, elapsed_s) is called after each seed.
     """
@@ -318,7 +345,7 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     images, alphas, total, extra = [], [], 0.0, []
     with tempfile.TemporaryDirectory(prefix="snell-cycles-") as workdir:
         for k, seed in enumerate(seeds):
-            settings = forced_settings(max_depth, spp, seed, threads, film)
+            settings = forced_settings(max_depth, spp, seed, threads, film, bounces)
             if overrides:  # experiments only: replace forced values
                 settings = [(k, overrides.get(k, v), why) for k, v, why in settings]
             with stdout_silenced(quiet_blender):
@@ -332,7 +359,7 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     stack = np.stack(images)
     mean = stack.mean(axis=0)
     var = stack.var(axis=0, ddof=1) / len(seeds)
-    settings = forced_settings(max_depth, spp, seeds[0], threads, film)
+    settings = forced_settings(max_depth, spp, seeds[0], threads, film, bounces)
     settings = [s for s in settings if s[0] != "cycles.seed"]
     settings.append(("cycles.seed", ", ".join(map(str, seeds)),
                      f"{len(seeds)} independent renders; variance of the mean from their spread"))

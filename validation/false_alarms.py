@@ -194,7 +194,8 @@ class NullRuns:
             self.blend, spp=max(1, c.spp // count), max_depth=scene.render["max_depth"],
             seeds=cycles.seeds_for(count, base_seed), threads=self.threads,
             camera={**dict(c.camera), "resolution_percentage": c.scale},
-            film=cycles.scene_film(scene)).images).astype(np.float32)
+            film=cycles.scene_film(scene),
+            bounces=cycles.scene_bounces(scene)).images).astype(np.float32)
 
     def _snell(self, run: int, error=()):
         """Snell's batch images and light tracer share, rendered as `snell compare` does."""

@@ -72,6 +72,18 @@ FOLLOWED = (
     Followed("max_depth", "Light Paths > Max Bounces > Total", lambda c, f: int(c.max_bounces) + 1),
     Followed("transparent_max_bounces", "Light Paths > Max Bounces > Transparent",
              lambda c, f: int(c.transparent_max_bounces)),
+    # The limits of each kind and clamping keep Cycles' meaning in Snell (tracer/path_limits.py).
+    Followed("diffuse_bounces", "Light Paths > Max Bounces > Diffuse",
+             lambda c, f: int(c.diffuse_bounces)),
+    Followed("glossy_bounces", "Light Paths > Max Bounces > Glossy",
+             lambda c, f: int(c.glossy_bounces)),
+    Followed("transmission_bounces", "Light Paths > Max Bounces > Transmission",
+             lambda c, f: int(c.transmission_bounces)),
+    # Snell's light tracer's caustics are not clamped (NOT_RENDERED's "clamped caustics").
+    Followed("sample_clamp_direct", "Light Paths > Clamping > Direct Light",
+             lambda c, f: float(f"{c.sample_clamp_direct:.7g}")),
+    Followed("sample_clamp_indirect", "Light Paths > Clamping > Indirect Light",
+             lambda c, f: float(f"{c.sample_clamp_indirect:.7g}")),
     # Snell samples Cycles' filters as Cycles does (tracer/pixel_filter.py); its values are
     # Cycles' identifiers in lower case.
     Followed("pixel_filter", "Film > Pixel Filter > Type",
@@ -116,10 +128,6 @@ class NotRendered:
     noise_only: bool = False
 
 
-def _not_below_total(value, c):
-    return value >= c.max_bounces
-
-
 def _zero(value, c):
     return value == 0
 
@@ -129,20 +137,13 @@ def _always(value, c):
 
 
 NOT_RENDERED = (
-    NotRendered("diffuse_bounces", "Light Paths > Diffuse bounces", "Snell limits every bounce "
-                "by the total only: brighter where diffuse light bounces often",
-                _not_below_total),
-    NotRendered("glossy_bounces", "Light Paths > Glossy bounces", "limited by the total only",
-                _not_below_total),
-    NotRendered("transmission_bounces", "Light Paths > Transmission bounces",
-                "limited by the total only", _not_below_total),
     NotRendered("volume_bounces", "Light Paths > Volume bounces", "Snell has no volumes",
                 _always),
-    NotRendered("sample_clamp_direct", "Light Paths > Clamping > Direct Light", "no clamping: "
-                "brighter highlights than a clamped Cycles render", _zero),
-    NotRendered("sample_clamp_indirect", "Light Paths > Clamping > Indirect Light",
-                "no clamping: brighter caustics and indirect highlights than a clamped Cycles "
-                "render", _zero),
+    # Followed on the path tracer's samples; a light tracer's samples are of another kind
+    # (tracer/path_limits.py): clamping them at Cycles' limit would not clamp what Cycles does.
+    NotRendered("sample_clamp_indirect", "Light Paths > Clamping > Indirect Light (caustics)",
+                "the caustics of Snell's light tracer are not clamped: brighter than a clamped "
+                "Cycles render's where Cycles' caustics are fireflies", _zero),
     NotRendered("blur_glossy", "Light Paths > Caustics > Filter Glossy", "no glossy filtering: "
                 "sharper caustics", _zero),
     NotRendered("caustics_reflective", "Light Paths > Caustics > Reflective",

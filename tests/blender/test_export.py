@@ -1023,39 +1023,52 @@ def test_render_settings_default(bl):
     s, warnings = run()
     saved = {k: s.render[k] for k in scene_mod.DEFAULT_RENDER}
     assert saved == {**scene_mod.DEFAULT_RENDER, "spp": 4096, "max_depth": 13,
+                     "diffuse_bounces": 4, "glossy_bounces": 4, "transmission_bounces": 12,
+                     "sample_clamp_indirect": 10.0,
                      "pixel_filter": "blackman_harris", "filter_width": 1.5, "denoise": True}
     assert s.render["sources"] == {
         **dict.fromkeys(["spp", "noise_threshold", "min_spp", "time_limit", "seed", "max_depth",
-                         "transparent_max_bounces", "pixel_filter", "filter_width",
+                         "transparent_max_bounces", "diffuse_bounces", "glossy_bounces",
+                         "transmission_bounces", "sample_clamp_direct", "sample_clamp_indirect",
+                         "pixel_filter", "filter_width",
                          "film_exposure", "film_transparent", "denoise",
                          "denoising_input_passes",
                          "denoising_prefilter", "denoising_quality", "denoising_passes"],
                         "file's Cycles setting"),
         **dict.fromkeys(["fresnel", "caustics", "light_vertices"], "default")}
     labels = {e["label"]: e for e in s.render["cycles_not_rendered"]}
-    assert labels["Light Paths > Diffuse bounces"]["value"] == "4"
+    assert "Light Paths > Diffuse bounces" not in labels        # rendered
+    # Cycles' default indirect clamp, which Snell's light tracer does not apply: no warning.
+    caustics = labels["Light Paths > Clamping > Indirect Light (caustics)"]
+    assert (caustics["value"], caustics["status"]) == ("10", "differs")
     assert not any(e["warn"] for e in labels.values())      # Cycles' defaults
     assert not any("Cycles'" in w for w in warnings)
 
 
 def test_the_files_cycles_settings_are_followed(bl):
-    """Samples, noise threshold, min samples, time limit, seed (animated too), max bounces and
-    the pixel filter from Cycles' panels, Film > Transparent from Blender's; the Cycles settings Snell does not render, when set to
-    something Snell renders differently, are warnings."""
+    """Samples, noise threshold, min samples, time limit, seed (animated too), max bounces (of
+    each kind too), clamping and the pixel filter from Cycles' panels, Film > Transparent from
+    Blender's; the Cycles settings Snell does not render, when set to something Snell renders
+    differently, are warnings."""
     c = bl.cycles
     c.samples, c.adaptive_threshold, c.adaptive_min_samples, c.time_limit = 300, 0.03, 40, 12.5
     c.seed, c.max_bounces = 17, 3
     c.pixel_filter_type, c.filter_width = "GAUSSIAN", 2.25
-    c.sample_clamp_indirect, c.diffuse_bounces = 0.0, 2     # Snell's / a limit Snell ignores
+    c.sample_clamp_indirect, c.diffuse_bounces = 0.0, 2
+    c.glossy_bounces, c.transmission_bounces, c.sample_clamp_direct = 1, 5, 2.5
     bl.render.film_transparent = True
     s, warnings = run()
+    assert {k: s.render[k] for k in ("diffuse_bounces", "glossy_bounces", "transmission_bounces",
+                                     "sample_clamp_direct", "sample_clamp_indirect")} == {
+        "diffuse_bounces": 2, "glossy_bounces": 1, "transmission_bounces": 5,
+        "sample_clamp_direct": 2.5, "sample_clamp_indirect": 0.0}
     assert {k: s.render[k] for k in ("spp", "noise_threshold", "min_spp", "time_limit", "seed",
                                      "max_depth")} == {"spp": 300, "noise_threshold": 0.03,
                                                        "min_spp": 40, "time_limit": 12.5,
                                                        "seed": 17, "max_depth": 4}
     assert (s.render["pixel_filter"], s.render["filter_width"]) == ("gaussian", 2.25)
     assert not any("Pixel Filter" in w for w in warnings)
-    assert any("Diffuse bounces 2 is not rendered" in w for w in warnings), warnings
+    assert not any("bounces" in w for w in warnings), warnings
     assert s.render["film_transparent"] is True
     c.film_exposure = 0.75
     assert run()[0].render["film_exposure"] == 0.75
@@ -1063,7 +1076,10 @@ def test_the_files_cycles_settings_are_followed(bl):
     c.film_transparent_glass = True
     assert any("Transparent Glass on is not rendered" in w for w in run()[1])
     c.film_transparent_glass = False
-    assert not any("Clamping" in w for w in warnings)       # 0: what Snell renders
+    assert not any("Clamping" in w for w in warnings)       # followed; caustics: 0 unclamped
+    c.sample_clamp_indirect = 3.0
+    assert any("Clamping > Indirect Light (caustics) 3" in w for w in run()[1])
+    c.sample_clamp_indirect = 0.0
     c.use_adaptive_sampling = False
     assert run()[0].render["noise_threshold"] == 0.0
     c.use_adaptive_sampling, c.adaptive_threshold = True, 0.0    # Cycles' automatic threshold
@@ -1239,25 +1255,31 @@ def test_info_names_where_each_setting_came_from(bl, tmp_path):
     cube()
     add_light(bl, "Lamp", "POINT", energy=10.0)
     bl.cycles.samples, bl.cycles.max_bounces, bl.cycles.seed = 96, 6, 9
-    bl.cycles.sample_clamp_direct = 5.0
+    bl.cycles.sample_clamp_direct, bl.cycles.sample_clamp_indirect = 5.0, 4.0
     path = str(tmp_path / "info.blend")
     common.save(path)
     lines = cli.describe(cli.load_scene(path))
     text = "\n".join(lines)
     assert ("render     96 spp, max depth 7, seed 9, fresnel exact, pixel filter blackman-harris "
             "1.5 px") in text, text
+    assert ("paths      bounces diffuse 4, glossy 4, transmission 12, transparent 8; "
+            "clamp direct 5, indirect 4") in text, text
     sources = next(line for line in lines if line.startswith("sources"))
     assert sources == ("sources    file's Cycles setting: spp, max_depth, "
-                       "transparent_max_bounces, seed, noise_threshold, "
+                       "transparent_max_bounces, diffuse_bounces, glossy_bounces, "
+                       "transmission_bounces, sample_clamp_direct, sample_clamp_indirect, "
+                       "seed, noise_threshold, "
                        "min_spp, time_limit, pixel_filter, filter_width, film_exposure, "
                        "film_transparent, denoise, "
                        "denoising_input_passes, denoising_prefilter, denoising_quality, "
                        "denoising_passes; default: fresnel, "
                        "caustics, light_vertices"), sources
     cycles = [line for line in lines if line.startswith("cycles")]
-    assert "cycles     warning: Light Paths > Clamping > Direct Light 5: not rendered" \
-        in "\n".join(cycles), cycles
-    assert any(line.startswith("cycles     Light Paths > Diffuse bounces 4: not rendered")
-               for line in cycles), cycles      # Cycles' default, a difference but no warning
+    # Rendered as Cycles, but not on the light tracer's caustics: a warning.
+    assert ("cycles     warning: Light Paths > Clamping > Indirect Light (caustics) 4: "
+            "not rendered") in "\n".join(cycles), cycles
+    assert not any(name in line for line in cycles
+                   for name in ("Direct Light", "Diffuse bounces", "Glossy bounces",
+                                "Transmission bounces")), cycles
     assert "cycles     not rendered, the same image with other noise: Light Tree on" in text
     assert sum("warning" in line for line in cycles) == 1

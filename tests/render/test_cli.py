@@ -309,11 +309,16 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
                      "--noise-threshold", "0.05", "--min-spp", "3", "--light-vertices", "off",
                      "--denoising-passes", "--denoising-prefilter", "fast",
                      "--transparent-max-bounces", "4", "--film-exposure", "2",
-                     "--film-transparent"])
+                     "--film-transparent", "--diffuse-bounces", "2", "--glossy-bounces", "3",
+                     "--transmission-bounces", "5", "--sample-clamp-direct", "1.5",
+                     "--sample-clamp-indirect", "10"])
     assert code == 0
     settings = stub_integrator.calls[0]["settings"]
     assert settings.threads == 3
     assert settings.to_render() == {"spp": 9, "max_depth": 0, "transparent_max_bounces": 4,
+                                    "diffuse_bounces": 2, "glossy_bounces": 3,
+                                    "transmission_bounces": 5, "sample_clamp_direct": 1.5,
+                                    "sample_clamp_indirect": 10.0,
                                     "seed": 5, "fresnel": "schlick",
                                     "caustics": True, "light_vertices": False,
                                     "noise_threshold": 0.05, "min_spp": 3, "time_limit": 0.0,

@@ -55,6 +55,9 @@ class Reference:
         settings = {"spp": spp, "max_depth": scene.render["max_depth"], "seed": SEED,
                     "camera": {**dof, **framing}, "n_seeds": cycles_seeds,
                     "film": list(cycles.scene_film(scene))}
+        bounces = cycles.scene_bounces(scene)
+        if bounces is not None:     # only then: the stored references' keys stay
+            settings["bounces"] = list(bounces)
         self.key = reference_key(scene, settings, cycles_only_settings())
         self.path = os.path.join(REFERENCES, self.key + ".npz")
         mode = os.environ.get("SNELL_CYCLES_REFERENCES", "read")
@@ -185,9 +188,10 @@ def reference_key(scene, settings, cycles_only=None):
     for image in header["images"]:
         image.pop("source", None)
     per_seed = max(1, -(-settings["spp"] // settings["n_seeds"]))
-    film = settings.get("film")
+    film, bounces = settings.get("film"), settings.get("bounces")
     forced = [(k, v) for k, v, _ in cycles.forced_settings(settings["max_depth"], per_seed, 0,
-                                                           film=film and tuple(film))
+                                                           film=film and tuple(film),
+                                                           bounces=bounces and tuple(bounces))
               if k not in ("cycles.seed", "render.threads")]
     h = hashlib.sha256(json.dumps([blender_version(), header, settings, forced, cycles_only],
                                   sort_keys=True, default=str).encode())

@@ -1,0 +1,85 @@
+"""How far a path may go and how bright one sample may be: Cycles' bounce limits of each kind
+(kernel/integrator/path_state.h, path_state_next) and its sample clamping
+(kernel/film/light_passes.h, film_clamp_light).
+
+Bounces. Cycles counts a path's diffuse reflections, glossy reflections (singular ones, a
+mirror's or glass's, included) and transmissions (refraction and translucency) apart from its
+total. After the scattering event that takes a count past its limit the path still adds what it
+finds at the next surface, then ends there, as it does after its last bounce of all (limits:
+Snell's `max_depth` and Cycles' limits of each kind, the kernel's max_*_bounce = setting + 1).
+So a limit of L lets a path scatter L + 1 times that way, the last time towards a light.
+
+Clamping. Each contribution to the image (a light sample that arrives, or light a path finds) is
+scaled down so that the sum of its red, green and blue is at most 3 x the clamp (Cycles'
+kernel_data.integrator.sample_clamp_* = setting x 3; 0 is off). Light is direct when it comes
+from a light sample of the first hit or is found by the camera ray or the first bounce's ray
+(film_clamp_light's `bounce` of 0 or below), indirect otherwise.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .jit import jit, jit_inline
+from .lights.codes import VISIBLE_DIFFUSE, VISIBLE_TRANSMISSION
+
+# Columns of wavefront.Paths.kind_bounce.
+DIFFUSE_BOUNCE, GLOSSY_BOUNCE, TRANSMISSION_BOUNCE = range(3)
+NO_CLAMP = math.inf
+
+
+def bounce_limits(max_depth: int, transparent: int, diffuse: int, glossy: int,
+                  transmission: int) -> tuple:
+    """The limits the wavefront's stages read: (max depth, transparent bounces, then each
+    kind's as Cycles' setting)."""
+    return (np.int64(max_depth), np.int64(transparent), np.int64(diffuse), np.int64(glossy),
+            np.int64(transmission))
+
+
+def clamp_limits(direct: float, indirect: float) -> tuple:
+    """The stages' clamp (direct, indirect) from Cycles' two settings (0: off)."""
+    return (3.0 * direct if direct > 0.0 else NO_CLAMP,
+            3.0 * indirect if indirect > 0.0 else NO_CLAMP)
+
+
+@jit_inline
+def bounce_kind(ray_kind, through):
+    """The count a scattering event that made a ray of ray_kind (a lights.codes VISIBLE_* flag)
+    adds to, as Cycles' labels: a transmission ray's (glass, a rough refraction) and a diffuse
+    ray's that left through the surface (`through`: translucency) to transmission, other
+    diffuse rays to diffuse, the rest (a mirror's, glass's and rough reflections) to glossy."""
+    if ray_kind == VISIBLE_TRANSMISSION or (ray_kind == VISIBLE_DIFFUSE and through):
+        return TRANSMISSION_BOUNCE
+    return DIFFUSE_BOUNCE if ray_kind == VISIBLE_DIFFUSE else GLOSSY_BOUNCE
+
+
+@jit_inline
+def within_limits(kinds, limits):
+    """Whether counts (diffuse, glossy, transmission) are each within its limit (bounce_limits)."""
+    return (kinds[DIFFUSE_BOUNCE] <= limits[2] and kinds[GLOSSY_BOUNCE] <= limits[3]
+            and kinds[TRANSMISSION_BOUNCE] <= limits[4])
+
+
+@jit_inline
+def past_last_bounce(bounce, kinds, limits):
+    """Whether a path of `bounce` bounces, `kinds` of them (diffuse, glossy, transmission),
+    scatters no more: the total or one kind's count past its limit (`limits`, bounce_limits)."""
+    return (bounce >= limits[0] or kinds[DIFFUSE_BOUNCE] > limits[2]
+            or kinds[GLOSSY_BOUNCE] > limits[3] or kinds[TRANSMISSION_BOUNCE] > limits[4])
+
+
+@jit_inline
+def clamp_limit(clamp, direct):
+    """The clamp (clamp_limits) of direct or indirect light."""
+    return clamp[0] if direct else clamp[1]
+
+
+@jit
+def clamp_light(value, limit):
+    """value, scaled down so that |r| + |g| + |b| is at most limit."""
+    total = abs(value[0]) + abs(value[1]) + abs(value[2])
+    if total > limit:
+        s = limit / total
+        return (value[0] * s, value[1] * s, value[2] * s)
+    return value
