@@ -439,6 +439,10 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
             u_choice)
         if not valid or event == specular.TIR_ABSORBED:
             continue
+        if event == specular.TRANSMITTED:
+            # The adjoint of the path tracer's refraction (an open pane's single refraction
+            # was under- or over-counted by ior^2 without it).
+            weight = mul(weight, specular.light_refraction_scale(mats.ior[mat], entering))
         if bounces == 0:
             ray_kind = VISIBLE_TRANSMISSION if event == specular.TRANSMITTED else VISIBLE_GLOSSY
             if not lamp_sees(caustics, lights, paths.lamp[i], d, p, ray_kind):
