@@ -21,9 +21,12 @@ light point (a mixture over objects; the density of a direction sums every cone 
 from a sun or the world, the direction is the sun's or drawn from the world's distribution, and
 the line crosses a disk across one of them (aimed_line). The world starts light paths where its
 light is concentrated (an HDRI with a sun: lights.dispatch.WORLD_PEAK), and the path tracer then
-leaves it the world-lit L S+ D E paths too (wavefront.emitters' world_caustics). Specular bounces use the path tracer's own sample_specular. At
-the first diffuse vertex the path connects to a lens point: the camera ray through that lens
-point that sees the vertex gives the pixel, a shadow ray checks it, and the contribution is
+leaves it the world-lit L S+ D E paths too (wavefront.emitters' world_caustics). Specular
+bounces use the path tracer's own sample_specular, a refraction's weight times the adjoint's
+(n_i / n_t)^2 (specular.light_refraction_scale: Cycles carries radiance across it unscaled;
+the factors cancel through closed glass, not through an open pane). At the first diffuse
+vertex the path connects to a lens point: the camera ray through that lens point that sees the
+vertex gives the pixel, a shadow ray checks it, and the contribution is
 
     beta f (|ns . wi| / |ng . wi|) |ng . wo| s / (d^2 cos^3 theta)
 
