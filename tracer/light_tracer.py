@@ -21,9 +21,12 @@ light point (a mixture over objects; the density of a direction sums every cone 
 from a sun or the world, the direction is the sun's or drawn from the world's distribution, and
 the line crosses a disk across one of them (aimed_line). The world starts light paths where its
 light is concentrated (an HDRI with a sun: lights.dispatch.WORLD_PEAK), and the path tracer then
-leaves it the world-lit L S+ D E paths too (wavefront.emitters' world_caustics). Specular bounces use the path tracer's own sample_specular. At
-the first diffuse vertex the path connects to a lens point: the camera ray through that lens
-point that sees the vertex gives the pixel, a shadow ray checks it, and the contribution is
+leaves it the world-lit L S+ D E paths too (wavefront.emitters' world_caustics). Specular
+bounces use the path tracer's own sample_specular, a refraction's weight times the adjoint's
+(n_i / n_t)^2 (specular.light_refraction_scale: Cycles carries radiance across it unscaled;
+the factors cancel through closed glass, not through an open pane). At the first diffuse
+vertex the path connects to a lens point: the camera ray through that lens point that sees the
+vertex gives the pixel, a shadow ray checks it, and the contribution is
 
     beta f (|ns . wi| / |ng . wi|) |ng . wo| s / (d^2 cos^3 theta)
 
@@ -469,6 +472,10 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
             u_choice)
         if not valid or event == specular.TIR_ABSORBED:
             continue
+        if event == specular.TRANSMITTED:
+            # The adjoint of the path tracer's refraction (an open pane's single refraction
+            # was under- or over-counted by ior^2 without it).
+            weight = mul(weight, specular.light_refraction_scale(mats.ior[mat], entering))
         if bounces == 0:
             ray_kind = VISIBLE_TRANSMISSION if event == specular.TRANSMITTED else VISIBLE_GLOSSY
             if not lamp_sees(caustics, lights, paths.lamp[i], d, p, ray_kind):

@@ -87,3 +87,22 @@ def sample_specular(kind, d, ng, n, entering, color, trans_color, ior, fresnel_m
     refracts = event == TRANSMITTED
     valid = cos_i > 0.0 and (dot(ng, out) < 0.0) == refracts and (dot(n, out) < 0.0) == refracts
     return out, weight, event, valid
+
+
+@jit
+def light_refraction_scale(ior, entering):
+    """The factor a light path's weight takes at a refraction beyond sample_specular's weight:
+    (n_i / n_t)^2 for the light's direction of travel (entering: the light arrives on the
+    front side, n_i = 1, n_t = ior).
+
+    Cycles carries radiance across a smooth refraction unchanged: its singular sample's eval
+    and pdf are 1e6 (1 - F) tint and 1e6 (1 - F) (kernel/closure/bsdf_microfacet.h,
+    bsdf_microfacet_sample), with no (n_t / n_i)^2 of physical radiance. A light path carries
+    flux, which the delta of that BSDF, turned from the camera's side to the light's, spreads
+    over the projected solid angle |cos_t| dw_t = (n_i / n_t)^2 |cos_i| dw_i (Snell's law, n^2
+    cos dw invariant): the adjoint of Cycles' refraction weighs (n_i / n_t)^2 more than the
+    camera path's. Entering and leaving a closed object cancel; an open pane, or light that
+    ends on a diffuse surface inside glass, is one refraction left over.
+    """
+    eta = ior if entering else 1.0 / ior
+    return 1.0 / (eta * eta)
