@@ -247,8 +247,7 @@ class RENDER_PT_snell_film(SnellPanel, bpy.types.Panel):
 
     def draw(self, context):
         # The pixel filter, exposure and transparency: Blender's and Cycles' own properties when
-        # Snell follows them (editing them here is editing theirs), else Snell's. Cycles' Film
-        # panel also offers Transparent Glass, which Snell does not render yet: say so.
+        # Snell follows them (editing them here is editing theirs), else Snell's.
         col = self.column()
         rd, following = context.scene.render, _cycles(context)
         if following is not None:
@@ -256,14 +255,20 @@ class RENDER_PT_snell_film(SnellPanel, bpy.types.Panel):
             col.prop(following, "filter_width", text="Width")
             col.prop(following, "film_exposure", text="Exposure")
             col.prop(rd, "film_transparent", text="Transparent")
+            glass = col.column()
+            glass.active = rd.film_transparent
+            glass.prop(following, "film_transparent_glass", text="Transparent Glass")
+            glass.prop(following, "film_transparent_roughness", text="Roughness Threshold")
         else:
-            col.prop(context.scene.snell, "pixel_filter")
-            col.prop(context.scene.snell, "filter_width", text="Width")
-            col.prop(context.scene.snell, "film_exposure", text="Exposure")
-            col.prop(context.scene.snell, "film_transparent", text="Transparent")
-        cycles = getattr(context.scene, "cycles", None)
-        if cycles is not None and cycles.film_transparent_glass and rd.film_transparent:
-            col.label(text="Transparent Glass: not rendered, glass is opaque", icon="ERROR")
+            props = context.scene.snell
+            col.prop(props, "pixel_filter")
+            col.prop(props, "filter_width", text="Width")
+            col.prop(props, "film_exposure", text="Exposure")
+            col.prop(props, "film_transparent", text="Transparent")
+            glass = col.column()
+            glass.active = props.film_transparent
+            glass.prop(props, "film_transparent_glass")
+            glass.prop(props, "film_transparent_roughness")
 
 
 class SnellDataPanel(SnellPanel):

@@ -31,7 +31,7 @@ from .microfacet_tables import shipped_tables
 from .passes import CHUNK
 from .pixel_filter import make_filter, spread_splats
 from .result import ExtraRows, RenderResult, Window, WindowSums
-from .scene import Scene
+from .scene import Scene, material_field
 from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
 from .shader import closures, program
 from .shader.bump import with_view
@@ -147,6 +147,7 @@ class Renderer:
         self.programs_emit = bool(np.any(flags & program.EMISSION_VARIES))
         # The film's alpha: Film > Transparent, or a Holdout, which Cycles renders either way.
         self.film_transparent = settings.film_transparent
+        self.clear = clear_glass(scene.materials, self.materials.kind, settings)
         self.alpha = self.film_transparent or bool(np.any(flags & program.HAS_HOLDOUT))
         self.light_paths_per_camera_path = settings.light_paths_per_camera_path
         self.light_vertices, self._why_vertices = self._choose_light_vertices(
@@ -366,15 +367,15 @@ class Renderer:
                 break
             m, n_shadow, n_programs = wavefront.materials(
                 lights, mesh, mats, self.media, self.tables, self.fresnel, self.next_event, bits,
-                stratified, depth, limits, clamp, kept, active, paths, prim, u, v, out, shadows,
-                radiance, without, scratch, params, stats, lv, last_connection, with_features,
-                feature_albedo, feature_normal, programs, pass_sums)
+                stratified, depth, limits, clamp, self.clear, kept, active, paths, prim, u, v, out,
+                shadows, radiance, without, scratch, params, stats, lv, last_connection,
+                with_features, feature_albedo, feature_normal, programs, pass_sums)
             if n_programs:
                 m, n_shadow = wavefront.program_materials(
                     lights, mesh, mats, self.media, self.tables, self.next_event, bits,
-                    stratified, depth, limits, clamp, n_programs, programs, paths, prim, u, v,
-                    out, m, shadows, n_shadow, radiance, without, scratch, regs, stats, lv,
-                    last_connection, with_features, feature_albedo, feature_normal,
+                    stratified, depth, limits, clamp, self.clear, n_programs, programs, paths,
+                    prim, u, v, out, m, shadows, n_shadow, radiance, without, scratch, regs,
+                    stats, lv, last_connection, with_features, feature_albedo, feature_normal,
                     transparent, pass_sums)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
@@ -641,6 +642,21 @@ def describe_stages(stages: dict) -> tuple[str, str]:
 def render(scene: Scene, settings: RenderSettings | None = None, progress=None) -> RenderResult:
     """Render a scene with the settings (default: its own); see Renderer.render."""
     return Renderer(scene, settings).render(progress=progress)
+
+
+def clear_glass(materials, kind, settings) -> np.ndarray:
+    """Per material, whether its transmissions keep a camera path see-through (wavefront.go_on)
+    under Film > Transparent > Transparent Glass: smooth glass and refraction, and rough ones
+    (Principled included) of a roughness up to the threshold, untextured; empty when Transparent
+    Glass is off (a program's transmissions count when singular, whatever this says)."""
+    if not (settings.film_transparent and settings.film_transparent_glass):
+        return np.zeros(0, bool)
+    clear = np.isin(kind, (GLASS, REFRACTION))
+    for m, mat in enumerate(materials):
+        if kind[m] == LAYERED and mat["kind"] in ("glass", "refraction", "principled") \
+                and "roughness" not in (mat.get("textures") or {}):
+            clear[m] = float(material_field(mat, "roughness")) <= settings.film_transparent_roughness
+    return clear
 
 
 def warm_up() -> float:

@@ -169,6 +169,14 @@ SETTINGS = (
     Setting("film_transparent", bool, False, "Film > Transparent: camera rays that reach the "
             "world see no world; the image's alpha is the share of each pixel not covered "
             "(premultiplied colour, as Cycles')"),
+    Setting("film_transparent_glass", bool, False, "Film > Transparent > Transparent Glass: "
+            "with a transparent film, the world seen through glass (transmissions of roughness "
+            "up to film_transparent_roughness) is transparent too, as Cycles'",
+            label="Transparent Glass"),
+    Setting("film_transparent_roughness", float, 0.1, "Film > Transparent > Roughness "
+            "Threshold: glass up to this roughness counts as clear for Transparent Glass "
+            "(Cycles' default 0.1)", least=0.0, greatest=1.0, metavar="R",
+            label="Roughness Threshold", ui={"precision": 3}),
     # Denoising as Cycles' Render > Denoise panel has it: names, values and defaults (but off by
     # default: Snell's images are the unbiased estimate unless asked).
     Setting("denoise", bool, False, "Denoise the final image with Open Image Denoise (the noisy "

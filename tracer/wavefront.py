@@ -31,7 +31,7 @@ from .jit import jit, jit_inline
 from .light_tracer import CAUSTIC, NO_CAUSTIC
 from .light_passes import (ONE, ZERO, add_colors, add_found, add_shadow, pass_weights,
                            shadow_weights)
-from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY
+from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
 from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lights_at_escape,
                               triangle_hit)
 from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
@@ -93,6 +93,9 @@ class Paths(NamedTuple):
     pass_glossy: np.ndarray   # (n, 3) first bounce (light_passes.py), when a render makes them
     kind_bounce: np.ndarray   # (n, 3) int64: its diffuse, glossy and transmission bounces
     #                           (path_limits.py)
+    see_through: np.ndarray   # (n,) int64: 1 while the path has only passed transparent surfaces
+    #                           (and, with Transparent Glass, clear glass: go_on), Cycles'
+    #                           PATH_RAY_TRANSPARENT_BACKGROUND
 
 
 class Shadows(NamedTuple):
@@ -117,7 +120,7 @@ def new_paths(n: int) -> Paths:
                  np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n),
                  np.empty((n, 3)), np.zeros(n, np.int64), np.zeros(n), empty_stacks(n),
                  np.zeros(n, np.int64), np.zeros((n, 3)), np.zeros((n, 3)),
-                 np.zeros((n, 3), np.int64))
+                 np.zeros((n, 3), np.int64), np.zeros(n, np.int64))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -183,6 +186,7 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
         paths.bounce[i] = 0
         for k in range(3):
             paths.kind_bounce[i, k] = 0
+        paths.see_through[i] = 1
         if features:
             for k in range(3):
                 paths.feature[i, k] = 1.0
@@ -215,9 +219,10 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
     Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
     written its features at its first, diffuse, hit).
     With `film_transparent` (Film > Transparent), a camera ray that escapes having passed only
-    transparent surfaces (no bounce yet: Cycles' PATH_RAY_TRANSPARENT_BACKGROUND) sees no world
-    and adds its mean throughput to `transparent` (the path's uncovered share, 1 - alpha), as
-    Cycles' integrate_background; suns still shine, as Cycles' distant lights do.
+    transparent surfaces (and clear glass with Transparent Glass: Paths.see_through, Cycles'
+    PATH_RAY_TRANSPARENT_BACKGROUND) sees no world and adds its mean throughput to
+    `transparent` (the path's uncovered share, 1 - alpha), as Cycles' integrate_background;
+    suns still shine, as Cycles' distant lights do.
     Shader programs whose emission varies add it in program_emitters. In a scene with media
     (media.py), the ray's segment inside them attenuates what it finds and the path's
     throughput from here on. When pass_sums has rows (the render makes the light passes),
@@ -249,7 +254,7 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
             beta = medium.through(beta, sigma, t_surface)
             store(paths.beta, i, beta)
         if prim[i] < 0:
-            clear_film = film_transparent and paths.bounce[i] == 0
+            clear_film = film_transparent and paths.see_through[i] != 0
             if clear_film:
                 transparent[path] += mean3(beta)
                 if light_passes and lights.has_world:
@@ -359,9 +364,9 @@ def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, 
 
 @jit
 def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits, stratified,
-              depth, limits, clamp, n_active, active, paths, prim, u, v, out, shadows, radiance,
-              without, lobes, params, stats, lv, last_connection, features, feature_albedo,
-              feature_normal, programs, pass_sums):
+              depth, limits, clamp, clear, n_active, active, paths, prim, u, v, out, shadows,
+              radiance, without, lobes, params, stats, lv, last_connection, features,
+              feature_albedo, feature_normal, programs, pass_sums):
     """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
     layered vertices sample a light (a shadow ray, or direct light for lamps that cast no
     shadow) and, up to bounce last_connection (-1: never), connect to the path's light vertex
@@ -377,6 +382,8 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
     type for a kernel of its own: this one stays the size it was without programs). When
     pass_sums has rows, hits add to the light passes (record_passes). A lamp that casts no
     shadow adds its light at once, clamped by `clamp` as emitters'; `limits` as emitters'.
+    `clear`: with Transparent Glass, which materials' transmissions keep a path see-through
+    (go_on; empty: none).
 
     Returns (paths in out, shadow rays queued, program hits left).
     """
@@ -444,7 +451,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         kept = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
                                                        caustic, connect, 0.0),
                      offset_origin(p, ng, eps, new_d), features, stats, media,
-                     (tri, mat, entering, ng_f))
+                     (tri, mat, entering, ng_f), clear)
         if light_passes:
             carry_pass_weights(out, n_out, kept, weights)
         n_out = kept
@@ -484,7 +491,8 @@ def pass_weights_of(kind, paths, i, shadows, first_shadow, n_shadow, lobes, coun
 
 @jit
 def program_materials(lights, mesh, mats, media, tables, next_event, bits, stratified, depth,
-                      limits, clamp, n_programs, programs, paths, prim, u, v, out, n_out, shadows,
+                      limits, clamp, clear, n_programs, programs, paths, prim, u, v, out, n_out,
+                      shadows,
                       n_shadow, radiance, without, lobes, regs, stats, lv, last_connection,
                       features, feature_albedo, feature_normal, transparent, pass_sums):
     """The materials stage for the hits on shader programs that `materials` left in
@@ -492,7 +500,8 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
     shadow rays after the first n_shadow. Returns the new (n_out, n_shadow). A path past its
     last bounce (`limits`, as emitters') only passes through the surface's transparency. When `transparent`
     has rows (the film's alpha is rendered), a Holdout met before the first bounce adds its
-    weight times the path's mean throughput to it, as Cycles' integrate_surface_holdout.
+    weight times the path's mean throughput to it, as Cycles' integrate_surface_holdout (a
+    path that is still see-through: Paths.see_through). `clear` as materials'.
     pass_sums as materials'."""
     light_passes = pass_sums.shape[0] > 0
     has_normals = mesh.corner_normals.shape[0] > 0
@@ -522,7 +531,8 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
                                   entering, (mat, tri, b1, b2), connects, lv, lobes, regs,
                                   shadows, n_shadow, radiance, without, stats)
         shadows.bounce[first_shadow:n_shadow] = bounce
-        if transparent.shape[0] > 0 and bounce == 0 and mats.programs.flags[mat] & HAS_HOLDOUT:
+        if transparent.shape[0] > 0 and paths.see_through[i] != 0 \
+                and mats.programs.flags[mat] & HAS_HOLDOUT:
             transparent[path] += regs[MAX_REGISTERS + TOTAL_HOLDOUT] * mean3(beta_in)
         if media.on:
             medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
@@ -539,7 +549,7 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
         kept = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
                                                        caustic, connect, mis_t),
                      offset_origin(p, ng, eps, new_d), features, stats, media,
-                     (tri, mat, entering, ng_f))
+                     (tri, mat, entering, ng_f), clear)
         if light_passes:
             carry_pass_weights(out, n_out, kept, weights)
         n_out = kept
@@ -560,12 +570,15 @@ def facing_hit(mesh, paths, i, tri, b1, b2):
 
 @jit_inline
 def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, media,
-          surface):
+          surface, clear):
     """After Russian roulette, path i's next ray from origin (`scattered`: direction,
     throughput, ray kind, BSDF density, caustic state, light-vertex factor, distance since the
     last scattering vertex: not 0 after a transparent surface, which is no bounce) as row n_out
     of `out`, with its stack of media (entered or left through `surface`: triangle, material,
-    entering, facing geometric normal); returns the new count."""
+    entering, facing geometric normal); returns the new count. With Transparent Glass (`clear`
+    has a row per material), a transmission through a material it marks keeps the path
+    see-through, as Cycles' LABEL_TRANSMIT_TRANSPARENT: a singular one always (Cycles' threshold
+    is on the roughness, and a singular lobe has none)."""
     new_d, beta, ray_kind, pdf_prev, caustic, connect, mis_t = scattered
     peak = max3(beta)
     if not peak > 0.0:
@@ -597,6 +610,10 @@ def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, 
         out.kind_bounce[n_out, k] = paths.kind_bounce[i, k]
     if scattered_here:
         out.kind_bounce[n_out, bounce_kind(ray_kind, dot(new_d, ng_f) < 0.0)] += 1
+    out.see_through[n_out] = paths.see_through[i]
+    if scattered_here and not (clear.shape[0] > 0 and ray_kind == VISIBLE_TRANSMISSION
+                               and (pdf_prev == 0.0 or clear[mat])):
+        out.see_through[n_out] = 0
     if media.on:
         medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
                      dot(new_d, ng_f) < 0.0)

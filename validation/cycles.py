@@ -131,21 +131,32 @@ def is_transparent(film) -> bool:
 
 
 def _film_settings(film) -> list:
-    """The pixel filter entries of forced_settings: none for the file's own filter."""
+    """The pixel filter entries of forced_settings (none for the file's own filter), and the
+    Transparent Glass ones of a film with its threshold (scene_film)."""
     if film is None:
         return []
     kind, width = film[:2]
-    return [("cycles.pixel_filter_type", str(kind).upper(), "the Snell scene's pixel filter, "
-             "which Snell samples as Cycles does"),
-            ("cycles.filter_width", float(width), "the Snell scene's filter width")]
+    out = [("cycles.pixel_filter_type", str(kind).upper(), "the Snell scene's pixel filter, "
+            "which Snell samples as Cycles does"),
+           ("cycles.filter_width", float(width), "the Snell scene's filter width")]
+    if len(film) > 3:
+        out += [("cycles.film_transparent_glass", True, "the Snell scene's Transparent Glass"),
+                ("cycles.film_transparent_roughness", float(film[3]), "its roughness "
+                 "threshold")]
+    return out
 
 
 def scene_film(scene) -> tuple:
-    """A Snell scene's (pixel_filter, filter_width), and True after them when its film is
-    transparent, for forced_settings' film (an opaque film's pair keeps the stored
-    references' keys)."""
-    film = (scene.render["pixel_filter"], float(scene.render["filter_width"]))
-    return film + (True,) if scene.render.get("film_transparent") else film
+    """A Snell scene's (pixel_filter, filter_width), True after them when its film is
+    transparent, and then its Transparent Glass threshold when that is on, for forced_settings'
+    film (an opaque film's pair keeps the stored references' keys)."""
+    r = scene.render
+    film = (r["pixel_filter"], float(r["filter_width"]))
+    if not r.get("film_transparent"):
+        return film
+    if r.get("film_transparent_glass"):
+        return film + (True, float(r.get("film_transparent_roughness", 0.1)))
+    return film + (True,)
 
 
 # The settings forced_settings uses to render exactly samples 1..spp, which adaptive_settings

@@ -94,6 +94,10 @@ FOLLOWED = (
     # Blender's own render setting (scene.render), shown in Cycles' Film panel.
     Followed("film_transparent", "Film > Transparent",
              lambda c, f: bool(c.id_data.render.film_transparent)),
+    Followed("film_transparent_glass", "Film > Transparent > Transparent Glass",
+             lambda c, f: bool(c.film_transparent_glass)),
+    Followed("film_transparent_roughness", "Film > Transparent > Roughness Threshold",
+             lambda c, f: float(f"{c.film_transparent_roughness:.7g}")),
     # Snell denoises with Open Image Denoise whatever Cycles' denoiser (OptiX: NOT_RENDERED).
     Followed("denoise", "Sampling > Render > Denoise", lambda c, f: bool(c.use_denoising)),
     Followed("denoising_input_passes", "Sampling > Render > Denoise > Passes",
@@ -159,9 +163,6 @@ NOT_RENDERED = (
     NotRendered("denoiser", "Sampling > Render > Denoise > Denoiser", "Snell denoises with "
                 "Open Image Denoise on the CPU", lambda v, c: v == "OPENIMAGEDENOISE" or
                 not c.use_denoising),
-    NotRendered("film_transparent_glass", "Film > Transparent > Transparent Glass", "glass is "
-                "opaque against a transparent film: the world seen through it is rendered",
-                lambda v, c: not (v and c.id_data.render.film_transparent)),
 )
 
 

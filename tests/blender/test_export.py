@@ -1031,7 +1031,8 @@ def test_render_settings_default(bl):
                          "transparent_max_bounces", "diffuse_bounces", "glossy_bounces",
                          "transmission_bounces", "sample_clamp_direct", "sample_clamp_indirect",
                          "pixel_filter", "filter_width",
-                         "film_exposure", "film_transparent", "denoise",
+                         "film_exposure", "film_transparent", "film_transparent_glass",
+                         "film_transparent_roughness", "denoise",
                          "denoising_input_passes",
                          "denoising_prefilter", "denoising_quality", "denoising_passes"],
                         "file's Cycles setting"),
@@ -1073,8 +1074,11 @@ def test_the_files_cycles_settings_are_followed(bl):
     c.film_exposure = 0.75
     assert run()[0].render["film_exposure"] == 0.75
     assert not any("Film > Transparent" in w for w in warnings), warnings
-    c.film_transparent_glass = True
-    assert any("Transparent Glass on is not rendered" in w for w in run()[1])
+    c.film_transparent_glass, c.film_transparent_roughness = True, 0.25
+    s, glass_warnings = run()
+    assert (s.render["film_transparent_glass"], s.render["film_transparent_roughness"]) == \
+        (True, 0.25)
+    assert not any("Transparent Glass" in w for w in glass_warnings), glass_warnings
     c.film_transparent_glass = False
     assert not any("Clamping" in w for w in warnings)       # followed; caustics: 0 unclamped
     c.sample_clamp_indirect = 3.0
@@ -1270,7 +1274,8 @@ def test_info_names_where_each_setting_came_from(bl, tmp_path):
                        "transmission_bounces, sample_clamp_direct, sample_clamp_indirect, "
                        "seed, noise_threshold, "
                        "min_spp, time_limit, pixel_filter, filter_width, film_exposure, "
-                       "film_transparent, denoise, "
+                       "film_transparent, film_transparent_glass, film_transparent_roughness, "
+                       "denoise, "
                        "denoising_input_passes, denoising_prefilter, denoising_quality, "
                        "denoising_passes; default: fresnel, "
                        "caustics, light_vertices"), sources

@@ -324,6 +324,8 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
                                     "noise_threshold": 0.05, "min_spp": 3, "time_limit": 0.0,
                                     "pixel_filter": "box", "filter_width": 1.0,
                                     "film_exposure": 2.0, "film_transparent": True,
+                                    "film_transparent_glass": False,
+                                    "film_transparent_roughness": 0.1,
                                     "denoise": False, "denoising_input_passes": "albedo_normal",
                                     "denoising_prefilter": "fast", "denoising_quality": "high",
                                     "denoising_passes": True}   # a bare on/off option is on

@@ -26,6 +26,8 @@ def test_the_defaults_are_the_scene_files_defaults():
                               "min_spp": 0, "time_limit": 0.0,   # time_limit 0: no limit, as before
                               "pixel_filter": "box", "filter_width": 1.0,
                               "film_exposure": 1.0, "film_transparent": False,  # as before
+                              "film_transparent_glass": False,
+                              "film_transparent_roughness": 0.1,
                               # no denoising and no denoising passes, as before
                               "denoise": False, "denoising_input_passes": "albedo_normal",
                               "denoising_prefilter": "accurate", "denoising_quality": "high",
