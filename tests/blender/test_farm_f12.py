@@ -26,7 +26,7 @@ cloudpickle = pytest.importorskip("cloudpickle")
 from snell.addon import final, registration  # noqa: E402
 from snell.farm import cluster as cluster_module, worker  # noqa: E402
 from snell.tracer import passes  # noqa: E402
-from snell.tracer.integrator import kernels_compiled, warm_up  # noqa: E402
+from support.dask_cluster import client  # noqa: E402,F401  (the shared LocalCluster fixture)
 
 common = importlib.import_module("common")
 
@@ -41,17 +41,6 @@ LIGHT = ("use_pass_emit", "use_pass_environment", "use_pass_diffuse_direct",
 def registered():
     registration.ensure_registered()
     yield
-
-
-@pytest.fixture(scope="module")
-def client():
-    """A LocalCluster of two single-threaded worker processes, kernels warm on disk first."""
-    if not kernels_compiled():
-        warm_up()
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0") as local, \
-            distributed.Client(local) as dask_client:
-        yield dask_client
 
 
 @pytest.fixture

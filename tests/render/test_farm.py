@@ -22,12 +22,13 @@ from snell.farm import cluster as cluster_module, keys    # noqa: E402
 from snell.farm import render as render_module, worker    # noqa: E402
 from snell.errors import CliError                                 # noqa: E402
 from snell.tracer import image, passes                            # noqa: E402
-from snell.tracer.integrator import Renderer, kernels_compiled, warm_up   # noqa: E402
+from snell.tracer.integrator import Renderer                      # noqa: E402
 from snell.tracer.result import RenderResult                       # noqa: E402
 from snell.tracer.scene import save                               # noqa: E402
 from snell.tracer.shader.closures import EMISSION, HOLDOUT, MIX_CLOSURE   # noqa: E402
 from snell.tracer.shader.inputs import LAYER_WEIGHT               # noqa: E402
 from support.builders import box, camera, icosphere, make_scene, quad, tiny_scene  # noqa: E402
+from support.dask_cluster import client  # noqa: E402,F401  (the shared LocalCluster fixture)
 
 SIZE = 16
 SPP = 12
@@ -48,17 +49,6 @@ def glass_room(**render):
     cam = camera(position=(0.0, 0.0, 1.9), resolution=(SIZE, SIZE), lens=20.0)
     render = {"max_depth": 4, "spp": SPP, "noise_threshold": 0.0, **render}
     return make_scene([(*walls, 0), (*lamp, 1), (*sphere, 2)], MATERIALS, cam, **render)
-
-
-@pytest.fixture(scope="module")
-def client():
-    """A LocalCluster of two single-threaded worker processes, kernels warm on disk first."""
-    if not kernels_compiled():
-        warm_up()
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0") as local, \
-            distributed.Client(local) as dask_client:
-        yield dask_client
 
 
 @pytest.fixture

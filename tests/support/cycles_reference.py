@@ -170,6 +170,15 @@ def verdict(result):
     return result["verdict"], detail
 
 
+def assert_image_and_alpha_consistent(report):
+    """Assert a report's image and alpha channel are both consistent; returns the alpha's."""
+    v, detail = verdict(report)
+    assert v == "consistent", (detail, report.get("alpha_channel"))
+    alpha = report["alpha_channel"]
+    assert alpha["verdict"] == "consistent", alpha
+    return alpha
+
+
 def blender_version():
     import bpy
     return list(bpy.app.version)

@@ -17,8 +17,7 @@ import importlib
 import numpy as np
 import pytest
 
-from support.cycles_reference import Reference
-from support.cycles_reference import verdict as _verdict
+from support.cycles_reference import Reference, assert_image_and_alpha_consistent
 from support.programs import material_copy, with_constant
 
 bpy = pytest.importorskip("bpy")
@@ -94,11 +93,7 @@ def test_the_file_renders_a_transparent_film(reference):
 
 
 def test_image_and_alpha_are_consistent(reference):
-    report = reference.compare()
-    v, detail = _verdict(report)
-    assert v == "consistent", (detail, report.get("alpha_channel"))
-    alpha = report["alpha_channel"]
-    assert alpha["verdict"] == "consistent", alpha
+    alpha = assert_image_and_alpha_consistent(reference.compare())
     assert abs(alpha["mean_snell"] / alpha["mean_cycles"] - 1.0) < 0.01, alpha
 
 

@@ -19,8 +19,7 @@ import importlib
 
 import pytest
 
-from support.cycles_reference import Reference
-from support.cycles_reference import verdict as _verdict
+from support.cycles_reference import Reference, assert_image_and_alpha_consistent
 
 bpy = pytest.importorskip("bpy")
 
@@ -63,11 +62,7 @@ def test_the_file_asks_for_transparent_glass(reference):
 
 
 def test_image_and_alpha_are_consistent(reference):
-    report = reference.compare()
-    v, detail = _verdict(report)
-    assert v == "consistent", (detail, report.get("alpha_channel"))
-    alpha = report["alpha_channel"]
-    assert alpha["verdict"] == "consistent", alpha
+    assert_image_and_alpha_consistent(reference.compare())
 
 
 def test_opaque_glass_is_caught(reference):
