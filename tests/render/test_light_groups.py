@@ -98,8 +98,8 @@ def test_the_image_is_the_same_with_and_without_groups(grouped):
 def test_light_in_no_group_is_in_no_pass(grouped):
     """With the area lamp and the shadowless lamp in no group, the other groups' passes are the
     same, bit for bit (the same samples), and the image less their sum is what the 'rest' group
-    held. Deliberate error: lights in no group added to group 0 ('key': add_grouped without
-    its group >= 0 test, which then indexes column 3 - 3) fails the first assertion."""
+    held. Deliberate error: light in no group added to group 0 (add_grouped writing to
+    max(group, 0)) fails the first assertion (Combined_key differs)."""
     _, result = grouped
     scene = grouped_scene(rest=None)
     alone = _render(scene, light_groups=True)
