@@ -75,9 +75,10 @@ def test_the_image_is_the_sum_of_the_groups(grouped):
     rounding (measured: 6.1e-5 at most, in a pixel of 10 or more), with every strategy
     running: light samples, BSDF samples of lamps, emitters and the world, the shadowless
     lamp's light added at once, the light vertices (on the emissive quad and the area lamp)
-    and the light tracer's splats (the glass sphere's caustics). Deliberate error: the light
-    tracer's splats left out of the groups (Renderer._group_splats returning none) fails it,
-    largest pixel error 4.49 (the caustic)."""
+    and the light tracer's splats (the glass sphere's caustics). Deliberate errors, each
+    failing it: the light tracer's splats left out of the groups (Renderer._group_splats
+    returning none), largest pixel error 4.49 (the caustic); the shadowless lamp's light
+    added to no group (deliver_light's add_grouped given -1), 4.91."""
     _, result = grouped
     assert result.stages["light tracing"][0] and result.stages["light vertices"][0]
     groups = result.light_group_images()
