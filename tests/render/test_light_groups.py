@@ -132,3 +132,16 @@ def test_a_transparent_film_keeps_the_world_in_its_group():
     result = _render(scene, light_groups=True, light_passes=True, film_transparent=True)
     sky = result.light_group_images()["Combined_sky"]
     assert np.allclose(sky[0, 0], WORLD) and not result.mean()[0, 0].any()
+
+
+def test_clamped_light_is_clamped_in_its_group():
+    """With Light Paths > Clamping, each group gets a contribution as Combined gets it, after
+    clamping (Cycles' film_clamp_light before film_write_*): the identity holds with clamps
+    that cut most of the light (direct 0.5, indirect 0.2)."""
+    scene = grouped_scene(spp=8)
+    result = _render(scene, light_groups=True, sample_clamp_direct=0.5,
+                     sample_clamp_indirect=0.2)
+    image = result.mean()
+    assert image.max() < _render(scene).mean().max()        # the clamps cut the light
+    err = np.abs(_sum(result.light_group_images()) - image)
+    assert np.all(err <= 1e-5 * (1.0 + np.abs(image))), err.max()
