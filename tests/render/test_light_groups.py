@@ -126,8 +126,11 @@ def test_the_groups_add_up_to_an_adaptive_image():
 
 def test_a_transparent_film_keeps_the_world_in_its_group():
     """Film > Transparent: the world a camera ray sees is not in the image, but Cycles still
-    writes it to the world's group when it renders the Environment pass (film_write_background):
-    a pixel that sees only the world has the world's colour in 'sky' and none in the image."""
+    writes it to the world's group when it renders the Environment pass (film_write_background;
+    measured in Cycles 5.0 on a transparent film: the world's group (0.2, 0.3, 0.5) with the
+    Environment pass on, 0 with it off; Snell's light passes include Environment): a pixel
+    that sees only the world has the world's colour in 'sky' and none in the image.
+    Deliberate error: the add_to_group call left out of emitters fails it (sky 0)."""
     scene = grouped_scene(spp=4)
     result = _render(scene, light_groups=True, light_passes=True, film_transparent=True)
     sky = result.light_group_images()["Combined_sky"]
