@@ -137,7 +137,8 @@ def _setup_render(p):
                         "exposure and gamma (a .snell file's: Standard)")
     p.add_argument("--passes", type=_passes, metavar="LIST", default=[],
                    help="also write these passes as layers of the EXR, named as Blender names "
-                        f"them, comma-separated: {', '.join(PASSES)}")
+                        f"them, comma-separated: {', '.join(PASSES)}, and Combined_GROUP for "
+                        "each of the scene's light groups")
     _add_setting_options(p)
     _add_scale_option(p)
     _add_farm_options(p)
@@ -155,15 +156,42 @@ NOT_RENDERED_PASSES = ("Mist", "Vector", "UV", "Material Index", "Ambient Occlus
                        "Shadow Catcher", "Volume Direct", "Volume Indirect")
 
 
+# A light group's pass: Combined_<group> (tracer/light_groups.py), the group's name as it is.
+GROUP_PREFIX = "Combined_"
+
+
 def _passes(text):
-    """--passes checked when the options are parsed: Blender's pass names, any case."""
+    """--passes checked when the options are parsed: Blender's pass names, any case, and the
+    light groups' Combined_<group> (the scene's groups are checked once it is read)."""
     known = {name.lower(): name for name in PASSES + NOT_RENDERED_PASSES}
     names = [part.strip() for part in text.split(",") if part.strip()]
     for name in names:
-        if name.lower() not in known:
+        if name.lower() not in known and not _group_of(name):
             raise argparse.ArgumentTypeError(f"no pass {name!r} (Blender's passes Snell writes: "
-                                             f"{', '.join(PASSES)})")
-    return [known[name.lower()] for name in names]
+                                             f"{', '.join(PASSES)}, {GROUP_PREFIX}<light group>)")
+    return [known.get(name.lower()) or GROUP_PREFIX + _group_of(name) for name in names]
+
+
+def _group_of(name: str) -> str:
+    """The light group a pass name names (Combined_<group>, the prefix in any case), or ''."""
+    return name[len(GROUP_PREFIX):] if name.lower().startswith(GROUP_PREFIX.lower()) else ""
+
+
+def _light_groups_asked(args, scene, farm: bool) -> bool:
+    """Whether the render makes the light groups' passes: --passes names one (each must be one
+    of the scene's groups) and the render is not on a cluster, which leaves them out with a
+    warning."""
+    asked = [_group_of(name) for name in args.passes if _group_of(name)]
+    for group in asked:
+        if group not in scene.light_groups:
+            listed = ", ".join(repr(g) for g in scene.light_groups) or "none"
+            raise CliError(f"{args.scene}: --passes: no light group {group!r} in the scene "
+                           f"(its light groups: {listed})")
+    if asked and farm:
+        print(f"snell: warning: {args.scene}: the light groups' passes are not rendered on a "
+              "cluster: left out", file=sys.stderr)
+        return False
+    return bool(asked)
 
 
 def _add_farm_options(p):
@@ -233,6 +261,8 @@ def cmd_render(args) -> int:
     if set(LIGHT_PASSES) & set(args.passes):
         settings = settings.replace(light_passes=True)
     farm = args.workers is not None or args.cluster is not None
+    if _light_groups_asked(args, scene, farm):
+        settings = settings.replace(light_groups=True)
     if farm:
         from .farm.render import check_settings
         check_settings(settings, args.scene)
@@ -334,6 +364,14 @@ def _pass_layers(args, scene, settings, result, denoised) -> dict:
             clean, _ = image.sanitize(values[name])
             for k, channel in enumerate("RGB"):
                 layers[f"{name}.{channel}"] = clean[..., k]
+    if getattr(result, "has_light_groups", False):
+        from .tracer import image
+        values = result.light_group_images()
+        for name in args.passes:
+            if name in values:
+                clean, _ = image.sanitize(values[name])
+                for k, channel in enumerate("RGB"):
+                    layers[f"{name}.{channel}"] = clean[..., k]
     from .tracer.data_passes import CHANNELS, data_passes
     wanted = args.passes
     data = [name for name in wanted if name in CHANNELS]

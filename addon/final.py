@@ -59,6 +59,26 @@ def light_passes_of(view_layer) -> tuple:
                  if getattr(view_layer, switch, False))
 
 
+def light_groups_of(view_layer) -> tuple:
+    """The light groups' passes of a view layer (View Layer > Light Groups), as (name, channels,
+    channel ids) entries: "Combined_<group>", RGB, as Cycles adds them (blender/sync.cpp)."""
+    from ..tracer.light_groups import pass_name
+    return tuple((pass_name(group.name), 3, "RGB")
+                 for group in getattr(view_layer, "lightgroups", None) or ())
+
+
+# Why a render on a cluster leaves the light groups out (farm/ carries no group rows).
+GROUPS_ON_CLUSTER = ("light groups are not rendered on a Dask cluster: their passes are left "
+                     "out (set Render On to This Computer for them)")
+
+
+def on_cluster(scene) -> bool:
+    """Whether F12 renders this scene on a Dask cluster (`snell batch --workers`, or Render On);
+    a Dask Scheduler without an address counts (the render then fails, naming it)."""
+    where = getattr(getattr(scene, "snell", None), "render_on", THIS_COMPUTER)
+    return remote_render is not None or where != THIS_COMPUTER
+
+
 def data_passes_of(view_layer) -> tuple:
     """The data passes a view layer asks for that Snell fills (DATA_PASSES' entries)."""
     return tuple(entry for switch, entry in DATA_PASSES.items()
@@ -312,6 +332,13 @@ def render(engine, depsgraph):
         light = light_passes_of(depsgraph.view_layer)
         if light:
             settings = settings.replace(light_passes=True)
+        groups = light_groups_of(depsgraph.view_layer)
+        if groups and on_cluster(bl_scene):
+            record["warnings"].append(GROUPS_ON_CLUSTER)
+            engine.report({"WARNING"}, f"Snell: {GROUPS_ON_CLUSTER}")
+            groups = ()
+        elif groups:
+            settings = settings.replace(light_groups=True)
         spp = settings.spp
         record["target_spp"] = spp
         remote = remote_render
@@ -341,7 +368,7 @@ def render(engine, depsgraph):
         for name, channels, ids in denoising_passes(settings):
             engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
         data = data_passes_of(depsgraph.view_layer)
-        for name, channels, ids in light + data:
+        for name, channels, ids in light + groups + data:
             engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
         result = engine.begin_result(0, 0, w, h)
         progress = _Progress(engine, result, w, h, spp, record, t_start)
@@ -369,6 +396,12 @@ def render(engine, depsgraph):
         _write_denoised(engine, result, progress, rendered, settings, record)
         if light and rendered.has_light_passes:
             _write_light_passes(engine, result, light, rendered)
+        if groups and rendered.has_light_groups:
+            _write_passes(result, groups, rendered.light_group_images())
+            if rendered.light_group_nans[0]:
+                engine.report({"WARNING"}, f"Snell: {int(rendered.light_group_nans[0])} NaN/Inf "
+                                           "light-group samples left out")
+            engine.update_result(result)
         if data and not rendered.cancelled:
             _write_data_passes(result, data, renderer or _integrator().Renderer(scene, settings))
             engine.update_result(result)
@@ -400,18 +433,23 @@ def render(engine, depsgraph):
 
 def _write_light_passes(engine, result, light, rendered):
     """The light passes (light_passes_of's) of a render into the result."""
-    from ..tracer.image import sanitize
-    values = rendered.light_pass_images()
-    passes = result.layers[0].passes
-    for name, _, _ in light:
-        target = passes.get(name)
-        if target is not None:       # Blender's row 0 is the bottom
-            clean, _ = sanitize(values[name])
-            target.rect.foreach_set(np.ascontiguousarray(clean[::-1], np.float32).ravel())
+    _write_passes(result, light, rendered.light_pass_images())
     if rendered.light_pass_nan_count:
         engine.report({"WARNING"}, f"Snell: {rendered.light_pass_nan_count} NaN/Inf light-pass "
                                    "samples left out")
     engine.update_result(result)
+
+
+def _write_passes(result, entries, values):
+    """RGB passes ((name, channels, ids) entries, their images in values: float32 (H, W, 3),
+    row 0 at the top) into the result, NaN and Inf made 0."""
+    from ..tracer.image import sanitize
+    passes = result.layers[0].passes
+    for name, _, _ in entries:
+        target = passes.get(name)
+        if target is not None:       # Blender's row 0 is the bottom
+            clean, _ = sanitize(values[name])
+            target.rect.foreach_set(np.ascontiguousarray(clean[::-1], np.float32).ravel())
 
 
 def _write_data_passes(result, data, renderer):

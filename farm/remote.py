@@ -104,8 +104,10 @@ class RemoteTracer:
                 break
         return bad
 
-    def light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters) -> int:
-        """As Renderer.light_pass: the splats added here in chunk order."""
+    def light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters,
+                   groups=None) -> int:
+        """As Renderer.light_pass: the splats added here in chunk order (no light groups: a
+        cluster does not render them, so `groups` is None)."""
         film[:] = 0.0
         if film_a is not None:
             film_a[:] = 0.0

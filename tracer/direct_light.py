@@ -14,6 +14,7 @@ import math
 from .counters import CONNECTIONS
 from .geometry import FAR, offset_origin
 from .jit import jit, jit_inline
+from .light_groups import add_grouped, emitter_group, light_group
 from .light_vertices import connection, direction_to
 from .lights.codes import CASTS_SHADOW, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
 from .lights.dispatch import light_vertex_density, pick_light, sample_light
@@ -67,8 +68,8 @@ def sample_direct_light(lights, mesh, key, sample, dimension, bits, strat, u_pic
         return n_shadow
     p_vertex = 0.0
     cos_g = dot(wi, ng_f)
+    kind_l, k_l, pmf_l = pick_light(lights, u_pick)      # the light sample_light picked
     if step > 0.0 and cos_g > 0.0:
-        kind_l, k_l, pmf_l = pick_light(lights, u_pick)
         p_vertex = light_vertex_density(lights, kind_l, k_l, pmf_l) * cos_g / step
     w, w_without = 1.0, 1.0
     if pdf_light > 0.0:
@@ -77,12 +78,12 @@ def sample_direct_light(lights, mesh, key, sample, dimension, bits, strat, u_pic
     light = mul(vmul(vmul(beta, color), weight), scale)
     return deliver_light(shadows, n_shadow, radiance, without, path, mul(light, w),
                          mul(light, w_without), flags, offset_origin(p, ng_f, eps, wi), wi,
-                         target, infinite, limit)
+                         target, infinite, limit, light_group(lights, kind_l, k_l))
 
 
 @jit_inline
-def connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps, kind, albedo,
-                            lobes, count, view, stats):
+def connect_to_light_vertex(lights, shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps, kind,
+                            albedo, lobes, count, view, stats):
     """Connect vertex p of this surface kind to its path's light vertex (light_vertices.py):
     evaluate the surface towards it and queue the shadow ray. Returns the new shadow-ray
     count."""
@@ -91,8 +92,8 @@ def connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, ep
                                                 lit_events(VISIBLE_ANY_BSDF), False)
     if not valid:
         return n_shadow
-    return connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, eps, wl, d2,
-                                mul(color, scale), pdf, stats)
+    return connect_light_vertex(lights, shadows, n_shadow, lv, path, beta, p, ng_f, eps, wl,
+                                d2, mul(color, scale), pdf, stats)
 
 
 @jit
@@ -117,26 +118,28 @@ def add_light(radiance, path, contribution):
 
 @jit
 def deliver_light(shadows, n_shadow, radiance, without, path, light, light_without, flags,
-                  origin, wi, target, infinite, limit):
+                  origin, wi, target, infinite, limit, group):
     """A light sample's contribution (light_without: its share without light vertices, for
     `without` as in wavefront.emitters): behind a shadow ray from origin (queued as ray
     n_shadow), or added at once, clamped to `limit` (path_limits), for a lamp that casts no
-    shadow (lights.codes flags). Returns the new shadow-ray count."""
+    shadow (lights.codes flags); `group` is the light's light group (light_groups.py). Returns
+    the new shadow-ray count."""
     if flags & CASTS_SHADOW:
         store(shadows.contrib, n_shadow, light)
         store(shadows.without, n_shadow, light_without)
         shadows.pass_direct[n_shadow] = 1     # direct light, if cast from the first hit
+        shadows.group[n_shadow] = group
         queue_shadow(shadows, n_shadow, path, origin, wi, target, infinite)
         return n_shadow + 1
-    add_light(radiance, path, clamp_light(light, limit))
+    add_grouped(radiance, path, group, clamp_light(light, limit))
     if without.shape[0] > 0:
         add_light(without, path, clamp_light(light_without, limit))
     return n_shadow
 
 
 @jit
-def connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, eps, w, d2, f_cos, pdf,
-                         stats):
+def connect_light_vertex(lights, shadows, n_shadow, lv, path, beta, p, ng_f, eps, w, d2, f_cos,
+                         pdf, stats):
     """Queue the connection of a camera vertex p (throughput beta, BSDF x cosine f_cos and
     density pdf towards its light vertex along w, at squared distance d2) as shadow ray
     n_shadow; returns the new shadow-ray count."""
@@ -146,6 +149,7 @@ def connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, eps, w, d2,
     store(shadows.contrib, n_shadow, vmul(beta, light))
     store(shadows.without, n_shadow, (0.0, 0.0, 0.0))
     shadows.pass_direct[n_shadow] = 0     # light that bounced at least once more: indirect
+    shadows.group[n_shadow] = emitter_group(lights, lv.lamp[path])
     queue_shadow(shadows, n_shadow, path, offset_origin(p, ng_f, eps, w), w,
                  row(lv.point, path), False)
     stats[CONNECTIONS] += 1

@@ -18,7 +18,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import adaptive, jit, light_passes, light_tracer, lobes, passes, path_limits, wavefront
+from . import (adaptive, jit, light_groups, light_passes, light_tracer, lobes, passes,
+               path_limits, wavefront)
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
@@ -39,7 +40,11 @@ from .shader.object_inputs import camera_table
 
 
 class _Buffers(threading.local):
-    """This thread's chunk buffers, made once and reused by every chunk it runs."""
+    """This thread's chunk buffers, made once and reused by every chunk it runs; the radiance
+    rows are `width` wide (light_groups.columns: Combined, then each light group's share)."""
+
+    def __init__(self, width: int = 3):
+        self.width = width
 
     def get(self):
         """(paths, next paths, shadow rays (a light sample and a light-vertex connection per
@@ -49,8 +54,8 @@ class _Buffers(threading.local):
         shares, their light passes' rows) for CHUNK paths."""
         if not hasattr(self, "buffers"):
             self.buffers = (wavefront.new_paths(CHUNK), wavefront.new_paths(CHUNK),
-                            wavefront.new_shadows(2 * CHUNK), np.empty((CHUNK, 3)),
-                            np.empty((CHUNK, 3)),
+                            wavefront.new_shadows(2 * CHUNK),
+                            np.zeros((CHUNK, self.width)), np.empty((CHUNK, 3)),
                             np.empty(CHUNK, np.int64), np.zeros(len(wavefront.STATS), np.int64),
                             np.empty((lobes.MAX_LOBES, lobes.FIELDS)),
                             (np.empty(lobes.P_FIELDS), program.new_registers(),
@@ -155,7 +160,9 @@ class Renderer:
         self.light_vertex_pilot = settings.light_vertex_pilot
         self.features = settings.wants_features
         self.light_passes = settings.light_passes
-        self._buffers = _Buffers()
+        # The light groups' passes (light_groups.py): the scene's groups, when asked for.
+        self.light_groups = list(scene.light_groups) if settings.light_groups else []
+        self._buffers = _Buffers(light_groups.columns(len(self.light_groups)))
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
 
@@ -186,7 +193,7 @@ class Renderer:
     def _copy(self) -> "Renderer":
         """A shallow copy with its own chunk buffers and film lock (renders may overlap)."""
         other = copy.copy(self)
-        other._buffers = _Buffers()
+        other._buffers = _Buffers(self._buffers.width)
         other._film_lock = threading.Lock()
         return other
 
@@ -329,6 +336,8 @@ class Renderer:
         stats[:] = 0
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
+        radiance[:n, 3:] = 0.0         # the light groups' columns, where the render has them
+        with_groups = extra is not None and extra.groups is not None
         wavefront.clear(without, without.shape[0])
         if with_features:
             wavefront.clear(feature_albedo, n)
@@ -360,9 +369,10 @@ class Renderer:
                                       feature_albedo, self.film_transparent, transparent,
                                       pass_sums)
             if self.programs_emit:
-                wavefront.program_emitters(mesh, mats, self.tables, self.split, depth, m, paths,
-                                           prim, u, v, t, radiance, without, with_features,
-                                           feature_albedo, scratch, regs, pass_sums, clamp)
+                wavefront.program_emitters(lights, mesh, mats, self.tables, self.split, depth, m,
+                                           paths, prim, u, v, t, radiance, without,
+                                           with_features, feature_albedo, scratch, regs,
+                                           pass_sums, clamp)
             if kept == 0:
                 break
             m, n_shadow, n_programs = wavefront.materials(
@@ -399,6 +409,11 @@ class Renderer:
                 extra.light_nans[0] += light_passes.film_light_passes(
                     pass_sums, n, start, in_pass, pixels,
                     extra.light[adaptive.half_of(first_sample)])
+        if with_groups:
+            with self._film_lock:
+                extra.group_nans[0] += light_groups.film_groups(
+                    radiance, n, start, in_pass, pixels,
+                    extra.groups[adaptive.half_of(first_sample)])
         if with_alpha:
             with self._film_lock:
                 extra.alpha_nans[0] += wavefront.film_alpha(transparent, n, start, in_pass,
@@ -441,9 +456,10 @@ class Renderer:
     def trace_light_chunk(self, pass_index: int, start: int, n: int):
         """Trace light paths start .. start + n of a pass; returns the splats of those that
         reached the camera, (pixels, contributions, how many reached it: a pixel filter wider
-        than a pixel spreads one over several pixels). The caller adds them in chunk order, so
-        that the image does not depend on which thread finished first (float sums depend on
-        their order)."""
+        than a pixel spreads one over several pixels, the light groups' splats: None when the
+        render makes no light groups, else (pixels, contributions, each one's group) of the
+        splats of lights in a group). The caller adds them in chunk order, so that the image
+        does not depend on which thread finished first (float sums depend on their order)."""
         if not 0 < n <= CHUNK:
             raise ValueError(f"trace_light_chunk: {n} paths do not fit a chunk of {CHUNK}")
         geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
@@ -454,6 +470,7 @@ class Renderer:
         m = light_tracer.emit_light_paths(caustics, lights, mesh, self.media, self.seed,
                                           pass_index, start, n, paths)
         pixels, contributions, reached = [], [], 0
+        grouped = [] if self.light_groups else None
         for _ in range(self.max_depth):
             if m == 0:
                 break
@@ -473,10 +490,31 @@ class Renderer:
                                            connections.contrib[:n_conn][visible])
                     pixels.append(spread[0])
                     contributions.append(spread[1])
+                if grouped is not None:
+                    grouped.append(self._group_splats(connections, raster, n_conn, visible))
             paths, out = out, paths
+        if grouped is not None:
+            grouped = tuple(np.concatenate(parts) for parts in zip(*grouped)) if grouped else \
+                (np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.int64))
         if not pixels:
-            return np.zeros(0, np.int64), np.zeros((0, 3)), 0
-        return np.concatenate(pixels), np.concatenate(contributions), reached
+            return np.zeros(0, np.int64), np.zeros((0, 3)), 0, grouped
+        return np.concatenate(pixels), np.concatenate(contributions), reached, grouped
+
+    def _group_splats(self, connections, raster, n_conn, visible):
+        """(pixels, contributions, groups) of the visible connections whose light is in a
+        light group, spread by the pixel filter as the image's splats."""
+        group = connections.group[:n_conn][visible]
+        contrib, points = connections.contrib[:n_conn][visible], raster[:n_conn][visible]
+        keep = group >= 0
+        if self.pixel_filter.unit_box:
+            return connections.path[:n_conn][visible][keep], contrib[keep], group[keep]
+        parts = [spread_splats(self.pixel_filter, self.camera.width, self.camera.height,
+                               points[group == g], contrib[group == g]) + (g,)
+                 for g in np.unique(group[keep])]
+        return (np.concatenate([p[0] for p in parts] + [np.zeros(0, np.int64)]),
+                np.concatenate([p[1] for p in parts] + [np.zeros((0, 3))]),
+                np.concatenate([np.full(len(p[0]), p[2], np.int64) for p in parts]
+                               + [np.zeros(0, np.int64)]))
 
     def object_index(self, per_side: int = 2) -> np.ndarray:
         """The object each pixel sees first, int32 (H, W, per_side^2): one camera ray through
@@ -525,6 +563,8 @@ class Renderer:
             result.start_alpha(self.film_transparent)
         if self.light_passes:
             result.start_light_passes()
+        if self.light_groups:
+            result.start_light_groups(self.light_groups)
         scheduler = passes.scheduler(self, result, self.settings)
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             return passes.drive(self, scheduler, pool, progress, stop, self.settings.time_limit)
@@ -584,8 +624,9 @@ class Renderer:
                 return None
         if light is not None:
             sums.light_paths = self.light_count(rows, window.end - window.first)
-            sums.nan_count += self.light_pass(pool, window.index, sums.light_paths,
-                                               sums.light_paths, light, None, sums.counters)
+            sums.nan_count += self.light_pass(
+                pool, window.index, sums.light_paths, sums.light_paths, light, None,
+                sums.counters, None if extra is None else extra.group_light)
         return sums
 
     # -- one pass --------------------------------------------------------------------------
@@ -614,10 +655,12 @@ class Renderer:
         """passes.light_count of this renderer's light paths per camera path."""
         return passes.light_count(self.light_paths_per_camera_path, rows, samples, share)
 
-    def light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters) -> int:
+    def light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters,
+                   groups=None) -> int:
         """Trace a pass's n_light light paths into film (rows of (pixels, 3)); film_a (if not
-        None) gets those of the first n_a, adaptive sampling's half A of the light tracer.
-        Returns how many splats were NaN or Inf (left out)."""
+        None) gets those of the first n_a, adaptive sampling's half A of the light tracer;
+        groups (if not None) the light groups' splats, added to its sums (rows of (pixels,
+        3 x groups)). Returns how many splats were NaN or Inf (left out)."""
         film[:] = 0.0
         if film_a is not None:
             film_a[:] = 0.0
@@ -628,7 +671,7 @@ class Renderer:
             jobs = passes.jobs(begin, end, 1)
             bad += passes.add_splats(jobs, pool.map(
                 lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs),
-                n_a, film, film_a, counters)
+                n_a, film, film_a, counters, groups)
         return bad
 
 

@@ -49,6 +49,7 @@ from . import specular
 from .camera import camera_connection
 from .geometry import hit_point, offset_origin
 from .jit import jit, jit_inline
+from .light_groups import light_group
 from .lights.codes import (AREA, EMISSIVE_TRIANGLE, POINT, SUN, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
                            VISIBLE_TRANSMISSION, WORLD, ZERO)
 from .lights.dispatch import emission_anchor, emit_along, light_seen, starts_light_paths
@@ -458,8 +459,13 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
                     if media.on:
                         medium.copy_stack(paths.medium, i, out.medium, n_out)
                     n_out = kept
-            n_conn = connect_to_camera(cam, margin, (lens0, lens1), connections, raster, n_conn, p,
-                                       ng, ns, eps, d, vmul(beta, color), sigma)
+            queued = connect_to_camera(cam, margin, (lens0, lens1), connections, raster, n_conn,
+                                       p, ng, ns, eps, d, vmul(beta, color), sigma)
+            if queued > n_conn:       # its light's group, for the light group passes
+                e = paths.lamp[i]
+                connections.group[n_conn] = light_group(lights, caustics.emitter_kind[e],
+                                                        caustics.emitter_index[e])
+            n_conn = queued
             continue
         if bounces + 1 >= max_depth:
             continue              # a further diffuse vertex would exceed the depth

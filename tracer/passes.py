@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import adaptive, jit, wavefront
+from . import adaptive, jit, light_groups, wavefront
 from .image import as_float32
 from .pilot import LightVertexPilot
 from .result import RenderResult, Window
@@ -91,15 +91,18 @@ def light_count(per_camera_path: float, rows: int, samples: int, share: float = 
     return max(2, int(round(per_camera_path * rows * samples * share)))
 
 
-def add_splats(jobs: list, splats, n_a: int, film, film_a, counters) -> int:
+def add_splats(jobs: list, splats, n_a: int, film, film_a, counters, groups=None) -> int:
     """Add light chunks' splats (Renderer.trace_light_chunk's, one per job, in job order) to
-    film, and those of half A's jobs (starting before n_a) to film_a if not None; count the
-    light paths that reached the camera. Returns how many splats were NaN or Inf (left out)."""
+    film, and those of half A's jobs (starting before n_a) to film_a if not None, the light
+    groups' to groups if not None (rows of (pixels, 3 x groups)); count the light paths that
+    reached the camera. Returns how many splats were NaN or Inf (left out)."""
     bad = 0
-    for (first, _), (pixels, contributions, reached) in zip(jobs, splats):
+    for (first, _), (pixels, contributions, reached, grouped) in zip(jobs, splats):
         bad += wavefront.splat(pixels, contributions, film)
         if film_a is not None and first < n_a:
             wavefront.splat(pixels, contributions, film_a)
+        if groups is not None and grouped is not None:
+            light_groups.splat_groups(*grouped, groups)
         counters[wavefront.CAUSTIC_SPLATS] += reached      # light paths, not splats
     return bad
 
@@ -284,7 +287,8 @@ class BatchPasses(_Passes):
         if self.traces_light:
             n_light = renderer.light_count(self.npix, step.samples)
             result.nan_count += renderer.light_pass(pool, self.k, n_light, n_light,
-                                                     self.pass_light, None, self.counters)
+                                                     self.pass_light, None, self.counters,
+                                                     None if self.extra is None else self.extra.group_light)
             result.light_sum.reshape(-1, 3)[:] += self.pass_light
             result.light_paths += n_light
             light_image = self.pass_light / n_light
@@ -380,7 +384,8 @@ class AdaptivePasses(_Passes):
         n_light = renderer.light_count(self.npix, step.samples, self.light_share)
         n_a = n_light // 2
         result.nan_count += renderer.light_pass(pool, self.k, n_light, n_a, self.pass_light,
-                                                 self.pass_light_a, self.counters)
+                                                 self.pass_light_a, self.counters,
+                                                 None if self.extra is None else self.extra.group_light)
         result.light_sum.reshape(-1, 3)[:] += self.pass_light
         result.light_paths += n_light
         self.light_half += self.pass_light_a

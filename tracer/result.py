@@ -7,7 +7,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import adaptive, light_passes, wavefront
+from . import adaptive, light_groups, light_passes, wavefront
 from .image import as_float32
 
 
@@ -24,6 +24,11 @@ class ExtraRows(NamedTuple):
     alpha_nans: np.ndarray | None
     light: np.ndarray | None = None          # the light passes' sums (2, pixels, COLUMNS)
     light_nans: np.ndarray | None = None
+    # The light groups' sums (light_groups.py): the camera paths', (2, pixels, 3 x groups) by
+    # half as the light passes', and the light tracer's splats, (pixels, 3 x groups).
+    groups: np.ndarray | None = None
+    group_light: np.ndarray | None = None
+    group_nans: np.ndarray | None = None
 
 
 class Window(NamedTuple):
@@ -114,6 +119,13 @@ class RenderResult:
     # render's image weighs as its halves; and the samples whose pass row held a NaN or Inf.
     light_pass_sum: np.ndarray | None = None
     light_pass_nans: np.ndarray | None = None
+    # The light groups (light_groups.py; no names: not rendered): their names, the camera
+    # samples' sums by half as the light passes', (2, H x W, 3 x groups), the light tracer's
+    # splats' (H x W, 3 x groups) and the samples whose group columns held a NaN or Inf.
+    light_group_names: list = field(default_factory=list)
+    light_group_sum: np.ndarray | None = None
+    light_group_light: np.ndarray | None = None
+    light_group_nans: np.ndarray | None = None
 
     def start_features(self, camera_rotation: np.ndarray):
         """Keep the denoising passes' sums; camera_rotation: the camera's columns (Blender's:
@@ -136,11 +148,19 @@ class RenderResult:
         self.light_pass_sum = np.zeros((2, self.height * self.width, light_passes.COLUMNS))
         self.light_pass_nans = np.zeros(1, np.int64)
 
+    def start_light_groups(self, names):
+        """Keep the sums of the light groups of these names."""
+        self.light_group_names = list(names)
+        width = 3 * len(self.light_group_names)
+        self.light_group_sum = np.zeros((2, self.height * self.width, width))
+        self.light_group_light = np.zeros((self.height * self.width, width))
+        self.light_group_nans = np.zeros(1, np.int64)
+
     def extra_rows(self) -> ExtraRows | None:
-        """The rows the stages add the denoising features, the alpha and the light passes to
-        (Renderer.trace_chunk), or None when the render makes none of them."""
+        """The rows the stages add the denoising features, the alpha, the light passes and the
+        light groups to (Renderer.trace_chunk), or None when the render makes none of them."""
         if self.albedo_sum is None and self.transparent_sum is None \
-                and self.light_pass_sum is None:
+                and self.light_pass_sum is None and self.light_group_sum is None:
             return None
         features = self.albedo_sum is not None
         alpha = self.transparent_sum is not None
@@ -152,7 +172,8 @@ class RenderResult:
                          self.transparent_sq.reshape(-1) if alpha else None,
                          self.alpha_nans,
                          self.light_pass_sum if light else None,
-                         self.light_pass_nans)
+                         self.light_pass_nans, self.light_group_sum, self.light_group_light,
+                         self.light_group_nans)
 
     @property
     def has_light_passes(self) -> bool:
@@ -172,19 +193,43 @@ class RenderResult:
         (adaptive.Halves.mean), so that the passes add up to the image exactly."""
         if self.light_pass_sum is None:
             raise ValueError("the render has no light passes (settings: light_passes)")
-        sums = self.light_pass_sum
-        if self.halves is None:
-            count = np.maximum(self.samples().reshape(-1, 1).astype(np.float64), 1.0)
-            mean = sums.sum(axis=0) / count
-        else:
-            count = self.halves.count[..., None].astype(np.float64)
-            weights = (count > 0).astype(np.float64)
-            mean = (sums / np.maximum(count, 1.0) * weights).sum(axis=0) \
-                / np.maximum(weights.sum(axis=0), 1.0)
+        mean = self._mean_of_halves(self.light_pass_sum)
         splats = self.light_image() if self.light_in_image and self.light_paths else None
         passes = light_passes.read_passes(mean.reshape(self.height, self.width, -1), splats,
                                           self.exposure)
         return {name: as_float32(values) for name, values in passes.items()}
+
+    @property
+    def has_light_groups(self) -> bool:
+        """Whether the render made the light groups' passes."""
+        return self.light_group_sum is not None
+
+    def light_group_images(self) -> dict:
+        """The light groups' passes as Blender names them ("Combined_<group>"), float32
+        (H, W, 3) each: each pixel's mean as the image's (with adaptive sampling the mean of its
+        halves' means), plus the light tracer's splats of the group's lights per light path,
+        times the film's exposure. The image is their sum plus the light in no group."""
+        if self.light_group_sum is None:
+            raise ValueError("the render has no light groups (settings: light_groups)")
+        mean = self._mean_of_halves(self.light_group_sum)
+        light = None
+        if self.light_in_image and self.light_paths:
+            light = self.light_group_light / self.light_paths
+            light = light.reshape(self.height, self.width, -1)
+        passes = light_groups.read_groups(mean.reshape(self.height, self.width, -1), light,
+                                          self.light_group_names, self.exposure)
+        return {name: as_float32(values) for name, values in passes.items()}
+
+    def _mean_of_halves(self, sums: np.ndarray) -> np.ndarray:
+        """Each pixel's mean of per-half sums (2, pixels, C) as the image's: the sum over its
+        samples, or with adaptive sampling the mean of its halves' means."""
+        if self.halves is None:
+            count = np.maximum(self.samples().reshape(-1, 1).astype(np.float64), 1.0)
+            return sums.sum(axis=0) / count
+        count = self.halves.count[..., None].astype(np.float64)
+        weights = (count > 0).astype(np.float64)
+        return (sums / np.maximum(count, 1.0) * weights).sum(axis=0) \
+            / np.maximum(weights.sum(axis=0), 1.0)
 
     @property
     def has_alpha(self) -> bool:

@@ -80,8 +80,8 @@ def scatter_lit(kind, lights, mesh, mats, tables, can_sample_lights, has_normals
                                        kind, color, lobes, count, view, shadows, n_shadow,
                                        radiance, without, path, clamp_direct)
     if connects:
-        n_shadow = connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps,
-                                           kind, color, lobes, count, view, stats)
+        n_shadow = connect_to_light_vertex(lights, shadows, n_shadow, lv, path, beta, p, ng_f,
+                                           ns_f, eps, kind, color, lobes, count, view, stats)
     if kind == DIFFUSE:
         wi, pdf = sample_cosine_hemisphere(ns_f, u0, u1)
         # Shading normals can point a sample into the surface: it carries nothing.
@@ -136,8 +136,9 @@ def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, 
                                        LAYERED, mats.color[mat], lobes, count, view, shadows,
                                        n_shadow, radiance, without, path, clamp_direct)
     if connects:
-        n_shadow = connect_to_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, ns_f, eps,
-                                           LAYERED, mats.color[mat], lobes, count, view, stats)
+        n_shadow = connect_to_light_vertex(lights, shadows, n_shadow, lv, path, beta, p, ng_f,
+                                           ns_f, eps, LAYERED, mats.color[mat], lobes, count,
+                                           view, stats)
     new_d, factor, pdf_prev, event, valid = bsdf_sample(lobes, count, ng_f, view, u_pick, u0, u1)
     beta = vmul(beta, factor) if valid else (0.0, 0.0, 0.0)
     if event == TRANSPARENT_EVENT:

@@ -122,6 +122,9 @@ class Scene:
     # {"name", "kind", "evaluated": [...], "replaced": [...]} (addon/export/coverage.py), for
     # `snell info`. Empty for a scene read from a file: the file does not keep it.
     coverage: list = field(default_factory=list)
+    # The view layer's light groups, by name (Cycles' light groups: tracer/light_groups.py);
+    # lights, objects and the world join one by its index ("light_group").
+    light_groups: list = field(default_factory=list)
 
     def header(self) -> dict:
         """The JSON header as written to the file."""
@@ -130,10 +133,12 @@ class Scene:
                    "shape": list(im["pixels"].shape), "sha256": image_hash(im["pixels"])}
                   for im in self.images]
         texcoords = [{"kind": tc["kind"], "name": tc.get("name", "")} for tc in self.texcoords]
+        # Written only when there are light groups: files without them read as before.
+        groups = {"light_groups": self.light_groups} if self.light_groups else {}
         return {"format": FORMAT, "version": VERSION, "source": self.source,
                 "objects": self.objects, "materials": self.materials, "lights": self.lights,
                 "world": self.world, "camera": self.camera, "render": self.render,
-                "images": images, "texcoords": texcoords}
+                "images": images, "texcoords": texcoords, **groups}
 
     def with_render(self, **overrides) -> "Scene":
         """A copy sharing the arrays, with saved render settings overridden (None: ignored)."""
@@ -658,7 +663,27 @@ def validate(scene: Scene) -> Scene:
     _check_camera(scene.camera)
     _check_render(scene.render)
     _check_emitter_areas(scene)
+    _check_light_groups(scene)
     return scene
+
+
+def _check_light_groups(scene):
+    """light_groups: distinct names; each light's, object's and the world's light_group an
+    index into it."""
+    groups = scene.light_groups
+    if not isinstance(groups, list) or not all(isinstance(g, str) for g in groups):
+        raise SceneError(f"light_groups: expected a list of names, got {_short(groups)}")
+    if len(set(groups)) != len(groups):
+        raise SceneError(f"light_groups: names must be distinct, got {_short(groups)}")
+    entries = ([(f"lights[{i}]", x) for i, x in enumerate(scene.lights)]
+               + [(f"objects[{i}]", x) for i, x in enumerate(scene.objects)]
+               + [("world", scene.world)])
+    for where, entry in entries:
+        if "light_group" in entry:
+            if not groups:
+                raise SceneError(f"{where}.light_group: the scene lists no light_groups")
+            _int_in(entry["light_group"], f"{where}.light_group", 0, len(groups) - 1,
+                    "an index into light_groups")
 
 
 def triangle_areas(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -804,7 +829,7 @@ def load(path: str) -> Scene:
         camera=header.get("camera"), world=header.get("world"),
         render={**DEFAULT_RENDER, **(render or {})},
         objects=[] if objects is None else objects, source=header.get("source", ""),
-        images=images, texcoords=texcoords)
+        images=images, texcoords=texcoords, light_groups=header.get("light_groups", []))
     if isinstance(scene.camera, dict) and isinstance(scene.camera.get("dof"), dict):
         scene.camera["dof"] = {**DEFAULT_DOF, **scene.camera["dof"]}
     validate(scene)

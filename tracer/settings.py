@@ -235,6 +235,10 @@ SETTINGS = (
             "Diffuse, Glossy and Transmission Direct, Indirect and Color) beside the image; "
             "Blender's View Layer switches and `snell render --passes` ask for them",
             scope=ESTIMATOR),
+    Setting("light_groups", bool, False, "Render the light groups' passes (Combined_<group>: "
+            "the light of each group's lamps, emissive objects and world) beside the image; "
+            "Blender's View Layer > Light Groups and `snell render --passes` ask for them",
+            scope=ESTIMATOR),
     Setting("light_vertex_pilot", bool, True, "An adaptive render measures in its first "
             "samples whether light vertices pay; off: keep them throughout", scope=ESTIMATOR),
 )

@@ -29,6 +29,7 @@ from .features import add_feature_light, record_features, smooth_lobes
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit, jit_inline
 from .light_tracer import CAUSTIC, NO_CAUSTIC
+from .light_groups import add_grouped, add_to_group, escape_group, lamp_group
 from .light_passes import (ONE, ZERO, add_colors, add_found, add_shadow, pass_weights,
                            shadow_weights)
 from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
@@ -110,6 +111,7 @@ class Shadows(NamedTuple):
     pass_diffuse: np.ndarray  # (n, 3) its light's diffuse and glossy pass weights, and whether
     pass_glossy: np.ndarray   # (n, 3) it is Direct light (1: a light sample of the first hit),
     pass_direct: np.ndarray   # (n,) int64 when a render makes the light passes (light_passes.py)
+    group: np.ndarray        # (n,) int64: its light's light group (light_groups.py; -1 none)
 
 
 def new_paths(n: int) -> Paths:
@@ -128,7 +130,7 @@ def new_shadows(n: int) -> Shadows:
     return Shadows(np.empty(n, np.int64), np.empty((n, 3), np.float32),
                    np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                    np.empty((n, 3)), np.zeros(n, np.int64), np.zeros((n, 3)), np.zeros((n, 3)),
-                   np.zeros(n, np.int64))
+                   np.zeros(n, np.int64), np.full(n, -1, np.int64))
 
 
 @jit
@@ -228,7 +230,7 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
     throughput from here on. When pass_sums has rows (the render makes the light passes),
     each light found is also added to the path's row of them (light_passes.add_found); with
     Film > Transparent the world a camera ray sees still goes to Environment, as in Cycles'
-    integrate_background.
+    integrate_background. Each light found goes to its light's group too (light_groups.py).
     """
     kept = 0
     light_passes = pass_sums.shape[0] > 0
@@ -249,7 +251,8 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                 add_found_light(radiance, without, paths, i, beta, light,
                                 mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
                                 mis_weight(next_event, pdf_prev, pdf_light, 0.0), features,
-                                feature_albedo, pass_sums, False, clamp)
+                                feature_albedo, pass_sums, False, clamp,
+                                lamp_group(lights, lamp))
         if media.on and medium.absorbs(sigma):
             beta = medium.through(beta, sigma, t_surface)
             store(paths.beta, i, beta)
@@ -260,8 +263,11 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                 if light_passes and lights.has_world:
                     found, light, _ = light_at_escape(lights, 0, d, kind)
                     if found:
-                        add_found(pass_sums, paths, i, ONE,
-                                  clamp_light(vmul(beta, light), clamp[0]), 1.0, True)
+                        seen = clamp_light(vmul(beta, light), clamp[0])
+                        add_found(pass_sums, paths, i, ONE, seen, 1.0, True)
+                        # Cycles evaluates it for the Environment pass and writes it to the
+                        # world's light group too (film_write_background).
+                        add_to_group(radiance, path, lights.world_group, seen)
             first, end = lights_at_escape(lights, not (light_tracers and world_caustics
                                                        or clear_film), emitters_count)
             for k in range(first, end):
@@ -269,7 +275,8 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                 if found:
                     w = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
                     add_found_light(radiance, without, paths, i, beta, light, w, w, features,
-                                    feature_albedo, pass_sums, lights.has_world and k == 0, clamp)
+                                    feature_albedo, pass_sums, lights.has_world and k == 0, clamp,
+                                    escape_group(lights, k))
             continue
         mat = mats.of_triangle[prim[i]]
         emission = row(mats.radiance, mat)
@@ -279,7 +286,7 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
             add_found_light(radiance, without, paths, i, beta, emission,
                             mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
                             mis_weight(next_event, pdf_prev, pdf_light, 0.0), features,
-                            feature_albedo, pass_sums, False, clamp)
+                            feature_albedo, pass_sums, False, clamp, lights.prim_group[prim[i]])
         if mats.kind[mat] == EMISSION:
             continue
         if ended(mats, mat, depth, paths, i, limits):
@@ -292,16 +299,16 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
 
 @jit_inline
 def add_found_light(radiance, without, paths, i, beta, light, w, w_without, features,
-                    feature_albedo, pass_sums, environment, clamp):
+                    feature_albedo, pass_sums, environment, clamp, group):
     """Light path i finds, throughput beta, clamped (path_limits): to its radiance at MIS
-    weight w and to its radiance without light vertices at w_without, to the Denoising Albedo
-    while the path carries the features, and to the light passes when the render makes them
-    (environment: the world's)."""
+    weight w (and to its light group's columns: light_groups.py) and to its radiance without
+    light vertices at w_without, to the Denoising Albedo while the path carries the features,
+    and to the light passes when the render makes them (environment: the world's)."""
     # Cycles' film_clamp_light(bounce - 1): direct up to the first bounce's ray.
     limit = clamp_limit(clamp, paths.bounce[i] <= 1)
     found = vmul(beta, light)
     contribution = clamp_light(mul(found, w), limit)
-    add_light(radiance, paths.path[i], contribution)
+    add_grouped(radiance, paths.path[i], group, contribution)
     if without.shape[0] > 0:
         add_light(without, paths.path[i], clamp_light(mul(found, w_without), limit))
     if features and paths.feature_on[i] != 0:
@@ -334,8 +341,8 @@ def ended(mats, mat, depth, paths, i, limits):
 
 
 @jit
-def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, t, radiance,
-                     without, features, feature_albedo, lobes, regs, pass_sums, clamp):
+def program_emitters(lights, mesh, mats, tables, caustics, depth, m, paths, prim, u, v, t,
+                     radiance, without, features, feature_albedo, lobes, regs, pass_sums, clamp):
     """The emission of the shader programs whose emission varies over the surface or with
     the ray (shader/program.py; `lobes` and `regs` their scratch), each run at the hit of
     every path of the m: no light sample finds such emission, so it weighs 1 (a path the
@@ -359,7 +366,7 @@ def program_emitters(mesh, mats, tables, caustics, depth, m, paths, prim, u, v, 
         emission = total(regs, TOTAL_EMISSION)
         beta = row(paths.beta, i)
         add_found_light(radiance, without, paths, i, beta, emission, 1.0, 1.0, features,
-                        feature_albedo, pass_sums, False, clamp)
+                        feature_albedo, pass_sums, False, clamp, lights.prim_group[tri])
 
 
 @jit
@@ -629,7 +636,8 @@ def shadow_rays(n, blocked, shadows, radiance, without, pass_sums, clamp):
     """Add the light of every shadow ray that nothing blocked (Embree: 0 where blocked),
     clamped (path_limits: direct for a light sample of the first hit), and when `without` has
     rows their light without light vertices to it; when pass_sums has rows, to the light passes
-    too (light_passes.add_shadow)."""
+    too (light_passes.add_shadow); to its light's group where radiance has group columns
+    (light_groups.py)."""
     tracking = without.shape[0] > 0
     light_passes = pass_sums.shape[0] > 0
     for j in range(n):
@@ -638,7 +646,7 @@ def shadow_rays(n, blocked, shadows, radiance, without, pass_sums, clamp):
             limit = clamp_limit(clamp, shadows.bounce[j] == 0 and shadows.pass_direct[j] != 0)
             contribution = clamp_light(row(shadows.contrib, j), limit)
             store(shadows.contrib, j, contribution)
-            add_light(radiance, path, contribution)
+            add_grouped(radiance, path, shadows.group[j], contribution)
             if tracking:
                 add_light(without, path, clamp_light(row(shadows.without, j), limit))
             if light_passes:

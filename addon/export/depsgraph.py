@@ -15,6 +15,7 @@ from ...tracer import scene as scene_mod
 from ...tracer.scene import Scene, SceneError
 from .camera import convert_camera
 from .custom_properties import instance_rgba, view_layer_rgba
+from .light_groups import NOT_LISTED, LightGroups
 from .lights import convert_light
 from .materials import HOLDOUT_NAME, NO_MATERIAL, NO_SURFACE, convert_material, holdout_material
 from .meshes import mesh_arrays, to_world
@@ -58,6 +59,7 @@ class Exporter:
         self.want_object_data = uses_object_data()
         self.object_data = []  # per object: object_data's fields, or None
         self._hidden = {}  # original object pointer -> hidden from render
+        self.light_groups = LightGroups(getattr(depsgraph, "view_layer", None), self.warn)
 
     def warn(self, message):
         """Add a warning, unless it was given already."""
@@ -151,6 +153,7 @@ class Exporter:
             light = convert_light(obj, matrix, self.warn)
             if light is not None:
                 light["name"] = name
+                light.update(self.light_groups.entry(obj, f"light {name!r}"))
                 self.lights.append(light)
             return
         if obj.type in NOT_RENDERED:
@@ -191,7 +194,8 @@ class Exporter:
         # The pass index for the Object Index pass (tracer/data_passes.py); 0 is left out, so
         # files without one export as before.
         self.objects.append({"name": name, "closed": mesh.closed,
-                             **({"pass_index": int(obj.pass_index)} if obj.pass_index else {})})
+                             **({"pass_index": int(obj.pass_index)} if obj.pass_index else {}),
+                             **self.light_groups.entry(obj, f"object {name!r}")})
         # Kept aside: the scene's objects carry them only if a program reads them
         # (scene_objects).
         self.object_data.append(object_data(inst, matrix) if self.want_object_data else None)
@@ -304,15 +308,19 @@ class Exporter:
         n_tris = [len(p[0].triangles) for p in self.parts]
         material_ids = (np.concatenate([p[2] for p in self.parts]) if self.parts
                         else np.zeros(0, np.int32))
+        world = convert_world(bl_scene.world, self.warn, self.images)
+        if bl_scene.world is not None:
+            world.update(self.light_groups.entry(bl_scene.world,
+                                                 f"world {bl_scene.world.name!r}"))
         return Scene(
             positions=positions, normals=normals, triangles=triangles,
             material_ids=material_ids.astype(np.int32),
             object_ids=np.repeat(np.array([p[3] for p in self.parts], np.int32), n_tris),
-            materials=self.materials, lights=self.lights, camera=camera,
-            world=convert_world(bl_scene.world, self.warn, self.images),
+            materials=self.materials, lights=self.lights, camera=camera, world=world,
             render=convert_render(bl_scene, self.warn), objects=self.scene_objects(),
             source=source,
-            images=self.images, texcoords=self.texcoords(), coverage=self.coverage)
+            images=self.images, texcoords=self.texcoords(), coverage=self.coverage,
+            light_groups=self.light_groups.names)
 
 
 def reads_object_data(mat):
@@ -371,7 +379,7 @@ HOLDOUT_KEY = "holdout"     # material_ids' key of the object holdout's material
 DROPPED_TRIANGLES = "zero-area triangle(s)"
 ZERO_SCALE = "singular world matrix (zero scale), skipped"
 OPEN_MESH = "on a mesh that is not closed (its edges are not all shared by two triangles)"
-SAME_IN_CYCLES = (DROPPED_TRIANGLES, ZERO_SCALE, OPEN_MESH, NO_MATERIAL, NO_SURFACE)
+SAME_IN_CYCLES = (DROPPED_TRIANGLES, ZERO_SCALE, OPEN_MESH, NO_MATERIAL, NO_SURFACE, NOT_LISTED)
 
 
 def differs_from_cycles(warning: str) -> bool:

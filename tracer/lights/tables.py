@@ -14,6 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..jit import jit
+from ..light_groups import group_tables
 from ..textures import REC709
 from ..vec import row
 from .area import spread_constants
@@ -73,6 +74,13 @@ class Lights(NamedTuple):
     has_world: bool              # the world gives light (a colour above 0, or a map)
     has_env: bool                # the world is an environment map (env), else the colour
     env: EnvironmentMap
+    # Each light's light group (light_groups.py; -1: none), by kind as above, and each mesh
+    # triangle's (its object's), which emissive triangles and shader programs' emission take.
+    area_group: np.ndarray       # (L,) int64
+    point_group: np.ndarray      # (P,) int64
+    sun_group: np.ndarray        # (S,) int64
+    world_group: int
+    prim_group: np.ndarray       # (T,) int64
 
 
 def luminance(rgb) -> np.ndarray:
@@ -237,7 +245,7 @@ class LightSampler:
             world_pmf=float(per_kind[WORLD][0]) if world_power > 0 else 0.0,
             has_world=bool(world_power > 0), has_env=env is not None,
             env=env if env is not None else empty_environment(),
-            **areas, **points, **suns)
+            **areas, **points, **suns, **group_tables(scene, geometry.count))
         self.geometry = geometry
 
     @property
