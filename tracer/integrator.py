@@ -18,7 +18,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import adaptive, jit, light_passes, light_tracer, lobes, passes, path_limits, wavefront
+from . import (adaptive, jit, light_passes, light_tracer, lobes, passes, path_limits,
+               photon_merging, wavefront)
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
@@ -36,6 +37,9 @@ from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
 from .shader import closures, program
 from .shader.bump import with_view
 from .shader.object_inputs import camera_table
+
+
+NO_PHOTONS = photon_merging.new_photons(0)   # light_bounce records none
 
 
 class _Buffers(threading.local):
@@ -68,6 +72,12 @@ class _Buffers(threading.local):
                                   light_tracer.new_light_paths(CHUNK), wavefront.new_shadows(CHUNK),
                                   np.empty((CHUNK, 2)))
         return self.light_buffers
+
+    def photons(self):
+        """A photon buffer for CHUNK light paths (photon merging)."""
+        if not hasattr(self, "photon_buffer"):
+            self.photon_buffer = photon_merging.new_photons(CHUNK)
+        return self.photon_buffer
 
 
 class Renderer:
@@ -198,6 +208,23 @@ class Renderer:
         # those lit by the world too where the light tracer starts paths on it.
         self.split = self.caustics is not None and not self.caustics.pure
         self.world_split = self.split and bool(np.any(self.caustics.emitter_kind == WORLD))
+        self.merging, self._why_merging = self._choose_merging()
+        self.split_mode = (light_tracer.SPLIT_MERGE if self.merging is not None else
+                           light_tracer.SPLIT_LIGHT if self.split else light_tracer.SPLIT_NONE)
+
+    def _choose_merging(self) -> tuple[float | None, str]:
+        """(photon merging's first radius, or None where it does not run; why or why not)."""
+        if not self.settings.photon_merging:
+            return None, "photon merging off"
+        if not self.split:
+            return None, "no light tracer"
+        if self.media.on:
+            return None, "absorbing volumes"
+        if self.settings.light_passes:
+            return None, "light passes asked for"
+        r1 = self.settings.merge_radius or photon_merging.first_radius(
+            self.camera, self.caustics.aim_center, self.caustics.aim_radius)
+        return r1, f"caustics seen through mirrors and glass, first radius {r1:.3g}"
 
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
@@ -232,6 +259,7 @@ class Renderer:
                                                                               self.caustics))
                               if self.caustics is not None else why_no_light),
             "light vertices": (self.light_vertices, self._why_vertices),
+            "photon merging": (self.merging is not None, self._why_merging),
             "absorbing media": (self.media.on, ("absorbing volumes, the camera inside one"
                                                 if camera_in_medium(self.media) else
                                                 "absorbing volumes") if self.media.on else
@@ -353,14 +381,14 @@ class Renderer:
         deepest = self.max_depth + (limits[1] if self.transparent_shadows else 0)
         for depth in range(deepest + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split,
+            kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split_mode,
                                       self.world_split, depth, limits, clamp, m, paths, prim, t,
                                       radiance, without, active, stats, with_features,
                                       feature_albedo, self.film_transparent, transparent,
                                       pass_sums)
             if self.programs_emit:
-                wavefront.program_emitters(mesh, mats, self.tables, self.split, depth, m, paths,
-                                           prim, u, v, t, radiance, without, with_features,
+                wavefront.program_emitters(mesh, mats, self.tables, self.split_mode, depth, m,
+                                           paths, prim, u, v, t, radiance, without, with_features,
                                            feature_albedo, scratch, regs, pass_sums, clamp)
             if kept == 0:
                 break
@@ -437,12 +465,13 @@ class Renderer:
             total_sq[target] += local_sq
         return bad
 
-    def trace_light_chunk(self, pass_index: int, start: int, n: int):
+    def trace_light_chunk(self, pass_index: int, start: int, n: int,
+                          photons: dict | None = None):
         """Trace light paths start .. start + n of a pass; returns the splats of those that
         reached the camera, (pixels, contributions, how many reached it: a pixel filter wider
         than a pixel spreads one over several pixels). The caller adds them in chunk order, so
         that the image does not depend on which thread finished first (float sums depend on
-        their order)."""
+        their order). photons: where photon merging gets the chunk's photons (photons[start])."""
         if not 0 < n <= CHUNK:
             raise ValueError(f"trace_light_chunk: {n} paths do not fit a chunk of {CHUNK}")
         geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
@@ -453,13 +482,17 @@ class Renderer:
         m = light_tracer.emit_light_paths(caustics, lights, mesh, self.media, self.seed,
                                           pass_index, start, n, paths)
         pixels, contributions, reached = [], [], 0
+        buffer = self._buffers.photons() if photons is not None else NO_PHOTONS
+        stored = []
         for _ in range(self.max_depth):
             if m == 0:
                 break
             prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            m, n_conn = light_tracer.light_bounce(caustics, lights, mesh, mats, self.media, cam,
-                                                  margin, self.fresnel, self.limits, m, paths,
-                                                  prim, u, v, out, connections, raster)
+            m, n_conn, n_photons = light_tracer.light_bounce(
+                caustics, lights, mesh, mats, self.media, cam, margin, self.fresnel, self.limits,
+                m, paths, prim, u, v, out, connections, raster, buffer)
+            if n_photons:
+                stored.append(photon_merging.Photons(*(f[:n_photons].copy() for f in buffer)))
             if n_conn:
                 visible = geom.occluded(connections.o32[:n_conn], connections.d32[:n_conn],
                                         connections.tmax[:n_conn]) != 0   # Embree: 0 if blocked
@@ -473,6 +506,8 @@ class Renderer:
                     pixels.append(spread[0])
                     contributions.append(spread[1])
             paths, out = out, paths
+        if photons is not None:
+            photons[start] = photon_merging.concatenate(stored)
         if not pixels:
             return np.zeros(0, np.int64), np.zeros((0, 3)), 0
         return np.concatenate(pixels), np.concatenate(contributions), reached
@@ -623,11 +658,35 @@ class Renderer:
         # Jobs never straddle n_a, so each job's splats belong to one half; a big pass's jobs
         # come segment by segment (passes.light_segments), splatted in chunk order.
         bad = 0
+        photons = {} if self.merging is not None else None
         for begin, end in passes.light_segments(n_light, n_a):
             jobs = passes.jobs(begin, end, 1)
             bad += passes.add_splats(jobs, pool.map(
-                lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs),
+                lambda job: self.trace_light_chunk(pass_index, job[0], job[1], photons), jobs),
                 n_a, film, film_a, counters)
+        if photons is not None:
+            bad += self.merge_pass(pool, pass_index, n_light, n_a, photons, film, film_a)
+        return bad
+
+    def merge_pass(self, pool, pass_index, n_light, n_a, photons, film, film_a) -> int:
+        """Photon merging's pass (photon_merging.py): the pass's photons (by chunk start) in a
+        grid of the pass's radius, gathered by camera walks, as many per pixel as the pass
+        traced camera samples, into film weighted by the pass's n_light light paths (so that
+        the light image averages the passes' estimates); film_a, adaptive sampling's half A,
+        gets n_a / n_light of the same. Returns how many gathers were NaN or Inf (left out)."""
+        found = photon_merging.concatenate([photons[k] for k in sorted(photons)])
+        r = photon_merging.radius(self.merging, pass_index + 1)
+        grid = photon_merging.build_grid(found, r)
+        npix = self.camera.width * self.camera.height
+        samples = max(1, round(n_light / (npix * self.light_paths_per_camera_path)))
+        pixels, contributions = photon_merging.merge(
+            pool, self.geometry, self.materials, self.camera.params(), self.pixel_filter,
+            self.fresnel, self.limits, self.seed, pass_index, grid, npix * samples, samples,
+            CHUNK)
+        contributions *= 1.0 / (np.pi * r * r * samples)
+        bad = wavefront.splat(pixels, contributions, film)
+        if film_a is not None and n_a:
+            wavefront.splat(pixels, contributions * (n_a / n_light), film_a)
         return bad
 
 
