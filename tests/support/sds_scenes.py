@@ -6,38 +6,14 @@ scenes/tumbler_caustic.py build the same scenes as .blend files.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from sds_geometry import POOL_HALF, tube, water_surface   # scenes/ (conftest.py's path)
 from support.builders import camera, make_scene, quad
 from support.caustic_scenes import look_at
 
 WATER_IOR = 1.33
-POOL_HALF = 1.0          # the pool's floor and water span [-1, 1]^2
-WATER_HEIGHT = 0.5
-WAVE = 0.04              # the waves' amplitude in metres
 LAMP_RADIUS = 0.25
-
-
-def water_surface(n=48, half=POOL_HALF, height=WATER_HEIGHT, amplitude=WAVE):
-    """A wavy sheet z = height + waves over [-half, half]^2 (n x n quads), its smooth vertex
-    normals from the waves' gradient: (positions, triangles, normals)."""
-    s = np.linspace(-half, half, n + 1)
-    x, y = np.meshgrid(s, s, indexing="ij")
-    kx, ky = 2.0 * math.pi / 0.9, 2.0 * math.pi / 0.7
-    z = height + amplitude * (np.sin(kx * x + 0.3) * np.cos(ky * y) + 0.5 * np.sin(1.7 * kx * y))
-    dzdx = amplitude * kx * np.cos(kx * x + 0.3) * np.cos(ky * y)
-    dzdy = amplitude * (-ky * np.sin(kx * x + 0.3) * np.sin(ky * y)
-                        + 0.5 * 1.7 * kx * np.cos(1.7 * kx * y))
-    normals = np.stack([-dzdx, -dzdy, np.ones_like(z)], -1)
-    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
-    pos = np.stack([x, y, z], -1).reshape(-1, 3)
-    idx = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
-    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
-    tri = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
-                          np.stack([a, c, d], -1).reshape(-1, 3)])
-    return pos.astype(np.float32), tri.astype(np.int32), normals.reshape(-1, 3).astype(np.float32)
 
 
 POOL_MATERIALS = [{"name": "Floor", "kind": "diffuse", "color": [0.8, 0.8, 0.8]},
@@ -93,3 +69,24 @@ def analytic_plane(resolution=(16, 16), albedo=0.5, intensity=10.0, height=2.5, 
     e = intensity * height / (xx ** 2 + yy ** 2 + height ** 2) ** 1.5
     radiance = albedo / np.pi * e
     return radiance.reshape(h, sub, w, sub).mean(axis=(1, 3))
+
+
+TUMBLER_IOR = 1.5
+
+
+TUMBLER_MATERIALS = [{"name": "Table", "kind": "diffuse", "color": [0.8, 0.8, 0.8]},
+                     {"name": "Glass", "kind": "glass", "color": [1.0, 1.0, 1.0],
+                      "ior": TUMBLER_IOR}]
+
+
+def tumbler(resolution=(32, 32), max_depth=8, lamp_radius=0.1, **render):
+    """A glass tube (IOR 1.5, walls 6 cm thick) on a diffuse table, lit from one side by a
+    small round lamp whose light the wall focuses onto the table inside it; the camera, on the
+    other side and low, sees that caustic through the near wall."""
+    table = quad((0.0, 0.0, 0.0), 2.0, 2.0)
+    glass = tube()
+    lamp = {"name": "Lamp", "kind": "point", "position": [1.4, 0.3, 0.55],
+            "intensity": [20.0, 20.0, 20.0], "radius": lamp_radius}
+    cam = look_at((-2.2, -0.4, 1.1), (0.0, 0.0, 0.25), resolution, lens=50.0)
+    return make_scene([(*table, 0, _up(len(table[0]))), (*glass[:2], 1, glass[2])],
+                      TUMBLER_MATERIALS, cam, lights=[lamp], max_depth=max_depth, **render)
