@@ -12,7 +12,8 @@ sds_scenes.py): the path-traced references and the error of merged renders again
 tests/references/sds_<scene>.npz (--merge-with adds an earlier file's samples, weighted by
 their spp). `measure` renders K passes of --spp-per-pass samples each, merging on and off, over
 several seeds, and prints per K the relative RMSE against the reference (the reference's own
-variance taken out), the image mean's ratio to the reference's and the time.
+variance taken out), over the image and over the caustic region (where light paths carry at
+least 10% of a long merged render), the image mean's ratio to the reference's and the time.
 """
 from __future__ import annotations
 
@@ -69,9 +70,16 @@ def measure(args):
     ref = np.load(reference_path(args.scene))
     reference, ref_var = ref["mean"][..., 0].astype(float), ref["var"][..., 0].astype(float)
     scene = scene_of(args.scene)
+    # The caustic region: where light paths (the light tracer's splats and the merged photons)
+    # carry at least 10% of a long merged render, as `snell bench` picks its caustic region.
+    probe = Renderer(scene, scene.settings(spp=1024, threads=args.threads, noise_threshold=0.0,
+                                           seed=99, photon_merging=True,
+                                           light_paths_per_camera_path=args.light_paths)).render()
+    region = probe.light_image()[..., 0] >= 0.1 * probe.mean()[..., 0]
+    print(f"caustic region: {int(region.sum())} of {region.size} pixels")
     for merging in (True, False):
         for k in (int(x) for x in args.passes.split(",")):
-            errors, ratios, start = [], [], time.perf_counter()
+            errors, region_errors, ratios, start = [], [], [], time.perf_counter()
             for seed in range(args.seeds):
                 settings = scene.settings(spp=k * args.spp_per_pass, batches=k,
                                           threads=args.threads, noise_threshold=0.0, seed=seed,
@@ -79,9 +87,13 @@ def measure(args):
                                           light_paths_per_camera_path=args.light_paths)
                 image = Renderer(scene, settings).render().mean()[..., 0].astype(float)
                 errors.append(np.mean((image - reference) ** 2) - ref_var.mean())
+                region_errors.append(np.mean((image - reference)[region] ** 2)
+                                     - ref_var[region].mean())
                 ratios.append(image.mean() / reference.mean())
             print(f"merging {'on ' if merging else 'off'} passes {k:4d}: relative RMSE "
-                  f"{np.sqrt(max(np.mean(errors), 0.0)) / reference.mean():.4f}, mean / "
+                  f"{np.sqrt(max(np.mean(errors), 0.0)) / reference.mean():.4f}, in the caustic "
+                  f"region {np.sqrt(max(np.mean(region_errors), 0.0)) / reference[region].mean():.4f}"
+                  f", mean / "
                   f"reference {np.mean(ratios):.4f}, "
                   f"{(time.perf_counter() - start) / args.seeds:.2f} s a render", flush=True)
 
