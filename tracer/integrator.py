@@ -507,7 +507,7 @@ class Renderer:
                     contributions.append(spread[1])
             paths, out = out, paths
         if photons is not None:
-            photons[start] = photon_merging.concatenate(stored)
+            photons[start] = (n, photon_merging.concatenate(stored))
         if not pixels:
             return np.zeros(0, np.int64), np.zeros((0, 3)), 0
         return np.concatenate(pixels), np.concatenate(contributions), reached
@@ -662,7 +662,9 @@ class Renderer:
         for begin, end in passes.light_segments(n_light, n_a):
             jobs = passes.jobs(begin, end, 1)
             bad += passes.add_splats(jobs, pool.map(
-                lambda job: self.trace_light_chunk(pass_index, job[0], job[1], photons), jobs),
+                lambda job: self.trace_light_chunk(
+                    pass_index, job[0], job[1],
+                    photons if job[0] < photon_merging.MAX_PHOTON_PATHS else None), jobs),
                 n_a, film, film_a, counters)
         if photons is not None:
             bad += self.merge_pass(pool, pass_index, n_light, n_a, photons, film, film_a)
@@ -673,17 +675,22 @@ class Renderer:
         grid of the pass's radius, gathered by camera walks, as many per pixel as the pass
         traced camera samples, into film weighted by the pass's n_light light paths (so that
         the light image averages the passes' estimates); film_a, adaptive sampling's half A,
-        gets n_a / n_light of the same. Returns how many gathers were NaN or Inf (left out)."""
-        found = photon_merging.concatenate([photons[k] for k in sorted(photons)])
+        gets n_a / n_light of the same (its error estimate then leaves the merged noise out).
+        A pass of more than MAX_PHOTON_PATHS light paths merges the photons of its first
+        chunks only, weighted up to all of them; its walks are at most MAX_WALKS.
+        Returns how many gathers were NaN or Inf (left out)."""
+        stored = sum(n for n, _ in photons.values())      # light paths whose photons are kept
+        found = photon_merging.concatenate([photons[k][1] for k in sorted(photons)])
         r = photon_merging.radius(self.merging, pass_index + 1)
         grid = photon_merging.build_grid(found, r)
         npix = self.camera.width * self.camera.height
-        samples = max(1, round(n_light / (npix * self.light_paths_per_camera_path)))
+        samples = max(1, min(round(n_light / (npix * self.light_paths_per_camera_path)),
+                             photon_merging.MAX_WALKS // npix))
         pixels, contributions = photon_merging.merge(
             pool, self.geometry, self.materials, self.camera.params(), self.pixel_filter,
             self.fresnel, self.limits, self.seed, pass_index, grid, npix * samples, samples,
             CHUNK)
-        contributions *= 1.0 / (np.pi * r * r * samples)
+        contributions *= (n_light / max(stored, 1)) / (np.pi * r * r * samples)
         bad = wavefront.splat(pixels, contributions, film)
         if film_a is not None and n_a:
             wavefront.splat(pixels, contributions * (n_a / n_light), film_a)

@@ -37,7 +37,9 @@ vertex specular), the emitters the light tracer starts on, as it does for the li
 own L S+ D E paths, and the merge counts the same paths within the same bounce limits (the
 camera walk's counts, the diffuse vertex's and the photon's). A merged estimate is biased and
 its pixels are correlated (one photon lights every pixel whose gather finds it), so merging is
-off by default and `snell compare` validates the unbiased image.
+off by default and `snell compare` validates the unbiased image. With adaptive sampling the
+light tracer's two halves share the merged estimate (in proportion to their light paths), so
+its error estimate leaves the merged noise out.
 """
 from __future__ import annotations
 
@@ -61,6 +63,10 @@ MERGE_DOMAIN = np.uint64(0x5D5_3E26)   # keys camera walks' random numbers apart
 ALPHA = 2.0 / 3.0                      # Knaus and Zwicker's alpha (the radius schedule)
 # The automatic first radius: this many pixel footprints at the specular objects' far side.
 RADIUS_PIXELS = 2.0
+# A pass keeps the photons of at most this many light paths (its first chunks'; a batch of a big
+# render traces far more), about 0.4 GB of photons, and traces at most this many camera walks.
+MAX_PHOTON_PATHS = 1 << 22
+MAX_WALKS = 1 << 22
 
 
 class Photons(NamedTuple):

@@ -137,6 +137,16 @@ def test_the_gather_estimates_a_flat_planes_radiance(monkeypatch):
     assert abs(ratio - 1.0) > PLANE_Z * error, ("radius 4% wide not caught", ratio, error)
 
 
+def test_a_pass_with_more_light_paths_than_it_keeps_photons_of_weighs_them_up(monkeypatch):
+    """A pass keeps the photons of its first MAX_PHOTON_PATHS light paths only (a batch of a
+    big render), weighted by light paths traced / kept: the flat plane's image with a quarter of
+    each pass's photons kept (4096 of 16384) still sums to the analytic one (measured 0.973 +-
+    0.013). Without the weight it is a quarter of it: caught (measured 0.244 +- 0.005)."""
+    monkeypatch.setattr(photon_merging, "MAX_PHOTON_PATHS", 4096)
+    ratio, error = _plane_ratio()
+    assert abs(ratio - 1.0) < PLANE_Z * error, (ratio, error)
+
+
 PASSES = (1, 4, 16, 64)
 SPP_PER_PASS = 16
 SEEDS = 4
