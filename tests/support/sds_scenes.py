@@ -38,12 +38,20 @@ def _up(n):
     return np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (n, 1))
 
 
-def flat_plane(resolution=(16, 16), albedo=0.5, intensity=10.0, height=2.5, **render):
+def tilted(tilt):
+    """The unit shading normal tilted by `tilt` radians from +Z towards +X."""
+    return np.array([np.sin(tilt), 0.0, np.cos(tilt)])
+
+
+def flat_plane(resolution=(16, 16), albedo=0.5, intensity=10.0, height=2.5, tilt=0.0,
+               **render):
     """A diffuse plane z = 0 seen from 3 m above through a flat sheet of IOR 1 at z = 1 (a
     specular vertex that does not bend light, and whose Fresnel reflection is 0), lit through
     the sheet by a point lamp of radius 0 at (0, 0, height): the irradiance at (x, y, 0) is
     intensity height / (x^2 + y^2 + height^2)^(3/2). No camera path reaches the lamp and no
-    shadow ray passes the sheet, so the image is photon merging's alone (analytic_plane)."""
+    shadow ray passes the sheet, so the image is photon merging's alone (analytic_plane).
+    tilt: the floor's shading normal tilted by this many radians from +Z towards +X (its
+    radiance then albedo / pi x intensity (ns . wi) / d^2, Lambert about the shading normal)."""
     floor = quad((0.0, 0.0, 0.0), 4.0, 4.0)
     sheet = quad((0.0, 0.0, 1.0), 0.75, 0.75)
     mats = [{"name": "Floor", "kind": "diffuse", "color": [albedo] * 3},
@@ -51,11 +59,13 @@ def flat_plane(resolution=(16, 16), albedo=0.5, intensity=10.0, height=2.5, **re
     lamp = {"name": "Lamp", "kind": "point", "position": [0.0, 0.0, height],
             "intensity": [intensity] * 3, "radius": 0.0}
     cam = camera(position=(0.0, 0.0, 3.0), resolution=resolution, lens=50.0)
-    return make_scene([(*floor, 0), (*sheet, 1)], mats, cam, lights=[lamp], max_depth=4,
-                      **render)
+    normals = np.tile(tilted(tilt).astype(np.float32), (len(floor[0]), 1))
+    return make_scene([(*floor, 0, normals), (*sheet, 1, _up(len(sheet[0])))], mats, cam,
+                      lights=[lamp], max_depth=4, **render)
 
 
-def analytic_plane(resolution=(16, 16), albedo=0.5, intensity=10.0, height=2.5, sub=16):
+def analytic_plane(resolution=(16, 16), albedo=0.5, intensity=10.0, height=2.5, tilt=0.0,
+                   sub=16):
     """flat_plane's image: each pixel's mean over its footprint on the floor (sub x sub points)
     of the radiance albedo / pi x irradiance."""
     w, h = resolution
@@ -66,7 +76,9 @@ def analytic_plane(resolution=(16, 16), albedo=0.5, intensity=10.0, height=2.5, 
     x = -half + 2.0 * half * col / w
     y = half * h / w - 2.0 * half * row / w     # row 0 at the top (square pixels)
     xx, yy = np.meshgrid(x, y)
-    e = intensity * height / (xx ** 2 + yy ** 2 + height ** 2) ** 1.5
+    n = tilted(tilt)
+    cos_s = np.maximum(n[2] * height - n[0] * xx - n[1] * yy, 0.0)   # ns . (lamp - x), unnormalised
+    e = intensity * cos_s / (xx ** 2 + yy ** 2 + height ** 2) ** 1.5
     radiance = albedo / np.pi * e
     return radiance.reshape(h, sub, w, sub).mean(axis=(1, 3))
 
