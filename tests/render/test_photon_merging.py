@@ -63,7 +63,8 @@ def test_the_path_tracer_leaves_exactly_the_merged_paths():
     """The path tracer skips the light a camera path finds after E S+ D S+ (merged), and the
     light tracer's E D S+ as before; paths through a second diffuse or a layered vertex stay its
     own. With merging off the light tracer's split is unchanged. (With caustic_after's
-    SDS_DIFFUSE -> SDS_CAUSTIC step removed, E S D S is not skipped: caught.)"""
+    SDS_DIFFUSE -> SDS_CAUSTIC step removed, E S D S falls into the light tracer's CAUSTIC
+    state, which the path tracer skips with merging off too: caught.)"""
     def skipped(kinds, split):
         return left_to_light_paths(split, _states(kinds)[-1])
 
