@@ -5,7 +5,7 @@ sds_scenes.py): the path-traced references and the error of merged renders again
     .venv/bin/python tools/measure_photon_merging.py reference [--scene pool] [--spp 131072]
         [--seed 1] [--merge-with FILE]
     .venv/bin/python tools/measure_photon_merging.py measure [--scene pool] [--spp-per-pass 16]
-        [--passes 1,4,16,64] [--seeds 4] [--light-paths 1.0] [--alpha 0.6667]
+        [--passes 1,4,16,64] [--seeds 4] [--light-paths 1.0] [--alpha 0.6667] [--radius 0]
 
 `reference` renders Snell's own hybrid (path tracer and light tracer, merging off: unbiased) at
 16x16 with 16 independent batches and writes the mean and the variance of the mean to
@@ -83,7 +83,7 @@ def measure(args):
             for seed in range(args.seeds):
                 settings = scene.settings(spp=k * args.spp_per_pass, batches=k,
                                           threads=args.threads, noise_threshold=0.0, seed=seed,
-                                          photon_merging=merging,
+                                          photon_merging=merging, merge_radius=args.radius,
                                           light_paths_per_camera_path=args.light_paths)
                 image = Renderer(scene, settings).render().mean()[..., 0].astype(float)
                 errors.append(np.mean((image - reference) ** 2) - ref_var.mean())
@@ -114,6 +114,7 @@ def main(argv=None):
     mea.add_argument("--seeds", type=int, default=4)
     mea.add_argument("--light-paths", type=float, default=1.0)
     mea.add_argument("--alpha", type=float)
+    mea.add_argument("--radius", type=float, default=0.0, help="first radius (0: automatic)")
     mea.add_argument("--threads", type=int, default=2)
     args = parser.parse_args(argv)
     (make_reference if args.command == "reference" else measure)(args)

@@ -37,7 +37,10 @@ vertex specular), the emitters the light tracer starts on, as it does for the li
 own L S+ D E paths, and the merge counts the same paths within the same bounce limits (the
 camera walk's counts, the diffuse vertex's and the photon's). A merged estimate is biased and
 its pixels are correlated (one photon lights every pixel whose gather finds it), so merging is
-off by default and `snell compare` validates the unbiased image. With adaptive sampling the
+off by default and `snell compare` validates the unbiased image. Light from a delta lamp (a
+point lamp of radius 0, a sun of angle 0) along these paths is rendered by merging alone: no
+camera path finds such a lamp, so without merging it is missing, as the light tracer's own
+L S+ D E paths from delta lamps are without the light tracer. With adaptive sampling the
 light tracer's two halves share the merged estimate (in proportion to their light paths), so
 its error estimate leaves the merged noise out.
 """
@@ -61,8 +64,10 @@ from .vec import dot, mul, neg, row, store
 
 MERGE_DOMAIN = np.uint64(0x5D5_3E26)   # keys camera walks' random numbers apart from others'
 ALPHA = 2.0 / 3.0                      # Knaus and Zwicker's alpha (the radius schedule)
-# The automatic first radius: this many pixel footprints at the specular objects' far side.
-RADIUS_PIXELS = 2.0
+# The automatic first radius: this many pixel footprints at the specular objects' far side (on
+# the pool at 16x16, 1 gave a relative RMSE of 0.50 / 0.27 / 0.14 after 4 / 16 / 64 passes, 2
+# gave 0.53 / 0.32 / 0.20, 0.5 gave 0.53 / 0.27 / 0.13: docs/measurements.md).
+RADIUS_PIXELS = 1.0
 # A pass keeps the photons of at most this many light paths (its first chunks'; a batch of a big
 # render traces far more), about 0.4 GB of photons, and traces at most this many camera walks.
 MAX_PHOTON_PATHS = 1 << 22

@@ -233,7 +233,7 @@ SETTINGS = (
             "(photon_merging.py): consistent, not unbiased, so off by default and off in the "
             "validator", scope=ESTIMATOR),
     Setting("merge_radius", float, 0.0, "Photon merging's first radius in scene units; 0: "
-            "two pixel footprints at the far side of the mirrors and glass", scope=ESTIMATOR,
+            "a pixel footprint at the far side of the mirrors and glass", scope=ESTIMATOR,
             least=0.0),
     Setting("light_vertex_pilot", bool, True, "An adaptive render measures in its first "
             "samples whether light vertices pay; off: keep them throughout", scope=ESTIMATOR),
