@@ -43,6 +43,38 @@ def test_radius_follows_knaus_zwicker():
         photon_merging.radius(r1, 0)
 
 
+def _photons(rng, n, half):
+    """n photons of random weights in a thin box of half-width `half` across the origin
+    (negative cell indices too), arriving from +Z onto surfaces facing +Z."""
+    up = np.tile([0.0, 0.0, 1.0], (n, 1))
+    p = rng.uniform(-half, half, (n, 3)) * [1.0, 1.0, 0.05]
+    return photon_merging.Photons(p, up.copy(), up.copy(), rng.uniform(0.5, 1.5, (n, 3)),
+                                  np.ones(n, np.int64), np.zeros((n, 3), np.int64))
+
+
+def test_the_grid_finds_every_photon_within_the_radius_once():
+    """gather over the hash grid against a brute-force sum, 200 query points per case, each
+    photon's weight counted once when within r and not at all otherwise, to 1e-9: 3000 photons
+    at r = 0.07 and 0.013, and 12 photons within 0.25 of the origin at r = 0.2 in a table of 32
+    buckets (cells of the range share buckets). Deliberate errors, each caught: counting a
+    photon from every cell of the range that shares its bucket, not only from its own (23 of
+    the clustered case's 200 queries wrong); the range of cells ending at x's own cell instead
+    of x + r's (110 of 200 wrong at r = 0.07, 91 in the clustered case). Any cell side works
+    (the range covers the ball's bounding box); 2 r keeps it to 8 cells."""
+    rng = np.random.default_rng(5)
+    limits = (np.int64(8), np.int64(8), np.int64(8), np.int64(8), np.int64(8))
+    up3, kinds = (0.0, 0.0, 1.0), np.zeros(3, np.int64)
+    wide = _photons(rng, 3000, 1.0)
+    for r, photons, half in ((0.07, wide, 1.1), (0.013, wide, 1.1),
+                             (0.2, _photons(rng, 12, 0.25), 0.3)):
+        grid = photon_merging.build_grid(photons, r)
+        for x in rng.uniform(-half, half, (200, 3)) * [1.0, 1.0, 0.05]:
+            found = photon_merging.gather(grid, tuple(x), up3, up3, 1, kinds, limits)
+            near = np.sum((photons.p - x) ** 2, axis=1) <= r * r
+            assert np.allclose(found, photons.beta[near].sum(axis=0), rtol=1e-9,
+                               atol=1e-12), (r, x)
+
+
 def _states(kinds):
     """A camera path's states along surfaces of these kinds, as the materials stage makes them:
     scatter.py's light tracer state, then caustic_after."""
