@@ -180,6 +180,26 @@ def test_the_gather_follows_the_shading_normal():
     assert abs(ratio - 1.0) < PLANE_Z * error, (ratio, error)
 
 
+def test_merged_paths_keep_the_path_tracers_bounce_limits():
+    """The flat plane's merged path is E S D S L: with Diffuse bounces 0 the path tracer's camera
+    path ends at the surface after its diffuse vertex (the sheet, towards the lamp), so nothing
+    is merged: the image is exactly 0; with 1 it is the analytic one (measured 0.986).
+    Only the joined count catches this (the walk and the photon have no diffuse scattering
+    before the merge): without the diffuse vertex's + 1 in joined_within_limits the image at
+    Diffuse 0 is the whole caustic (measured 0.986), caught."""
+    scene = flat_plane()
+    for bounces in (0, 1):
+        settings = scene.settings(spp=16, threads=2, noise_threshold=0.0, photon_merging=True,
+                                  merge_radius=0.03, light_paths_per_camera_path=8.0,
+                                  diffuse_bounces=bounces)
+        image = Renderer(scene, settings).render().mean()[..., 0].astype(np.float64)
+        ratio = image.sum() / analytic_plane().sum()
+        if bounces == 0:
+            assert ratio == 0.0, ratio
+        else:
+            assert abs(ratio - 1.0) < 0.05, ratio
+
+
 def test_a_pass_with_more_light_paths_than_it_keeps_photons_of_weighs_them_up(monkeypatch):
     """A pass keeps the photons of its first MAX_PHOTON_PATHS light paths only (a batch of a
     big render), weighted by light paths traced / kept: the flat plane's image with a quarter of
