@@ -92,7 +92,8 @@ def measure(args):
                 ratios.append(image.mean() / reference.mean())
             print(f"merging {'on ' if merging else 'off'} passes {k:4d}: relative RMSE "
                   f"{np.sqrt(max(np.mean(errors), 0.0)) / reference.mean():.4f}, in the caustic "
-                  f"region {np.sqrt(max(np.mean(region_errors), 0.0)) / reference[region].mean():.4f}"
+                  f"region "
+                  f"{np.sqrt(max(np.mean(region_errors), 0.0)) / reference[region].mean():.4f}"
                   f", mean / "
                   f"reference {np.mean(ratios):.4f}, "
                   f"{(time.perf_counter() - start) / args.seeds:.2f} s a render", flush=True)

@@ -25,7 +25,7 @@ merging"):
   the shading-normal factor the light tracer's (Veach's thesis section 5.3).
 
 Pass i merges with radius r_i, r_i^2 = r_1^2 prod_{k=1}^{i-1} (k + alpha) / (k + 1) (Knaus and
-Zwicker's equation 20, alpha = 2/3: the exponent that balances the bias, O(r^2), against the
+Zwicker's radius reduction, alpha = 2/3: the exponent that balances the bias, O(r^2), against the
 variance, O(1 / (N r^2)), so that the error of the average of the passes' estimates falls as
 i^(-1/3), its mean square error as i^(-2/3)). Each pass's estimate is added to the light
 tracer's film weighted by its light paths, so the light image, light sum / light paths, is the
@@ -116,7 +116,7 @@ def record_photon(photons, n, p, ng, d, beta, bounces, kinds, i):
 
 def radius(r1: float, i: int, alpha: float = ALPHA) -> float:
     """Pass i's (from 1) merging radius: r_i^2 = r_1^2 prod_{k=1}^{i-1} (k + alpha) / (k + 1)
-    (Knaus and Zwicker 2011, equation 20), as a ratio of gamma functions."""
+    (Knaus and Zwicker 2011's radius reduction), as a ratio of gamma functions."""
     if i < 1:
         raise ValueError(f"radius: pass {i}: passes count from 1")
     log_ratio = (math.lgamma(i + alpha) - math.lgamma(1.0 + alpha)

@@ -28,7 +28,7 @@ PLANE_Z = 4.0          # |z| bound of the image sum's ratio to the analytic one 
 
 
 def test_radius_follows_knaus_zwicker():
-    """r_{i+1}^2 / r_i^2 = (i + alpha) / (i + 1) from r_1 (Knaus and Zwicker 2011, eq. 20), so
+    """r_{i+1}^2 / r_i^2 = (i + alpha) / (i + 1) from r_1 (Knaus and Zwicker 2011), so
     r_i^2 falls as i^(alpha - 1). Checked against the recursion to 1e-12; the schedule with
     (i + alpha) / (i + 2) instead fails at i = 2 (0.745 against 0.913 x r_1)."""
     r1 = 0.37
