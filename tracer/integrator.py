@@ -664,7 +664,8 @@ class Renderer:
             bad += passes.add_splats(jobs, pool.map(
                 lambda job: self.trace_light_chunk(
                     pass_index, job[0], job[1],
-                    photons if job[0] < photon_merging.MAX_PHOTON_PATHS else None), jobs),
+                    photons if job[0] - (n_a if job[0] >= n_a else 0)
+                    < photon_merging.MAX_PHOTON_PATHS else None), jobs),
                 n_a, film, film_a, counters)
         if photons is not None:
             bad += self.merge_pass(pool, pass_index, n_light, n_a, photons, film, film_a)
@@ -674,26 +675,35 @@ class Renderer:
         """Photon merging's pass (photon_merging.py): the pass's photons (by chunk start) in a
         grid of the pass's radius, gathered by camera walks, as many per pixel as the pass
         traced camera samples, into film weighted by the pass's n_light light paths (so that
-        the light image averages the passes' estimates); film_a, adaptive sampling's half A,
-        gets n_a / n_light of the same (its error estimate then leaves the merged noise out).
-        A pass of more than MAX_PHOTON_PATHS light paths merges the photons of its first
-        chunks only, weighted up to all of them; its walks are at most MAX_WALKS.
-        Returns how many gathers were NaN or Inf (left out)."""
-        stored = sum(n for n, _ in photons.values())      # light paths whose photons are kept
-        found = photon_merging.concatenate([photons[k][1] for k in sorted(photons)])
+        the light image averages the passes' estimates). With film_a (adaptive sampling), the
+        light paths' two halves (before and after n_a) merge apart, each with its own walks and
+        half of them, and film_a gets half A's: the halves' difference then holds the merged
+        noise too, as adaptive sampling's error estimate needs. A half of more than
+        MAX_PHOTON_PATHS light paths merges the photons of its first chunks only, weighted up
+        to all of them; walks are at most MAX_WALKS. Returns how many gathers were NaN or Inf
+        (left out)."""
+        halves = [(0, n_a), (n_a, n_light)] if film_a is not None and 0 < n_a < n_light \
+            else [(0, n_light)]
         r = photon_merging.radius(self.merging, pass_index + 1)
-        grid = photon_merging.build_grid(found, r)
         npix = self.camera.width * self.camera.height
-        samples = max(1, min(round(n_light / (npix * self.light_paths_per_camera_path)),
-                             photon_merging.MAX_WALKS // npix))
-        pixels, contributions = photon_merging.merge(
-            pool, self.geometry, self.materials, self.camera.params(), self.pixel_filter,
-            self.fresnel, self.limits, self.seed, pass_index, grid, npix * samples, samples,
-            CHUNK)
-        contributions *= (n_light / max(stored, 1)) / (np.pi * r * r * samples)
-        bad = wavefront.splat(pixels, contributions, film)
-        if film_a is not None and n_a:
-            wavefront.splat(pixels, contributions * (n_a / n_light), film_a)
+        bad = 0
+        for half, (begin, end) in enumerate(halves):
+            kept = [k for k in sorted(photons) if begin <= k < end]
+            stored = sum(photons[k][0] for k in kept)    # light paths whose photons are kept
+            grid = photon_merging.build_grid(
+                photon_merging.concatenate([photons[k][1] for k in kept]), r)
+            samples = max(1, min(round((end - begin) / (npix * self.light_paths_per_camera_path)),
+                                 photon_merging.MAX_WALKS // npix))
+            # Half B's walks keyed apart from half A's (and from any pass's), so that the halves
+            # are independent.
+            pixels, contributions = photon_merging.merge(
+                pool, self.geometry, self.materials, self.camera.params(), self.pixel_filter,
+                self.fresnel, self.limits, self.seed, pass_index + (half << 40), grid,
+                npix * samples, samples, CHUNK)
+            contributions *= ((end - begin) / max(stored, 1)) / (np.pi * r * r * samples)
+            bad += wavefront.splat(pixels, contributions, film)
+            if film_a is not None and len(halves) == 2 and half == 0:
+                wavefront.splat(pixels, contributions, film_a)
         return bad
 
 

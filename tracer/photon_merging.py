@@ -41,8 +41,8 @@ off by default and `snell compare` validates the unbiased image. Light from a de
 point lamp of radius 0, a sun of angle 0) along these paths is rendered by merging alone: no
 camera path finds such a lamp, so without merging it is missing, as the light tracer's own
 L S+ D E paths from delta lamps are without the light tracer. With adaptive sampling the
-light tracer's two halves share the merged estimate (in proportion to their light paths), so
-its error estimate leaves the merged noise out.
+light tracer's two halves merge apart (Renderer.merge_pass), so that its error estimate sees the
+merged noise.
 """
 from __future__ import annotations
 
@@ -68,8 +68,9 @@ ALPHA = 2.0 / 3.0                      # Knaus and Zwicker's alpha (the radius s
 # the pool at 16x16, 1 gave a relative RMSE of 0.50 / 0.27 / 0.14 after 4 / 16 / 64 passes, 2
 # gave 0.53 / 0.32 / 0.20, 0.5 gave 0.53 / 0.27 / 0.13: docs/measurements.md).
 RADIUS_PIXELS = 1.0
-# A pass keeps the photons of at most this many light paths (its first chunks'; a batch of a big
-# render traces far more), about 0.4 GB of photons, and traces at most this many camera walks.
+# A pass (each of adaptive sampling's halves) keeps the photons of at most this many light paths
+# (its first chunks'; a batch of a big render traces far more), about 0.4 GB of photons, and
+# traces at most this many camera walks.
 MAX_PHOTON_PATHS = 1 << 22
 MAX_WALKS = 1 << 22
 
