@@ -28,6 +28,9 @@ class RemoteTracer:
 
     def __init__(self, client, scene, settings, name: str, frame: int = 0,
                  threads: int | None = None):
+        # The workers' light passes splat only: photon merging (tracer/photon_merging.py) needs
+        # every photon of a pass in one place, so here the path tracer keeps the merged paths.
+        settings = settings.replace(photon_merging=False)
         self.client, self.settings, self.name, self.frame = client, settings, name, frame
         self.key = keys.render_key(scene, settings)
         camera = Camera(scene.camera)

@@ -19,7 +19,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from . import (adaptive, jit, light_groups, light_passes, light_tracer, lobes, passes,
-               path_limits, wavefront)
+               path_limits, photon_merging, wavefront)
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .geometry import Geometry
@@ -37,6 +37,9 @@ from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
 from .shader import closures, program
 from .shader.bump import with_view
 from .shader.object_inputs import camera_table
+
+
+NO_PHOTONS = photon_merging.new_photons(0)   # light_bounce records none
 
 
 class _Buffers(threading.local):
@@ -73,6 +76,12 @@ class _Buffers(threading.local):
                                   light_tracer.new_light_paths(CHUNK), wavefront.new_shadows(CHUNK),
                                   np.empty((CHUNK, 2)))
         return self.light_buffers
+
+    def photons(self):
+        """A photon buffer for CHUNK light paths (photon merging)."""
+        if not hasattr(self, "photon_buffer"):
+            self.photon_buffer = photon_merging.new_photons(CHUNK)
+        return self.photon_buffer
 
 
 class Renderer:
@@ -206,6 +215,25 @@ class Renderer:
         # those lit by the world too where the light tracer starts paths on it.
         self.split = self.caustics is not None and not self.caustics.pure
         self.world_split = self.split and bool(np.any(self.caustics.emitter_kind == WORLD))
+        self.merging, self._why_merging = self._choose_merging()
+        self.split_mode = (light_tracer.SPLIT_MERGE if self.merging is not None else
+                           light_tracer.SPLIT_LIGHT if self.split else light_tracer.SPLIT_NONE)
+
+    def _choose_merging(self) -> tuple[float | None, str]:
+        """(photon merging's first radius, or None where it does not run; why or why not)."""
+        if not self.settings.photon_merging:
+            return None, "photon merging off"
+        if not self.split:
+            return None, "no light tracer"
+        if self.media.on:
+            return None, "absorbing volumes"
+        if self.settings.light_passes:
+            return None, "light passes asked for"
+        if self.light_groups:
+            return None, "light groups asked for"     # merged light goes to no group
+        r1 = self.settings.merge_radius or photon_merging.first_radius(
+            self.camera, self.caustics.aim_center, self.caustics.aim_radius)
+        return r1, f"caustics seen through mirrors and glass, first radius {r1:.3g}"
 
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
@@ -240,6 +268,7 @@ class Renderer:
                                                                               self.caustics))
                               if self.caustics is not None else why_no_light),
             "light vertices": (self.light_vertices, self._why_vertices),
+            "photon merging": (self.merging is not None, self._why_merging),
             "absorbing media": (self.media.on, ("absorbing volumes, the camera inside one"
                                                 if camera_in_medium(self.media) else
                                                 "absorbing volumes") if self.media.on else
@@ -363,14 +392,14 @@ class Renderer:
         deepest = self.max_depth + (limits[1] if self.transparent_shadows else 0)
         for depth in range(deepest + 1):
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split,
+            kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split_mode,
                                       self.world_split, depth, limits, clamp, m, paths, prim, t,
                                       radiance, without, active, stats, with_features,
                                       feature_albedo, self.film_transparent, transparent,
                                       pass_sums)
             if self.programs_emit:
-                wavefront.program_emitters(lights, mesh, mats, self.tables, self.split, depth, m,
-                                           paths, prim, u, v, t, radiance, without,
+                wavefront.program_emitters(lights, mesh, mats, self.tables, self.split_mode,
+                                           depth, m, paths, prim, u, v, t, radiance, without,
                                            with_features, feature_albedo, scratch, regs,
                                            pass_sums, clamp)
             if kept == 0:
@@ -453,13 +482,15 @@ class Renderer:
             total_sq[target] += local_sq
         return bad
 
-    def trace_light_chunk(self, pass_index: int, start: int, n: int):
+    def trace_light_chunk(self, pass_index: int, start: int, n: int,
+                          photons: dict | None = None):
         """Trace light paths start .. start + n of a pass; returns the splats of those that
         reached the camera, (pixels, contributions, how many reached it: a pixel filter wider
         than a pixel spreads one over several pixels, the light groups' splats: None when the
         render makes no light groups, else (pixels, contributions, each one's group) of the
         splats of lights in a group). The caller adds them in chunk order, so that the image
-        does not depend on which thread finished first (float sums depend on their order)."""
+        does not depend on which thread finished first (float sums depend on their order).
+        photons: where photon merging gets the chunk's photons (photons[start])."""
         if not 0 < n <= CHUNK:
             raise ValueError(f"trace_light_chunk: {n} paths do not fit a chunk of {CHUNK}")
         geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
@@ -471,13 +502,17 @@ class Renderer:
                                           pass_index, start, n, paths)
         pixels, contributions, reached = [], [], 0
         grouped = [] if self.light_groups else None
+        buffer = self._buffers.photons() if photons is not None else NO_PHOTONS
+        stored = []
         for _ in range(self.max_depth):
             if m == 0:
                 break
             prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
-            m, n_conn = light_tracer.light_bounce(caustics, lights, mesh, mats, self.media, cam,
-                                                  margin, self.fresnel, self.limits, m, paths,
-                                                  prim, u, v, out, connections, raster)
+            m, n_conn, n_photons = light_tracer.light_bounce(
+                caustics, lights, mesh, mats, self.media, cam, margin, self.fresnel, self.limits,
+                m, paths, prim, u, v, out, connections, raster, buffer)
+            if n_photons:
+                stored.append(photon_merging.Photons(*(f[:n_photons].copy() for f in buffer)))
             if n_conn:
                 visible = geom.occluded(connections.o32[:n_conn], connections.d32[:n_conn],
                                         connections.tmax[:n_conn]) != 0   # Embree: 0 if blocked
@@ -496,6 +531,8 @@ class Renderer:
         if grouped is not None:
             grouped = tuple(np.concatenate(parts) for parts in zip(*grouped)) if grouped else \
                 (np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.int64))
+        if photons is not None:
+            photons[start] = (n, photon_merging.concatenate(stored))
         if not pixels:
             return np.zeros(0, np.int64), np.zeros((0, 3)), 0, grouped
         return np.concatenate(pixels), np.concatenate(contributions), reached, grouped
@@ -667,11 +704,52 @@ class Renderer:
         # Jobs never straddle n_a, so each job's splats belong to one half; a big pass's jobs
         # come segment by segment (passes.light_segments), splatted in chunk order.
         bad = 0
+        photons = {} if self.merging is not None else None
         for begin, end in passes.light_segments(n_light, n_a):
             jobs = passes.jobs(begin, end, 1)
             bad += passes.add_splats(jobs, pool.map(
-                lambda job: self.trace_light_chunk(pass_index, job[0], job[1]), jobs),
+                lambda job: self.trace_light_chunk(
+                    pass_index, job[0], job[1],
+                    photons if job[0] - (n_a if job[0] >= n_a else 0)
+                    < photon_merging.MAX_PHOTON_PATHS else None), jobs),
                 n_a, film, film_a, counters, groups)
+        if photons is not None:
+            bad += self.merge_pass(pool, pass_index, n_light, n_a, photons, film, film_a)
+        return bad
+
+    def merge_pass(self, pool, pass_index, n_light, n_a, photons, film, film_a) -> int:
+        """Photon merging's pass (photon_merging.py): the pass's photons (by chunk start) in a
+        grid of the pass's radius, gathered by camera walks, as many per pixel as the pass
+        traced camera samples, into film weighted by the pass's n_light light paths (so that
+        the light image averages the passes' estimates). With film_a (adaptive sampling), the
+        light paths' two halves (before and after n_a) merge apart, each with its own walks and
+        half of them, and film_a gets half A's: the halves' difference then holds the merged
+        noise too, as adaptive sampling's error estimate needs. A half of more than
+        MAX_PHOTON_PATHS light paths merges the photons of its first chunks only, weighted up
+        to all of them; walks are at most MAX_WALKS. Returns how many gathers were NaN or Inf
+        (left out)."""
+        halves = [(0, n_a), (n_a, n_light)] if film_a is not None and 0 < n_a < n_light \
+            else [(0, n_light)]
+        r = photon_merging.radius(self.merging, pass_index + 1)
+        npix = self.camera.width * self.camera.height
+        bad = 0
+        for half, (begin, end) in enumerate(halves):
+            kept = [k for k in sorted(photons) if begin <= k < end]
+            stored = sum(photons[k][0] for k in kept)    # light paths whose photons are kept
+            grid = photon_merging.build_grid(
+                photon_merging.concatenate([photons[k][1] for k in kept]), r)
+            samples = max(1, min(round((end - begin) / (npix * self.light_paths_per_camera_path)),
+                                 photon_merging.MAX_WALKS // npix))
+            # Half B's walks keyed apart from half A's (and from any pass's), so that the halves
+            # are independent.
+            pixels, contributions = photon_merging.merge(
+                pool, self.geometry, self.materials, self.camera.params(), self.pixel_filter,
+                self.fresnel, self.limits, self.seed, pass_index + (half << 40), grid,
+                npix * samples, samples, CHUNK)
+            contributions *= ((end - begin) / max(stored, 1)) / (np.pi * r * r * samples)
+            bad += wavefront.splat(pixels, contributions, film)
+            if film_a is not None and len(halves) == 2 and half == 0:
+                wavefront.splat(pixels, contributions, film_a)
         return bad
 
 

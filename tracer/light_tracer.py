@@ -58,6 +58,7 @@ from .lights.world import world_emission
 from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, PROGRAM, REFRACTION
 from .path_limits import DIFFUSE_BOUNCE, GLOSSY_BOUNCE, TRANSMISSION_BOUNCE, within_limits
 from . import media as medium
+from .photon_merging import record_photon
 from .media import empty_stacks
 from .sampler import mix, random_pair
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
@@ -69,7 +70,13 @@ LIGHT_DOMAIN = np.uint64(0x11C7_A0C5)   # keys light paths' random numbers apart
 # A camera path's place in the split of path space with the light tracer (wavefront.Paths.caustic):
 # NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was diffuse) then CAUSTIC (and every
 # vertex since specular): the light tracer's paths, whose emitters the path tracer then skips.
-NO_CAUSTIC, FIRST_DIFFUSE, CAUSTIC = range(3)
+# With photon merging (photon_merging.py): SPECULAR_CAMERA (every vertex so far specular), then
+# SDS_DIFFUSE (one diffuse vertex), then SDS_CAUSTIC (every vertex since specular): the merged
+# paths, whose emitters the path tracer then skips too (caustic_after, left_to_light_paths).
+NO_CAUSTIC, FIRST_DIFFUSE, CAUSTIC, SPECULAR_CAMERA, SDS_DIFFUSE, SDS_CAUSTIC = range(6)
+# What the path tracer leaves to light paths (wavefront.emitters' `caustics`): nothing, the light
+# tracer's paths, or those and the merged ones.
+SPLIT_NONE, SPLIT_LIGHT, SPLIT_MERGE = range(3)
 
 
 class Caustics(NamedTuple):
@@ -171,6 +178,29 @@ def emitter_names(scene, caustics: Caustics) -> list[str]:
     if triangles:
         names.insert(0, f"{triangles} emissive triangle{'s' if triangles != 1 else ''}")
     return names
+
+
+@jit_inline
+def caustic_after(state, scattered, kind, depth):
+    """A camera path's state (see NO_CAUSTIC above) after its vertex at wavefront depth `depth`
+    on a surface of this kind, given `scattered`, the light tracer's state scatter.py made:
+    photon merging's states follow specular and diffuse vertices from the camera."""
+    if kind == MIRROR or kind == GLASS or kind == REFRACTION:
+        if (depth == 0 and state == NO_CAUSTIC) or state == SPECULAR_CAMERA:
+            return SPECULAR_CAMERA
+        if state == SDS_DIFFUSE or state == SDS_CAUSTIC:
+            return SDS_CAUSTIC
+    elif kind == DIFFUSE and state == SPECULAR_CAMERA:
+        return SDS_DIFFUSE
+    return scattered
+
+
+@jit_inline
+def left_to_light_paths(split, state):
+    """Whether the path tracer leaves the light a camera path in this state finds to light
+    paths (split: SPLIT_NONE, SPLIT_LIGHT or SPLIT_MERGE)."""
+    return ((split != SPLIT_NONE and state == CAUSTIC)
+            or (split == SPLIT_MERGE and state == SDS_CAUSTIC))
 
 
 # -- aiming -------------------------------------------------------------------------------------
@@ -394,7 +424,7 @@ def lamp_sees(caustics, lights, e, w, s1, kind):
 
 @jit
 def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model, limits, m,
-                 paths, prim, u, v, out, connections, raster):
+                 paths, prim, u, v, out, connections, raster, photons):
     """Scatter light paths at specular hits (into `out`); at the first diffuse vertex after one
     or more specular ones, queue the connection to the camera (its nearest image pixel, and in
     `raster` its raster point for the pixel filter; margin: how far past the image the filter
@@ -403,10 +433,13 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
     limits (path_limits.bounce_limits) bound the camera path each connection makes: its
     bounces, and each kind's count of scatterings but the last (the first vertex's, towards the
     light), so that the light tracer owns exactly the paths the path tracer would have ended.
-    Returns (paths in out, connections queued)."""
+    When `photons` has rows (photon merging), a path's first diffuse vertex after one or more
+    specular ones is also stored there as a photon (photon_merging.py).
+    Returns (paths in out, connections queued, photons stored)."""
     max_depth = limits[0]
     n_out = 0
     n_conn = 0
+    n_photons = 0
     has_normals = mesh.corner_normals.shape[0] > 0
     for i in range(m):
         tri = prim[i]
@@ -434,6 +467,11 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
         key = paths.key[i]
         color, trans_color = surface_colors(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
         if kind == DIFFUSE:
+            # A photon: every vertex so far specular, and room for one more after this one.
+            if (photons.bounces.shape[0] > 0 and bounces > 0 and not caustics.pure
+                    and paths.kinds[i, DIFFUSE_BOUNCE] == 0 and bounces + 2 <= max_depth):
+                n_photons = record_photon(photons, n_photons, p, ng, d, beta, bounces,
+                                          paths.kinds, i)
             # This vertex is bounce `bounces + 1` of the camera path that ends here.
             if (bounces == 0 and not caustics.pure) or bounces + 1 > max_depth:
                 continue          # no specular vertex: the path tracer's path; or too long
@@ -499,7 +537,7 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
             medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
                          event == specular.TRANSMITTED)
         n_out += 1
-    return n_out, n_conn
+    return n_out, n_conn, n_photons
 
 
 @jit_inline

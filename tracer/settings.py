@@ -239,6 +239,14 @@ SETTINGS = (
             "the light of each group's lamps, emissive objects and world) beside the image; "
             "Blender's View Layer > Light Groups and `snell render --passes` ask for them",
             scope=ESTIMATOR),
+    Setting("photon_merging", bool, False, "Render caustics seen through mirrors and glass "
+            "(light through glass onto a diffuse surface, seen through glass: a pool's floor "
+            "under its water) by photon merging with a radius that shrinks pass by pass "
+            "(photon_merging.py): consistent, not unbiased, so off by default and off in the "
+            "validator", scope=ESTIMATOR),
+    Setting("merge_radius", float, 0.0, "Photon merging's first radius in scene units; 0: "
+            "a pixel footprint at the far side of the mirrors and glass", scope=ESTIMATOR,
+            least=0.0),
     Setting("light_vertex_pilot", bool, True, "An adaptive render measures in its first "
             "samples whether light vertices pay; off: keep them throughout", scope=ESTIMATOR),
 )

@@ -28,8 +28,8 @@ from .direct_light import add_light
 from .features import add_feature_light, record_features, smooth_lobes
 from .geometry import FAR, hit_point, offset_origin
 from .jit import jit, jit_inline
-from .light_tracer import CAUSTIC, NO_CAUSTIC
 from .light_groups import add_grouped, add_to_group, escape_group, lamp_group
+from .light_tracer import NO_CAUSTIC, caustic_after, left_to_light_paths
 from .light_passes import (ONE, ZERO, add_colors, add_found, add_shadow, pass_weights,
                            shadow_weights)
 from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
@@ -209,9 +209,10 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
     Lamps have no surface, as in Cycles: a ray adds the light of every lamp it crosses before its
     hit (or escape) and goes on as if the lamp were not there. What a ray gets from each kind of
     light is lights.dispatch's (lamp_crossed, light_at_escape, triangle_hit); the MIS weights
-    are this stage's. With `caustics` (the light tracer runs), paths in the CAUSTIC state get no
-    light from lamps, emissive triangles or suns, and with `world_caustics` (it starts paths on
-    the world) none from the world: those paths are the light tracer's to count.
+    are this stage's. With `caustics` (light_tracer.SPLIT_*: the light tracer runs), paths in
+    the CAUSTIC state (and SDS_CAUSTIC with photon merging: light_tracer.left_to_light_paths)
+    get no light from lamps, emissive triangles or suns, and with `world_caustics` (it starts
+    paths on the world) none from the world: those paths are the light tracer's to count.
     limits (path_limits.bounce_limits): a path ends at a surface after its last bounce (of
     all, or of one kind), or after as many transparent surfaces as the second allows, as in
     Cycles (path_state_next): what it ends on still adds its light, and after the last bounce a
@@ -240,7 +241,7 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
         pdf_prev, connect, mis_t = paths.pdf_prev[i], paths.connect[i], paths.mis_t[i]
         t_surface = np.float64(t[i])     # Embree leaves a miss's t at the ray's length
         sigma = medium.sigma_of(media, paths.medium, i) if media.on else medium.ZERO
-        light_tracers = caustics and paths.caustic[i] == CAUSTIC
+        light_tracers = left_to_light_paths(caustics, paths.caustic[i])
         emitters_count = not light_tracers
         for lamp in range(lamps_to_cross(lights) if emitters_count else 0):
             crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
@@ -355,7 +356,7 @@ def program_emitters(lights, mesh, mats, tables, caustics, depth, m, paths, prim
             continue
         mat = mats.of_triangle[tri]
         if mats.kind[mat] != PROGRAM or not mats.programs.flags[mat] & EMISSION_VARIES \
-                or (caustics and paths.caustic[i] == CAUSTIC):
+                or left_to_light_paths(caustics, paths.caustic[i]):
             continue
         b1, b2 = np.float64(u[i]), np.float64(v[i])
         p, _, ng_f, ns_f, _, entering, d = facing_hit(mesh, paths, i, tri, b1, b2)
@@ -436,6 +437,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
             new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
                 kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,
                 entering, color, trans_color, mats.ior[mat], stats)
+        caustic = caustic_after(paths.caustic[i], caustic, kind, depth)   # photon merging's
         shadows.bounce[first_shadow:n_shadow] = paths.bounce[i]
         if media.on:
             medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
