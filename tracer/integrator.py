@@ -229,7 +229,7 @@ class Renderer:
             return None, "absorbing volumes"
         if self.settings.light_passes:
             return None, "light passes asked for"
-        if self.light_groups:
+        if self.settings.light_groups:
             return None, "light groups asked for"     # merged light goes to no group
         r1 = self.settings.merge_radius or photon_merging.first_radius(
             self.camera, self.caustics.aim_center, self.caustics.aim_radius)
