@@ -68,9 +68,16 @@ def sample_direct_light(lights, mesh, key, sample, dimension, bits, strat, u_pic
         return n_shadow
     p_vertex = 0.0
     cos_g = dot(wi, ng_f)
-    kind_l, k_l, pmf_l = pick_light(lights, u_pick)      # the light sample_light picked
-    if step > 0.0 and cos_g > 0.0:
-        p_vertex = light_vertex_density(lights, kind_l, k_l, pmf_l) * cos_g / step
+    # The light sample_light picked, asked again only where needed: its light-vertex density,
+    # and its light group when the render makes them (radiance rows wider than Combined's).
+    grouped = radiance.shape[1] > 3
+    group = -1
+    if (step > 0.0 and cos_g > 0.0) or grouped:
+        kind_l, k_l, pmf_l = pick_light(lights, u_pick)
+        if step > 0.0 and cos_g > 0.0:
+            p_vertex = light_vertex_density(lights, kind_l, k_l, pmf_l) * cos_g / step
+        if grouped:
+            group = light_group(lights, kind_l, k_l)
     w, w_without = 1.0, 1.0
     if pdf_light > 0.0:
         w = power_heuristic3(pdf_light, pdf, p_vertex)
@@ -78,7 +85,7 @@ def sample_direct_light(lights, mesh, key, sample, dimension, bits, strat, u_pic
     light = mul(vmul(vmul(beta, color), weight), scale)
     return deliver_light(shadows, n_shadow, radiance, without, path, mul(light, w),
                          mul(light, w_without), flags, offset_origin(p, ng_f, eps, wi), wi,
-                         target, infinite, limit, light_group(lights, kind_l, k_l))
+                         target, infinite, limit, group)
 
 
 @jit_inline
@@ -92,8 +99,11 @@ def connect_to_light_vertex(lights, shadows, n_shadow, lv, path, beta, p, ng_f, 
                                                 lit_events(VISIBLE_ANY_BSDF), False)
     if not valid:
         return n_shadow
-    return connect_light_vertex(lights, shadows, n_shadow, lv, path, beta, p, ng_f, eps, wl,
-                                d2, mul(color, scale), pdf, stats)
+    # The group here, where the lights' tables are inlined: passed to a call that is not, they
+    # would be copied array by array.
+    return connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, eps, wl, d2,
+                                mul(color, scale), pdf, stats,
+                                emitter_group(lights, lv.lamp[path]))
 
 
 @jit
@@ -138,18 +148,18 @@ def deliver_light(shadows, n_shadow, radiance, without, path, light, light_witho
 
 
 @jit
-def connect_light_vertex(lights, shadows, n_shadow, lv, path, beta, p, ng_f, eps, w, d2, f_cos,
-                         pdf, stats):
+def connect_light_vertex(shadows, n_shadow, lv, path, beta, p, ng_f, eps, w, d2, f_cos, pdf,
+                         stats, group):
     """Queue the connection of a camera vertex p (throughput beta, BSDF x cosine f_cos and
-    density pdf towards its light vertex along w, at squared distance d2) as shadow ray
-    n_shadow; returns the new shadow-ray count."""
+    density pdf towards its light vertex along w, at squared distance d2; `group` its emitter's
+    light group) as shadow ray n_shadow; returns the new shadow-ray count."""
     light = connection(lv, path, w, d2, f_cos, pdf)
     if not max3(light) > 0.0:
         return n_shadow
     store(shadows.contrib, n_shadow, vmul(beta, light))
     store(shadows.without, n_shadow, (0.0, 0.0, 0.0))
     shadows.pass_direct[n_shadow] = 0     # light that bounced at least once more: indirect
-    shadows.group[n_shadow] = emitter_group(lights, lv.lamp[path])
+    shadows.group[n_shadow] = group
     queue_shadow(shadows, n_shadow, path, offset_origin(p, ng_f, eps, w), w,
                  row(lv.point, path), False)
     stats[CONNECTIONS] += 1

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .jit import jit
+from .jit import jit, jit_inline
 from .lights.codes import AREA, EMISSIVE_TRIANGLE, POINT, SUN
 from .vec import finite_row
 
@@ -62,7 +62,7 @@ def add_to_group(radiance, path, group, contribution):
             radiance[path, 3 + 3 * group + k] += contribution[k]
 
 
-@jit
+@jit_inline
 def light_group(lights, kind, i):
     """The group of light i of this kind (a lights.codes kind; for emissive triangles the row of
     the light triangle), NONE for none."""
@@ -77,7 +77,7 @@ def light_group(lights, kind, i):
     return lights.world_group
 
 
-@jit
+@jit_inline
 def lamp_group(lights, lamp):
     """The group of lamp `lamp` of lights.dispatch.lamps_to_cross (area lamps, then point and
     spot lamps)."""
@@ -85,7 +85,7 @@ def lamp_group(lights, lamp):
     return lights.area_group[lamp] if lamp < n_area else lights.point_group[lamp - n_area]
 
 
-@jit
+@jit_inline
 def escape_group(lights, k):
     """The group of light k of lights.dispatch.lights_at_escape (the world, then the suns)."""
     if lights.has_world:
@@ -95,7 +95,7 @@ def escape_group(lights, k):
     return lights.sun_group[k]
 
 
-@jit
+@jit_inline
 def emitter_group(lights, emitter):
     """The group of a light vertex's emitter (light_vertices.py: a mesh triangle, or -1 - an
     area lamp)."""
