@@ -13,7 +13,6 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
-from pool import point_lamp  # noqa: E402
 from sds_geometry import tube  # noqa: E402
 
 LAMP_POSITION, LAMP_RADIUS, LAMP_INTENSITY = (1.4, 0.3, 0.55), 0.1, 20.0   # W/sr
@@ -22,16 +21,14 @@ CAMERA, TARGET = (-2.2, -0.4, 1.1), (0.0, 0.0, 0.25)
 
 def build(path):
     """Build the scene and save it to path."""
-    scene = common.reset()
-    common.setup_render(scene, (256, 256))
-    common.set_world(scene, (0.0, 0.0, 0.0))
+    scene = common.new_scene((0.0, 0.0, 0.0))
     table = common.material("Table", "diffuse", (0.8, 0.8, 0.8))
     common.quad("Table", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], table)
     glass = common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5, Roughness=0.0)
     positions, triangles, normals = tube()
     obj = common.mesh_object("Tumbler", positions, triangles, glass, smooth=True)
     obj.data.normals_split_custom_set_from_vertices([tuple(n) for n in normals])
-    point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY, LAMP_RADIUS)
+    common.point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY, LAMP_RADIUS)
     common.camera(scene, CAMERA, TARGET, lens=50.0)
     return common.save(path)
 
