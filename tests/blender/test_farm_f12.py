@@ -27,6 +27,7 @@ from snell.addon import final, registration  # noqa: E402
 from snell.farm import cluster as cluster_module, worker  # noqa: E402
 from snell.tracer import passes  # noqa: E402
 from support.dask_cluster import client  # noqa: E402,F401  (the shared LocalCluster fixture)
+from support.render_passes import exr_channels, saves_multilayer_exr  # noqa: E402
 
 common = importlib.import_module("common")
 
@@ -72,31 +73,8 @@ def build(tmp_path, name):
         setattr(layer, switch, True)
     scene.render.engine = "SNELL"
     scene.render.film_transparent = True
-    settings = scene.render.image_settings
-    if hasattr(settings, "media_type"):
-        settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.file_format, settings.color_depth = "OPEN_EXR_MULTILAYER", "32"
-    scene.render.filepath = str(tmp_path / name)
+    saves_multilayer_exr(scene, tmp_path / name)
     return scene
-
-
-def channels(path) -> dict:
-    """{channel name: float32 (H, W)} of every channel of every part of an EXR."""
-    import OpenImageIO as oiio
-    inp = oiio.ImageInput.open(str(path))
-    assert inp is not None, oiio.geterror()
-    out = {}
-    try:
-        part = 0
-        while inp.seek_subimage(part, 0):
-            spec = inp.spec()
-            pixels = inp.read_image(part, 0, 0, spec.nchannels, "float")
-            for k, name in enumerate(spec.channelnames):
-                out[name] = np.asarray(pixels)[..., k].copy()
-            part += 1
-    finally:
-        inp.close()
-    return out
 
 
 def f12(scene, where, fails=False, **cluster):
@@ -176,7 +154,7 @@ def test_f12_on_the_cluster_is_the_local_f12_bit_for_bit(client, tmp_path, one_s
     assert f"Snell: connecting to the Dask scheduler {client.scheduler.address}" in stats
     assert any(f"Sample 3/{SPP}" in line for line in stats), stats
     assert "on 2 Dask workers" in stats[-1] and stats[-1].startswith("Snell: Done:")
-    ours, theirs = channels(tmp_path / "local.exr"), channels(tmp_path / "farm.exr")
+    ours, theirs = exr_channels(tmp_path / "local.exr"), exr_channels(tmp_path / "farm.exr")
     assert sorted(ours) == sorted(theirs)
     names = {name.split(".")[-2] for name in ours if name.count(".") >= 2}
     assert {"Combined", "Sample Count", "Emission", "Diffuse Direct", "Glossy Color"} <= names
@@ -337,7 +315,7 @@ def test_f12_on_local_workers_starts_and_stops_them(tmp_path, one_sample_windows
     before = set(multiprocessing.active_children())
     record = f12(scene, "LOCAL_WORKERS", cluster_workers=2)
     assert record["error"] is None and record["workers"] == 2 and local["spp"] == record["spp"]
-    ours, theirs = channels(tmp_path / "local.exr"), channels(tmp_path / "workers.exr")
+    ours, theirs = exr_channels(tmp_path / "local.exr"), exr_channels(tmp_path / "workers.exr")
     assert all(np.array_equal(ours[name], theirs[name]) for name in ours)
     assert set(multiprocessing.active_children()) <= before
 

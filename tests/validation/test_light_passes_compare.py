@@ -23,13 +23,11 @@ glossy colour 5% high and the environment 5% high.
 from __future__ import annotations
 
 import importlib
-import os
-import tempfile
 
 import numpy as np
 import pytest
 
-from support.cycles_reference import verdict as _verdict
+from support.render_passes import cycles_passes, pass_verdict, snell_renders
 
 bpy = pytest.importorskip("bpy")
 
@@ -86,34 +84,12 @@ def build(path):
     return common.save(path)
 
 
-def cycles_passes(blend):
-    """{pass: (seeds, H, W, 3)} of Cycles' renders of the file, one per seed, row 0 at the top."""
-    from snell.validation import cycles
-    images = {name: [] for name in PASSES}
-    with tempfile.TemporaryDirectory(prefix="snell-light-passes-") as workdir:
-        out = os.path.join(workdir, "passes.exr")
-        for seed in cycles.seeds_for(SEEDS, 7):
-            settings = cycles.forced_settings(MAX_DEPTH, SPP, seed, 2) + [
-                ("output", cycles.DENOISING_OUTPUT, "the passes, read back")]
-            with cycles.stdout_silenced(True):
-                cycles._render_file(blend, settings, None, out)
-            for name in PASSES:
-                images[name].append(cycles.read_pass(out, name))
-            os.remove(out)
-    return {name: np.stack(stack) for name, stack in images.items()}
-
-
 def snell_passes(scene, caustics):
     """({pass: (seeds, H, W, 3)} of Snell's renders (the independent sampler, the light tracer
     on or off), as many as Cycles' seeds; (seeds, H, W, 3) of the light tracer's share)."""
-    from snell.tracer.integrator import Renderer
     images = {name: [] for name in PASSES}
     splats = []
-    for k in range(SEEDS):
-        settings = scene.settings(threads=2, sampler="independent", spp=SPP, seed=2000 + k,
-                                  noise_threshold=0.0, time_limit=0.0, light_passes=True,
-                                  caustics=caustics)
-        result = Renderer(scene, settings).render()
+    for result in snell_renders(scene, SEEDS, SPP, light_passes=True, caustics=caustics):
         for name, values in result.light_pass_images().items():
             images[name].append(values)
         splats.append(result.light_image())
@@ -127,7 +103,7 @@ def render_both(folder):
     blend = build(str(folder / "passes.blend"))
     scene, _ = compare.load_snell_scene(blend)
     scene = scene.with_render(max_depth=MAX_DEPTH)
-    return (*snell_passes(scene, True), cycles_passes(blend))
+    return (*snell_passes(scene, True), cycles_passes(blend, PASSES, SEEDS, SPP, MAX_DEPTH))
 
 
 @pytest.fixture(scope="module")
@@ -146,16 +122,9 @@ def as_written(passes):
 def verdicts(ours, theirs, splats=None):
     """{pass: (verdict, detail)}; splats: Snell's light tracer's share of Diffuse Indirect per
     render (the validator's allowance for light only a light tracer carries)."""
-    from snell.validation import metrics
-    out = {}
     a, b = as_written(ours), as_written(theirs)
-    for name in PASSES:
-        light = splats if name == "Diffuse Indirect" else None
-        result = metrics.compare_estimates(metrics.Estimate.from_images(a[name], light),
-                                           metrics.Estimate.from_images(b[name]),
-                                           error_metrics=False)
-        out[name] = _verdict(result)
-    return out
+    return {name: pass_verdict(a[name], b[name], splats if name == "Diffuse Indirect" else None)
+            for name in PASSES}
 
 
 def table_limited(name, detail, ours, theirs):
