@@ -162,6 +162,12 @@ def quad(name, corners, mat):
     return mesh_object(name, corners, [[0, 1, 2, 3]], mat)
 
 
+def floor(name, half, mat):
+    """A square floor at z = 0 from -half to half in x and y, facing +Z."""
+    return quad(name, [(-half, -half, 0), (half, -half, 0), (half, half, 0), (-half, half, 0)],
+                mat)
+
+
 def uv_sphere(name, location, radius, mat, segments=64, rings=32):
     """A smooth UV sphere with outward normals."""
     bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=radius,

@@ -20,9 +20,7 @@ CAMERA, TARGET = (0.0, -0.25, 1.9), (0.0, 0.0, 0.0)
 def build(path):
     """Build the scene and save it to path."""
     scene = common.new_scene((0.0, 0.0, 0.0))
-    h = POOL_HALF
-    floor = common.material("Floor", "diffuse", (0.8, 0.8, 0.8))
-    common.quad("Floor", [(-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0)], floor)
+    common.floor("Floor", POOL_HALF, common.material("Floor", "diffuse", (0.8, 0.8, 0.8)))
     water = common.material("Water", "glass", (1.0, 1.0, 1.0), IOR=1.33, Roughness=0.0)
     positions, triangles, _ = water_surface()
     common.mesh_object("Water", positions, triangles, water, smooth=True)

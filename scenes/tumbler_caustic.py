@@ -22,8 +22,7 @@ CAMERA, TARGET = (-2.2, -0.4, 1.1), (0.0, 0.0, 0.25)
 def build(path):
     """Build the scene and save it to path."""
     scene = common.new_scene((0.0, 0.0, 0.0))
-    table = common.material("Table", "diffuse", (0.8, 0.8, 0.8))
-    common.quad("Table", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], table)
+    common.floor("Table", 2, common.material("Table", "diffuse", (0.8, 0.8, 0.8)))
     glass = common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5, Roughness=0.0)
     positions, triangles, normals = tube()
     obj = common.mesh_object("Tumbler", positions, triangles, glass, smooth=True)

@@ -15,6 +15,8 @@ from support.cycles_reference import verdict
 F12_SIZE = (16, 12)
 FLOOR = (0.8, 0.5, 0.3)
 SKY = (0.2, 0.3, 0.5)
+# The Cycles comparisons: image size, samples per seed (in both renderers), seeds, max depth.
+COMPARE_SIZE, COMPARE_SPP, COMPARE_SEEDS, COMPARE_DEPTH = (48, 36), 128, 8, 6
 
 
 def saves_multilayer_exr(scene, path):
@@ -35,8 +37,7 @@ def lamp_over_floor(path, lamps=(("Lamp", (0.0, 0.0, 2.0), ""),)):
     scene = common.reset()
     common.setup_render(scene, F12_SIZE, samples=4, max_bounces=3)
     common.set_world(scene, SKY)
-    floor = common.material("Floor", "diffuse", FLOOR)
-    common.quad("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], floor)
+    common.floor("Floor", 1, common.material("Floor", "diffuse", FLOOR))
     for name, location, group in lamps:
         obj = bpy.data.objects.new(name, bpy.data.lights.new(name, "POINT"))
         obj.data.energy = 100.0
@@ -104,15 +105,37 @@ def exr_channels(path) -> dict:
     return out
 
 
-def cycles_passes(blend, names, seeds, spp, max_depth, combined=False) -> dict:
-    """{pass: (seeds, H, W, 3)} of Cycles' renders of the file, one per seed (the validator's
-    seeds), row 0 at the top; with combined, Combined's RGB too."""
+def floor_for_compare():
+    """A fresh file for a Cycles comparison of passes: COMPARE_SIZE, COMPARE_SPP, COMPARE_DEPTH,
+    a one-pixel box filter, a blue world (SKY) and a 6 m diffuse floor (FLOOR)."""
+    common = importlib.import_module("common")
+    scene = common.reset()
+    common.setup_render(scene, COMPARE_SIZE, samples=COMPARE_SPP, max_bounces=COMPARE_DEPTH - 1)
+    # A one-pixel box filter: a pixel next to an edge gets the far side's samples in proportion
+    # to its cover, not from the rare tails of a wider filter (where one renderer's few hits
+    # against the other's none fail the pixel test of a zero-variance pixel).
+    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
+    common.set_world(scene, SKY)
+    common.floor("Floor", 3, common.material("Floor", "diffuse", FLOOR))
+    return scene
+
+
+def compare_scene(blend):
+    """The file exported for Snell's renders of a comparison (max depth COMPARE_DEPTH)."""
+    from snell.validation import compare
+    scene, _ = compare.load_snell_scene(blend)
+    return scene.with_render(max_depth=COMPARE_DEPTH)
+
+
+def cycles_passes(blend, names, combined=False) -> dict:
+    """{pass: (COMPARE_SEEDS, H, W, 3)} of Cycles' renders of the file, one per seed (the
+    validator's seeds), row 0 at the top; with combined, Combined's RGB too."""
     from snell.validation import cycles
     images = {name: [] for name in names + (("Combined",) if combined else ())}
     with tempfile.TemporaryDirectory(prefix="snell-passes-") as workdir:
         out = os.path.join(workdir, "passes.exr")
-        for seed in cycles.seeds_for(seeds, 7):
-            settings = cycles.forced_settings(max_depth, spp, seed, 2) + [
+        for seed in cycles.seeds_for(COMPARE_SEEDS, 7):
+            settings = cycles.forced_settings(COMPARE_DEPTH, COMPARE_SPP, seed, 2) + [
                 ("output", cycles.DENOISING_OUTPUT, "the passes, read back")]
             with cycles.stdout_silenced(True):
                 cycles._render_file(blend, settings, None, out)
@@ -134,12 +157,13 @@ def combined_rgb(path):
     return np.asarray(image.get_pixels(oiio.FLOAT), np.float64)[..., rgb]
 
 
-def snell_renders(scene, seeds, spp, **switches):
-    """Snell's independent renders of the scene, one per seed (the independent sampler, fixed
-    samples), each with the switches (light_passes=True, ...): their results, in turn."""
+def snell_renders(scene, **switches):
+    """Snell's independent renders of the scene, as many as Cycles' seeds (the independent
+    sampler, COMPARE_SPP), each with the switches (light_passes=True, ...): their results."""
     from snell.tracer.integrator import Renderer
-    for k in range(seeds):
-        settings = scene.settings(threads=2, sampler="independent", spp=spp, seed=2000 + k,
+    for k in range(COMPARE_SEEDS):
+        settings = scene.settings(threads=2, sampler="independent", spp=COMPARE_SPP,
+                                  seed=2000 + k,
                                   noise_threshold=0.0, time_limit=0.0, **switches)
         yield Renderer(scene, settings).render()
 

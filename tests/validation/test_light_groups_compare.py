@@ -17,32 +17,23 @@ import importlib
 import numpy as np
 import pytest
 
-from support.render_passes import cycles_passes, pass_verdict, snell_renders
+from support.render_passes import (compare_scene, cycles_passes, floor_for_compare,
+                                   pass_verdict, snell_renders)
 
 bpy = pytest.importorskip("bpy")
 
 common = importlib.import_module("common")
 
-SIZE = (48, 36)
-SPP = 128           # per seed, in both renderers
-SEEDS = 8
-MAX_DEPTH = 6
 GROUPS = ("key", "fill", "sky")
 PASSES = tuple(f"Combined_{g}" for g in GROUPS)
 
 
 def build(path):
-    scene = common.reset()
-    common.setup_render(scene, SIZE, samples=SPP, max_bounces=MAX_DEPTH - 1)
-    # A one-pixel box filter, as test_light_passes_compare (no rare tails at edges).
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    common.set_world(scene, (0.2, 0.3, 0.5))
+    scene = floor_for_compare()
     layer = scene.view_layers[0]
     for group in GROUPS:
         layer.lightgroups.add(name=group)
     scene.world.lightgroup = "sky"
-    floor = common.material("Floor", "diffuse", (0.8, 0.5, 0.3))
-    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
     common.uv_sphere("Glossy", (-0.9, 0.3, 0.5), 0.5,
                      common.material("Glossy", "glossy", (0.9, 0.8, 0.7), Roughness=0.4),
                      segments=32, rings=16)
@@ -76,7 +67,7 @@ def snell_passes(scene):
     on), with Combined; {pass: (seeds, H, W, 3)} of the light tracer's share of each group)."""
     images = {name: [] for name in PASSES + ("Combined",)}
     splats = {name: [] for name in PASSES + ("Combined",)}
-    for result in snell_renders(scene, SEEDS, SPP, light_groups=True):
+    for result in snell_renders(scene, light_groups=True):
         for name, values in result.light_group_images().items():
             images[name].append(values)
         images["Combined"].append(result.mean())
@@ -91,16 +82,14 @@ def snell_passes(scene):
 
 def render_all(folder):
     """Snell's passes and splats, the same with the emissive quad in "key", and Cycles'."""
-    from snell.validation import compare
     blend = build(str(folder / "groups.blend"))
-    scene, warnings = compare.load_snell_scene(blend)
-    scene = scene.with_render(max_depth=MAX_DEPTH)
+    scene = compare_scene(blend)
     wrong = scene.with_render()
     wrong.objects = [dict(obj) for obj in scene.objects]
     panel = [obj["name"] for obj in wrong.objects].index("Panel")
     wrong.objects[panel]["light_group"] = GROUPS.index("key")
     return (snell_passes(scene), snell_passes(wrong),
-            cycles_passes(blend, PASSES, SEEDS, SPP, MAX_DEPTH, combined=True))
+            cycles_passes(blend, PASSES, combined=True))
 
 
 @pytest.fixture(scope="module")

@@ -27,16 +27,13 @@ import importlib
 import numpy as np
 import pytest
 
-from support.render_passes import cycles_passes, pass_verdict, snell_renders
+from support.render_passes import (compare_scene, cycles_passes, floor_for_compare,
+                                   pass_verdict, snell_renders)
 
 bpy = pytest.importorskip("bpy")
 
 common = importlib.import_module("common")
 
-SIZE = (48, 36)
-SPP = 128           # per seed, in both renderers
-SEEDS = 8
-MAX_DEPTH = 6
 TABLE_ACCURACY = 2e-3   # relative: Snell's albedo tables against Cycles' (test_every_pass...)
 PASSES = ("Emission", "Environment", "Diffuse Direct", "Diffuse Indirect", "Diffuse Color",
           "Glossy Direct", "Glossy Indirect", "Glossy Color", "Transmission Direct",
@@ -48,15 +45,7 @@ SWITCHES = ("use_pass_emit", "use_pass_environment", "use_pass_diffuse_direct",
 
 
 def build(path):
-    scene = common.reset()
-    common.setup_render(scene, SIZE, samples=SPP, max_bounces=MAX_DEPTH - 1)
-    # A one-pixel box filter: a pixel next to an edge gets the far side's samples in proportion
-    # to its cover, not from the rare tails of a wider filter (where one renderer's few hits
-    # against the other's none fail the pixel test of a zero-variance pixel).
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    common.set_world(scene, (0.2, 0.3, 0.5))
-    floor = common.material("Floor", "diffuse", (0.8, 0.5, 0.3))
-    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
+    scene = floor_for_compare()
     specs = [("Glossy", "glossy", (0.9, 0.8, 0.7), {"Roughness": 0.4}, (-0.9, 0.3, 0.5)),
              ("Glass", "glass", (1.0, 1.0, 1.0), {"IOR": 1.45}, (0.5, 0.0, 0.5)),
              ("Plastic", "principled", (0.2, 0.6, 0.3), {"Roughness": 0.3}, (-0.1, -0.9, 0.35))]
@@ -89,7 +78,7 @@ def snell_passes(scene, caustics):
     on or off), as many as Cycles' seeds; (seeds, H, W, 3) of the light tracer's share)."""
     images = {name: [] for name in PASSES}
     splats = []
-    for result in snell_renders(scene, SEEDS, SPP, light_passes=True, caustics=caustics):
+    for result in snell_renders(scene, light_passes=True, caustics=caustics):
         for name, values in result.light_pass_images().items():
             images[name].append(values)
         splats.append(result.light_image())
@@ -99,11 +88,9 @@ def snell_passes(scene, caustics):
 
 def render_both(folder):
     """Snell's passes with its light tracer on, its share, and Cycles' passes of the scene."""
-    from snell.validation import compare
     blend = build(str(folder / "passes.blend"))
-    scene, _ = compare.load_snell_scene(blend)
-    scene = scene.with_render(max_depth=MAX_DEPTH)
-    return (*snell_passes(scene, True), cycles_passes(blend, PASSES, SEEDS, SPP, MAX_DEPTH))
+    scene = compare_scene(blend)
+    return (*snell_passes(scene, True), cycles_passes(blend, PASSES))
 
 
 @pytest.fixture(scope="module")
