@@ -1,6 +1,6 @@
 """F12 fills the light groups' passes of the View Layer's Light Groups (#33): "Combined_<group>"
-registered for the compositor and written into the result with the tracer's values; on a
-cluster they are left out with a warning, never written empty."""
+registered for the compositor (with Render On a cluster too) and written into the result with
+the tracer's values (on a cluster: tests/blender/test_farm_f12.py)."""
 from __future__ import annotations
 
 import importlib
@@ -22,12 +22,6 @@ NAMES = ("Combined_key", "Combined_sky")
 def registered():
     registration.ensure_registered()
     yield
-
-
-@pytest.fixture
-def no_remote():
-    yield
-    final.remote_render = None
 
 
 def build(tmp_path):
@@ -68,9 +62,12 @@ def test_the_groups_are_registered_for_the_compositor(tmp_path):
         def register_pass(self, scene, layer, name, channels, ids, kind):
             registered.append((name, channels, ids, kind))
 
-    SnellRenderEngine.update_render_passes(Recorder(), scene, scene.view_layers[0])
-    for name in NAMES:
-        assert (name, 3, "RGB", "COLOR") in registered, registered
+    for where in ("DASK_SCHEDULER", "THIS_COMPUTER"):
+        scene.snell.render_on = where
+        registered.clear()
+        SnellRenderEngine.update_render_passes(Recorder(), scene, scene.view_layers[0])
+        for name in NAMES:
+            assert (name, 3, "RGB", "COLOR") in registered, (where, registered)
 
 
 def test_f12_writes_the_groups(tmp_path):
@@ -92,23 +89,3 @@ def test_f12_writes_the_groups(tmp_path):
     assert written["Combined_key"].max() > 0.1 and written["Combined_sky"].max() > 0.1
     loose = result.mean() - sum(expected.values())
     assert loose.max() > 0.01          # the loose lamp's light, in Combined only
-
-
-def test_on_a_cluster_the_groups_are_left_out_with_a_warning(tmp_path, no_remote):
-    """Render On a cluster (here a stand-in that renders in this process, as the farm's
-    Session is called): a warning names the missing passes, and the EXR has none of them."""
-    import OpenImageIO as oiio
-    from snell.tracer.integrator import Renderer
-    build(tmp_path)
-    final.remote_render = lambda scene, settings, name, frame, progress, stop=None: \
-        Renderer(scene, settings).render(progress=progress)
-    bpy.ops.render.render(write_still=True)
-    assert final.last_render["error"] is None, final.last_render
-    assert final.GROUPS_ON_CLUSTER in final.last_render["warnings"]
-    image, channels, part = oiio.ImageInput.open(str(tmp_path / "f12.exr")), [], 0
-    while image.seek_subimage(part, 0):
-        channels += image.spec().channelnames
-        part += 1
-    image.close()
-    assert any(".Combined." in c for c in channels), channels
-    assert not any("Combined_" in c for c in channels), channels
