@@ -67,18 +67,6 @@ def light_groups_of(view_layer) -> tuple:
                  for group in getattr(view_layer, "lightgroups", None) or ())
 
 
-# Why a render on a cluster leaves the light groups out (farm/ carries no group rows).
-GROUPS_ON_CLUSTER = ("light groups are not rendered on a Dask cluster: their passes are left "
-                     "out (set Render On to This Computer for them)")
-
-
-def on_cluster(scene) -> bool:
-    """Whether F12 renders this scene on a Dask cluster (`snell batch --workers`, or Render On);
-    a Dask Scheduler without an address counts (the render then fails, naming it)."""
-    where = getattr(getattr(scene, "snell", None), "render_on", THIS_COMPUTER)
-    return remote_render is not None or where != THIS_COMPUTER
-
-
 def data_passes_of(view_layer) -> tuple:
     """The data passes a view layer asks for that Snell fills (DATA_PASSES' entries)."""
     return tuple(entry for switch, entry in DATA_PASSES.items()
@@ -388,11 +376,7 @@ def _prepare(frame) -> bool:
     if frame.light:
         settings = settings.replace(light_passes=True)
     frame.groups = light_groups_of(view_layer)
-    if frame.groups and on_cluster(bl_scene):
-        record["warnings"].append(GROUPS_ON_CLUSTER)
-        engine.report({"WARNING"}, f"Snell: {GROUPS_ON_CLUSTER}")
-        frame.groups = ()
-    elif frame.groups:
+    if frame.groups:
         settings = settings.replace(light_groups=True)
     frame.data = data_passes_of(view_layer)
     frame.settings = settings

@@ -1,6 +1,7 @@
 """F12 on a Dask cluster from Blender (Render Properties > Performance > Render On): the
 frame's sample windows go to the workers through farm/'s Session, and the image F12 saves
-(Combined with its alpha, Sample Count and the light passes) is the local F12's bit for bit;
+(Combined with its alpha, Sample Count, the light passes and the light groups' passes) is
+the local F12's bit for bit;
 progress reaches the status bar, Esc cancels the cluster's tasks, and an unreachable scheduler
 or a worker of another Snell is one error in Blender's report, with no traceback.
 
@@ -52,9 +53,9 @@ def one_sample_windows(monkeypatch):
 
 
 def build(tmp_path, name):
-    """A diffuse floor and a glossy ball under a point lamp and a blue world, Film >
-    Transparent, Snell the engine at fixed samples, eight light passes switched on, F12 saving
-    a 32-bit multilayer EXR to tmp_path/name."""
+    """A diffuse floor and a glossy ball under a point lamp (light group "key") and a blue world
+    (light group "sky"), Film > Transparent, Snell the engine at fixed samples, eight light
+    passes switched on, F12 saving a 32-bit multilayer EXR to tmp_path/name."""
     scene = common.reset()
     common.setup_render(scene, SIZE, samples=SPP, max_bounces=3)
     common.set_world(scene, (0.2, 0.3, 0.5))
@@ -71,6 +72,9 @@ def build(tmp_path, name):
     layer = scene.view_layers[0]
     for switch in LIGHT:
         setattr(layer, switch, True)
+    for group in ("key", "sky"):
+        layer.lightgroups.add(name=group)
+    obj.lightgroup, scene.world.lightgroup = "key", "sky"
     scene.render.engine = "SNELL"
     scene.render.film_transparent = True
     saves_multilayer_exr(scene, tmp_path / name)
@@ -135,12 +139,14 @@ def spied(monkeypatch):
 def test_f12_on_the_cluster_is_the_local_f12_bit_for_bit(client, tmp_path, one_sample_windows,
                                                           spied):
     """Render On > Dask Scheduler: every channel F12 saves (Combined RGBA, Sample Count, eight
-    light passes) equals This Computer's F12 bit for bit; the status bar showed the samples and
-    says where it rendered. Deliberate error caught (measured): each window's first light-pass
-    sample left out on the client (farm/render.py's add_extra): 21 channels differ (Diffuse
-    Color.B first). (Windows 1 and 2 added in swapped order change the float64 sums only in
-    their last bits, which the float32 EXR rounds away here: tests/render/test_farm.py holds
-    the sums themselves.)"""
+    light passes, the light groups' Combined_key and Combined_sky) equals This Computer's F12
+    bit for bit; the status bar showed the samples and says where it rendered. Deliberate
+    errors caught (measured): each window's first light-pass sample left out on the client
+    (farm/render.py's add_extra): 21 channels differ (Diffuse Color.B first); each window's
+    first light-group sample left out there: the 6 channels of Combined_key and Combined_sky
+    differ. (Windows 1 and 2 added in swapped order change the float64 sums only in their
+    last bits, which the float32 EXR rounds away here: tests/render/test_farm.py holds the
+    sums themselves.)"""
     log, _ = spied
     scene = build(tmp_path, "local.exr")
     local = f12(scene, "THIS_COMPUTER")
@@ -157,13 +163,16 @@ def test_f12_on_the_cluster_is_the_local_f12_bit_for_bit(client, tmp_path, one_s
     ours, theirs = exr_channels(tmp_path / "local.exr"), exr_channels(tmp_path / "farm.exr")
     assert sorted(ours) == sorted(theirs)
     names = {name.split(".")[-2] for name in ours if name.count(".") >= 2}
-    assert {"Combined", "Sample Count", "Emission", "Diffuse Direct", "Glossy Color"} <= names
+    assert {"Combined", "Sample Count", "Emission", "Diffuse Direct", "Glossy Color",
+            "Combined_key", "Combined_sky"} <= names
     differ = [name for name in sorted(ours) if not np.array_equal(ours[name], theirs[name])]
     assert differ == []
     alpha = next(ours[name] for name in ours if name.endswith("Combined.A"))
     assert 0.0 < alpha.mean() < 1.0                    # the world is transparent, the floor not
     glossy = next(ours[name] for name in ours if name.endswith("Glossy Direct.R"))
     assert glossy.max() > 0.0
+    for group in ("Combined_key.R", "Combined_sky.B"):
+        assert next(ours[name] for name in ours if name.endswith(group)).max() > 0.0, group
 
 
 def tasks_left(client) -> tuple:

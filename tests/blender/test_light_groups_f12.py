@@ -1,15 +1,15 @@
 """F12 fills the light groups' passes of the View Layer's Light Groups (#33): "Combined_<group>"
-registered for the compositor and written into the result with the tracer's values; on a
-cluster they are left out with a warning, never written empty."""
+registered for the compositor (with Render On a cluster too) and written into the result with
+the tracer's values (on a cluster: tests/blender/test_farm_f12.py)."""
 from __future__ import annotations
 
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from snell.addon import final, registration  # noqa: E402
-from support.render_passes import (exr_channels, f12_against_tracer,  # noqa: E402
-                                   lamp_over_floor, registered_passes)
+from snell.addon import registration  # noqa: E402
+from support.render_passes import (f12_against_tracer, lamp_over_floor,  # noqa: E402
+                                   registered_passes)
 
 NAMES = ("Combined_key", "Combined_sky")
 
@@ -18,12 +18,6 @@ NAMES = ("Combined_key", "Combined_sky")
 def registered():
     registration.ensure_registered()
     yield
-
-
-@pytest.fixture
-def no_remote():
-    yield
-    final.remote_render = None
 
 
 def build(tmp_path):
@@ -38,9 +32,12 @@ def build(tmp_path):
 
 
 def test_the_groups_are_registered_for_the_compositor(tmp_path):
-    registered = registered_passes(build(tmp_path))
-    for name in NAMES:
-        assert (name, 3, "RGB", "COLOR") in registered, registered
+    scene = build(tmp_path)
+    for where in ("DASK_SCHEDULER", "THIS_COMPUTER"):
+        scene.snell.render_on = where
+        registered = registered_passes(scene)
+        for name in NAMES:
+            assert (name, 3, "RGB", "COLOR") in registered, (where, registered)
 
 
 def test_f12_writes_the_groups(tmp_path):
@@ -54,17 +51,3 @@ def test_f12_writes_the_groups(tmp_path):
     loose = result.mean() - sum(result.light_group_images().values())
     assert loose.max() > 0.01          # the loose lamp's light, in Combined only
 
-
-def test_on_a_cluster_the_groups_are_left_out_with_a_warning(tmp_path, no_remote):
-    """Render On a cluster (here a stand-in that renders in this process, as the farm's
-    Session is called): a warning names the missing passes, and the EXR has none of them."""
-    from snell.tracer.integrator import Renderer
-    build(tmp_path)
-    final.remote_render = lambda scene, settings, name, frame, progress, stop=None: \
-        Renderer(scene, settings).render(progress=progress)
-    bpy.ops.render.render(write_still=True)
-    assert final.last_render["error"] is None, final.last_render
-    assert final.GROUPS_ON_CLUSTER in final.last_render["warnings"]
-    channels = list(exr_channels(tmp_path / "f12.exr"))
-    assert any(".Combined." in c for c in channels), channels
-    assert not any("Combined_" in c for c in channels), channels
