@@ -20,6 +20,7 @@ import time
 from .addon.console import stdout_silenced
 from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
                      check_writable_directory, int_at_least, number_at_least, print_error, warn)
+from .faults import fault_stacks
 from .tracer.progress import describe_adaptive, pixels_sampling, time_left
 from .tracer.scene import LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
 from .tracer.settings import DEFAULT_THREADS, RUN, SCENE, of_scope
@@ -728,15 +729,31 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    _open_standard_descriptors()
     try:
         args = build_parser().parse_args(argv)
-        return args.run(args) or 0
+        with fault_stacks(args.command, getattr(args, "report", None)):
+            return args.run(args) or 0
     except KeyboardInterrupt:
         print("snell: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (CliError, SceneError, OSError) as exc:
         print_error(exc)
         return EXIT_ERROR
+
+
+def _open_standard_descriptors() -> None:
+    """Open /dev/null on a closed stdin, stdout or stderr: the next file opened would otherwise
+    take its number, and Blender's console lines (written to descriptor 1) or a crash's stacks
+    (to 2) would go into that file, an image being written for one."""
+    for fd in (0, 1, 2):
+        try:
+            os.fstat(fd)
+        except OSError:
+            null = os.open(os.devnull, os.O_RDWR)
+            if null != fd:      # the lowest free number: fd itself when the lower ones are open
+                os.dup2(null, fd)
+                os.close(null)
 
 
 if __name__ == "__main__":

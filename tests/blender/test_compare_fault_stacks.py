@@ -1,0 +1,50 @@
+"""`snell compare` on a fatal signal: the Python stacks of all threads on stderr and in the
+report's directory (faults.py; issue 31, item 9); with stdout closed it still works."""
+import os
+import resource
+import signal
+import subprocess
+import sys
+
+import pytest
+
+from snell.faults import FAULT_FILE, header
+from support.paths import SUPPORT
+
+pytestmark = pytest.mark.skipif(os.name != "posix", reason="signals and file descriptors")
+
+
+def no_core():
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+
+
+def compare_argv(blend, report):
+    return ["compare", str(blend), "--report", str(report), "--spp", "16", "--cycles-seeds",
+            "2", "--quiet"]
+
+
+def test_an_abort_in_compare_leaves_the_stacks_in_the_report(blender_scenes, tmp_path):
+    report = tmp_path / "report"
+    proc = subprocess.run([sys.executable, os.path.join(SUPPORT, "fault_hook.py"),
+                           *compare_argv(blender_scenes / "cornell.blend", report)],
+                          capture_output=True, text=True, timeout=600, preexec_fn=no_core)
+    assert proc.returncode == -signal.SIGABRT, proc.stderr
+    assert header("compare") in proc.stderr
+    saved = (report / FAULT_FILE).read_text()
+    assert saved.splitlines()[0] == header("compare")
+    for text in ("Fatal Python error: Aborted", "in trace_chunk", "in cmd_compare"):
+        assert text in saved and text in proc.stderr
+    assert not (report / "report.html").exists()
+
+
+def test_compare_with_stdout_closed(blender_scenes, tmp_path):
+    # Before: sys.stdout is None and the console silencer's flush raised AttributeError.
+    report = tmp_path / "report"
+    proc = subprocess.run([sys.executable, "-m", "snell.cli",
+                           *compare_argv(blender_scenes / "cornell.blend", report)],
+                          stdout=None, stderr=subprocess.PIPE, text=True, timeout=600,
+                          preexec_fn=lambda: os.close(1))
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert (report / "report.html").is_file()
+    assert not (report / FAULT_FILE).exists()
