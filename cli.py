@@ -14,17 +14,39 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import signal
 import sys
 import time
 
-from .addon.console import stdout_silenced
 from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
                      check_writable_directory, int_at_least, number_at_least, print_error, warn)
-from .faults import fault_stacks
-from .tracer.progress import describe_adaptive, pixels_sampling, time_left
-from .tracer.scene import LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
-from .tracer.settings import DEFAULT_THREADS, RUN, SCENE, of_scope
-from .validation.commands import COMMANDS as VALIDATION_COMMANDS
+
+
+def _interrupted_while_starting(signum, frame):
+    # Nothing is written yet: leave at once, as Ctrl-C later leaves (exit 130, one line).
+    os.write(2, b"snell: interrupted\n")
+    os._exit(EXIT_INTERRUPTED)
+
+
+# Ctrl-C while the modules below load (NumPy, the tracer, the validator: a second or more)
+# raised KeyboardInterrupt inside an import, a traceback and no exit 130. Only over Python's
+# own handler (a background job's ignored Ctrl-C stays ignored), and only in the main thread.
+_starting = signal.getsignal(signal.SIGINT) is signal.default_int_handler
+with contextlib.suppress(ValueError):
+    if _starting:
+        signal.signal(signal.SIGINT, _interrupted_while_starting)
+
+from .addon.console import stdout_silenced  # noqa: E402
+from .faults import fault_stacks  # noqa: E402
+from .tracer.progress import describe_adaptive, pixels_sampling, time_left  # noqa: E402
+from .tracer.scene import (LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius,  # noqa: E402
+                           load, save)
+from .tracer.settings import DEFAULT_THREADS, RUN, SCENE, of_scope  # noqa: E402
+from .validation.commands import COMMANDS as VALIDATION_COMMANDS  # noqa: E402
+
+with contextlib.suppress(ValueError):
+    if _starting:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 SCENE_EXTENSIONS = (".blend", ".snell")
 

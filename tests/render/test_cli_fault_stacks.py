@@ -1,6 +1,6 @@
 """A fatal signal in a render thread ends `snell render` with the Python stacks of all threads
-under a line naming the command (faults.py; issue 31, item 9), and a closed standard stream
-is opened on /dev/null."""
+under a line naming the command (faults.py; issue 31, item 9); a closed standard stream is
+opened on /dev/null; Ctrl-C while the command starts is exit 130, not a traceback."""
 import os
 import resource
 import signal
@@ -69,3 +69,26 @@ def test_closed_standard_descriptors_are_opened_on_dev_null():
     assert proc.returncode == 0, proc.stderr
     fd, target = proc.stderr.split()
     assert int(fd) > 2 and target == os.devnull
+
+
+# Sends itself Ctrl-C while cli.py imports the validator's commands (its last import), then
+# runs `snell` as `python -m snell.cli` does.
+CTRL_C_AT_IMPORT = """
+import importlib.abc, os, runpy, signal, sys
+class Trip(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path, target=None):
+        if name == "snell.validation.commands":
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+sys.meta_path.insert(0, Trip())
+sys.argv = ["snell", "info", sys.argv[1]]
+runpy.run_module("snell.cli", run_name="__main__")
+"""
+
+
+def test_ctrl_c_while_the_command_starts_exits_130_without_a_traceback(scene_file):
+    proc = subprocess.run([sys.executable, "-c", CTRL_C_AT_IMPORT, str(scene_file)],
+                          capture_output=True, text=True, timeout=120,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr == "snell: interrupted\n"
