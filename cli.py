@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib.abc
+import importlib.machinery
 import os
 import signal
 import sys
@@ -752,6 +754,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     _open_standard_descriptors()
+    if not any(isinstance(finder, _BlenderStartsWhole) for finder in sys.meta_path):
+        sys.meta_path.insert(0, _BlenderStartsWhole())
     try:
         args = build_parser().parse_args(argv)
         with fault_stacks(args.command, getattr(args, "report", None)):
@@ -776,6 +780,58 @@ def _open_standard_descriptors() -> None:
             if null != fd:      # the lowest free number: fd itself when the lower ones are open
                 os.dup2(null, fd)
                 os.close(null)
+
+
+class _BlenderStartsWhole(importlib.abc.MetaPathFinder):
+    """Finds bpy with its loader under ctrl_c_held: Blender's start-up (the first `import bpy`,
+    1-3 s) does not survive a KeyboardInterrupt raised in the Python it runs, and the process
+    died of SIGSEGV (PyModule_GetDict(NULL) in BPy_init_modules; found by
+    tools/stress_abort.py's Ctrl-C at a random moment). Held, the Ctrl-C ends the command
+    once bpy is imported."""
+
+    def find_spec(self, name, path, target=None):
+        """bpy's spec as the path finder finds it, with a loader holding Ctrl-C."""
+        if name != "bpy":
+            return None
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        if spec is not None and spec.loader is not None:
+            spec.loader = _CtrlCHeldLoader(spec.loader)
+        return spec
+
+
+class _CtrlCHeldLoader:
+    """A module loader whose module creation and execution run under ctrl_c_held."""
+
+    def __init__(self, loader):
+        self.loader = loader
+
+    def create_module(self, spec):
+        with ctrl_c_held():
+            return self.loader.create_module(spec)
+
+    def exec_module(self, module):
+        with ctrl_c_held():
+            return self.loader.exec_module(module)
+
+    def __getattr__(self, name):
+        return getattr(self.loader, name)
+
+
+@contextlib.contextmanager
+def ctrl_c_held():
+    """Ctrl-C during the block takes effect after it, through the handler there was before."""
+    caught = []
+    try:
+        previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    except ValueError:          # not the main thread, which alone receives signals
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught and callable(previous):
+            previous(signal.SIGINT, None)
 
 
 if __name__ == "__main__":

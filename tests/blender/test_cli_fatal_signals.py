@@ -1,5 +1,6 @@
 """`snell compare` on a fatal signal: the Python stacks of all threads on stderr and in the
-report's directory (faults.py; issue 31, item 9); with stdout closed it still works."""
+report's directory (faults.py; issue 31, item 9); with stdout closed it still works; Ctrl-C
+while Blender starts ends the command (exit 130), not the process (SIGSEGV)."""
 import os
 import resource
 import signal
@@ -48,3 +49,31 @@ def test_compare_with_stdout_closed(blender_scenes, tmp_path):
     assert "Traceback" not in proc.stderr
     assert (report / "report.html").is_file()
     assert not (report / FAULT_FILE).exists()
+
+
+# Ctrl-C while Blender starts: the script sends itself SIGINT when Blender's start-up imports
+# _bpy_types (inside the first `import bpy`, and only there), then runs `snell info FILE.blend`
+# as `snell` does.
+CTRL_C_IN_BLENDER_START = """
+import importlib.abc, os, signal, sys
+class Trip(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path, target=None):
+        if name == "_bpy_types":
+            sys.stderr.write("sending SIGINT\\n")
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+sys.meta_path.insert(0, Trip())
+from snell.cli import main
+sys.exit(main(["info", sys.argv[1]]))
+"""
+
+
+def test_ctrl_c_while_blender_starts_exits_130(blender_scenes):
+    """Before: SIGSEGV (exit -11) in Blender's BPy_init_modules, every time."""
+    proc = subprocess.run([sys.executable, "-c", CTRL_C_IN_BLENDER_START,
+                           str(blender_scenes / "cornell.blend")], capture_output=True, text=True,
+                          timeout=300, preexec_fn=lambda: (no_core(), signal.signal(
+                              signal.SIGINT, signal.SIG_DFL)))
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr.strip().splitlines() == ["sending SIGINT", "snell: interrupted"]
+    assert "Traceback" not in proc.stderr and "Fatal Python error" not in proc.stderr
