@@ -19,7 +19,8 @@ import sys
 FAULT_FILE = "fatal-error.txt"
 
 # The copier: everything the pipe brings until the command's process is gone (end of file),
-# headed by argv[1], to stderr and to the file argv[2] if its directory exists.
+# headed by argv[1], to stderr and to the file argv[2] (its directory made: a report directory
+# is written whole at the end, so during the command it does not exist yet).
 _COPIER = r"""
 import os, sys
 data = sys.stdin.buffer.read()
@@ -30,9 +31,13 @@ if data:
         sys.stderr.flush()
     except OSError:
         pass
-    if sys.argv[2] and os.path.isdir(os.path.dirname(sys.argv[2])):
-        with open(sys.argv[2], "ab") as f:
-            f.write(text)
+    if sys.argv[2]:
+        try:
+            os.makedirs(os.path.dirname(sys.argv[2]), exist_ok=True)
+            with open(sys.argv[2], "wb") as f:
+                f.write(text)
+        except OSError:
+            pass
 """
 
 
