@@ -21,7 +21,8 @@ import sys
 import time
 
 from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
-                     check_writable_directory, int_at_least, number_at_least, print_error, warn)
+                     check_writable_directory, ctrl_c_held, int_at_least, number_at_least,
+                     print_error, warn)
 
 
 def _interrupted_while_starting(signum, frame):
@@ -815,23 +816,6 @@ class _CtrlCHeldLoader:
 
     def __getattr__(self, name):
         return getattr(self.loader, name)
-
-
-@contextlib.contextmanager
-def ctrl_c_held():
-    """Ctrl-C during the block takes effect after it, through the handler there was before."""
-    caught = []
-    try:
-        previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
-    except ValueError:          # not the main thread, which alone receives signals
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        if caught and callable(previous):
-            previous(signal.SIGINT, None)
 
 
 if __name__ == "__main__":

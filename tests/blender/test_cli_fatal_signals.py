@@ -1,6 +1,7 @@
 """`snell compare` on a fatal signal: the Python stacks of all threads on stderr and in the
 report's directory (faults.py; issue 31, item 9); with stdout closed it still works; Ctrl-C
-while Blender starts ends the command (exit 130), not the process (SIGSEGV)."""
+while Blender starts ends the command (exit 130), not the process (SIGSEGV), and while Blender
+opens the file it is not lost in a load handler."""
 import os
 import resource
 import signal
@@ -77,3 +78,29 @@ def test_ctrl_c_while_blender_starts_exits_130(blender_scenes):
     assert proc.returncode == 130, proc.stderr
     assert proc.stderr.strip().splitlines() == ["sending SIGINT", "snell: interrupted"]
     assert "Traceback" not in proc.stderr and "Fatal Python error" not in proc.stderr
+
+
+# Ctrl-C inside a handler Blender runs while it opens the file (as Cycles' version_update is):
+# a persistent load_pre handler sends SIGINT, then `snell info FILE.blend` runs.
+CTRL_C_IN_LOAD_HANDLER = """
+import os, signal, sys
+import bpy
+@bpy.app.handlers.persistent
+def interrupt(*args):
+    sys.stderr.write("sending SIGINT\\n")
+    os.kill(os.getpid(), signal.SIGINT)
+bpy.app.handlers.load_pre.append(interrupt)
+from snell.cli import main
+sys.exit(main(["info", sys.argv[1]]))
+"""
+
+
+def test_ctrl_c_while_blender_opens_the_file_stops_the_command(blender_scenes):
+    """Before: Blender printed the handler's KeyboardInterrupt traceback, dropped the handler's
+    work and went on, and the command ended with exit 0."""
+    proc = subprocess.run([sys.executable, "-c", CTRL_C_IN_LOAD_HANDLER,
+                           str(blender_scenes / "cornell.blend")], capture_output=True, text=True,
+                          timeout=300, preexec_fn=lambda: signal.signal(signal.SIGINT,
+                                                                        signal.SIG_DFL))
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr.strip().splitlines() == ["sending SIGINT", "snell: interrupted"]
