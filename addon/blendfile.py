@@ -42,6 +42,9 @@ def render_still(path, renderer="Cycles"):
     """bpy.ops.render.render(write_still=True) of the open file; BlendFileError naming it."""
     import bpy
     try:
-        bpy.ops.render.render(write_still=True)
+        # Ctrl-C held, as in open_blend: raised in the Python a render runs (Cycles' engine, a
+        # render handler), Blender printed it and went on, and `compare` ended with exit 0.
+        with ctrl_c_held():
+            bpy.ops.render.render(write_still=True)
     except RuntimeError as exc:
         raise BlendFileError(f"{path}: {renderer} cannot render it ({blender_reason(exc)})") from None

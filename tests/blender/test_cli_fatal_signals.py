@@ -104,3 +104,30 @@ def test_ctrl_c_while_blender_opens_the_file_stops_the_command(blender_scenes):
                                                                         signal.SIG_DFL))
     assert proc.returncode == 130, proc.stderr
     assert proc.stderr.strip().splitlines() == ["sending SIGINT", "snell: interrupted"]
+
+
+# Ctrl-C inside the Python a Cycles render runs: a persistent render_pre handler sends SIGINT
+# (compare's Cycles renders are the only bpy.ops.render.render calls), then `snell compare`.
+CTRL_C_IN_CYCLES_RENDER = """
+import os, signal, sys
+import bpy
+@bpy.app.handlers.persistent
+def interrupt(*args):
+    os.kill(os.getpid(), signal.SIGINT)
+bpy.app.handlers.render_pre.append(interrupt)
+from snell.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_ctrl_c_in_a_cycles_render_stops_compare(blender_scenes, tmp_path):
+    """Before: Blender printed the KeyboardInterrupt, the render went on and compare wrote its
+    report and ended with exit 0."""
+    report = tmp_path / "report"
+    proc = subprocess.run([sys.executable, "-c", CTRL_C_IN_CYCLES_RENDER,
+                           *compare_argv(blender_scenes / "cornell.blend", report)],
+                          capture_output=True, text=True, timeout=600,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr.strip().splitlines() == ["snell: interrupted"]
+    assert not report.exists()
