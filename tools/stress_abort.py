@@ -135,6 +135,9 @@ def variants(names: list[str], scenes: list[str], repo: list[str], rng: random.R
                     "--spp", spp, "--threads", threads] + small
         elif name == "batch":
             argv = ["batch", scene, "-o", "{run}/frame.exr", "--spp", "32", "--threads", threads]
+        elif name == "ctrl-c-start":     # Ctrl-C in the first seconds: imports, Blender's start
+            argv = ["info", rng.choice(scenes + repo)]
+            stop, expect = rng.uniform(0.5, 6.0), (0, 130)
         elif name.startswith("ctrl-c"):
             command = rng.choice(["compare", "render", "batch"])
             argv = {"compare": ["compare", scene, "--report", "{run}/report", "--spp", "128",
