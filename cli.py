@@ -13,17 +13,43 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib.abc
+import importlib.machinery
 import os
+import signal
 import sys
 import time
 
-from .addon.console import stdout_silenced
 from .errors import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_USAGE, CliError, check_input_file,
-                     check_writable_directory, int_at_least, number_at_least, print_error, warn)
-from .tracer.progress import describe_adaptive, pixels_sampling, time_left
-from .tracer.scene import LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius, load, save
-from .tracer.settings import DEFAULT_THREADS, RUN, SCENE, of_scope
-from .validation.commands import COMMANDS as VALIDATION_COMMANDS
+                     check_writable_directory, ctrl_c_held, int_at_least, number_at_least,
+                     print_error, warn)
+
+
+def _interrupted_while_starting(signum, frame):
+    # Nothing is written yet: leave at once, as Ctrl-C later leaves (exit 130, one line).
+    os.write(2, b"snell: interrupted\n")
+    os._exit(EXIT_INTERRUPTED)
+
+
+# Ctrl-C while the modules below load (NumPy, the tracer, the validator: a second or more)
+# raised KeyboardInterrupt inside an import, a traceback and no exit 130. Only over Python's
+# own handler (a background job's ignored Ctrl-C stays ignored), and only in the main thread.
+_starting = signal.getsignal(signal.SIGINT) is signal.default_int_handler
+with contextlib.suppress(ValueError):
+    if _starting:
+        signal.signal(signal.SIGINT, _interrupted_while_starting)
+
+from .addon.console import stdout_silenced  # noqa: E402
+from .faults import fault_stacks  # noqa: E402
+from .tracer.progress import describe_adaptive, pixels_sampling, time_left  # noqa: E402
+from .tracer.scene import (LIGHT_KINDS, MATERIAL_KINDS, SceneError, aperture_radius,  # noqa: E402
+                           load, save)
+from .tracer.settings import DEFAULT_THREADS, RUN, SCENE, of_scope  # noqa: E402
+from .validation.commands import COMMANDS as VALIDATION_COMMANDS  # noqa: E402
+
+with contextlib.suppress(ValueError):
+    if _starting:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 SCENE_EXTENSIONS = (".blend", ".snell")
 
@@ -723,15 +749,68 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    _open_standard_descriptors()
+    if not any(isinstance(finder, _BlenderStartsWhole) for finder in sys.meta_path):
+        sys.meta_path.insert(0, _BlenderStartsWhole())
     try:
         args = build_parser().parse_args(argv)
-        return args.run(args) or 0
+        with fault_stacks(args.command, getattr(args, "report", None)):
+            return args.run(args) or 0
     except KeyboardInterrupt:
         print("snell: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (CliError, SceneError, OSError) as exc:
         print_error(exc)
         return EXIT_ERROR
+
+
+def _open_standard_descriptors() -> None:
+    """Open /dev/null on a closed stdin, stdout or stderr: the next file opened would otherwise
+    take its number, and Blender's console lines (written to descriptor 1) or a crash's stacks
+    (to 2) would go into that file, an image being written for one."""
+    for fd in (0, 1, 2):
+        try:
+            os.fstat(fd)
+        except OSError:
+            null = os.open(os.devnull, os.O_RDWR)
+            if null != fd:      # the lowest free number: fd itself when the lower ones are open
+                os.dup2(null, fd)
+                os.close(null)
+
+
+class _BlenderStartsWhole(importlib.abc.MetaPathFinder):
+    """Finds bpy with its loader under ctrl_c_held: Blender's start-up (the first `import bpy`,
+    1-3 s) does not survive a KeyboardInterrupt raised in the Python it runs, and the process
+    died of SIGSEGV (PyModule_GetDict(NULL) in BPy_init_modules; found by
+    tools/stress_abort.py's Ctrl-C at a random moment). Held, the Ctrl-C ends the command
+    once bpy is imported."""
+
+    def find_spec(self, name, path, target=None):
+        """bpy's spec as the path finder finds it, with a loader holding Ctrl-C."""
+        if name != "bpy":
+            return None
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        if spec is not None and spec.loader is not None:
+            spec.loader = _CtrlCHeldLoader(spec.loader)
+        return spec
+
+
+class _CtrlCHeldLoader:
+    """A module loader whose module creation and execution run under ctrl_c_held."""
+
+    def __init__(self, loader):
+        self.loader = loader
+
+    def create_module(self, spec):
+        with ctrl_c_held():
+            return self.loader.create_module(spec)
+
+    def exec_module(self, module):
+        with ctrl_c_held():
+            return self.loader.exec_module(module)
+
+    def __getattr__(self, name):
+        return getattr(self.loader, name)
 
 
 if __name__ == "__main__":

@@ -7,8 +7,10 @@ commands never need to import cli.py (which imports them to dispatch).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
+import signal
 import sys
 import tempfile
 
@@ -34,6 +36,25 @@ def print_error(message) -> None:
 def warn(message) -> None:
     """Print `snell: warning: <message>` as one line on stderr."""
     print(f"snell: warning: {one_line(message)}", file=sys.stderr)
+
+
+@contextlib.contextmanager
+def ctrl_c_held():
+    """Ctrl-C during the block takes effect after it, through the handler there was before.
+    For Blender's own work that runs Python (its start-up, opening a file): a KeyboardInterrupt
+    raised in there crashed the process or was swallowed by Blender (issue 31 item 9's hunt)."""
+    caught = []
+    try:
+        previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    except ValueError:          # not the main thread, which alone receives signals
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught and callable(previous):
+            previous(signal.SIGINT, None)
 
 
 def _at_least(convert, minimum, what, maximum=None):

@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 import re
 
-from ..errors import CliError
+from ..errors import CliError, ctrl_c_held
 
 
 class BlendFileError(CliError):
@@ -30,7 +30,10 @@ def open_blend(path):
     if not os.path.isfile(path):
         raise BlendFileError(f"{path}: no such file")
     try:
-        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
+        # Ctrl-C held: raised inside a load handler (Cycles' version_update), Blender printed
+        # its traceback, dropped the handler's work and went on, and the command did not stop.
+        with ctrl_c_held():
+            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
     except RuntimeError as exc:
         raise BlendFileError(f"{path}: cannot open as a .blend file ({blender_reason(exc)})") from None
 
@@ -39,6 +42,9 @@ def render_still(path, renderer="Cycles"):
     """bpy.ops.render.render(write_still=True) of the open file; BlendFileError naming it."""
     import bpy
     try:
-        bpy.ops.render.render(write_still=True)
+        # Ctrl-C held, as in open_blend: raised in the Python a render runs (Cycles' engine, a
+        # render handler), Blender printed it and went on, and `compare` ended with exit 0.
+        with ctrl_c_held():
+            bpy.ops.render.render(write_still=True)
     except RuntimeError as exc:
         raise BlendFileError(f"{path}: {renderer} cannot render it ({blender_reason(exc)})") from None

@@ -68,8 +68,8 @@ class Compiled:
         if self._inner is None:
             with _MAKING:
                 if self._inner is None:
-                    self._inner = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True,
-                                             **OPTIONS)(self.py_func)
+                    self._inner = _njit(self.py_func, no_cpython_wrapper=True,
+                                        no_cfunc_wrapper=True)
         return self._inner
 
     @property
@@ -79,7 +79,7 @@ class Compiled:
         if self._outer is None:
             with _MAKING:
                 if self._outer is None:
-                    self._outer = numba.njit(**OPTIONS)(
+                    self._outer = _njit(
                         _renamed(self.py_func, self.py_func.__qualname__ + "_py"))
         return self._outer
 
@@ -115,7 +115,47 @@ def jit_inline(fn):
     """jit, inlined into every caller by Numba. For functions that take a table of arrays (the
     lights, the mesh, the camera): a call that LLVM does not inline copies every array's
     descriptor, and sample_light alone cost 70 ns more per call that way."""
-    return numba.njit(inline="always", **OPTIONS)(fn)
+    return _njit(fn, inline="always")
+
+
+def _njit(fn, **options):
+    """Numba's dispatcher of fn with Snell's options (and these), its disk cache written by
+    KeyedCacheFile."""
+    dispatcher = numba.njit(**OPTIONS, **options)(fn)
+    cache = getattr(dispatcher, "_cache", None)
+    if isinstance(getattr(cache, "_cache_file", None), _caching.IndexDataCacheFile):
+        cache._cache_file = KeyedCacheFile(cache._cache_file)
+    return dispatcher
+
+
+class KeyedCacheFile(_caching.IndexDataCacheFile):
+    """Numba's cache file of one function (an index of its compiled signatures, a data file
+    each), saved so that processes compiling at once never give one signature another's code.
+
+    Numba names a new signature's data file with the first number its index does not use,
+    and writes the index before the data: two processes saving two signatures of a function
+    at once (two renders compiling into a fresh cache; a loaded machine widens the window)
+    both took file 1, and the index could name one signature's file holding the other's
+    machine code (measured: a float64 kernel loaded for int32 arrays). Here the data file is
+    named after the signature's key, so it is one signature's alone, and it is written before
+    an index names it. Two indexes written at once can still lose an entry: that signature is
+    compiled again."""
+
+    def __init__(self, original: _caching.IndexDataCacheFile):
+        self.__dict__.update(original.__dict__)
+
+    def save(self, key, data):
+        """Write key's data, then add it to the index."""
+        name = self.data_name(key)
+        self._save_data(name, data)
+        overloads = self._load_index()
+        overloads[key] = name
+        self._save_index(overloads)
+
+    def data_name(self, key) -> str:
+        """The name of key's data file: the index's name and a hash of the key."""
+        digest = hashlib.sha256(self._dump(key)).hexdigest()[:16]
+        return f"{self._index_name[:-len('.nbi')]}.{digest}.nbc"
 
 
 @functools.lru_cache(maxsize=None)

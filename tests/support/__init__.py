@@ -8,5 +8,5 @@
 - cycles_reference: a Cycles reference and Snell renders compared against it.
 - hdri: HDRI images and worlds for the environment tests (bpy).
 - Scripts run in a subprocess (they reset bpy or wrap `snell`): blender_scenes.py,
-  corpus_blends.py, blend_fuzz.py, interrupt_hook.py.
+  corpus_blends.py, blend_fuzz.py, interrupt_hook.py, fault_hook.py.
 """

@@ -81,3 +81,42 @@ def test_without_a_shipped_cache_kernels_are_compiled_for_this_cpu():
     """The generic CPU only where it saves a compile: a checkout compiles for its machine."""
     assert not os.path.isdir(jit.shipped_cache_dir())
     assert jit.TARGET[1:] != jit.GENERIC_CPU and jit.TARGET[1] and jit.TARGET[2]
+
+
+def _cache_file(folder):
+    """One process's view of a function's cache file in folder (as Snell's kernels have)."""
+    from numba.core import caching
+    return jit.KeyedCacheFile(caching.IndexDataCacheFile(
+        cache_path=str(folder), filename_base="kernel-10.py311", source_stamp="sources"))
+
+
+def _save_inside(first, step, second, key, data):
+    """Run second.save(key, data), as another process would, in the middle of first's `step`
+    (its _save_index or _save_data), and with the index as it was before first saved."""
+    stale = second._load_index()
+    second._load_index = lambda: dict(stale)
+    original = getattr(first, step)
+
+    def interleaved(*args):
+        second.save(key, data)
+        return original(*args)
+    setattr(first, step, interleaved)
+
+
+def test_two_processes_saving_two_signatures_at_once_keep_their_own_code(tmp_path):
+    """Two renders compiling one kernel for two signatures into a fresh cache: whatever the
+    interleaving, a signature loads its own machine code or none (compiled again), never the
+    other's. Numba's own save numbered both data files 1 and wrote the index first: with the
+    second process's save inside the first's data write, the index named file 1 for float64
+    and file 1 held the int32 code (a kernel loaded for the wrong argument types)."""
+    for n, step in enumerate(("_save_data", "_save_index")):
+        folder = tmp_path / str(n)
+        folder.mkdir()
+        a, b = _cache_file(folder), _cache_file(folder)
+        _save_inside(a, step, b, "float64", "code for float64")
+        a.save("int32", "code for int32")
+        fresh = _cache_file(folder)
+        for key in ("float64", "int32"):
+            assert fresh.load(key) in (None, f"code for {key}"), (step, key)
+        assert fresh.load("float64") == "code for float64" or fresh.load("int32") == \
+            "code for int32"

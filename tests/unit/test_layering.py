@@ -26,6 +26,7 @@ SUBPACKAGES = ("addon", "farm", "pages", "stress", "tracer", "validation")
 PACKAGE_IMPORTS = {
     "snell.tracer": set(),
     "snell.errors": set(),
+    "snell.faults": set(),     # the commands' fatal-signal stacks, for cli.py's main()
     "snell.addon": {"snell.farm", "snell.tracer", "snell.errors"},   # farm: F12 on a cluster
     "snell.pages": {"snell.tracer"},
     "snell.validation": {"snell.addon", "snell.pages", "snell.tracer", "snell.errors"},
@@ -33,7 +34,7 @@ PACKAGE_IMPORTS = {
     # Distributed rendering on Dask: above the tracer (and errors.py), below the add-on.
     "snell.farm": {"snell.tracer", "snell.errors"},
     "snell.cli": {"snell.validation", "snell.stress", "snell.farm", "snell.addon",
-                  "snell.pages", "snell.tracer", "snell.errors"},
+                  "snell.pages", "snell.tracer", "snell.errors", "snell.faults"},
     "snell": {"snell.addon"},
 }
 
