@@ -3,11 +3,12 @@ under a sun of angle 0, the caustics falling in their shadows towards the camera
 
 Run: python scenes/sun_caustic.py OUT.blend
 A 4 m floor of 8 x 8 tiles in two Diffuse BSDF colours, a thick-walled glass tube (smooth
-Glass BSDF, IOR 1.5, 0.22 m radius, 4 cm walls, 0.45 m tall; a tumbler whose floor is the floor)
-and a smooth glass icosphere (radius 0.22, 3 subdivisions), a sun of angle 0 (a delta direction:
-no camera path can hit it, so only a light tracer renders its light through the glass) and a dim
-grey world. Cycles' shadow caustics are on (the sun a caustics light, the glass casters, the
-floor a receiver), as a user renders this with Cycles. 256x256, Standard view.
+Glass BSDF, IOR 1.5, 0.22 m radius, 4 cm walls, 0.45 m tall, 2 mm above the floor: a tumbler
+without its base) and a smooth glass icosphere (radius 0.22, 3 subdivisions), a sun of angle 0
+(a delta direction: no camera path can hit it, so only a light tracer renders its light through
+the glass) and a dim grey world. Cycles' shadow caustics are on (the sun a caustics light, the
+glass casters, the floor a receiver), as a user renders this with Cycles. 256x256, Standard
+view.
 """
 import os
 import sys
@@ -16,7 +17,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bpy  # noqa: E402
 import common  # noqa: E402
 from mathutils import Vector  # noqa: E402
-from sds_geometry import tube  # noqa: E402
+from sds_geometry import TUBE_LIFT, tube  # noqa: E402
 
 SUN_DIRECTION, SUN_IRRADIANCE = (0.25, -0.8, -0.55), 3.0    # travel direction; W/m^2
 CAMERA, TARGET = (0.3, -2.4, 1.7), (0.0, -0.3, 0.1)
@@ -65,7 +66,7 @@ def sun(name, direction, irradiance, angle=0.0):
 def glass_pair(glass):
     """The tumbler (left) and the icosphere (right) on the floor."""
     positions, triangles, normals = tube(outer=0.22, inner=0.18, height=0.45)
-    positions = positions + [-0.35, 0.1, 0.0]
+    positions = positions + [-0.35, 0.1, TUBE_LIFT]     # TUBE_LIFT: see sds_geometry.py
     tumbler = common.mesh_object("Tumbler", positions, triangles, glass, smooth=True)
     tumbler.data.normals_split_custom_set_from_vertices([tuple(n) for n in normals])
     ball = icosphere("Icosphere", (0.35, 0.0, 0.22), 0.22, glass)

@@ -7,8 +7,9 @@ a tumbler whose floor is the table) on a white table, lit from one side by a poi
 radius 0.1 m whose light the wall brings onto the table inside; the camera, on the other side,
 sees it through the near wall. Black world, 256x256, Standard view. Cycles' shadow caustics are
 on (the lamp a caustics light, the tube a caster, the table a receiver), as a user renders this
-with Cycles; Snell ignores those flags. The same scene as
-tests/support/sds_scenes.tumbler.
+with Cycles; Snell ignores those flags. The same scene as tests/support/sds_scenes.tumbler, but
+for the tube standing 2 mm above the table (a bottom rim coplanar with the table is resolved
+differently by Snell and Cycles).
 """
 import os
 import sys
@@ -16,7 +17,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 from pool import point_lamp  # noqa: E402
-from sds_geometry import tube  # noqa: E402
+from sds_geometry import TUBE_LIFT, tube  # noqa: E402
 
 LAMP_POSITION, LAMP_RADIUS, LAMP_INTENSITY = (1.4, 0.3, 0.55), 0.1, 20.0   # W/sr
 CAMERA, TARGET = (-2.2, -0.4, 1.1), (0.0, 0.0, 0.25)
@@ -33,6 +34,7 @@ def build(path):
     positions, triangles, normals = tube()
     obj = common.mesh_object("Tumbler", positions, triangles, glass, smooth=True)
     obj.data.normals_split_custom_set_from_vertices([tuple(n) for n in normals])
+    obj.location.z = TUBE_LIFT     # see sds_geometry.py
     lamp = point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY, LAMP_RADIUS)
     common.shadow_caustics(lamp, [obj], [table])
     common.camera(scene, CAMERA, TARGET, lens=50.0)

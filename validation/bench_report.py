@@ -222,10 +222,16 @@ def caustic_rows(data):
                                                       if setup["biased"] else ""),
                      f"{sc['width']}x{sc['height']}", sc["reference"]["renderer"],
                      "on" if setup["guiding"] else "off",
-                     fmt(s["caustic_relmse_ratio"]), "met" if s["caustic_met"] else "not met",
+                     _caustic_ratio(s), "met" if s["caustic_met"] else "not met",
                      fmt(s["time_ratio"]), "met" if s["time_met"] else "not met",
-                     fmt(w["caustic_relmse_ratio"]), fmt(w["time_ratio"])])
+                     _caustic_ratio(w), fmt(w["time_ratio"])])
     return rows
+
+
+def _caustic_ratio(figures) -> str:
+    """The caustic relMSE ratio, marked where Cycles' curve had to be extrapolated."""
+    return fmt(figures["caustic_relmse_ratio"]) + (" (extrapolated)"
+                                                   if figures["caustic_extrapolated"] else "")
 
 
 CAUSTIC_HEADER = ["scene", "Snell's new strategy", "size", "reference", "Cycles path guiding",
