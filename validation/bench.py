@@ -34,7 +34,8 @@ from ..tracer.atomic import atomic_directory, atomic_path
 from . import bench_scenes, cycles, metrics
 from .bench_curves import (ADAPTIVE_RENDERERS, CAUSTIC_SHARE, FEWER_SAMPLES, TIME_SHARE_TARGET,
                            caustic_targets, denoised_time_target, efficiency_summary,
-                           equal_error, equal_threshold, equal_time_pair, errors, fewer_samples_target, flip_map,
+                           equal_error, equal_threshold, equal_time_pair, errors,
+                           fewer_samples_target, flip_map,
                            gain_at_equal_time, light_share, median_run, nearest_threshold,
                            next_spp, reference_noise, sample_summary)
 from .bench_report import (SCHEMA, denoised_figures_png, equal_time_png, share_map_png, svg_plot,
@@ -316,7 +317,8 @@ def cache_store(directory, key, mean, variance_of_mean, meta):
 
 
 def reference(blend, opts: Options, cache_dir, log, setup=None):
-    """(mean, info) of the converged reference, from the cache when its key matches. setup: a
+    """(mean, info, variance of the mean) of the converged reference, from the cache when its
+    key matches. setup: a
     caustic scene's (bench_scenes.BenchScene): its reference is Cycles' plain path tracer
     (shadow caustics and guiding off) or Snell's hybrid; None: Cycles as forced."""
     import bpy
@@ -364,7 +366,7 @@ def reference(blend, opts: Options, cache_dir, log, setup=None):
             "spp": len(seeds) * opts.ref_spp, "render_s": meta["render_s"],
             "render_threads": meta["threads"], "blender": version,
             "noise_relmse": noise["relmse"], "noise_rmse": noise["rmse"]}
-    return np.asarray(mean, np.float64), info
+    return np.asarray(mean, np.float64), info, np.asarray(var, np.float64)
 
 
 SNELL_REFERENCE_SEED = 424242   # Snell's reference (never a ladder point's seed)
@@ -669,7 +671,7 @@ def _bench_scene(blend, setup, opts, cache_dir, baseline_mb, log):
     """(the scene's JSON entry, its figures: share map, sample maps, denoised and equal-time
     PNGs) of one scene; setup: a caustic scene's (bench_scenes.BenchScene) or None."""
     name = os.path.splitext(os.path.basename(blend))[0]
-    ref, ref_info = reference(blend, opts, cache_dir, log, setup)
+    ref, ref_info, ref_var = reference(blend, opts, cache_dir, log, setup)
     variants = _variants(setup)
     ladders = _ladders(name, blend, ref, opts, baseline_mb, log, variants)
     # The light tracer's image at the largest point of the Snell ladder (None if it did not
@@ -677,6 +679,8 @@ def _bench_scene(blend, setup, opts, cache_dir, baseline_mb, log):
     light = ladders["snell"][1][-1][1]
     mask, region = _caustic_region(light, ref)
     if mask.any():
+        # The reference's own noise in the region: a floor under every point's caustic relMSE.
+        region["reference_noise_relmse"] = reference_noise(ref[mask], ref_var[mask])["relmse"]
         for points, images in ladders.values():
             for p, (image, _) in zip(points, images):
                 p["caustic_relmse"] = metrics.relmse(image[mask], ref[mask])

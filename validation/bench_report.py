@@ -221,6 +221,7 @@ def caustic_rows(data):
         rows.append([sc["name"], setup["strategy"] + (" (biased: its error includes bias)"
                                                       if setup["biased"] else ""),
                      f"{sc['width']}x{sc['height']}", sc["reference"]["renderer"],
+                     fmt(sc["caustic_region"].get("reference_noise_relmse")),
                      "on" if setup["guiding"] else "off",
                      _caustic_ratio(s), "met" if s["caustic_met"] else "not met",
                      fmt(s["time_ratio"]), "met" if s["time_met"] else "not met",
@@ -234,7 +235,8 @@ def _caustic_ratio(figures) -> str:
                                                    if figures["caustic_extrapolated"] else "")
 
 
-CAUSTIC_HEADER = ["scene", "Snell's new strategy", "size", "reference", "Cycles path guiding",
+CAUSTIC_HEADER = ["scene", "Snell's new strategy", "size", "reference",
+                  "reference's own caustic relMSE", "Cycles path guiding",
                   "caustic relMSE at equal time, Snell / Cycles", "(at most 0.2)",
                   "time to equal error, Snell / Cycles", "(at most 0.5)",
                   "without: caustic relMSE ratio", "without: time ratio"]

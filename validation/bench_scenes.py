@@ -86,6 +86,19 @@ CAUSTIC_SCENES = (
 )
 
 
+def select(names: str) -> tuple:
+    """The caustic scenes named in a comma-separated list ("all": every one), in its order."""
+    if names == "all":
+        return CAUSTIC_SCENES
+    by_name = {s.name: s for s in CAUSTIC_SCENES}
+    wanted = [n.strip() for n in names.split(",") if n.strip()]
+    unknown = [n for n in wanted if n not in by_name]
+    if unknown or not wanted:
+        raise ValueError(f"--caustic-scenes {names!r}: expected 'all' or names among "
+                         f"{', '.join(by_name)}")
+    return tuple(by_name[n] for n in wanted)
+
+
 def scripts_key() -> str:
     """sha256 (16 hex digits) of every scene script: a changed script builds the files again."""
     h = hashlib.sha256()

@@ -225,11 +225,11 @@ def setup_bench(p):
                    help="both renderers' denoising prefilter (default accurate, Cycles')")
     p.add_argument("--denoise-quality", choices=("high", "balanced", "fast"),
                    help="both renderers' denoising quality (default high, Cycles')")
-    p.add_argument("--caustic-scenes", action="store_true",
-                   help="bench issue 34's caustic scenes instead of the default ones (a sun of "
-                        "angle 0, an HDRI with a sun, the pool, the tumbler seen through its "
-                        "wall; built into the cache from scenes/*.py): Snell with and without "
-                        "the new strategy, Cycles with its shadow caustics, and the targets")
+    p.add_argument("--caustic-scenes", nargs="?", const="all", metavar="NAME,...",
+                   help="bench issue 34's caustic scenes instead of the default ones (all, or "
+                        "those named: sun_caustic, hdri_caustic, pool, tumbler_caustic; built "
+                        "into the cache from scenes/*.py): Snell with and without the new "
+                        "strategy, Cycles with its shadow caustics, and the targets")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/snell/bench)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
@@ -241,8 +241,9 @@ def bench_scene_list(args, bench, log) -> tuple:
             raise CliError("give SCENEs or --caustic-scenes, not both")
         from . import bench_scenes
         try:
-            built = bench_scenes.build(args.cache or bench.default_cache_dir(), log)
-        except RuntimeError as exc:
+            built = bench_scenes.build(args.cache or bench.default_cache_dir(), log,
+                                       bench_scenes.select(args.caustic_scenes))
+        except (RuntimeError, ValueError) as exc:
             raise CliError(str(exc)) from None
         return [path for path, _ in built], dict(built)
     scenes = args.scenes or bench.DEFAULT_SCENES + (bench.DENOISE_SCENES if args.denoise else [])

@@ -73,8 +73,12 @@ def test_the_flag_selects_the_caustic_scenes(monkeypatch, tmp_path):
                                                                               True, True]
     assert [setups[p].biased for p in scenes] == [False, False, True, True]
     assert [setups[p].reference for p in scenes] == ["snell", "cycles", "cycles", "cycles"]
-    with pytest.raises(CliError):
-        bench_scene_list(_args("--caustic-scenes", "x.blend"), bench, print)
+    scenes, setups = bench_scene_list(_args("--caustic-scenes", "pool,sun_caustic"), bench,
+                                      print)
+    assert [setups[p].name for p in scenes] == ["pool", "sun_caustic"]
+    for argv in (("x.blend", "--caustic-scenes"), ("--caustic-scenes", "pool,lake")):
+        with pytest.raises(CliError):
+            bench_scene_list(_args(*argv), bench, print)
     if all(map(os.path.isfile, bench.DEFAULT_SCENES)):
         assert bench_scene_list(_args(), bench, print) == (bench.DEFAULT_SCENES, {})
 
@@ -117,6 +121,7 @@ def test_tiny_caustic_bench_fills_every_figure(tmp_path):
     data = json.loads((report / "bench.json").read_text())
     assert bench_report.missing_values(data) == []
     assert [sc["name"] for sc in data["scenes"]] == NAMES
+    assert all(sc["caustic_region"]["reference_noise_relmse"] > 0 for sc in data["scenes"])
     for sc in data["scenes"]:
         ct = sc["caustic_targets"]
         assert ct["setup"]["name"] == sc["name"]
@@ -124,8 +129,8 @@ def test_tiny_caustic_bench_fills_every_figure(tmp_path):
         for key in ("snell", "snell_without"):
             assert [p["spp"] for p in sc[key]["points"]] == [1, 2]
             figures = ct[key]
-            assert math.isfinite(figures["caustic_relmse_ratio"]) and figures["caustic_relmse_ratio"] > 0
-            assert math.isfinite(figures["time_ratio"]) and figures["time_ratio"] > 0
+            for name in ("caustic_relmse_ratio", "time_ratio"):
+                assert math.isfinite(figures[name]) and figures[name] > 0, (sc["name"], key)
         assert set(ct["equal_time"]) == {"snell", "snell_without", "cycles"}
         assert (report / f"equal_time_{sc['name']}.png").stat().st_size > 0
         merging = ct["setup"]["snell"].get("photon_merging", False)
