@@ -237,25 +237,36 @@ CAUSTIC_RELMSE_TARGET = 0.2
 CAUSTIC_TIME_TARGET = 0.5
 
 
+def caustic_ratio(points, cycles) -> tuple:
+    """(Snell / Cycles caustic relMSE at equal time, how it was found): "interpolated" (1 /
+    gain_at_equal_time's median); where every Snell point is faster than every Cycles point
+    (Cycles' fixed costs), "bound": Snell's slowest point over Cycles' lowest error, an upper
+    bound since both errors only fall with time; else "extrapolated" (Cycles' curve extended)."""
+    gain = gain_at_equal_time(points, cycles, "caustic_relmse")
+    if not all(r["extrapolated"] for r in gain["points"]):
+        return (1.0 / gain["median"] if gain["median"] > 0 else float("nan")), "interpolated"
+    slowest = max(points, key=lambda p: p["wall_s"])
+    if slowest["wall_s"] <= min(p["wall_s"] for p in cycles):
+        return slowest["caustic_relmse"] / min(p["caustic_relmse"] for p in cycles), "bound"
+    return (1.0 / gain["median"] if gain["median"] > 0 else float("nan")), "extrapolated"
+
+
 def caustic_targets(scene, ladders=("snell", "snell_without")) -> dict:
     """Issue 34's targets for each of a caustic scene's Snell ladders against its Cycles ladder:
-    the caustic region's relMSE at equal time, Snell / Cycles = 1 / gain_at_equal_time's median
-    (Cycles' caustic relMSE at each Snell point's time over Snell's), at most
+    the caustic region's relMSE at equal time, Snell / Cycles (caustic_ratio), at most
     CAUSTIC_RELMSE_TARGET; the whole image's time to equal error (equal_error's ratio), at most
-    CAUSTIC_TIME_TARGET. NaN and not met where the scene has no caustic region."""
+    CAUSTIC_TIME_TARGET (caustic_ratio says how the first was found). NaN and not met where
+    the scene has no caustic region."""
     cycles = scene["cycles"]["points"]
     out = {"caustic_relmse_target": CAUSTIC_RELMSE_TARGET, "time_target": CAUSTIC_TIME_TARGET}
     for key in ladders:
         points = scene[key]["points"]
         eq = equal_error(points, cycles)
-        ratio, extrapolated = float("nan"), True
-        if all("caustic_relmse" in p for p in points + cycles):
-            gain = gain_at_equal_time(points, cycles, "caustic_relmse")
-            ratio = 1.0 / gain["median"] if gain["median"] > 0 else ratio
-            # True when no Snell point lies within Cycles' time range (the rule then
-            # extrapolates Cycles' curve: a weaker figure)
-            extrapolated = all(r["extrapolated"] for r in gain["points"])
-        out[key] = {"caustic_relmse_ratio": ratio, "caustic_extrapolated": extrapolated,
+        ratio, how = (caustic_ratio(points, cycles)
+                      if all("caustic_relmse" in p for p in points + cycles)
+                      else (float("nan"), "no caustic region"))
+        out[key] = {"caustic_relmse_ratio": ratio, "caustic_how": how,
+                    "caustic_extrapolated": how == "extrapolated",
                     "caustic_met": bool(ratio <= CAUSTIC_RELMSE_TARGET),
                     "time_ratio": eq["ratio"], "time_target_relmse": eq["target_relmse"],
                     "time_met": bool(eq["ratio"] <= CAUSTIC_TIME_TARGET)}

@@ -230,9 +230,10 @@ def caustic_rows(data):
 
 
 def _caustic_ratio(figures) -> str:
-    """The caustic relMSE ratio, marked where Cycles' curve had to be extrapolated."""
-    return fmt(figures["caustic_relmse_ratio"]) + (" (extrapolated)"
-                                                   if figures["caustic_extrapolated"] else "")
+    """The caustic relMSE ratio, marked where it is a bound or Cycles' curve was extrapolated."""
+    how = figures.get("caustic_how", "interpolated")
+    return fmt(figures["caustic_relmse_ratio"]) + ("" if how == "interpolated" else
+                                                   " (at most)" if how == "bound" else f" ({how})")
 
 
 CAUSTIC_HEADER = ["scene", "Snell's new strategy", "size", "reference",

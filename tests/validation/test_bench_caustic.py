@@ -41,6 +41,11 @@ def test_caustic_targets_from_the_ladders():
     assert not s["caustic_extrapolated"]
     assert w["caustic_relmse_ratio"] == pytest.approx(2.0) and not w["caustic_met"]
     assert w["time_ratio"] == pytest.approx(2.0) and not w["time_met"]
+    # Every Snell point faster than every Cycles point (Cycles' fixed costs): an upper bound,
+    # Snell's slowest point over Cycles' lowest error.
+    late = {**scene, "cycles": {"points": _ladder([10.0, 20.0], [0.1, 0.05], [0.2, 0.1])}}
+    b = bench_curves.caustic_targets(late)["snell"]
+    assert b["caustic_how"] == "bound" and b["caustic_relmse_ratio"] == pytest.approx(0.125)
     # No caustic region: no figure, not met.
     for points in (scene["snell"]["points"], cycles_points):
         for p in points:
