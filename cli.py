@@ -177,20 +177,15 @@ def _group_of(name: str) -> str:
     return name[len(GROUP_PREFIX):] if name.lower().startswith(GROUP_PREFIX.lower()) else ""
 
 
-def _light_groups_asked(args, scene, farm: bool) -> bool:
+def _light_groups_asked(args, scene) -> bool:
     """Whether the render makes the light groups' passes: --passes names one (each must be one
-    of the scene's groups) and the render is not on a cluster, which leaves them out with a
-    warning."""
+    of the scene's groups)."""
     asked = [_group_of(name) for name in args.passes if _group_of(name)]
     for group in asked:
         if group not in scene.light_groups:
             listed = ", ".join(repr(g) for g in scene.light_groups) or "none"
             raise CliError(f"{args.scene}: --passes: no light group {group!r} in the scene "
                            f"(its light groups: {listed})")
-    if asked and farm:
-        print(f"snell: warning: {args.scene}: the light groups' passes are not rendered on a "
-              "cluster: left out", file=sys.stderr)
-        return False
     return bool(asked)
 
 
@@ -260,9 +255,9 @@ def cmd_render(args) -> int:
         settings = settings.replace(denoising_passes=True)
     if set(LIGHT_PASSES) & set(args.passes):
         settings = settings.replace(light_passes=True)
-    farm = args.workers is not None or args.cluster is not None
-    if _light_groups_asked(args, scene, farm):
+    if _light_groups_asked(args, scene):
         settings = settings.replace(light_groups=True)
+    farm = args.workers is not None or args.cluster is not None
     if farm:
         from .farm.render import check_settings
         check_settings(settings, args.scene)

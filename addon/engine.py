@@ -46,8 +46,7 @@ class SnellRenderEngine(bpy.types.RenderEngine):
         for name, channels, ids in final.denoising_passes(settings):
             self.register_pass(scene, renderlayer, name, channels, ids,
                                "VECTOR" if ids == "XYZ" else "COLOR")
-        # A cluster renders no light groups: no empty passes for them (final.GROUPS_ON_CLUSTER).
-        groups = () if final.on_cluster(scene) else final.light_groups_of(renderlayer)
+        groups = final.light_groups_of(renderlayer)
         for name, channels, ids in final.light_passes_of(renderlayer) + groups:
             self.register_pass(scene, renderlayer, name, channels, ids, "COLOR")
         for name, channels, ids in final.data_passes_of(renderlayer):

@@ -67,18 +67,6 @@ def light_groups_of(view_layer) -> tuple:
                  for group in getattr(view_layer, "lightgroups", None) or ())
 
 
-# Why a render on a cluster leaves the light groups out (farm/ carries no group rows).
-GROUPS_ON_CLUSTER = ("light groups are not rendered on a Dask cluster: their passes are left "
-                     "out (set Render On to This Computer for them)")
-
-
-def on_cluster(scene) -> bool:
-    """Whether F12 renders this scene on a Dask cluster (`snell batch --workers`, or Render On);
-    a Dask Scheduler without an address counts (the render then fails, naming it)."""
-    where = getattr(getattr(scene, "snell", None), "render_on", THIS_COMPUTER)
-    return remote_render is not None or where != THIS_COMPUTER
-
-
 def data_passes_of(view_layer) -> tuple:
     """The data passes a view layer asks for that Snell fills (DATA_PASSES' entries)."""
     return tuple(entry for switch, entry in DATA_PASSES.items()
@@ -308,127 +296,195 @@ class _Progress:
         return not _should_stop(self.engine)
 
 
+class _Frame:
+    """What the steps of one F12 render share: its engine and scene, the record, the result
+    begun and not yet ended, and the cluster's session to close at the end."""
+
+    def __init__(self, engine, depsgraph):
+        self.t_start = time.perf_counter()
+        self.engine, self.depsgraph, self.bl_scene = engine, depsgraph, depsgraph.scene
+        record = {"frame": self.bl_scene.frame_current, "spp": 0, "passes": 0, "target_spp": 0,
+                  "cancelled": False, "error": None, "warnings": [], "first_pass_s": None}
+        last_render.clear()
+        last_render.update(record)
+        self.record = last_render
+        self.result = None
+        self.resources = contextlib.ExitStack()     # the cluster's session, if Render On is one
+        # Set by _prepare: the windowed scene, its settings, the result's size and extra passes.
+        self.scene = self.settings = None
+        self.w = self.h = 0
+        self.light = self.groups = self.data = ()
+        # Set by _start_tracer: what renders the frame, a cluster's session or a Renderer.
+        self.remote = self.renderer = None
+
+
 def render(engine, depsgraph):
     """F12: the whole final render of one frame (see the module docstring)."""
-    t_start = time.perf_counter()
-    bl_scene = depsgraph.scene
-    record = {"frame": bl_scene.frame_current, "spp": 0, "passes": 0, "target_spp": 0,
-              "cancelled": False, "error": None, "warnings": [], "first_pass_s": None}
-    last_render.clear()
-    last_render.update(record)
-    record = last_render
-    result = None
-    resources = contextlib.ExitStack()     # the cluster's session, if Render On is one
+    frame = _Frame(engine, depsgraph)
     try:
-        engine.update_stats("", "Snell: exporting the scene")
-        scene = _export(engine, depsgraph, record)
-        record["export_s"] = time.perf_counter() - t_start
-        if _should_stop(engine):
-            _stop_without_image(engine, record)
-            return
-        x0, y0, w, h = _border(bl_scene.render, engine.resolution_x, engine.resolution_y)
-        scene = scene.with_camera(**window.window_camera(scene.camera, x0, y0, w, h))
-        settings = _settings(bl_scene, scene)
-        light = light_passes_of(depsgraph.view_layer)
-        if light:
-            settings = settings.replace(light_passes=True)
-        groups = light_groups_of(depsgraph.view_layer)
-        if groups and on_cluster(bl_scene):
-            record["warnings"].append(GROUPS_ON_CLUSTER)
-            engine.report({"WARNING"}, f"Snell: {GROUPS_ON_CLUSTER}")
-            groups = ()
-        elif groups:
-            settings = settings.replace(light_groups=True)
-        spp = settings.spp
-        record["target_spp"] = spp
-        remote = remote_render
-        if remote is None and cluster_of(bl_scene.snell) is not None:
-            from ..farm.render import check_settings
-            check_settings(settings, _source_name(), "set Sampling > Time Limit to 0, or "
-                                                     "Render On to This Computer")
-        # Local workers load the kernels this compiles from the disk cache.
-        if not _compile_kernels(engine, record):
-            _stop_without_image(engine, record)
-            return
-        if remote is None:
-            remote = resources.enter_context(_cluster_session(engine, bl_scene.snell))
-            record["workers"] = getattr(remote, "processes", 0)
-        if _should_stop(engine):
-            _stop_without_image(engine, record)
-            return
-        renderer = None
-        if remote is None:
-            engine.update_stats("", f"Snell: building the BVH of {len(scene.triangles)} triangles")
-            renderer = _integrator().Renderer(scene, settings)
-            if _should_stop(engine):
-                _stop_without_image(engine, record)
-                return
-        # Before begin_result, so that the result has the pass (as Cycles adds its passes).
-        engine.add_pass(SAMPLE_COUNT_PASS, 1, "X", layer=depsgraph.view_layer.name)
-        for name, channels, ids in denoising_passes(settings):
-            engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
-        data = data_passes_of(depsgraph.view_layer)
-        for name, channels, ids in light + groups + data:
-            engine.add_pass(name, channels, ids, layer=depsgraph.view_layer.name)
-        result = engine.begin_result(0, 0, w, h)
-        progress = _Progress(engine, result, w, h, spp, record, t_start)
-        engine.update_stats("", f"Snell: rendering, sample 0/{spp}")
-        if remote is None:
-            rendered = renderer.render(progress=progress)
-        else:
-            rendered = remote(scene, settings, _source_name(), bl_scene.frame_current, progress,
-                              stop=_Esc(engine))
-            if rendered.spp == 0:       # Esc before the cluster's first window: a black image
-                progress.write(rendered)
-        adaptive = describe_adaptive(rendered)
-        record.update(spp=rendered.spp, cancelled=rendered.cancelled, time_s=rendered.time_s,
-                      compile_s=rendered.compile_s,
-                      rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count,
-                      light_paths=rendered.light_paths, adaptive=adaptive,
-                      saved_share=rendered.saved_share,
-                      mean_spp=float(rendered.samples().mean()),
-                      exr_channels=rendered.exr_channels())
-        if rendered.nan_count:
-            engine.report({"WARNING"}, f"Snell: {rendered.nan_count} NaN/Inf samples counted as 0")
-        if rendered.alpha_nan_count:
-            engine.report({"WARNING"}, f"Snell: {rendered.alpha_nan_count} NaN/Inf alpha samples "
-                                       "left out")
-        _write_denoised(engine, result, progress, rendered, settings, record)
-        if light and rendered.has_light_passes:
-            _write_light_passes(engine, result, light, rendered)
-        if groups and rendered.has_light_groups:
-            _write_passes(result, groups, rendered.light_group_images())
-            if rendered.light_group_nans[0]:
-                engine.report({"WARNING"}, f"Snell: {int(rendered.light_group_nans[0])} NaN/Inf "
-                                           "light-group samples left out")
-            engine.update_result(result)
-        if data and not rendered.cancelled:
-            _write_data_passes(result, data, renderer or _integrator().Renderer(scene, settings))
-            engine.update_result(result)
-        state = ("Cancelled after" if rendered.cancelled else
-                 "Time limit reached after" if rendered.time_limited else "Done:")
-        workers = getattr(rendered, "workers", 0)
-        on = f" on {workers} Dask worker{'s' if workers != 1 else ''}" if workers else ""
-        engine.update_stats("", f"Snell: {state} {rendered.spp}/{spp} samples in "
-                                f"{_duration(time.perf_counter() - t_start)}{on} "
-                                f"({rendered.rays_per_second / 1e6:.2f} M rays/s)"
-                                + (f" | {adaptive}" if adaptive else ""))
-        engine.end_result(result)
-        result = None
+        _render_frame(frame)
     except (RenderFailed, CliError) as exc:    # CliError: a cluster's (remote_render)
-        _fail(engine, str(exc), record)
+        _fail(engine, str(exc), frame.record)
     except Exception as exc:  # a bug: keep the traceback in the console, a message in the UI
         traceback.print_exc()
-        _fail(engine, f"render failed ({type(exc).__name__}: {exc}); details in the console", record)
+        _fail(engine, f"render failed ({type(exc).__name__}: {exc}); details in the console",
+              frame.record)
     finally:
-        if result is not None:
-            engine.end_result(result, cancel=True)
-        try:
-            resources.close()        # the cluster's client, and the local workers stopped
-        except Exception as exc:  # noqa: BLE001  (closing must not hide the render's outcome)
-            print(f"Snell: closing the Dask session: {type(exc).__name__}: {exc}",
-                  file=sys.stderr)
-        record["total_s"] = time.perf_counter() - t_start
+        _close(frame)
+
+
+def _render_frame(frame):
+    """Export, start the tracer (or the cluster), render progressively and write the passes;
+    Esc before the first pass ends with a black image."""
+    engine = frame.engine
+    if not _prepare(frame) or not _start_tracer(frame):
+        _stop_without_image(engine, frame.record)
+        return
+    _add_passes(frame)
+    frame.result = engine.begin_result(0, 0, frame.w, frame.h)
+    spp = frame.settings.spp
+    progress = _Progress(engine, frame.result, frame.w, frame.h, spp, frame.record,
+                         frame.t_start)
+    engine.update_stats("", f"Snell: rendering, sample 0/{spp}")
+    if frame.remote is None:
+        rendered = frame.renderer.render(progress=progress)
+    else:
+        rendered = _render_remote(frame, progress)
+    _record_outcome(frame, rendered)
+    _write_denoised(engine, frame.result, progress, rendered, frame.settings, frame.record)
+    _write_extra_passes(frame, rendered)
+    engine.update_stats("", _done_line(frame, rendered))
+    engine.end_result(frame.result)
+    frame.result = None
+
+
+def _prepare(frame) -> bool:
+    """Export the scene, window it to the render border, and settle its settings and the light
+    and data passes the view layer asks for; False if Esc came during the export."""
+    engine, bl_scene, record = frame.engine, frame.bl_scene, frame.record
+    engine.update_stats("", "Snell: exporting the scene")
+    scene = _export(engine, frame.depsgraph, record)
+    record["export_s"] = time.perf_counter() - frame.t_start
+    if _should_stop(engine):
+        return False
+    x0, y0, frame.w, frame.h = _border(bl_scene.render, engine.resolution_x, engine.resolution_y)
+    frame.scene = scene.with_camera(**window.window_camera(scene.camera, x0, y0, frame.w,
+                                                           frame.h))
+    settings = _settings(bl_scene, frame.scene)
+    view_layer = frame.depsgraph.view_layer
+    frame.light = light_passes_of(view_layer)
+    if frame.light:
+        settings = settings.replace(light_passes=True)
+    frame.groups = light_groups_of(view_layer)
+    if frame.groups:
+        settings = settings.replace(light_groups=True)
+    frame.data = data_passes_of(view_layer)
+    frame.settings = settings
+    record["target_spp"] = settings.spp
+    return True
+
+
+def _start_tracer(frame) -> bool:
+    """Compile the kernels, then open the cluster's session when Render On is one (or `snell
+    batch` gives one), else build a Renderer and its BVH; False if Esc came meanwhile."""
+    engine, bl_scene = frame.engine, frame.bl_scene
+    frame.remote = remote_render
+    if frame.remote is None and cluster_of(bl_scene.snell) is not None:
+        from ..farm.render import check_settings
+        check_settings(frame.settings, _source_name(), "set Sampling > Time Limit to 0, or "
+                                                       "Render On to This Computer")
+    # Local workers load the kernels this compiles from the disk cache.
+    if not _compile_kernels(engine, frame.record):
+        return False
+    if frame.remote is None:
+        frame.remote = frame.resources.enter_context(_cluster_session(engine, bl_scene.snell))
+        frame.record["workers"] = getattr(frame.remote, "processes", 0)
+    if _should_stop(engine):
+        return False
+    if frame.remote is None:
+        engine.update_stats("", f"Snell: building the BVH of {len(frame.scene.triangles)} "
+                                "triangles")
+        frame.renderer = _integrator().Renderer(frame.scene, frame.settings)
+        if _should_stop(engine):
+            return False
+    return True
+
+
+def _add_passes(frame):
+    """Add the Sample Count, denoising, light, light group and data passes to the view layer:
+    before begin_result, so that the result has them (as Cycles adds its passes)."""
+    layer = frame.depsgraph.view_layer.name
+    frame.engine.add_pass(SAMPLE_COUNT_PASS, 1, "X", layer=layer)
+    for name, channels, ids in (denoising_passes(frame.settings) + frame.light + frame.groups
+                                + frame.data):
+        frame.engine.add_pass(name, channels, ids, layer=layer)
+
+
+def _render_remote(frame, progress):
+    """The frame rendered on the Dask cluster (remote_render or Render On's session)."""
+    rendered = frame.remote(frame.scene, frame.settings, _source_name(),
+                            frame.bl_scene.frame_current, progress, stop=_Esc(frame.engine))
+    if rendered.spp == 0:       # Esc before the cluster's first window: a black image
+        progress.write(rendered)
+    return rendered
+
+
+def _record_outcome(frame, rendered):
+    """What the render did, into the record, and its NaN/Inf samples reported."""
+    frame.record.update(spp=rendered.spp, cancelled=rendered.cancelled, time_s=rendered.time_s,
+                        compile_s=rendered.compile_s,
+                        rays_per_second=rendered.rays_per_second, nan_count=rendered.nan_count,
+                        light_paths=rendered.light_paths, adaptive=describe_adaptive(rendered),
+                        saved_share=rendered.saved_share,
+                        mean_spp=float(rendered.samples().mean()),
+                        exr_channels=rendered.exr_channels())
+    engine = frame.engine
+    if rendered.nan_count:
+        engine.report({"WARNING"}, f"Snell: {rendered.nan_count} NaN/Inf samples counted as 0")
+    if rendered.alpha_nan_count:
+        engine.report({"WARNING"}, f"Snell: {rendered.alpha_nan_count} NaN/Inf alpha samples "
+                                   "left out")
+
+
+def _write_extra_passes(frame, rendered):
+    """The light, light group and data passes of a finished render into the result."""
+    engine, result = frame.engine, frame.result
+    if frame.light and rendered.has_light_passes:
+        _write_light_passes(engine, result, frame.light, rendered)
+    if frame.groups and rendered.has_light_groups:
+        _write_passes(result, frame.groups, rendered.light_group_images())
+        if rendered.light_group_nans[0]:
+            engine.report({"WARNING"}, f"Snell: {int(rendered.light_group_nans[0])} NaN/Inf "
+                                       "light-group samples left out")
+        engine.update_result(result)
+    if frame.data and not rendered.cancelled:
+        _write_data_passes(result, frame.data,
+                           frame.renderer or _integrator().Renderer(frame.scene, frame.settings))
+        engine.update_result(result)
+
+
+def _done_line(frame, rendered) -> str:
+    """The stats line of a finished render: how it ended, samples, time, workers, speed."""
+    state = ("Cancelled after" if rendered.cancelled else
+             "Time limit reached after" if rendered.time_limited else "Done:")
+    workers = getattr(rendered, "workers", 0)
+    on = f" on {workers} Dask worker{'s' if workers != 1 else ''}" if workers else ""
+    adaptive = frame.record["adaptive"]
+    return (f"Snell: {state} {rendered.spp}/{frame.settings.spp} samples in "
+            f"{_duration(time.perf_counter() - frame.t_start)}{on} "
+            f"({rendered.rays_per_second / 1e6:.2f} M rays/s)"
+            + (f" | {adaptive}" if adaptive else ""))
+
+
+def _close(frame):
+    """End a result left begun (cancelled), close the cluster's session and record the time."""
+    if frame.result is not None:
+        frame.engine.end_result(frame.result, cancel=True)
+    try:
+        frame.resources.close()        # the cluster's client, and the local workers stopped
+    except Exception as exc:  # noqa: BLE001  (closing must not hide the render's outcome)
+        print(f"Snell: closing the Dask session: {type(exc).__name__}: {exc}", file=sys.stderr)
+    frame.record["total_s"] = time.perf_counter() - frame.t_start
 
 
 def _write_light_passes(engine, result, light, rendered):

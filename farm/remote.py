@@ -60,8 +60,8 @@ class RemoteTracer:
     def camera_pass(self, pool, step, pixels, bits, film, counters, stop, vertices=None,
                     pilot=None, merge=False, extra=None) -> int:
         """As Renderer.camera_pass (no merge: the schedulers that use it add in place); the
-        rows of the alpha's, denoising and light passes' sums (extra) go with the pixels and
-        come back likewise."""
+        rows of the alpha's, denoising, light passes' and light groups' sums (extra) go with
+        the pixels and come back likewise."""
         rows = pixels.shape[0] or self.npix
         bad = 0
         for sub in passes.sub_passes(step, rows):
@@ -109,8 +109,8 @@ class RemoteTracer:
 
     def light_pass(self, pool, pass_index, n_light, n_a, film, film_a, counters,
                    groups=None) -> int:
-        """As Renderer.light_pass: the splats added here in chunk order (no light groups: a
-        cluster does not render them, so `groups` is None)."""
+        """As Renderer.light_pass: the splats added here in chunk order, the light groups'
+        splats to `groups` if not None."""
         film[:] = 0.0
         if film_a is not None:
             film_a[:] = 0.0
@@ -124,7 +124,8 @@ class RemoteTracer:
                 for group in _groups(jobs, TASKS_PER_THREAD * self.threads)]
             for group, future in tasks:
                 reply = self._wait(future, f"light paths of pass {pass_index}")
-                bad += passes.add_splats(group, reply.splats, n_a, film, film_a, counters)
+                bad += passes.add_splats(group, reply.splats, n_a, film, film_a, counters,
+                                         groups)
                 self._count(reply)
         return bad
 
@@ -145,25 +146,32 @@ class RemoteTracer:
 EXTRA_SUMS = ("albedo", "normal", "transparent", "transparent_sq")   # ExtraRows' rows
 
 
+HALVES_SUMS = ("light", "groups")   # ExtraRows' rows of both halves, (2, pixels, columns)
+NAN_COUNTS = ("feature_nans", "alpha_nans", "light_nans", "group_nans")
+
+
 def _rows_of(extra: ExtraRows, index: np.ndarray) -> ExtraRows:
-    """The rows of `index` of the render's alpha, denoising and light-pass sums (the light
-    passes' of both halves), with NaN counts from 0."""
+    """The rows of `index` of the render's alpha, denoising, light-pass and light-group sums
+    (those of both halves for the last two; not the light tracer's group splats, which a camera
+    pass leaves alone), with NaN counts from 0."""
     rows = {name: None if getattr(extra, name) is None else getattr(extra, name)[index]
             for name in EXTRA_SUMS}
-    light = None if extra.light is None else extra.light[:, index]
-    return extra._replace(**rows, light=light, feature_nans=np.zeros(1, np.int64),
-                          alpha_nans=np.zeros(1, np.int64), light_nans=np.zeros(1, np.int64))
+    halves = {name: None if getattr(extra, name) is None else getattr(extra, name)[:, index]
+              for name in HALVES_SUMS}
+    return extra._replace(**rows, **halves, group_light=None,
+                          **{name: np.zeros(1, np.int64) for name in NAN_COUNTS})
 
 
 def _put_rows(extra: ExtraRows, index: np.ndarray, rows: ExtraRows) -> None:
-    """Put a task's rows of the alpha, denoising and light-pass sums back, and add its NaN
-    counts."""
+    """Put a task's rows of the alpha, denoising, light-pass and light-group sums back, and add
+    its NaN counts."""
     for name in EXTRA_SUMS:
         if getattr(extra, name) is not None:
             getattr(extra, name)[index] = getattr(rows, name)
-    if extra.light is not None:
-        extra.light[:, index] = rows.light
-    for name in ("feature_nans", "alpha_nans", "light_nans"):
+    for name in HALVES_SUMS:
+        if getattr(extra, name) is not None:
+            getattr(extra, name)[:, index] = getattr(rows, name)
+    for name in NAN_COUNTS:
         if getattr(extra, name) is not None:
             getattr(extra, name)[0] += getattr(rows, name)[0]
 
@@ -195,6 +203,8 @@ def render_passes(client, scene, settings, name: str, frame: int = 0, progress=N
             result.start_alpha(tracer.facts["film_transparent"])
         if tracer.facts["light_passes"]:
             result.start_light_passes()
+        if tracer.facts["light_groups"]:
+            result.start_light_groups(tracer.facts["light_groups"])
         scheduler = passes.scheduler(tracer, result, settings)
         return passes.drive(tracer, scheduler, None, progress, stop, 0.0)
     finally:

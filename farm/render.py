@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CliError
-from ..tracer import adaptive, light_passes, passes, wavefront
+from ..tracer import adaptive, light_groups, light_passes, passes, wavefront
 from ..tracer.camera import Camera
 from ..tracer.result import RenderResult
 from ..tracer.shader.program import has_holdout
@@ -173,11 +173,12 @@ def start_windows(client, scene, settings, frame: int, threads: int | None,
     # Sent once to every worker (a worker that joins later copies it from another), not per task.
     [scene_future] = client.scatter([scene], broadcast=True, hash=False)
     window_bytes = w * h * 3 * 8 * 3          # sums, sums of squares, light sums: float64 RGB
-    # With the alpha, the denoising or the light passes a window also sends each sample's
-    # (WindowExtra).
+    # With the alpha, the denoising, the light passes or the light groups a window also sends
+    # each sample's (WindowExtra), and the groups' splats (WindowSums.group_light).
+    groups = 3 * len(light_groups.wanted(scene, settings))
     window_bytes += w * h * windows.step * 8 * (
         (1 if _has_alpha(settings, scene) else 0) + (6 if settings.wants_features else 0)
-        + (light_passes.COLUMNS if settings.light_passes else 0))
+        + (light_passes.COLUMNS if settings.light_passes else 0) + groups) + w * h * 8 * groups
     ahead = max(2, min(AHEAD_PER_THREAD * threads + 1, threads * AHEAD_BYTES // window_bytes))
     started = Started(key, scene_future, {}, ahead, priority, [])
     for i in range(min(ahead, len(windows))):
@@ -204,6 +205,9 @@ def _render_windows(client, scene, settings, name: str, frame: int, progress,
     started = started or start_windows(client, scene, settings, frame, threads, priority)
     result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=threads,
                           spp_budget=spp, exposure=settings.film_exposure)
+    names = light_groups.wanted(scene, settings)
+    if names:               # the windows bring the groups' samples and splats
+        result.start_light_groups(names)
     futures, ahead = started.futures, started.ahead
     start = time.perf_counter()
     try:
@@ -271,14 +275,17 @@ def _start_extra(result: RenderResult, extra: worker.WindowExtra, camera: Camera
 
 
 def add_extra(result: RenderResult, extra: worker.WindowExtra, window) -> None:
-    """Add a window's alpha, denoising and light-pass samples to the result's sums one sample
-    at a time, with the tracer's own additions (wavefront.film_alpha, film_features,
-    light_passes.film_light_passes): the local render's sums bit for bit, as each of its pixels
-    gets its samples in sample order. The light passes go to the half of the sample indices of
-    the window's first sample, where the local render's one pass of the window adds them."""
+    """Add a window's alpha, denoising, light-pass and light-group samples to the result's sums
+    one sample at a time, with the tracer's own additions (wavefront.film_alpha, film_features,
+    light_passes.film_light_passes, which adds rows of any width): the local render's sums bit
+    for bit, as each of its pixels gets its samples in sample order. The light passes and
+    groups go to the half of the sample indices of the window's first sample, where the local
+    render's one pass of the window adds them."""
     rows = result.extra_rows()
     npix = result.width * result.height
-    light = None if extra.light is None else rows.light[adaptive.half_of(window.first)]
+    half = adaptive.half_of(window.first)
+    light = None if extra.light is None else rows.light[half]
+    groups = None if extra.groups is None else rows.groups[half]
     for k in range(extra.samples):
         if extra.transparent is not None:
             wavefront.film_alpha(extra.transparent[k], npix, 0, 1, passes.ALL_PIXELS,
@@ -288,9 +295,14 @@ def add_extra(result: RenderResult, extra: worker.WindowExtra, window) -> None:
                                     passes.ALL_PIXELS, rows.albedo, rows.normal)
         if light is not None:
             light_passes.film_light_passes(extra.light[k], npix, 0, 1, passes.ALL_PIXELS, light)
+        if groups is not None:
+            light_passes.film_light_passes(extra.groups[k], npix, 0, 1, passes.ALL_PIXELS,
+                                           groups)
     if extra.transparent is not None:
         result.alpha_nans[0] += extra.alpha_nans
     if extra.albedo is not None:
         result.feature_nans[0] += extra.feature_nans
     if light is not None:
         result.light_pass_nans[0] += extra.light_nans
+    if groups is not None:
+        result.light_group_nans[0] += extra.group_nans

@@ -21,11 +21,12 @@ _lock = threading.Lock()
 
 @dataclass
 class WindowExtra:
-    """A window's samples of the film's alpha, of the Denoising Albedo and Normal passes and of
-    the light passes, one row per sample (samples, pixels[, 3 or light_passes.COLUMNS]), NaN or
-    Inf samples as 0 and counted: the local render adds them to its running sums one sample at a
-    time (RenderResult.extra_rows), which sums of the window could not reproduce, so the client
-    adds these in the same order (add_extra)."""
+    """A window's samples of the film's alpha, of the Denoising Albedo and Normal passes, of
+    the light passes and of the light groups' camera paths, one row per sample (samples,
+    pixels[, 3, light_passes.COLUMNS or 3 x groups]), NaN or Inf samples as 0 and counted: the
+    local render adds them to its running sums one sample at a time (RenderResult.extra_rows),
+    which sums of the window could not reproduce, so the client adds these in the same order
+    (add_extra)."""
     transparent: np.ndarray | None
     albedo: np.ndarray | None
     normal: np.ndarray | None
@@ -34,12 +35,14 @@ class WindowExtra:
     film_transparent: bool
     light: np.ndarray | None = None
     light_nans: int = 0
+    groups: np.ndarray | None = None
+    group_nans: int = 0
 
     @property
     def samples(self) -> int:
         """The window's samples (rows)."""
-        return next(rows.shape[0] for rows in (self.transparent, self.albedo, self.light)
-                    if rows is not None)
+        return next(rows.shape[0] for rows in (self.transparent, self.albedo, self.light,
+                                                self.groups) if rows is not None)
 
 
 @dataclass
@@ -79,7 +82,7 @@ def trace_window(scene, key: str, window: Window, spp: int, settings) -> WindowR
     geometry = renderer.geometry
     # Counted around the task: exact with one task at a time per process, shared otherwise.
     rays, embree, start = geometry.ray_count, geometry.embree_time, time.perf_counter()
-    if renderer.alpha or renderer.features or renderer.light_passes:
+    if renderer.alpha or renderer.features or renderer.light_passes or renderer.light_groups:
         sums, extra = window_by_sample(renderer, window, spp)
     else:
         sums, extra = renderer.render_window(window, spp), None
@@ -91,7 +94,8 @@ def trace_window(scene, key: str, window: Window, spp: int, settings) -> WindowR
 def window_by_sample(renderer, window: Window, spp: int) -> tuple[WindowSums, WindowExtra]:
     """A window of every pixel traced one sample per pass: its sums, as render_window's (each
     pixel's samples added in sample order from zero), and each sample's alpha, denoising
-    features and light passes, which a one-sample pass's sums from zero are exactly (0 + x = x)."""
+    features, light passes and light groups, which a one-sample pass's sums from zero are
+    exactly (0 + x = x)."""
     npix = renderer.camera.width * renderer.camera.height
     count = window.end - window.first
     film = (np.zeros((npix, 3)), np.zeros((npix, 3)))
@@ -100,34 +104,43 @@ def window_by_sample(renderer, window: Window, spp: int) -> tuple[WindowSums, Wi
     alpha = np.zeros((count, npix)) if renderer.alpha else None
     albedo = np.zeros((count, npix, 3)) if renderer.features else None
     normal = np.zeros((count, npix, 3)) if renderer.features else None
-    light_rows = np.zeros((count, npix, light_passes.COLUMNS)) if renderer.light_passes else None
-    # The stages add a sample's light passes to the half of the sample indices it is in
-    # (adaptive.half_of); the client puts it where the local render's pass of the whole window
-    # put it (add_extra), so here both halves are one sample's and are emptied after it.
-    halves = np.zeros((2, npix, light_passes.COLUMNS)) if renderer.light_passes else None
+    # The stages add a sample's light passes and groups to the half of the sample indices it is
+    # in (adaptive.half_of); the client puts them where the local render's pass of the whole
+    # window put them (add_extra), so here both halves are one sample's, emptied after it.
+    light_rows, light_halves = _per_sample(
+        count, npix, light_passes.COLUMNS if renderer.light_passes else 0)
+    group_rows, group_halves = _per_sample(count, npix, 3 * len(renderer.light_groups))
     squares = np.zeros(npix)          # the alpha's squares: the client squares each sample itself
-    alpha_nans, feature_nans = np.zeros(1, np.int64), np.zeros(1, np.int64)
-    light_nans = np.zeros(1, np.int64)
+    alpha_nans, feature_nans, light_nans, group_nans = (np.zeros(1, np.int64) for _ in range(4))
     bits = max(1, (int(spp) - 1).bit_length())
     with ThreadPoolExecutor(max_workers=renderer.threads) as pool:
         for k in range(count):
             extra = ExtraRows(None if albedo is None else albedo[k],
                               None if normal is None else normal[k], feature_nans,
                               None if alpha is None else alpha[k],
-                              None if alpha is None else squares, alpha_nans, halves, light_nans)
+                              None if alpha is None else squares, alpha_nans, light_halves,
+                              light_nans, group_halves, None, group_nans)
             sums.nan_count += renderer.camera_pass(
                 pool, passes.Pass(window.first + k, 1), passes.ALL_PIXELS, bits,
                 (*film, passes.NO_ROWS), sums.counters, None, extra=extra)
-            if halves is not None:
-                half = halves[adaptive.half_of(window.first + k)]
-                light_rows[k] = half
-                half[:] = 0.0
+            for rows, halves in ((light_rows, light_halves), (group_rows, group_halves)):
+                if halves is not None:
+                    half = halves[adaptive.half_of(window.first + k)]
+                    rows[k] = half
+                    half[:] = 0.0
         if light is not None:       # as Renderer.trace_window
-            sums.light_paths = renderer.light_count(npix, count)
-            sums.nan_count += renderer.light_pass(pool, window.index, sums.light_paths,
-                                                   sums.light_paths, light, None, sums.counters)
+            renderer.window_light(pool, sums, npix, bool(renderer.light_groups))
     return sums, WindowExtra(alpha, albedo, normal, int(alpha_nans[0]), int(feature_nans[0]),
-                             renderer.film_transparent, light_rows, int(light_nans[0]))
+                             renderer.film_transparent, light_rows, int(light_nans[0]),
+                             group_rows, int(group_nans[0]))
+
+
+def _per_sample(count: int, npix: int, columns: int) -> tuple:
+    """(each sample's rows, (count, npix, columns); the two halves' sums the stages add a
+    sample to, (2, npix, columns)), or (None, None) without columns."""
+    if not columns:
+        return None, None
+    return np.zeros((count, npix, columns)), np.zeros((2, npix, columns))
 
 
 @dataclass
@@ -155,7 +168,8 @@ def renderer_facts(scene, key: str, settings) -> dict:
             "light_paths_per_camera_path": renderer.light_paths_per_camera_path,
             "stages": renderer.stages(), "build_s": renderer.build_s,
             "alpha": renderer.alpha, "film_transparent": renderer.film_transparent,
-            "features": renderer.features, "light_passes": renderer.light_passes}
+            "features": renderer.features, "light_passes": renderer.light_passes,
+            "light_groups": renderer.light_groups}
 
 
 def trace_rows(scene, key: str, settings, in_pass: int, first_sample: int, bits: int,
@@ -188,10 +202,11 @@ def trace_rows(scene, key: str, settings, in_pass: int, first_sample: int, bits:
 def rows_with_extra(renderer, in_pass: int, first_sample: int, bits: int, pixels: np.ndarray,
                     film: tuple, pilot: tuple | None, jobs: list, vertices: bool | None,
                     extra: ExtraRows, counters: np.ndarray) -> int:
-    """trace_rows' jobs with the alpha, denoising or light passes: Renderer.trace_chunk adds
-    those to rows of the whole image (Renderer.trace_rows makes none), so the task's rows are put
-    at `pixels` in image-sized copies, traced into there and copied back (the same additions in
-    the same order as the local render's). Returns the NaN or Inf samples."""
+    """trace_rows' jobs with the alpha, denoising, light passes or light groups: Renderer.
+    trace_chunk adds those to rows of the whole image (Renderer.trace_rows makes none), so the
+    task's rows are put at `pixels` in image-sized copies, traced into there and copied back
+    (the same additions in the same order as the local render's). Returns the NaN or Inf
+    samples."""
     npix = renderer.camera.width * renderer.camera.height
 
     def whole(rows):
@@ -200,15 +215,20 @@ def rows_with_extra(renderer, in_pass: int, first_sample: int, bits: int, pixels
         image = np.zeros((npix,) + rows.shape[1:])
         image[pixels] = rows
         return image
+
+    def both_halves(rows):               # (2 halves, rows, columns)
+        if rows is None:
+            return None
+        image = np.zeros((2, npix, rows.shape[2]))
+        image[:, pixels] = rows
+        return image
     film_image = tuple(whole(a) for a in film)
     pilot_image = None if pilot is None else tuple(whole(a) for a in pilot)
-    light_image = None
-    if extra.light is not None:          # (2 halves, rows, COLUMNS)
-        light_image = np.zeros((2, npix, extra.light.shape[2]))
-        light_image[:, pixels] = extra.light
+    light_image, groups_image = both_halves(extra.light), both_halves(extra.groups)
     extra_image = extra._replace(albedo=whole(extra.albedo), normal=whole(extra.normal),
                                  transparent=whole(extra.transparent),
-                                 transparent_sq=whole(extra.transparent_sq), light=light_image)
+                                 transparent_sq=whole(extra.transparent_sq), light=light_image,
+                                 groups=groups_image)
     bad = 0
     for r0, r1 in jobs:
         chunk_bad, stats = renderer.trace_chunk(r0 * in_pass, (r1 - r0) * in_pass, in_pass,
@@ -222,8 +242,9 @@ def rows_with_extra(renderer, in_pass: int, first_sample: int, bits: int, pixels
     for rows, image in pairs:
         if rows is not None and rows.shape[0]:
             rows[:] = image[pixels]
-    if light_image is not None:
-        extra.light[:] = light_image[:, pixels]
+    for rows, image in ((extra.light, light_image), (extra.groups, groups_image)):
+        if image is not None:
+            rows[:] = image[:, pixels]
     return bad
 
 

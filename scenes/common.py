@@ -3,6 +3,7 @@
 Units: metres, +Z up. The Cornell box spans x in [-1, 1], y in [-1, 1] (open at y = -1, back
 wall at y = +1) and z in [0, 2], so it is 2 m wide like the seed's box.
 """
+import math
 import os
 
 import bpy
@@ -49,6 +50,14 @@ def set_world(scene, color, strength=1.0):
     bg.inputs["Color"].default_value = (*color, 1.0)
     bg.inputs["Strength"].default_value = strength
     return world
+
+
+def new_scene(world_color, resolution=(256, 256)):
+    """An empty file with setup_render's settings at resolution and a uniform world."""
+    scene = reset()
+    setup_render(scene, resolution)
+    set_world(scene, world_color)
+    return scene
 
 
 def material(name, kind, color=(0.8, 0.8, 0.8), **values):
@@ -121,9 +130,42 @@ def canonical_polygons(obj):
     return obj
 
 
+def place(name, data, location, rotation=None):
+    """An object of data (a mesh, a light) at location (Euler rotation, if given), linked to the
+    scene."""
+    obj = bpy.data.objects.new(name, data)
+    obj.location = location
+    if rotation is not None:
+        obj.rotation_euler = rotation
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def point_lamp(name, location, intensity, radius):
+    """A point lamp of `intensity` W/sr (Blender's power 4 pi x that) and radius."""
+    data = bpy.data.lights.new(name, "POINT")
+    data.energy = 4.0 * math.pi * intensity
+    data.shadow_soft_size = radius
+    return place(name, data, location)
+
+
+def area_lamp(name, energy, size, location, rotation):
+    """A square area lamp of energy watts and size metres."""
+    data = bpy.data.lights.new(name, "AREA")
+    data.energy = energy
+    data.size = size
+    return place(name, data, location, rotation)
+
+
 def quad(name, corners, mat):
     """A one-polygon quad; corners counter-clockwise seen from the side the normal points to."""
     return mesh_object(name, corners, [[0, 1, 2, 3]], mat)
+
+
+def floor(name, half, mat):
+    """A square floor at z = 0 from -half to half in x and y, facing +Z."""
+    return quad(name, [(-half, -half, 0), (half, -half, 0), (half, half, 0), (-half, half, 0)],
+                mat)
 
 
 def uv_sphere(name, location, radius, mat, segments=64, rings=32):

@@ -63,17 +63,12 @@ def tumbler(name, location, mat):
     bm.to_mesh(mesh)
     bm.free()
     mesh.materials.append(mat)
-    obj = bpy.data.objects.new(name, mesh)
-    obj.location = location
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
+    return common.place(name, mesh, location)
 
 
 def build(path):
     """Build the scene (its checker image packed into it) and save it to path."""
-    scene = common.reset()
-    common.setup_render(scene, (256, 256))
-    common.set_world(scene, (0.08, 0.08, 0.09))
+    scene = common.new_scene((0.08, 0.08, 0.09))
     with tempfile.TemporaryDirectory() as folder:
         checker = checker_png(os.path.join(folder, "glass_wall_checker.png"))
         wall_mat = image_material("CheckerWall", "diffuse", checker, "Color", "Closest", "sRGB")
@@ -91,13 +86,7 @@ def build(path):
     # the two renderers order differently (measured: Snell's base came out light grey where
     # Cycles' is dark, a relMSE floor of 0.09 in the bench).
     tumbler("Tumbler", (0.0, 0.1, 0.002), glass)
-    light = bpy.data.lights.new("Lamp", "AREA")
-    light.energy = 120.0
-    light.size = 1.0
-    lamp = bpy.data.objects.new("Lamp", light)
-    lamp.location = (1.2, -1.4, 2.4)
-    lamp.rotation_euler = (0.6, 0.0, 0.7)
-    scene.collection.objects.link(lamp)
+    common.area_lamp("Lamp", 120.0, 1.0, (1.2, -1.4, 2.4), (0.6, 0.0, 0.7))
     common.camera(scene, (0.0, -1.7, 0.8), (0.0, 0.1, 0.45), lens=40.0)
     return common.save(path)
 

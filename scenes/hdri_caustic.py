@@ -39,9 +39,7 @@ def build(path):
     scene = common.reset()
     common.setup_render(scene, (256, 256))
     packed_sky(scene)
-    table = common.material("Table", "diffuse", (0.6, 0.5, 0.4))
-    h = 2.0
-    common.quad("Table", [(-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0)], table)
+    common.floor("Table", 2.0, common.material("Table", "diffuse", (0.6, 0.5, 0.4)))
     glass = common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5, Roughness=0.0)
     glass_pair(glass)
     common.camera(scene, CAMERA, TARGET, lens=40.0)

@@ -8,12 +8,10 @@ through it. Black world, 256x256, Standard view. Cycles' shadow caustics are on 
 caustics light, the water a caster, the floor a receiver), as a user renders this with Cycles;
 Snell ignores those flags. The same scene as tests/support/sds_scenes.pool.
 """
-import math
 import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import bpy  # noqa: E402
 import common  # noqa: E402
 from sds_geometry import POOL_HALF, water_surface  # noqa: E402
 
@@ -21,29 +19,15 @@ LAMP_POSITION, LAMP_RADIUS, LAMP_INTENSITY = (0.3, 0.2, 2.5), 0.25, 20.0   # W/s
 CAMERA, TARGET = (0.0, -0.25, 1.9), (0.0, 0.0, 0.0)
 
 
-def point_lamp(name, position, intensity, radius):
-    """A point lamp of `intensity` W/sr (Blender's power 4 pi x that) and radius."""
-    data = bpy.data.lights.new(name, "POINT")
-    data.energy = 4.0 * math.pi * intensity
-    data.shadow_soft_size = radius
-    obj = bpy.data.objects.new(name, data)
-    obj.location = position
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
-
-
 def build(path):
     """Build the scene and save it to path."""
-    scene = common.reset()
-    common.setup_render(scene, (256, 256))
-    common.set_world(scene, (0.0, 0.0, 0.0))
-    h = POOL_HALF
-    white = common.material("Floor", "diffuse", (0.8, 0.8, 0.8))
-    floor = common.quad("Floor", [(-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0)], white)
+    scene = common.new_scene((0.0, 0.0, 0.0))
+    floor = common.floor("Floor", POOL_HALF, common.material("Floor", "diffuse",
+                                                             (0.8, 0.8, 0.8)))
     water = common.material("Water", "glass", (1.0, 1.0, 1.0), IOR=1.33, Roughness=0.0)
     positions, triangles, _ = water_surface()
     water = common.mesh_object("Water", positions, triangles, water, smooth=True)
-    lamp = point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY, LAMP_RADIUS)
+    lamp = common.point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY, LAMP_RADIUS)
     common.shadow_caustics(lamp, [water], [floor])
     common.camera(scene, CAMERA, TARGET, lens=50.0)
     return common.save(path)

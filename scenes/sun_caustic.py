@@ -57,10 +57,8 @@ def sun(name, direction, irradiance, angle=0.0):
     data = bpy.data.lights.new(name, "SUN")
     data.energy = irradiance
     data.angle = angle
-    obj = bpy.data.objects.new(name, data)
-    obj.rotation_euler = Vector(direction).to_track_quat("-Z", "Y").to_euler()
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
+    return common.place(name, data, (0.0, 0.0, 0.0),
+                        Vector(direction).to_track_quat("-Z", "Y").to_euler())
 
 
 def glass_pair(glass):
@@ -75,9 +73,7 @@ def glass_pair(glass):
 
 def build(path):
     """Build the scene and save it to path."""
-    scene = common.reset()
-    common.setup_render(scene, (256, 256))
-    common.set_world(scene, (0.05, 0.05, 0.05))
+    scene = common.new_scene((0.05, 0.05, 0.05))
     floors = checker_floor()
     glass = common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5, Roughness=0.0)
     casters = glass_pair(glass)

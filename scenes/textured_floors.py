@@ -72,13 +72,7 @@ def build_floors(path, checker, stripes):
                            "Non-Color", Metallic=1.0)
     plane("CheckerFloor", (-1.05, 0.0, 0.0), 2.0, floor)
     plane("MetalFloor", (1.05, 0.0, 0.0), 2.0, metal)
-    light = bpy.data.lights.new("Lamp", "AREA")
-    light.energy = 300.0
-    light.size = 1.0
-    lamp = bpy.data.objects.new("Lamp", light)
-    lamp.location = (0.3, 1.5, 2.0)
-    lamp.rotation_euler = (-0.6, 0.0, 0.0)
-    scene.collection.objects.link(lamp)
+    common.area_lamp("Lamp", 300.0, 1.0, (0.3, 1.5, 2.0), (-0.6, 0.0, 0.0))
     common.camera(scene, (0.0, -3.2, 2.2), (0.0, 0.2, 0.0), lens=32.0)
     return common.save(path)
 

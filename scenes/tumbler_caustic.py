@@ -16,7 +16,6 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
-from pool import point_lamp  # noqa: E402
 from sds_geometry import TUBE_LIFT, tube  # noqa: E402
 
 LAMP_POSITION, LAMP_RADIUS, LAMP_INTENSITY = (1.4, 0.3, 0.55), 0.1, 20.0   # W/sr
@@ -25,17 +24,14 @@ CAMERA, TARGET = (-2.2, -0.4, 1.1), (0.0, 0.0, 0.25)
 
 def build(path):
     """Build the scene and save it to path."""
-    scene = common.reset()
-    common.setup_render(scene, (256, 256))
-    common.set_world(scene, (0.0, 0.0, 0.0))
-    white = common.material("Table", "diffuse", (0.8, 0.8, 0.8))
-    table = common.quad("Table", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], white)
+    scene = common.new_scene((0.0, 0.0, 0.0))
+    table = common.floor("Table", 2, common.material("Table", "diffuse", (0.8, 0.8, 0.8)))
     glass = common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5, Roughness=0.0)
     positions, triangles, normals = tube()
     obj = common.mesh_object("Tumbler", positions, triangles, glass, smooth=True)
     obj.data.normals_split_custom_set_from_vertices([tuple(n) for n in normals])
     obj.location.z = TUBE_LIFT     # see sds_geometry.py
-    lamp = point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY, LAMP_RADIUS)
+    lamp = common.point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY, LAMP_RADIUS)
     common.shadow_caustics(lamp, [obj], [table])
     common.camera(scene, CAMERA, TARGET, lens=50.0)
     return common.save(path)

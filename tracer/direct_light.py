@@ -138,7 +138,8 @@ def deliver_light(shadows, n_shadow, radiance, without, path, light, light_witho
         store(shadows.contrib, n_shadow, light)
         store(shadows.without, n_shadow, light_without)
         shadows.pass_direct[n_shadow] = 1     # direct light, if cast from the first hit
-        shadows.group[n_shadow] = group
+        if radiance.shape[1] > 3:             # the render makes light groups
+            shadows.group[n_shadow] = group
         queue_shadow(shadows, n_shadow, path, origin, wi, target, infinite)
         return n_shadow + 1
     add_grouped(radiance, path, group, clamp_light(light, limit))

@@ -170,7 +170,7 @@ class Renderer:
         self.features = settings.wants_features
         self.light_passes = settings.light_passes
         # The light groups' passes (light_groups.py): the scene's groups, when asked for.
-        self.light_groups = list(scene.light_groups) if settings.light_groups else []
+        self.light_groups = light_groups.wanted(scene, settings)
         self._buffers = _Buffers(light_groups.columns(len(self.light_groups)))
         self._film_lock = threading.Lock()
         self.build_s = time.perf_counter() - start
@@ -660,11 +660,21 @@ class Renderer:
             if stop is not None and stop.is_set():
                 return None
         if light is not None:
-            sums.light_paths = self.light_count(rows, window.end - window.first)
-            sums.nan_count += self.light_pass(
-                pool, window.index, sums.light_paths, sums.light_paths, light, None,
-                sums.counters, None if extra is None else extra.group_light)
+            self.window_light(pool, sums, rows, extra is not None and extra.group_light is not None)
         return sums
+
+    def window_light(self, pool, sums: WindowSums, rows: int, grouped: bool) -> None:
+        """Trace a window's light paths (as many as its camera samples of `rows` pixels ask)
+        into its sums' light_sum; with `grouped`, the light groups' splats into its own
+        group_light, from zero (added to the render's in window order by RenderResult.add, so
+        that a window traced on a cluster adds the same sums)."""
+        window = sums.window
+        sums.light_paths = self.light_count(rows, window.end - window.first)
+        if grouped:
+            npix = self.camera.width * self.camera.height
+            sums.group_light = np.zeros((npix, 3 * len(self.light_groups)))
+        sums.nan_count += self.light_pass(pool, window.index, sums.light_paths, sums.light_paths,
+                                          sums.light_sum, None, sums.counters, sums.group_light)
 
     # -- one pass --------------------------------------------------------------------------
 

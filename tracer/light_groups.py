@@ -38,6 +38,11 @@ def pass_name(group: str) -> str:
     return PASS_PREFIX + group
 
 
+def wanted(scene, settings) -> list:
+    """The names of the light groups a render makes: the scene's, when its settings ask."""
+    return list(scene.light_groups) if settings.light_groups else []
+
+
 def columns(groups: int) -> int:
     """The width of a path's radiance row: Combined's three, then three per group."""
     return 3 + 3 * groups

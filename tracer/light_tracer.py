@@ -56,7 +56,8 @@ from .lights.dispatch import emission_anchor, emit_along, light_seen, starts_lig
 from .lights.sun import sun_emission
 from .lights.world import world_emission
 from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, PROGRAM, REFRACTION
-from .path_limits import DIFFUSE_BOUNCE, GLOSSY_BOUNCE, TRANSMISSION_BOUNCE, within_limits
+from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSION_BOUNCE,
+                          add_bounce, kind_count, within_limits)
 from . import media as medium
 from .photon_merging import record_photon
 from .media import empty_stacks
@@ -106,8 +107,8 @@ class LightPaths(NamedTuple):
     bounces: np.ndarray      # (n,) int64 vertices so far (all specular unless pure or delta)
     lamp: np.ndarray         # (n,) int64 the emitter's row in Caustics (for its flags)
     medium: np.ndarray       # (n, media.MAX_MEDIA) int64 the media the ray is inside (media.py)
-    kinds: np.ndarray        # (n, 3) int64 its diffuse, glossy and transmission scatterings
-    #                          after the first vertex (path_limits.py; see light_bounce)
+    kinds: np.ndarray        # (n,) int64 its diffuse, glossy and transmission scatterings
+    #                          after the first vertex, packed (path_limits.py; see light_bounce)
 
 
 def new_light_paths(n: int) -> LightPaths:
@@ -115,7 +116,7 @@ def new_light_paths(n: int) -> LightPaths:
     return LightPaths(np.empty(n, np.uint64), np.empty((n, 3), np.float32),
                       np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                       np.empty(n, np.int64), np.empty(n, np.int64), empty_stacks(n),
-                      np.zeros((n, 3), np.int64))
+                      np.zeros(n, np.int64))
 
 
 def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caustics | None:
@@ -343,8 +344,7 @@ def set_light_path(paths, j, key, origin, direction, beta, bounces, lamp):
     store(paths.beta, j, beta)
     paths.bounces[j] = bounces
     paths.lamp[j] = lamp
-    for k in range(3):
-        paths.kinds[j, k] = 0
+    paths.kinds[j] = NO_BOUNCES
 
 
 @jit_inline
@@ -353,10 +353,8 @@ def count_scattering(paths, i, out, j, kind, limits):
     (path_limits), i's counts and this event's, unless at i's first vertex: in the camera
     path's order that vertex's event is the last, towards the light, which no limit stops.
     Returns whether the counts are within the limits."""
-    for k in range(3):
-        out.kinds[j, k] = paths.kinds[i, k]
-    if paths.bounces[i] > 0:
-        out.kinds[j, kind] += 1
+    kinds = paths.kinds[i]
+    out.kinds[j] = add_bounce(kinds, kind) if paths.bounces[i] > 0 else kinds
     return within_limits(out.kinds[j], limits)
 
 
@@ -469,7 +467,8 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
         if kind == DIFFUSE:
             # A photon: every vertex so far specular, and room for one more after this one.
             if (photons.bounces.shape[0] > 0 and bounces > 0 and not caustics.pure
-                    and paths.kinds[i, DIFFUSE_BOUNCE] == 0 and bounces + 2 <= max_depth):
+                    and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) == 0
+                    and bounces + 2 <= max_depth):
                 n_photons = record_photon(photons, n_photons, p, ng, d, beta, bounces,
                                           paths.kinds, i)
             # This vertex is bounce `bounces + 1` of the camera path that ends here.
@@ -480,7 +479,7 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
                 continue
             # The camera path's diffuse reflection here comes before its last unless this is
             # the first vertex.
-            if bounces > 0 and paths.kinds[i, DIFFUSE_BOUNCE] + 1 > limits[2]:
+            if bounces > 0 and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) + 1 > limits[2]:
                 continue
             lens0, lens1 = random_pair(key, 1 + bounces, 3)
             # A delta lamp's path goes on from here: no camera path renders light that left a

@@ -56,7 +56,8 @@ from .camera import camera_ray
 from .geometry import hit_point, offset_origin
 from .jit import jit, jit_inline
 from .material_kinds import DIFFUSE, GLASS, MIRROR, REFRACTION
-from .path_limits import DIFFUSE_BOUNCE, GLOSSY_BOUNCE, TRANSMISSION_BOUNCE, within_limits
+from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSION_BOUNCE,
+                          add_bounce, within_limits)
 from .pixel_filter import position as filter_position
 from .sampler import mix, random_pair
 from .textures import surface_colors
@@ -82,14 +83,14 @@ class Photons(NamedTuple):
     ng: np.ndarray           # (n, 3) the surface's geometric normal there
     beta: np.ndarray         # (n, 3) the light path's weight arriving (not yet reflected)
     bounces: np.ndarray      # (n,) int64 its specular vertices
-    kinds: np.ndarray        # (n, 3) int64 its glossy and transmission scatterings but the
-    #                          first (light_tracer.LightPaths.kinds)
+    kinds: np.ndarray        # (n,) int64 its glossy and transmission scatterings but the
+    #                          first, packed (light_tracer.LightPaths.kinds)
 
 
 def new_photons(n: int) -> Photons:
     """Buffers for n photons (0: no photons are recorded)."""
     return Photons(np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)),
-                   np.empty(n, np.int64), np.empty((n, 3), np.int64))
+                   np.empty(n, np.int64), np.empty(n, np.int64))
 
 
 def concatenate(parts: list[Photons]) -> Photons:
@@ -110,8 +111,7 @@ def record_photon(photons, n, p, ng, d, beta, bounces, kinds, i):
     store(photons.ng, n, ng)
     store(photons.beta, n, beta)
     photons.bounces[n] = bounces
-    for k in range(3):
-        photons.kinds[n, k] = kinds[i, k]
+    photons.kinds[n] = kinds[i]
     return n + 1
 
 
@@ -240,11 +240,9 @@ def joined_within_limits(camera_bounces, camera_kinds, light_bounces, light_kind
     first) make through one diffuse vertex is one the path tracer counts: camera_bounces + 1 +
     light_bounces bounces at most max depth, and each kind's count, the diffuse vertex's
     included, within its limit (path_limits.bounce_limits)."""
+    # Packed counts add field by field (no field comes near its 16 bits).
     return (camera_bounces + 1 + light_bounces <= limits[0]
-            and camera_kinds[DIFFUSE_BOUNCE] + 1 + light_kinds[j, DIFFUSE_BOUNCE] <= limits[2]
-            and camera_kinds[GLOSSY_BOUNCE] + light_kinds[j, GLOSSY_BOUNCE] <= limits[3]
-            and camera_kinds[TRANSMISSION_BOUNCE] + light_kinds[j, TRANSMISSION_BOUNCE]
-            <= limits[4])
+            and within_limits(add_bounce(camera_kinds + light_kinds[j], DIFFUSE_BOUNCE), limits))
 
 
 # -- camera walks -------------------------------------------------------------------------------
@@ -258,14 +256,14 @@ class Walks(NamedTuple):
     tmax: np.ndarray         # (n,) float32
     beta: np.ndarray         # (n, 3) throughput
     bounces: np.ndarray      # (n,) int64 specular vertices so far
-    kinds: np.ndarray        # (n, 3) int64 their scatterings by kind (path_limits.py)
+    kinds: np.ndarray        # (n,) int64 their scatterings by kind, packed (path_limits.py)
 
 
 def new_walks(n: int) -> Walks:
     """Buffers for n camera walks."""
     return Walks(np.empty(n, np.int64), np.empty(n, np.uint64), np.empty((n, 3), np.float32),
                  np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
-                 np.empty(n, np.int64), np.zeros((n, 3), np.int64))
+                 np.empty(n, np.int64), np.zeros(n, np.int64))
 
 
 @jit_inline
@@ -295,8 +293,7 @@ def start_walks(cam, filt, seed, pass_index, start, n, samples, walks):
         o, d, far = camera_ray(cam, g // samples, filter_position(filt, u0),
                                filter_position(filt, u1), l0, l1)
         set_walk(walks, j, g // samples, key, o, d, far, (1.0, 1.0, 1.0), 0)
-        for k in range(3):
-            walks.kinds[j, k] = 0
+        walks.kinds[j] = NO_BOUNCES
 
 
 @jit
@@ -352,10 +349,8 @@ def walk_bounce(mesh, mats, fresnel_model, limits, grid, m, walks, prim, u, v, o
             continue
         set_walk(out, n_out, walks.pixel[i], walks.key[i], offset_origin(p, ng, eps, new_d),
                  new_d, 1e30, beta, bounces + 1)
-        for k in range(3):
-            out.kinds[n_out, k] = walks.kinds[i, k]
-        out.kinds[n_out, TRANSMISSION_BOUNCE if event == specular.TRANSMITTED
-                  else GLOSSY_BOUNCE] += 1
+        out.kinds[n_out] = add_bounce(walks.kinds[i], TRANSMISSION_BOUNCE
+                                      if event == specular.TRANSMITTED else GLOSSY_BOUNCE)
         if not within_limits(out.kinds[n_out], limits):
             continue              # the path tracer's camera path ends at its next surface
         n_out += 1

@@ -43,7 +43,8 @@ class WindowSums:
     """What one window of a render adds to its image: the camera samples' sums and sums of
     squares and the light tracer's splats, rows of (pixels, 3) of the whole image (pixel =
     y * width + x), with the light paths traced, the NaN or Inf samples left out and the
-    event counters (wavefront.STATS). Camera sums None: already added to the render's."""
+    event counters (wavefront.STATS); with light groups, the light tracer's splats of each
+    group, (pixels, 3 x groups). Camera sums None: already added to the render's."""
     window: Window
     sum: np.ndarray | None
     sum_sq: np.ndarray | None
@@ -51,6 +52,7 @@ class WindowSums:
     light_paths: int = 0
     nan_count: int = 0
     counters: np.ndarray | None = None
+    group_light: np.ndarray | None = None
 
 
 @dataclass
@@ -298,6 +300,8 @@ class RenderResult:
             if self.light_sum is None:
                 self.light_sum = np.zeros_like(self.sum)
             self.light_sum.reshape(-1, 3)[:] += sums.light_sum
+        if sums.group_light is not None:
+            self.light_group_light += sums.group_light
         self.light_paths += sums.light_paths
         self.spp += sums.window.end - sums.window.first
         self.nan_count += sums.nan_count

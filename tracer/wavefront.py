@@ -38,8 +38,8 @@ from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lig
 from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
 from .media import empty_stacks
 from . import media as medium
-from .path_limits import (DIFFUSE_BOUNCE, bounce_kind, clamp_light, clamp_limit,
-                          past_last_bounce)
+from .path_limits import (DIFFUSE_BOUNCE, NO_BOUNCES, add_bounce, bounce_kind, clamp_light,
+                          clamp_limit, kind_count, past_last_bounce)
 from .pixel_filter import position as filter_position
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
@@ -92,8 +92,8 @@ class Paths(NamedTuple):
     #                          minus this is the path's transparent bounces)
     pass_diffuse: np.ndarray  # (n, 3) the light passes' diffuse and glossy weights, set at the
     pass_glossy: np.ndarray   # (n, 3) first bounce (light_passes.py), when a render makes them
-    kind_bounce: np.ndarray   # (n, 3) int64: its diffuse, glossy and transmission bounces
-    #                           (path_limits.py)
+    kinds: np.ndarray         # (n,) int64: its diffuse, glossy and transmission bounces,
+    #                           packed (path_limits.kind_count)
     see_through: np.ndarray   # (n,) int64: 1 while the path has only passed transparent surfaces
     #                           (and, with Transparent Glass, clear glass: go_on), Cycles'
     #                           PATH_RAY_TRANSPARENT_BACKGROUND
@@ -122,7 +122,7 @@ def new_paths(n: int) -> Paths:
                  np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n),
                  np.empty((n, 3)), np.zeros(n, np.int64), np.zeros(n), empty_stacks(n),
                  np.zeros(n, np.int64), np.zeros((n, 3)), np.zeros((n, 3)),
-                 np.zeros((n, 3), np.int64), np.zeros(n, np.int64))
+                 np.zeros(n, np.int64), np.zeros(n, np.int64))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -186,8 +186,7 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
         paths.connect[i] = 0.0
         paths.mis_t[i] = 0.0
         paths.bounce[i] = 0
-        for k in range(3):
-            paths.kind_bounce[i, k] = 0
+        paths.kinds[i] = NO_BOUNCES
         paths.see_through[i] = 1
         if features:
             for k in range(3):
@@ -337,7 +336,7 @@ def ended(mats, mat, depth, paths, i, limits):
         return True     # Cycles' PATH_RAY_TERMINATE_ON_NEXT_SURFACE
     # After the last bounce only a transparent surface lets the path go on (Cycles'
     # PATH_RAY_TERMINATE_AFTER_TRANSPARENT).
-    return past_last_bounce(bounce, paths.kind_bounce[i], limits) and not (
+    return past_last_bounce(bounce, paths.kinds[i], limits) and not (
         mats.kind[mat] == PROGRAM and mats.programs.flags[mat] & MAY_BE_TRANSPARENT)
 
 
@@ -473,7 +472,7 @@ def can_connect(depth, last_connection, lv, paths, i, limits):
     last_connection, and only if one more diffuse bounce (towards the light vertex, which then
     scatters towards its light) is within the diffuse limit."""
     return (depth <= last_connection and lv.found[paths.path[i]]
-            and paths.kind_bounce[i, DIFFUSE_BOUNCE] < limits[2])
+            and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) < limits[2])
 
 
 @jit_inline
@@ -534,7 +533,7 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
         (new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count,
          mis_t) = scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals,
                                   (key, sample, bits, strat), depth,
-                                  (bounce, past_last_bounce(bounce, paths.kind_bounce[i], limits),
+                                  (bounce, past_last_bounce(bounce, paths.kinds[i], limits),
                                    clamp_limit(clamp, bounce == 0)), (u_pick, u0, u1),
                                   beta_in, path, ray, (p, ng, ng_f, ns_f, eps),
                                   entering, (mat, tri, b1, b2), connects, lv, lobes, regs,
@@ -615,10 +614,9 @@ def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, 
     out.mis_t[n_out] = mis_t
     out.bounce[n_out] = bounce
     tri, mat, entering, ng_f = surface
-    for k in range(3):
-        out.kind_bounce[n_out, k] = paths.kind_bounce[i, k]
-    if scattered_here:
-        out.kind_bounce[n_out, bounce_kind(ray_kind, dot(new_d, ng_f) < 0.0)] += 1
+    kinds = paths.kinds[i]
+    out.kinds[n_out] = add_bounce(kinds, bounce_kind(ray_kind, dot(new_d, ng_f) < 0.0)) \
+        if scattered_here else kinds
     out.see_through[n_out] = paths.see_through[i]
     if scattered_here and not (clear.shape[0] > 0 and ray_kind == VISIBLE_TRANSMISSION
                                and (pdf_prev == 0.0 or clear[mat])):
@@ -642,16 +640,17 @@ def shadow_rays(n, blocked, shadows, radiance, without, pass_sums, clamp):
     (light_groups.py)."""
     tracking = without.shape[0] > 0
     light_passes = pass_sums.shape[0] > 0
+    grouped = radiance.shape[1] > 3
     for j in range(n):
         if blocked[j] != 0:
             path = shadows.path[j]
             limit = clamp_limit(clamp, shadows.bounce[j] == 0 and shadows.pass_direct[j] != 0)
             contribution = clamp_light(row(shadows.contrib, j), limit)
-            store(shadows.contrib, j, contribution)
-            add_grouped(radiance, path, shadows.group[j], contribution)
+            add_grouped(radiance, path, shadows.group[j] if grouped else -1, contribution)
             if tracking:
                 add_light(without, path, clamp_light(row(shadows.without, j), limit))
             if light_passes:
+                store(shadows.contrib, j, contribution)     # what add_shadow reads
                 add_shadow(pass_sums, shadows, j)
 
 

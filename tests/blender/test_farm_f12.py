@@ -1,6 +1,7 @@
 """F12 on a Dask cluster from Blender (Render Properties > Performance > Render On): the
 frame's sample windows go to the workers through farm/'s Session, and the image F12 saves
-(Combined with its alpha, Sample Count and the light passes) is the local F12's bit for bit;
+(Combined with its alpha, Sample Count, the light passes and the light groups' passes) is
+the local F12's bit for bit;
 progress reaches the status bar, Esc cancels the cluster's tasks, and an unreachable scheduler
 or a worker of another Snell is one error in Blender's report, with no traceback.
 
@@ -27,6 +28,7 @@ from snell.addon import final, registration  # noqa: E402
 from snell.farm import cluster as cluster_module, worker  # noqa: E402
 from snell.tracer import passes  # noqa: E402
 from support.dask_cluster import client  # noqa: E402,F401  (the shared LocalCluster fixture)
+from support.render_passes import exr_channels, saves_multilayer_exr  # noqa: E402
 
 common = importlib.import_module("common")
 
@@ -51,9 +53,9 @@ def one_sample_windows(monkeypatch):
 
 
 def build(tmp_path, name):
-    """A diffuse floor and a glossy ball under a point lamp and a blue world, Film >
-    Transparent, Snell the engine at fixed samples, eight light passes switched on, F12 saving
-    a 32-bit multilayer EXR to tmp_path/name."""
+    """A diffuse floor and a glossy ball under a point lamp (light group "key") and a blue world
+    (light group "sky"), Film > Transparent, Snell the engine at fixed samples, eight light
+    passes switched on, F12 saving a 32-bit multilayer EXR to tmp_path/name."""
     scene = common.reset()
     common.setup_render(scene, SIZE, samples=SPP, max_bounces=3)
     common.set_world(scene, (0.2, 0.3, 0.5))
@@ -70,33 +72,13 @@ def build(tmp_path, name):
     layer = scene.view_layers[0]
     for switch in LIGHT:
         setattr(layer, switch, True)
+    for group in ("key", "sky"):
+        layer.lightgroups.add(name=group)
+    obj.lightgroup, scene.world.lightgroup = "key", "sky"
     scene.render.engine = "SNELL"
     scene.render.film_transparent = True
-    settings = scene.render.image_settings
-    if hasattr(settings, "media_type"):
-        settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.file_format, settings.color_depth = "OPEN_EXR_MULTILAYER", "32"
-    scene.render.filepath = str(tmp_path / name)
+    saves_multilayer_exr(scene, tmp_path / name)
     return scene
-
-
-def channels(path) -> dict:
-    """{channel name: float32 (H, W)} of every channel of every part of an EXR."""
-    import OpenImageIO as oiio
-    inp = oiio.ImageInput.open(str(path))
-    assert inp is not None, oiio.geterror()
-    out = {}
-    try:
-        part = 0
-        while inp.seek_subimage(part, 0):
-            spec = inp.spec()
-            pixels = inp.read_image(part, 0, 0, spec.nchannels, "float")
-            for k, name in enumerate(spec.channelnames):
-                out[name] = np.asarray(pixels)[..., k].copy()
-            part += 1
-    finally:
-        inp.close()
-    return out
 
 
 def f12(scene, where, fails=False, **cluster):
@@ -157,12 +139,14 @@ def spied(monkeypatch):
 def test_f12_on_the_cluster_is_the_local_f12_bit_for_bit(client, tmp_path, one_sample_windows,
                                                           spied):
     """Render On > Dask Scheduler: every channel F12 saves (Combined RGBA, Sample Count, eight
-    light passes) equals This Computer's F12 bit for bit; the status bar showed the samples and
-    says where it rendered. Deliberate error caught (measured): each window's first light-pass
-    sample left out on the client (farm/render.py's add_extra): 21 channels differ (Diffuse
-    Color.B first). (Windows 1 and 2 added in swapped order change the float64 sums only in
-    their last bits, which the float32 EXR rounds away here: tests/render/test_farm.py holds
-    the sums themselves.)"""
+    light passes, the light groups' Combined_key and Combined_sky) equals This Computer's F12
+    bit for bit; the status bar showed the samples and says where it rendered. Deliberate
+    errors caught (measured): each window's first light-pass sample left out on the client
+    (farm/render.py's add_extra): 21 channels differ (Diffuse Color.B first); each window's
+    first light-group sample left out there: the 6 channels of Combined_key and Combined_sky
+    differ. (Windows 1 and 2 added in swapped order change the float64 sums only in their
+    last bits, which the float32 EXR rounds away here: tests/render/test_farm.py holds the
+    sums themselves.)"""
     log, _ = spied
     scene = build(tmp_path, "local.exr")
     local = f12(scene, "THIS_COMPUTER")
@@ -176,16 +160,19 @@ def test_f12_on_the_cluster_is_the_local_f12_bit_for_bit(client, tmp_path, one_s
     assert f"Snell: connecting to the Dask scheduler {client.scheduler.address}" in stats
     assert any(f"Sample 3/{SPP}" in line for line in stats), stats
     assert "on 2 Dask workers" in stats[-1] and stats[-1].startswith("Snell: Done:")
-    ours, theirs = channels(tmp_path / "local.exr"), channels(tmp_path / "farm.exr")
+    ours, theirs = exr_channels(tmp_path / "local.exr"), exr_channels(tmp_path / "farm.exr")
     assert sorted(ours) == sorted(theirs)
     names = {name.split(".")[-2] for name in ours if name.count(".") >= 2}
-    assert {"Combined", "Sample Count", "Emission", "Diffuse Direct", "Glossy Color"} <= names
+    assert {"Combined", "Sample Count", "Emission", "Diffuse Direct", "Glossy Color",
+            "Combined_key", "Combined_sky"} <= names
     differ = [name for name in sorted(ours) if not np.array_equal(ours[name], theirs[name])]
     assert differ == []
     alpha = next(ours[name] for name in ours if name.endswith("Combined.A"))
     assert 0.0 < alpha.mean() < 1.0                    # the world is transparent, the floor not
     glossy = next(ours[name] for name in ours if name.endswith("Glossy Direct.R"))
     assert glossy.max() > 0.0
+    for group in ("Combined_key.R", "Combined_sky.B"):
+        assert next(ours[name] for name in ours if name.endswith(group)).max() > 0.0, group
 
 
 def tasks_left(client) -> tuple:
@@ -337,7 +324,7 @@ def test_f12_on_local_workers_starts_and_stops_them(tmp_path, one_sample_windows
     before = set(multiprocessing.active_children())
     record = f12(scene, "LOCAL_WORKERS", cluster_workers=2)
     assert record["error"] is None and record["workers"] == 2 and local["spp"] == record["spp"]
-    ours, theirs = channels(tmp_path / "local.exr"), channels(tmp_path / "workers.exr")
+    ours, theirs = exr_channels(tmp_path / "local.exr"), exr_channels(tmp_path / "workers.exr")
     assert all(np.array_equal(ours[name], theirs[name]) for name in ours)
     assert set(multiprocessing.active_children()) <= before
 

@@ -24,7 +24,7 @@ from snell.errors import CliError                                 # noqa: E402
 from snell.tracer import image, passes                            # noqa: E402
 from snell.tracer.integrator import Renderer                      # noqa: E402
 from snell.tracer.result import RenderResult                       # noqa: E402
-from snell.tracer.scene import save                               # noqa: E402
+from snell.tracer.scene import save, validate                     # noqa: E402
 from snell.tracer.shader.closures import EMISSION, HOLDOUT, MIX_CLOSURE   # noqa: E402
 from snell.tracer.shader.inputs import LAYER_WEIGHT               # noqa: E402
 from support.builders import box, camera, icosphere, make_scene, quad, tiny_scene  # noqa: E402
@@ -265,18 +265,123 @@ def test_the_light_passes_of_passes_on_the_cluster_are_the_local_render(client, 
         assert np.array_equal(ours[name], theirs[name]), name
 
 
+# ---------------------------------------------------------------------------------------------
+# The light groups
+
+def grouped_room(**render):
+    """glass_room with its ceiling lamp in the light group "ceiling", a point lamp in "key"
+    (whose caustic through the glass sphere puts the light tracer's splats in a group) and a
+    point lamp in no group."""
+    lights = [{"name": "key", "kind": "point", "position": [0.5, 0.5, 1.5],
+               "intensity": [20.0, 20.0, 20.0], "radius": 0.05},
+              {"name": "loose", "kind": "point", "position": [-0.5, -0.5, 1.2],
+               "intensity": [5.0, 5.0, 5.0], "radius": 0.05}]
+    scene = glass_room(lights=lights, **render)
+    scene.light_groups = ["ceiling", "key"]
+    scene.objects[1]["light_group"] = 0
+    scene.lights[0]["light_group"] = 1
+    return validate(scene)
+
+
+def same_groups(a, b) -> bool:
+    """The same light-group sums of both halves, splats and NaN counts, bit for bit (both
+    made)."""
+    return (a.has_light_groups and b.has_light_groups
+            and a.light_group_names == b.light_group_names
+            and np.array_equal(a.light_group_sum, b.light_group_sum)
+            and np.array_equal(a.light_group_light, b.light_group_light)
+            and int(a.light_group_nans[0]) == int(b.light_group_nans[0]))
+
+
+def same_group_images(a, b) -> bool:
+    """The same Combined_<group> passes, bit for bit, each with light in it."""
+    ours, theirs = a.light_group_images(), b.light_group_images()
+    return (sorted(ours) == sorted(theirs) == ["Combined_ceiling", "Combined_key"]
+            and all(ours[name].any() and np.array_equal(ours[name], theirs[name])
+                    for name in ours))
+
+
+def render_grouped(client, spp=20, **render):
+    """grouped_room rendered with its light groups here and on the cluster: (local, merged)."""
+    scene = grouped_room(spp=spp)
+    settings = scene.settings(light_groups=True, **render)
+    local = Renderer(scene, settings).render()
+    return local, render_module.render_frame(client, scene, settings, "room.snell")
+
+
+def test_the_light_groups_on_the_cluster_are_the_local_render(client, monkeypatch):
+    """Fixed samples in windows of 3 (20 spp: window 5, samples 15-17, straddles the halves'
+    boundary at 16): the workers send each sample's group columns and each window's group
+    splats summed from zero; the client adds the samples in sample order to the half of the
+    window's first sample, and the splats in window order: the local sums of both halves and
+    of the splats bit for bit, and the Combined_<group> passes read from them. Deliberate
+    errors caught (measured): each window's first group sample left out on the client
+    (add_extra): the group sums differ in 256 of 256 pixels (Combined_ceiling in 242,
+    Combined_key in 256); window 2's group splats not added (its WindowSums.group_light
+    dropped in _add): 11 pixels' splat sums (Combined_ceiling 1, Combined_key 10)."""
+    monkeypatch.setattr(passes, "PASS_PATHS", 3 * SIZE * SIZE)
+    local, merged = render_grouped(client)
+    assert len(passes.fixed_windows(SIZE * SIZE, 20)) == 7
+    assert local.light_group_sum[0].any() and local.light_group_sum[1].any()
+    assert local.light_group_light[:, 3:].any()    # the key lamp's caustic: splats in a group
+    assert same_image(local, merged) and same_groups(local, merged)
+    assert same_group_images(local, merged)
+
+
+@pytest.mark.parametrize("part", ["samples", "splats"])
+def test_a_window_left_out_of_the_groups_merge_is_caught(client, monkeypatch, part):
+    """The comparison above sees a wrong merge of the groups: window 2's group samples (or its
+    group splats) left out on the client changes the groups' sums and passes, and nothing
+    else."""
+    monkeypatch.setattr(passes, "PASS_PATHS", 3 * SIZE * SIZE)
+    real = render_module._add
+
+    def dropping(result, reply):
+        if reply.sums.window.index == 2:
+            if part == "samples":
+                reply.extra.groups[:] = 0.0
+            else:
+                reply.sums.group_light[:] = 0.0
+        real(result, reply)
+    monkeypatch.setattr(render_module, "_add", dropping)
+    local, merged = render_grouped(client)
+    assert same_image(local, merged)
+    assert not same_groups(local, merged) and not same_group_images(local, merged)
+
+
+@pytest.mark.parametrize("render", [ADAPTIVE, {"batches": 3}], ids=["adaptive", "batches"])
+def test_the_light_groups_of_passes_on_the_cluster_are_the_local_render(client, render):
+    """Adaptive sampling and batches: each task's rows of both halves of the group sums go to
+    the worker with its pixels and come back with the pass's samples added, and the light
+    passes' group splats are added here in chunk order: bit for bit. Deliberate errors caught
+    (measured): a task's group rows not put back on the client (remote._put_rows): the group
+    sums differ in 256 of 256 pixels (adaptive and batches); the light passes' group splats
+    not added (RemoteTracer.light_pass without groups): 78 pixels' splat sums (adaptive), 52
+    (batches)."""
+    local, merged = render_grouped(client, **render)
+    assert same_image(local, merged) and same_groups(local, merged)
+    assert local.light_group_light[:, 3:].any()
+    assert np.array_equal(local.samples(), merged.samples())
+    assert same_group_images(local, merged)
+
+
 def test_render_workers_writes_the_local_alpha_passes_and_denoised_image(tmp_path):
     """`snell render --workers 2` with a transparent film, a Holdout, --denoise and --passes
     writes the local render's EXR: every channel (R, G, B, A, samples, the noisy image, the
-    denoising, data and light passes) bit for bit. Deliberate errors caught: each window's
-    first sample of the features left out on the client: `Denoising Albedo.R` differs (4.51
-    against 4.14 in the first pixel); of the light passes: `Emission.R` differs."""
+    denoising, data and light passes, the light groups') bit for bit. Deliberate errors
+    caught: each window's first sample of the features left out on the client: `Denoising
+    Albedo.R` differs (4.51 against 4.14 in the first pixel); of the light passes:
+    `Emission.R` differs; of the light groups: `Combined_quad.R` differs."""
     import OpenImageIO as oiio
     from snell.tracer.light_passes import PASSES as LIGHT
     path = tmp_path / "held.snell"
-    save(held_out(), str(path))
+    scene = held_out()
+    scene.light_groups = ["quad", "sky"]
+    scene.objects[0]["light_group"], scene.world["light_group"] = 0, 1
+    save(validate(scene), str(path))
     options = ["--film-transparent", "--denoise", "--passes",
-               ",".join(("Depth,Normal,Denoising Albedo,Denoising Normal,Noisy Image",) + LIGHT),
+               ",".join(("Depth,Normal,Denoising Albedo,Denoising Normal,Noisy Image",) + LIGHT
+                        + ("Combined_quad", "Combined_sky")),
                "--quiet"]
     local, farm = tmp_path / "local.exr", tmp_path / "farm.exr"
     assert cli.main(["render", str(path), "-o", str(local), *options]) == 0
@@ -290,6 +395,7 @@ def test_render_workers_writes_the_local_alpha_passes_and_denoised_image(tmp_pat
     assert {"A", "samples", "Noisy Image.R", "Denoising Normal.B", "Depth.Z"} <= set(names)
     assert {f"{name}.G" for name in LIGHT} <= set(names)
     assert ours["Emission.R"].any() and ours["Environment.B"].any()
+    assert ours["Combined_quad.G"].any() and ours["Combined_sky.B"].any()
     farm_names, theirs = channels(farm)
     assert farm_names == names
     for name in names:

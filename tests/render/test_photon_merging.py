@@ -24,6 +24,7 @@ from snell.tracer.light_tracer import (CAUSTIC, FIRST_DIFFUSE, NO_CAUSTIC, SDS_C
                                        SPLIT_LIGHT, SPLIT_MERGE, SPLIT_NONE, caustic_after,
                                        left_to_light_paths)
 from snell.tracer.material_kinds import DIFFUSE, GLASS, LAYERED, MIRROR
+from snell.tracer.path_limits import NO_BOUNCES
 
 PLANE_Z = 4.0          # |z| bound of the image sum's ratio to the analytic one (one test)
 # The relative standard error of one half's image sum in test_adaptive_samplings_halves_merge_apart
@@ -53,7 +54,7 @@ def _photons(rng, n, half):
     up = np.tile([0.0, 0.0, 1.0], (n, 1))
     p = rng.uniform(-half, half, (n, 3)) * [1.0, 1.0, 0.05]
     return photon_merging.Photons(p, up.copy(), up.copy(), rng.uniform(0.5, 1.5, (n, 3)),
-                                  np.ones(n, np.int64), np.zeros((n, 3), np.int64))
+                                  np.ones(n, np.int64), np.zeros(n, np.int64))
 
 
 def test_the_grid_finds_every_photon_within_the_radius_once():
@@ -67,7 +68,7 @@ def test_the_grid_finds_every_photon_within_the_radius_once():
     (the range covers the ball's bounding box); 2 r keeps it to 8 cells."""
     rng = np.random.default_rng(5)
     limits = (np.int64(8), np.int64(8), np.int64(8), np.int64(8), np.int64(8))
-    up3, kinds = (0.0, 0.0, 1.0), np.zeros(3, np.int64)
+    up3, kinds = (0.0, 0.0, 1.0), NO_BOUNCES
     wide = _photons(rng, 3000, 1.0)
     for r, photons, half in ((0.07, wide, 1.1), (0.013, wide, 1.1),
                              (0.2, _photons(rng, 12, 0.25), 0.3)):

@@ -51,6 +51,16 @@ def test_events_count_by_kind_as_cycles_labels():
 ])
 def test_a_path_scatters_no_more_past_any_limit(bounce, kinds, past):
     limits = pl.bounce_limits(8, 8, 2, 2, 3)
-    assert pl.past_last_bounce(bounce, np.array(kinds, np.int64), limits) is past
+    assert pl.past_last_bounce(bounce, pl.packed(*kinds), limits) is past
     if bounce < 8:
-        assert pl.within_limits(np.array(kinds, np.int64), limits) is not past
+        assert pl.within_limits(pl.packed(*kinds), limits) is not past
+
+
+@pytest.mark.parametrize("kinds", [(0, 0, 0), (1, 0, 0), (0, 7, 0), (1024, 3, 2048), (5, 0, 9)])
+def test_packed_counts_read_back_and_count_up_one_kind_at_a_time(kinds):
+    counts = pl.packed(*kinds)
+    assert [pl.kind_count(counts, k) for k in range(3)] == list(kinds)
+    for k in range(3):
+        more = pl.add_bounce(counts, k)
+        assert [pl.kind_count(more, j) for j in range(3)] == [
+            c + (j == k) for j, c in enumerate(kinds)]

@@ -18,6 +18,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from support.render_passes import saves_multilayer_exr  # noqa: E402
+
 common = importlib.import_module("common")
 
 SIZE = (64, 48)
@@ -59,11 +61,7 @@ def cycles_passes(blend, out):
     open_blend(blend)
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
-    settings = scene.render.image_settings
-    if hasattr(settings, "media_type"):
-        settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.file_format, settings.color_depth = "OPEN_EXR_MULTILAYER", "32"
-    scene.render.filepath = out
+    saves_multilayer_exr(scene, out)
     bpy.ops.render.render(write_still=True)
     found = {}
     inp = oiio.ImageInput.open(out)

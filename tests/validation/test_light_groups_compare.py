@@ -13,38 +13,27 @@ independent renders as seeds. Power: the emissive quad exported in "key" instead
 from __future__ import annotations
 
 import importlib
-import os
-import tempfile
 
 import numpy as np
 import pytest
 
-from support.cycles_reference import verdict as _verdict
+from support.render_passes import (compare_scene, cycles_passes, floor_for_compare,
+                                   pass_verdict, snell_renders)
 
 bpy = pytest.importorskip("bpy")
 
 common = importlib.import_module("common")
 
-SIZE = (48, 36)
-SPP = 128           # per seed, in both renderers
-SEEDS = 8
-MAX_DEPTH = 6
 GROUPS = ("key", "fill", "sky")
 PASSES = tuple(f"Combined_{g}" for g in GROUPS)
 
 
 def build(path):
-    scene = common.reset()
-    common.setup_render(scene, SIZE, samples=SPP, max_bounces=MAX_DEPTH - 1)
-    # A one-pixel box filter, as test_light_passes_compare (no rare tails at edges).
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    common.set_world(scene, (0.2, 0.3, 0.5))
+    scene = floor_for_compare()
     layer = scene.view_layers[0]
     for group in GROUPS:
         layer.lightgroups.add(name=group)
     scene.world.lightgroup = "sky"
-    floor = common.material("Floor", "diffuse", (0.8, 0.5, 0.3))
-    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
     common.uv_sphere("Glossy", (-0.9, 0.3, 0.5), 0.5,
                      common.material("Glossy", "glossy", (0.9, 0.8, 0.7), Roughness=0.4),
                      segments=32, rings=16)
@@ -73,45 +62,12 @@ def build(path):
     return common.save(path)
 
 
-def cycles_passes(blend):
-    """{pass: (seeds, H, W, 3)} of Cycles' renders of the file, one per seed, row 0 at the top,
-    with Combined."""
-    from snell.validation import cycles
-    images = {name: [] for name in PASSES + ("Combined",)}
-    with tempfile.TemporaryDirectory(prefix="snell-light-groups-") as workdir:
-        out = os.path.join(workdir, "passes.exr")
-        for seed in cycles.seeds_for(SEEDS, 7):
-            settings = cycles.forced_settings(MAX_DEPTH, SPP, seed, 2) + [
-                ("output", cycles.DENOISING_OUTPUT, "the passes, read back")]
-            with cycles.stdout_silenced(True):
-                cycles._render_file(blend, settings, None, out)
-            for name in PASSES:
-                images[name].append(cycles.read_pass(out, name))
-            images["Combined"].append(_combined(out))
-            os.remove(out)
-    return {name: np.stack(stack) for name, stack in images.items()}
-
-
-def _combined(path):
-    """The Combined pass's R, G and B, float64 (H, W, 3), row 0 at the top (read_pass takes
-    passes of three channels; Combined has four)."""
-    import OpenImageIO as oiio
-    image = oiio.ImageBuf(path)
-    names = image.spec().channelnames
-    rgb = [names.index(f"ViewLayer.Combined.{c}") for c in "RGB"]
-    return np.asarray(image.get_pixels(oiio.FLOAT), np.float64)[..., rgb]
-
-
 def snell_passes(scene):
     """({pass: (seeds, H, W, 3)} of Snell's renders (the independent sampler, its light tracer
     on), with Combined; {pass: (seeds, H, W, 3)} of the light tracer's share of each group)."""
-    from snell.tracer.integrator import Renderer
     images = {name: [] for name in PASSES + ("Combined",)}
     splats = {name: [] for name in PASSES + ("Combined",)}
-    for k in range(SEEDS):
-        settings = scene.settings(threads=2, sampler="independent", spp=SPP, seed=2000 + k,
-                                  noise_threshold=0.0, time_limit=0.0, light_groups=True)
-        result = Renderer(scene, settings).render()
+    for result in snell_renders(scene, light_groups=True):
         for name, values in result.light_group_images().items():
             images[name].append(values)
         images["Combined"].append(result.mean())
@@ -126,15 +82,14 @@ def snell_passes(scene):
 
 def render_all(folder):
     """Snell's passes and splats, the same with the emissive quad in "key", and Cycles'."""
-    from snell.validation import compare
     blend = build(str(folder / "groups.blend"))
-    scene, warnings = compare.load_snell_scene(blend)
-    scene = scene.with_render(max_depth=MAX_DEPTH)
+    scene = compare_scene(blend)
     wrong = scene.with_render()
     wrong.objects = [dict(obj) for obj in scene.objects]
     panel = [obj["name"] for obj in wrong.objects].index("Panel")
     wrong.objects[panel]["light_group"] = GROUPS.index("key")
-    return snell_passes(scene), snell_passes(wrong), cycles_passes(blend)
+    return (snell_passes(scene), snell_passes(wrong),
+            cycles_passes(blend, PASSES, combined=True))
 
 
 @pytest.fixture(scope="module")
@@ -145,15 +100,8 @@ def rendered(tmp_path_factory):
 
 def verdicts(ours, splats, theirs):
     """{pass: (verdict, detail)} of each group's pass and Combined."""
-    from snell.validation import metrics
-    out = {}
-    for name in PASSES + ("Combined",):
-        light = splats.get(name)
-        result = metrics.compare_estimates(metrics.Estimate.from_images(ours[name], light),
-                                           metrics.Estimate.from_images(theirs[name]),
-                                           error_metrics=False)
-        out[name] = _verdict(result)
-    return out
+    return {name: pass_verdict(ours[name], theirs[name], splats.get(name))
+            for name in PASSES + ("Combined",)}
 
 
 def test_every_group_agrees_with_cycles(rendered):
@@ -177,7 +125,6 @@ def test_the_light_in_no_group_is_only_in_combined(rendered):
     pass of no group), consistent: 0.0291 against 0.0293. Differences within float32 rounding
     of Combined are 0 (Cycles' 7e-7 where the sky alone is seen would fail the pixel test
     against Snell's exact 0)."""
-    from snell.validation import metrics
     (ours, splats), _, theirs = rendered
 
     def in_no_group(passes):
@@ -186,10 +133,8 @@ def test_the_light_in_no_group_is_only_in_combined(rendered):
     loose_splats = splats["Combined"] - sum(splats[name] for name in PASSES)
     loose, loose_cycles = in_no_group(ours), in_no_group(theirs)
     assert loose.mean() > 0.01 and loose_cycles.mean() > 0.01
-    result = metrics.compare_estimates(metrics.Estimate.from_images(loose, loose_splats),
-                                       metrics.Estimate.from_images(loose_cycles),
-                                       error_metrics=False)
-    assert _verdict(result)[0] == "consistent", _verdict(result)
+    found = pass_verdict(loose, loose_cycles, loose_splats)
+    assert found[0] == "consistent", found
 
 
 def test_a_light_in_the_wrong_group_is_caught(rendered):

@@ -23,22 +23,17 @@ glossy colour 5% high and the environment 5% high.
 from __future__ import annotations
 
 import importlib
-import os
-import tempfile
 
 import numpy as np
 import pytest
 
-from support.cycles_reference import verdict as _verdict
+from support.render_passes import (compare_scene, cycles_passes, floor_for_compare,
+                                   pass_verdict, snell_renders)
 
 bpy = pytest.importorskip("bpy")
 
 common = importlib.import_module("common")
 
-SIZE = (48, 36)
-SPP = 128           # per seed, in both renderers
-SEEDS = 8
-MAX_DEPTH = 6
 TABLE_ACCURACY = 2e-3   # relative: Snell's albedo tables against Cycles' (test_every_pass...)
 PASSES = ("Emission", "Environment", "Diffuse Direct", "Diffuse Indirect", "Diffuse Color",
           "Glossy Direct", "Glossy Indirect", "Glossy Color", "Transmission Direct",
@@ -50,15 +45,7 @@ SWITCHES = ("use_pass_emit", "use_pass_environment", "use_pass_diffuse_direct",
 
 
 def build(path):
-    scene = common.reset()
-    common.setup_render(scene, SIZE, samples=SPP, max_bounces=MAX_DEPTH - 1)
-    # A one-pixel box filter: a pixel next to an edge gets the far side's samples in proportion
-    # to its cover, not from the rare tails of a wider filter (where one renderer's few hits
-    # against the other's none fail the pixel test of a zero-variance pixel).
-    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
-    common.set_world(scene, (0.2, 0.3, 0.5))
-    floor = common.material("Floor", "diffuse", (0.8, 0.5, 0.3))
-    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
+    scene = floor_for_compare()
     specs = [("Glossy", "glossy", (0.9, 0.8, 0.7), {"Roughness": 0.4}, (-0.9, 0.3, 0.5)),
              ("Glass", "glass", (1.0, 1.0, 1.0), {"IOR": 1.45}, (0.5, 0.0, 0.5)),
              ("Plastic", "principled", (0.2, 0.6, 0.3), {"Roughness": 0.3}, (-0.1, -0.9, 0.35))]
@@ -86,34 +73,12 @@ def build(path):
     return common.save(path)
 
 
-def cycles_passes(blend):
-    """{pass: (seeds, H, W, 3)} of Cycles' renders of the file, one per seed, row 0 at the top."""
-    from snell.validation import cycles
-    images = {name: [] for name in PASSES}
-    with tempfile.TemporaryDirectory(prefix="snell-light-passes-") as workdir:
-        out = os.path.join(workdir, "passes.exr")
-        for seed in cycles.seeds_for(SEEDS, 7):
-            settings = cycles.forced_settings(MAX_DEPTH, SPP, seed, 2) + [
-                ("output", cycles.DENOISING_OUTPUT, "the passes, read back")]
-            with cycles.stdout_silenced(True):
-                cycles._render_file(blend, settings, None, out)
-            for name in PASSES:
-                images[name].append(cycles.read_pass(out, name))
-            os.remove(out)
-    return {name: np.stack(stack) for name, stack in images.items()}
-
-
 def snell_passes(scene, caustics):
     """({pass: (seeds, H, W, 3)} of Snell's renders (the independent sampler, the light tracer
     on or off), as many as Cycles' seeds; (seeds, H, W, 3) of the light tracer's share)."""
-    from snell.tracer.integrator import Renderer
     images = {name: [] for name in PASSES}
     splats = []
-    for k in range(SEEDS):
-        settings = scene.settings(threads=2, sampler="independent", spp=SPP, seed=2000 + k,
-                                  noise_threshold=0.0, time_limit=0.0, light_passes=True,
-                                  caustics=caustics)
-        result = Renderer(scene, settings).render()
+    for result in snell_renders(scene, light_passes=True, caustics=caustics):
         for name, values in result.light_pass_images().items():
             images[name].append(values)
         splats.append(result.light_image())
@@ -123,11 +88,9 @@ def snell_passes(scene, caustics):
 
 def render_both(folder):
     """Snell's passes with its light tracer on, its share, and Cycles' passes of the scene."""
-    from snell.validation import compare
     blend = build(str(folder / "passes.blend"))
-    scene, _ = compare.load_snell_scene(blend)
-    scene = scene.with_render(max_depth=MAX_DEPTH)
-    return (*snell_passes(scene, True), cycles_passes(blend))
+    scene = compare_scene(blend)
+    return (*snell_passes(scene, True), cycles_passes(blend, PASSES))
 
 
 @pytest.fixture(scope="module")
@@ -146,16 +109,9 @@ def as_written(passes):
 def verdicts(ours, theirs, splats=None):
     """{pass: (verdict, detail)}; splats: Snell's light tracer's share of Diffuse Indirect per
     render (the validator's allowance for light only a light tracer carries)."""
-    from snell.validation import metrics
-    out = {}
     a, b = as_written(ours), as_written(theirs)
-    for name in PASSES:
-        light = splats if name == "Diffuse Indirect" else None
-        result = metrics.compare_estimates(metrics.Estimate.from_images(a[name], light),
-                                           metrics.Estimate.from_images(b[name]),
-                                           error_metrics=False)
-        out[name] = _verdict(result)
-    return out
+    return {name: pass_verdict(a[name], b[name], splats if name == "Diffuse Indirect" else None)
+            for name in PASSES}
 
 
 def table_limited(name, detail, ours, theirs):
