@@ -214,6 +214,16 @@ def camera(scene, location, target, lens=35.0, sensor_width=36.0, name="Camera")
     return obj
 
 
+def shadow_caustics(lamp, casters, receivers):
+    """Cycles' shadow caustics (manifold next-event estimation) switched on as a user does: the
+    lamp a caustics light, the glass objects casters, the diffuse ones receivers."""
+    lamp.data.cycles.is_caustics_light = True
+    for obj in casters:
+        obj.cycles.is_caustics_caster = True
+    for obj in receivers:
+        obj.cycles.is_caustics_receiver = True
+
+
 def aperture_fstop(lens_mm, radius_m):
     """The f-stop whose Cycles aperture radius lens / (2 fstop) equals radius_m."""
     return lens_mm * 1e-3 / (2.0 * radius_m)

@@ -4,7 +4,9 @@
 Run: python scenes/pool.py OUT.blend
 A 2 m white floor 0.5 m under a wavy water surface (smooth Glass BSDF, IOR 1.33, 4 cm waves), a
 point lamp of radius 0.25 m 2 m above the water, the camera 1.4 m above the water looking down
-through it. Black world, 256x256, Standard view. The same scene as tests/support/sds_scenes.pool.
+through it. Black world, 256x256, Standard view. Cycles' shadow caustics are on (the lamp a
+caustics light, the water a caster, the floor a receiver), as a user renders this with Cycles;
+Snell ignores those flags. The same scene as tests/support/sds_scenes.pool.
 """
 import os
 import sys
@@ -20,11 +22,13 @@ CAMERA, TARGET = (0.0, -0.25, 1.9), (0.0, 0.0, 0.0)
 def build(path):
     """Build the scene and save it to path."""
     scene = common.new_scene((0.0, 0.0, 0.0))
-    common.floor("Floor", POOL_HALF, common.material("Floor", "diffuse", (0.8, 0.8, 0.8)))
+    floor = common.floor("Floor", POOL_HALF, common.material("Floor", "diffuse",
+                                                             (0.8, 0.8, 0.8)))
     water = common.material("Water", "glass", (1.0, 1.0, 1.0), IOR=1.33, Roughness=0.0)
     positions, triangles, _ = water_surface()
-    common.mesh_object("Water", positions, triangles, water, smooth=True)
-    common.point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY, LAMP_RADIUS)
+    water = common.mesh_object("Water", positions, triangles, water, smooth=True)
+    lamp = common.point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY, LAMP_RADIUS)
+    common.shadow_caustics(lamp, [water], [floor])
     common.camera(scene, CAMERA, TARGET, lens=50.0)
     return common.save(path)
 

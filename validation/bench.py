@@ -31,14 +31,15 @@ import numpy as np
 from ..addon.console import stdout_silenced
 from ..pages.sample_map import sample_map_png
 from ..tracer.atomic import atomic_directory, atomic_path
-from . import cycles, metrics
+from . import bench_scenes, cycles, metrics
 from .bench_curves import (ADAPTIVE_RENDERERS, CAUSTIC_SHARE, FEWER_SAMPLES, TIME_SHARE_TARGET,
-                           denoised_time_target, efficiency_summary, equal_error, equal_threshold,
-                           equal_time_pair, errors, fewer_samples_target, flip_map,
+                           caustic_targets, denoised_time_target, efficiency_summary,
+                           equal_error, equal_threshold, equal_time_pair, errors,
+                           fewer_samples_target, flip_map,
                            gain_at_equal_time, light_share, median_run, nearest_threshold,
                            next_spp, reference_noise, sample_summary)
-from .bench_report import (SCHEMA, denoised_figures_png, share_map_png, svg_plot, write_html,
-                           write_json)
+from .bench_report import (SCHEMA, denoised_figures_png, equal_time_png, share_map_png, svg_plot,
+                           write_html, write_json)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_SCENES = [os.path.join(REPO, "scenes", "cornell_spheres.blend"),
@@ -103,8 +104,9 @@ def _snell_point(spec):
     # --denoise` does, whatever the file's own Denoise settings.
     denoise = spec.get("denoise")
     # Both renderers as validation.cycles.forced_settings has Cycles render (AS_FORCED).
-    settings = scene.settings(threads=spec["threads"], caustics=spec["caustics"],
-                              **cycles.AS_FORCED,
+    # A caustic scene's strategy on or off (bench_scenes.py) over the bench's caustics switch.
+    strategy = {"caustics": spec["caustics"], **(spec.get("snell") or {})}
+    settings = scene.settings(threads=spec["threads"], **strategy, **cycles.AS_FORCED,
                               noise_threshold=spec["threshold"] or 0.0, min_spp=0,
                               time_limit=0.0, denoise=bool(denoise),
                               denoising_passes=bool(denoise),
@@ -152,6 +154,8 @@ def _cycles_point(spec):
     if spec.get("denoise"):
         settings = cycles_denoised(settings, spec["denoise"]["prefilter"],
                                    spec["denoise"]["quality"])
+    # A caustic scene's Cycles as users would set it up (bench_scenes.py), applied last.
+    settings = settings + [tuple(s) for s in spec.get("cycles") or ()]
     camera = {"resolution_percentage": spec["scale"]} if spec["scale"] != 100 else None
     with tempfile.TemporaryDirectory(prefix="snell-bench-") as workdir:
         out = os.path.join(workdir, "cycles.exr")
@@ -224,15 +228,19 @@ class PointError(RuntimeError):
     pass
 
 
-def run_point(kind, blend, spp, opts: Options, caustics=True, threshold=None, denoise=False):
+def run_point(kind, blend, spp, opts: Options, caustics=True, threshold=None, denoise=False,
+              variant=None):
     """(image, light tracer's image or None, per-pixel samples or None, stats, noisy image or
     None) of one point in a child process; stats gain peak_rss_mb (the child's). threshold:
     adaptive sampling at that noise threshold with at most spp samples per pixel (None: spp in
     every pixel). denoise: the image denoised with opts' prefilter and quality (Snell's noisy
-    image beside it)."""
+    image beside it). variant: {"snell": Snell's settings, "cycles": Cycles' (setting, value,
+    reason)} of a caustic scene (bench_scenes.py), or None."""
+    variant = variant or {}
     spec = {"kind": kind, "blend": os.path.abspath(blend) if blend else None, "spp": spp,
             "max_depth": opts.max_depth, "threads": opts.threads, "scale": opts.scale,
             "caustics": caustics, "threshold": threshold,
+            "snell": variant.get("snell"), "cycles": variant.get("cycles"),
             "denoise": {"prefilter": opts.denoise_prefilter,
                         "quality": opts.denoise_quality} if denoise else None}
     with tempfile.TemporaryDirectory(prefix="snell-bench-") as tmp:
@@ -308,14 +316,26 @@ def cache_store(directory, key, mean, variance_of_mean, meta):
     return path
 
 
-def reference(blend, opts: Options, cache_dir, log):
-    """(mean, info) of the converged reference, from the cache when its key matches."""
+def reference(blend, opts: Options, cache_dir, log, setup=None):
+    """(mean, info, variance of the mean) of the converged reference, from the cache when its
+    key matches. setup: a
+    caustic scene's (bench_scenes.BenchScene): its reference is Cycles' plain path tracer
+    (shadow caustics and guiding off) or Snell's hybrid; None: Cycles as forced."""
     import bpy
     seeds = cycles.seeds_for(opts.ref_seeds)
     forced = [(k, v) for k, v, _ in cycles.forced_settings(opts.max_depth, opts.ref_spp, 0, 1)
               if k not in ("cycles.seed", "render.threads")]
     settings = {"seeds": seeds, "spp_per_seed": opts.ref_spp, "max_depth": opts.max_depth,
                 "resolution_percentage": opts.scale, "forced": forced}
+    renderer = "snell" if setup is not None and setup.reference == "snell" else "cycles"
+    added = bench_scenes.PLAIN_REFERENCE if setup is not None else []
+    if renderer == "snell":      # Snell's hybrid, unbiased, keyed by the tracer's sources
+        from ..tracer.jit import sources_hash
+        settings = {"renderer": "snell", "batches": opts.ref_seeds, "spp_per_batch": opts.ref_spp,
+                    "max_depth": opts.max_depth, "resolution_percentage": opts.scale,
+                    "tracer": sources_hash(), "seed": SNELL_REFERENCE_SEED}
+    elif added:                  # only then: the default scenes' cache keys stay as they were
+        settings["added"] = [(k, v) for k, v, _ in added]
     version = bpy.app.version_string
     key = cache_key(blend, settings, version)
     hit = cache_load(cache_dir, key)
@@ -324,22 +344,52 @@ def reference(blend, opts: Options, cache_dir, log):
         cached = True
         log(f"{os.path.basename(blend)}: reference from cache ({key})")
     else:
-        log(f"{os.path.basename(blend)}: reference: {opts.ref_seeds} Cycles seeds x {opts.ref_spp} spp ...")
-        camera = {"resolution_percentage": opts.scale} if opts.scale != 100 else None
-        res = cycles.render_seeds(blend, spp=opts.ref_spp, max_depth=opts.max_depth, seeds=seeds,
-                                  threads=opts.threads, camera=camera,
-                                  progress=lambda d, n, t: log(f"  seed {d}/{n}, {t:.1f} s"))
-        mean, var = res.mean, res.variance_of_mean
-        meta = {"render_s": res.time_s, "threads": opts.threads, "blender": version,
+        log(f"{os.path.basename(blend)}: reference: {opts.ref_seeds} {renderer} "
+            f"{'batches' if renderer == 'snell' else 'seeds'} x {opts.ref_spp} spp ...")
+        if renderer == "snell":
+            mean, var, render_s = snell_reference(blend, opts)
+        else:
+            camera = {"resolution_percentage": opts.scale} if opts.scale != 100 else None
+            res = cycles.render_seeds(blend, spp=opts.ref_spp, max_depth=opts.max_depth,
+                                      seeds=seeds, threads=opts.threads, camera=camera,
+                                      added=added,
+                                      progress=lambda d, n, t: log(f"  seed {d}/{n}, {t:.1f} s"))
+            mean, var, render_s = res.mean, res.variance_of_mean, res.time_s
+        meta = {"render_s": render_s, "threads": opts.threads, "blender": version,
                 "settings": settings, "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
         cache_store(cache_dir, key, mean, var, meta)
         cached = False
     noise = reference_noise(mean, var)
-    info = {"key": key, "cached": cached, "seeds": len(seeds), "spp_per_seed": opts.ref_spp,
+    info = {"key": key, "cached": cached, "renderer": renderer,
+            "why": setup.why_reference if setup is not None else "Cycles, as forced",
+            "seeds": len(seeds), "spp_per_seed": opts.ref_spp,
             "spp": len(seeds) * opts.ref_spp, "render_s": meta["render_s"],
             "render_threads": meta["threads"], "blender": version,
             "noise_relmse": noise["relmse"], "noise_rmse": noise["rmse"]}
-    return np.asarray(mean, np.float64), info
+    return np.asarray(mean, np.float64), info, np.asarray(var, np.float64)
+
+
+SNELL_REFERENCE_SEED = 424242   # Snell's reference (never a ladder point's seed)
+
+
+def snell_reference(blend, opts: Options):
+    """(mean, variance of the mean, seconds) of Snell's unbiased hybrid (caustics on, photon
+    merging off) in opts.ref_seeds independent batches of opts.ref_spp samples, in this
+    process: the reference of a caustic no Cycles path tracer renders."""
+    from ..addon.export import export_blend
+    from ..tracer.integrator import Renderer
+    with stdout_silenced():
+        scene, _ = export_blend(blend)
+    scene = scene.with_render(spp=opts.ref_seeds * opts.ref_spp, max_depth=opts.max_depth,
+                              seed=SNELL_REFERENCE_SEED)
+    if opts.scale != 100:
+        scene = scene.with_camera(resolution_percentage=opts.scale)
+    settings = scene.settings(threads=opts.threads, caustics=True, photon_merging=False,
+                              sampler="independent", batches=opts.ref_seeds, **cycles.AS_FORCED,
+                              noise_threshold=0.0, min_spp=0, time_limit=0.0, denoise=False)
+    result = Renderer(scene, settings).render()
+    stack = np.stack(result.batch_images).astype(np.float64)
+    return stack.mean(axis=0), stack.var(axis=0, ddof=1) / len(stack), result.time_s
 
 
 # ---------------------------------------------------------------------------------------------
@@ -347,10 +397,10 @@ def reference(blend, opts: Options, cache_dir, log):
 
 
 def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, threshold=None,
-           denoise=False):
+           denoise=False, variant=None):
     """(point, image, light tracer's image or None, per-pixel samples) of one measured point."""
     # Repeats of a point render the same image (same seed); only the timings differ.
-    runs = [run_point(kind, blend, spp, opts, caustics, threshold, denoise)
+    runs = [run_point(kind, blend, spp, opts, caustics, threshold, denoise, variant)
             for _ in range(opts.repeat)]
     image, light, counts, _, noisy = runs[0]
     stats = median_run([r[3] for r in runs])
@@ -366,7 +416,7 @@ def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, thresho
     p["peak_rss_above_baseline_mb"] = p["peak_rss_mb"] - baseline_mb
     p["efficiency"] = p["relmse"] * p["wall_s"]
     p["samples_per_second"] = h * w * p["mean_spp"] / p["render_s"] if p["render_s"] > 0 else 0.0
-    label = kind if caustics or kind != "snell" else "snell-pt"
+    label = (variant or {}).get("label") or (kind if caustics or kind != "snell" else "snell-pt")
     label += "+dn" if denoise else ""
     at = f"T {threshold:<6g}" if threshold else f"{spp:5d} spp"
     log(f"  {label:8s} {at}  wall {p['wall_s']:7.2f} s  relMSE {p['relmse']:.4g}  "
@@ -375,38 +425,41 @@ def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, thresho
     return p, image, light, counts
 
 
-def _ladder(kind, blend, ref, opts, baseline_mb, log, caustics=True, denoise=False):
+def _ladder(kind, blend, ref, opts, baseline_mb, log, caustics=True, denoise=False,
+            variant=None):
     """The ladder's points, with each point's image and light tracer's image (or None)."""
     points, images, spp = [], [], opts.min_spp
     while spp is not None:
         p, image, light, _ = _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics,
-                                    denoise=denoise)
+                                    denoise=denoise, variant=variant)
         points.append(p)
         images.append((image, light))
         spp = next_spp(spp, p["wall_s"], max_spp=opts.max_spp, time_cap_s=opts.time_cap_s)
     return points, images
 
 
-def _as_users_render(kind, blend, ref, opts, baseline_mb, log, caustics=True):
+def _as_users_render(kind, blend, ref, opts, baseline_mb, log, caustics=True, variant=None):
     """The adaptive points at each of opts.thresholds (loosest first), and each one's per-pixel
     samples."""
     points, counts = [], []
     for threshold in sorted(opts.thresholds, reverse=True):
         p, _, _, c = _point(kind, blend, opts.adaptive_max_spp, ref, opts, baseline_mb, log,
-                            caustics, threshold)
+                            caustics, threshold, variant=variant)
         points.append({"threshold": threshold, **p})
         counts.append(c)
     return points, counts
 
 
-def _adaptive_comparison(blend, ref, opts, baseline_mb, log):
+def _adaptive_comparison(blend, ref, opts, baseline_mb, log, variants=None):
     """(the scene's "adaptive" entry, {renderer: sample map PNG}): Snell and Cycles adaptive at
-    opts.thresholds, their equal-threshold ratios, and the maps at the threshold nearest 0.01."""
+    opts.thresholds, their equal-threshold ratios, and the maps at the threshold nearest 0.01.
+    variants: {renderer: variant} of a caustic scene (_variants)."""
     entry, pngs = {}, {}
     at = nearest_threshold(opts.thresholds)
     for kind in ADAPTIVE_RENDERERS:
         points, counts = _as_users_render(kind, blend, ref, opts, baseline_mb, log,
-                                          caustics=opts.caustics != "off")
+                                          caustics=opts.caustics != "off",
+                                          variant=(variants or {}).get(kind))
         entry[kind] = {"points": points}
         i = [p["threshold"] for p in points].index(at)
         # One scale for both renderers' maps (the cap), so their colours compare.
@@ -540,16 +593,130 @@ def definitions(opts: Options) -> dict:
         "equal_time": "the denoised images shown side by side: Cycles + OIDN's last ladder point "
                       "and the Snell + OIDN point nearest its wall time (log time), with "
                       "per-pixel FLIP maps against the reference",
+        "caustic_targets": "issue 34's targets on its caustic scenes (snell bench "
+                           "--caustic-scenes, bench_scenes.py), for Snell with the new strategy "
+                           "and Snell without it, each against Cycles as users would set it up "
+                           "(its shadow caustics on where a lamp lights the glass, path guiding "
+                           "where it helped): the caustic region's relMSE at equal time, Snell / "
+                           "Cycles = 1 / caustic_gain_at_equal_time's rule with Cycles as the "
+                           "other ladder, at most 0.2; the whole image's time to equal error "
+                           "(time_to_equal_error's rule), at most 0.5. The reference is Cycles' "
+                           "plain path tracer (shadow caustics and guiding off), or Snell's "
+                           "hybrid (caustics on, merging off; unbiased) where Cycles' path "
+                           "tracer renders no caustic (a delta lamp's). Photon merging is "
+                           "consistent, not unbiased: the merged ladders' error includes its "
+                           "bias. Images: Cycles' last point beside each Snell ladder's point "
+                           "nearest its wall time",
         "reference_noise": "the reference's own expected contribution to a point's relMSE and RMSE: "
                            "mean of var / (R^2 + eps) and sqrt(mean var), var = its across-seed "
                            "variance of the mean; measured errors include it (not subtracted)",
     }
 
 
-def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
-    """Run the bench, write bench.json, bench.html and bench.svg into report_dir, return the data."""
+def _variants(setup) -> dict:
+    """A caustic scene's ladders and how each renders (run_point's variant): Snell with the
+    new strategy, Snell without it, Cycles as users would set it up; None: the default bench."""
+    if setup is None:
+        return {}
+    return {"snell": {"snell": setup.snell, "label": "snell"},
+            "snell_without": {"snell": setup.without, "label": "snell-wo"},
+            "cycles": {"cycles": setup.cycles_settings(), "label": "cycles"}}
+
+
+def _ladders(name, blend, ref, opts, baseline_mb, log, variants) -> dict:
+    """{ladder key: (points, [(image, light tracer's image or None)])} of one scene."""
+    on = opts.caustics != "off"
+    log(f"{name}: ladder")
+    ladders = {"snell": _ladder("snell", blend, ref, opts, baseline_mb, log, caustics=on,
+                                variant=variants.get("snell"))}
+    if "snell_without" in variants:
+        ladders["snell_without"] = _ladder("snell", blend, ref, opts, baseline_mb, log,
+                                           caustics=on, variant=variants["snell_without"])
+    elif opts.caustics == "both":
+        ladders["snell_path_tracer"] = _ladder("snell", blend, ref, opts, baseline_mb, log,
+                                               caustics=False)
+    ladders["cycles"] = _ladder("cycles", blend, ref, opts, baseline_mb, log,
+                                variant=variants.get("cycles"))
+    if opts.denoise:
+        log(f"{name}: denoised ladders (not tested: the validator never sees them)")
+        ladders["snell_denoised"] = _ladder("snell", blend, ref, opts, baseline_mb, log,
+                                            caustics=on, denoise=True,
+                                            variant=variants.get("snell"))
+        ladders["cycles_denoised"] = _ladder("cycles", blend, ref, opts, baseline_mb, log,
+                                             denoise=True, variant=variants.get("cycles"))
+    return ladders
+
+
+def _caustic_entry(scene, ladders, ref, setup):
+    """(a caustic scene's "caustic_targets" entry, its equal-time strip PNG): issue 34's
+    targets (bench_curves.caustic_targets) and Cycles' last point beside the point of each
+    Snell ladder nearest its wall time."""
+    entry = {"setup": setup.describe(), **caustic_targets(scene)}
+    cycles_points = scene["cycles"]["points"]
+    picks = {key: equal_time_pair(scene[key]["points"], cycles_points)[0]
+             for key in ("snell", "snell_without")}
+    picks["cycles"] = len(cycles_points) - 1
+    entry["equal_time"] = {key: {k: scene[key]["points"][i].get(k) for k in
+                                 ("spp", "wall_s", "relmse", "caustic_relmse")}
+                           for key, i in picks.items()}
+    labels = {"snell": "Snell", "snell_without": "Snell without", "cycles": "Cycles"}
+    tiles = [("reference", ref)] + [
+        (f"{labels[key]}: {entry['equal_time'][key]['spp']} spp, "
+         f"{entry['equal_time'][key]['wall_s']:.1f} s", ladders[key][1][i][0])
+        for key, i in picks.items()]
+    return entry, equal_time_png(tiles)
+
+
+def _bench_scene(blend, setup, opts, cache_dir, baseline_mb, log):
+    """(the scene's JSON entry, its figures: share map, sample maps, denoised and equal-time
+    PNGs) of one scene; setup: a caustic scene's (bench_scenes.BenchScene) or None."""
+    name = os.path.splitext(os.path.basename(blend))[0]
+    ref, ref_info, ref_var = reference(blend, opts, cache_dir, log, setup)
+    variants = _variants(setup)
+    ladders = _ladders(name, blend, ref, opts, baseline_mb, log, variants)
+    # The light tracer's image at the largest point of the Snell ladder (None if it did not
+    # run): it defines the caustic region and the share map.
+    light = ladders["snell"][1][-1][1]
+    mask, region = _caustic_region(light, ref)
+    if mask.any():
+        # The reference's own noise in the region: a floor under every point's caustic relMSE.
+        region["reference_noise_relmse"] = reference_noise(ref[mask], ref_var[mask])["relmse"]
+        for points, images in ladders.values():
+            for p, (image, _) in zip(points, images):
+                p["caustic_relmse"] = metrics.relmse(image[mask], ref[mask])
+    scene = {"name": name, "blend": os.path.abspath(blend),
+             "height": int(ref.shape[0]), "width": int(ref.shape[1]),
+             "reference": ref_info, "caustic_region": region}
+    for key, (points, _) in ladders.items():
+        scene[key] = {"points": points, "efficiency": efficiency_summary(points)}
+    scene["time_to_equal_error"] = equal_error(scene["snell"]["points"],
+                                               scene["cycles"]["points"])
+    figures = {"map": share_map_png(light, ref) if light is not None else None}
+    if "snell_path_tracer" in scene:
+        scene["path_tracer_time_to_equal_error"] = equal_error(
+            scene["snell_path_tracer"]["points"], scene["cycles"]["points"])
+        if mask.any():
+            scene["caustic_gain_at_equal_time"] = gain_at_equal_time(
+                scene["snell"]["points"], scene["snell_path_tracer"]["points"],
+                "caustic_relmse")
+    if setup is not None:
+        scene["caustic_targets"], figures["equal_time"] = _caustic_entry(scene, ladders, ref,
+                                                                          setup)
+    if opts.denoise:
+        scene["denoised"], figures["denoised"] = _denoised_comparison(scene, ladders, ref)
+    if opts.thresholds:
+        log(f"{name}: as users render (adaptive)")
+        scene["adaptive"], figures["sample_maps"] = _adaptive_comparison(
+            blend, ref, opts, baseline_mb, log, variants)
+    return scene, figures
+
+
+def run(scenes, report_dir, opts: Options, cache_dir=None, log=None, setups=None) -> dict:
+    """Run the bench, write bench.json, bench.html and bench.svg into report_dir, return the
+    data. setups: {scene path: bench_scenes.BenchScene} of the caustic scenes among them."""
     log = log or (lambda s: None)
     cache_dir = cache_dir or default_cache_dir()
+    setups = setups or {}
     start = time.perf_counter()
     # Each scene is exported once first: a file Blender cannot open or Snell cannot render
     # fails here, with its name, rather than in a child process minutes into the run.
@@ -559,54 +726,10 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
             export_blend(blend)
     _, _, _, base, _ = run_point("baseline", None, 0, opts)
     baseline_mb = base["peak_rss_mb"]
-    out_scenes, maps, sample_maps, denoised_figures = [], {}, {}, {}
+    out_scenes, figures = [], {}
     for blend in scenes:
-        name = os.path.splitext(os.path.basename(blend))[0]
-        ref, ref_info = reference(blend, opts, cache_dir, log)
-        log(f"{name}: ladder")
-        ladders = {"snell": _ladder("snell", blend, ref, opts, baseline_mb, log,
-                                    caustics=opts.caustics != "off")}
-        if opts.caustics == "both":
-            ladders["snell_path_tracer"] = _ladder("snell", blend, ref, opts, baseline_mb, log,
-                                                   caustics=False)
-        ladders["cycles"] = _ladder("cycles", blend, ref, opts, baseline_mb, log)
-        if opts.denoise:
-            log(f"{name}: denoised ladders (not tested: the validator never sees them)")
-            ladders["snell_denoised"] = _ladder("snell", blend, ref, opts, baseline_mb, log,
-                                                caustics=opts.caustics != "off", denoise=True)
-            ladders["cycles_denoised"] = _ladder("cycles", blend, ref, opts, baseline_mb, log,
-                                                 denoise=True)
-        # The light tracer's image at the largest point of the Snell ladder (None if it did not
-        # run): it defines the caustic region and the share map.
-        light = ladders["snell"][1][-1][1]
-        mask, region = _caustic_region(light, ref)
-        if mask.any():
-            for points, images in ladders.values():
-                for p, (image, _) in zip(points, images):
-                    p["caustic_relmse"] = metrics.relmse(image[mask], ref[mask])
-        scene = {"name": name, "blend": os.path.abspath(blend),
-                 "height": int(ref.shape[0]), "width": int(ref.shape[1]),
-                 "reference": ref_info, "caustic_region": region}
-        for key, (points, _) in ladders.items():
-            scene[key] = {"points": points, "efficiency": efficiency_summary(points)}
-        scene["time_to_equal_error"] = equal_error(scene["snell"]["points"],
-                                                   scene["cycles"]["points"])
-        if "snell_path_tracer" in scene:
-            scene["path_tracer_time_to_equal_error"] = equal_error(
-                scene["snell_path_tracer"]["points"], scene["cycles"]["points"])
-            if mask.any():
-                scene["caustic_gain_at_equal_time"] = gain_at_equal_time(
-                    scene["snell"]["points"], scene["snell_path_tracer"]["points"],
-                    "caustic_relmse")
-        if light is not None:
-            maps[name] = share_map_png(light, ref)
-        if opts.denoise:
-            scene["denoised"], denoised_figures[name] = _denoised_comparison(
-                scene, ladders, ref)
-        if opts.thresholds:
-            log(f"{name}: as users render (adaptive)")
-            scene["adaptive"], sample_maps[name] = _adaptive_comparison(
-                blend, ref, opts, baseline_mb, log)
+        scene, figures[os.path.splitext(os.path.basename(blend))[0]] = _bench_scene(
+            blend, setups.get(blend), opts, cache_dir, baseline_mb, log)
         out_scenes.append(scene)
     import bpy
     data = {
@@ -622,15 +745,20 @@ def run(scenes, report_dir, opts: Options, cache_dir=None, log=None) -> dict:
         "total_s": time.perf_counter() - start,
     }
     svg = svg_plot(out_scenes)
+    pick = {k: {name: f[k] for name, f in figures.items() if f.get(k) is not None}
+            for k in ("map", "sample_maps", "denoised", "equal_time")}
     with atomic_directory(report_dir) as tmp:
         with open(os.path.join(tmp, "bench.svg"), "w") as f:
             f.write(svg)
         write_json(os.path.join(tmp, "bench.json"), data)
-        write_html(os.path.join(tmp, "bench.html"), data, svg, maps, sample_maps,
-                   denoised_figures)
-        for name, figure in denoised_figures.items():
+        write_html(os.path.join(tmp, "bench.html"), data, svg, pick["map"], pick["sample_maps"],
+                   pick["denoised"], pick["equal_time"])
+        for name, figure in pick["denoised"].items():
             with open(os.path.join(tmp, f"denoised_{name}.png"), "wb") as f:
                 f.write(figure["strip"])
+        for name, png in pick["equal_time"].items():
+            with open(os.path.join(tmp, f"equal_time_{name}.png"), "wb") as f:
+                f.write(png)
     return data
 
 

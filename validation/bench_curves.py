@@ -231,6 +231,48 @@ def light_share(light, reference) -> np.ndarray:
             / np.maximum(np.asarray(reference, np.float64).sum(axis=2), 1e-6))
 
 
+# Issue 34's targets on its caustic scenes (bench_scenes.py), each Snell / Cycles at most: the
+# caustic region's relMSE at equal time, and the whole image's time to equal error.
+CAUSTIC_RELMSE_TARGET = 0.2
+CAUSTIC_TIME_TARGET = 0.5
+
+
+def caustic_ratio(points, cycles) -> tuple:
+    """(Snell / Cycles caustic relMSE at equal time, how it was found): "interpolated" (1 /
+    gain_at_equal_time's median); where every Snell point is faster than every Cycles point
+    (Cycles' fixed costs), "bound": Snell's slowest point over Cycles' lowest error, an upper
+    bound since both errors only fall with time; else "extrapolated" (Cycles' curve extended)."""
+    gain = gain_at_equal_time(points, cycles, "caustic_relmse")
+    if not all(r["extrapolated"] for r in gain["points"]):
+        return (1.0 / gain["median"] if gain["median"] > 0 else float("nan")), "interpolated"
+    slowest = max(points, key=lambda p: p["wall_s"])
+    if slowest["wall_s"] <= min(p["wall_s"] for p in cycles):
+        return slowest["caustic_relmse"] / min(p["caustic_relmse"] for p in cycles), "bound"
+    return (1.0 / gain["median"] if gain["median"] > 0 else float("nan")), "extrapolated"
+
+
+def caustic_targets(scene, ladders=("snell", "snell_without")) -> dict:
+    """Issue 34's targets for each of a caustic scene's Snell ladders against its Cycles ladder:
+    the caustic region's relMSE at equal time, Snell / Cycles (caustic_ratio), at most
+    CAUSTIC_RELMSE_TARGET; the whole image's time to equal error (equal_error's ratio), at most
+    CAUSTIC_TIME_TARGET (caustic_ratio says how the first was found). NaN and not met where
+    the scene has no caustic region."""
+    cycles = scene["cycles"]["points"]
+    out = {"caustic_relmse_target": CAUSTIC_RELMSE_TARGET, "time_target": CAUSTIC_TIME_TARGET}
+    for key in ladders:
+        points = scene[key]["points"]
+        eq = equal_error(points, cycles)
+        ratio, how = (caustic_ratio(points, cycles)
+                      if all("caustic_relmse" in p for p in points + cycles)
+                      else (float("nan"), "no caustic region"))
+        out[key] = {"caustic_relmse_ratio": ratio, "caustic_how": how,
+                    "caustic_extrapolated": how == "extrapolated",
+                    "caustic_met": bool(ratio <= CAUSTIC_RELMSE_TARGET),
+                    "time_ratio": eq["ratio"], "time_target_relmse": eq["target_relmse"],
+                    "time_met": bool(eq["ratio"] <= CAUSTIC_TIME_TARGET)}
+    return out
+
+
 def efficiency_summary(points) -> dict:
     """relMSE x wall time per point; the median over the ladder and the value at the last point."""
     eff = [p["relmse"] * p["wall_s"] for p in points]

@@ -65,11 +65,13 @@ def write_json(path, data):
 # Plot: log-log relMSE against wall time, one panel per scene, one polyline per renderer
 
 
-COLOURS = {"snell": "#d62728", "snell_path_tracer": "#ff9896", "cycles": "#1f77b4",
-           "snell_denoised": "#7a0a0a", "cycles_denoised": "#0a2f5c"}
-LABELS = {"snell": "Snell", "snell_path_tracer": "Snell, path tracer only", "cycles": "Cycles",
+COLOURS = {"snell": "#d62728", "snell_path_tracer": "#ff9896", "snell_without": "#ff9896",
+           "cycles": "#1f77b4", "snell_denoised": "#7a0a0a", "cycles_denoised": "#0a2f5c"}
+LABELS = {"snell": "Snell", "snell_path_tracer": "Snell, path tracer only",
+          "snell_without": "Snell without the new strategy", "cycles": "Cycles",
           "snell_denoised": "Snell + OIDN", "cycles_denoised": "Cycles + OIDN"}
-LADDERS = ("snell", "snell_path_tracer", "cycles", "snell_denoised", "cycles_denoised")
+LADDERS = ("snell", "snell_path_tracer", "snell_without", "cycles", "snell_denoised",
+           "cycles_denoised")
 
 
 def renderers(scene) -> list:
@@ -206,6 +208,67 @@ DENOISED_HEADER = ["scene", "size", "target relMSE (denoised)", "Snell + OIDN s"
                    "undenoised at 10 n", "(b) below 1"]
 
 
+def caustic_rows(data):
+    """One row per caustic scene (bench_scenes.py): issue 34's targets for Snell and for Snell
+    without the new strategy, each against Cycles as users would set it up."""
+    rows = []
+    for sc in data["scenes"]:
+        ct = sc.get("caustic_targets")
+        if not ct:
+            continue
+        setup = ct["setup"]
+        s, w = ct["snell"], ct["snell_without"]
+        rows.append([sc["name"], setup["strategy"] + (" (biased: its error includes bias)"
+                                                      if setup["biased"] else ""),
+                     f"{sc['width']}x{sc['height']}", sc["reference"]["renderer"],
+                     fmt(sc["caustic_region"].get("reference_noise_relmse")),
+                     "on" if setup["guiding"] else "off",
+                     _caustic_ratio(s), "met" if s["caustic_met"] else "not met",
+                     fmt(s["time_ratio"]), "met" if s["time_met"] else "not met",
+                     _caustic_ratio(w), fmt(w["time_ratio"])])
+    return rows
+
+
+def _caustic_ratio(figures) -> str:
+    """The caustic relMSE ratio, marked where it is a bound or Cycles' curve was extrapolated."""
+    how = figures.get("caustic_how", "interpolated")
+    return fmt(figures["caustic_relmse_ratio"]) + ("" if how == "interpolated" else
+                                                   " (at most)" if how == "bound" else f" ({how})")
+
+
+CAUSTIC_HEADER = ["scene", "Snell's new strategy", "size", "reference",
+                  "reference's own caustic relMSE", "Cycles path guiding",
+                  "caustic relMSE at equal time, Snell / Cycles", "(at most 0.2)",
+                  "time to equal error, Snell / Cycles", "(at most 0.5)",
+                  "without: caustic relMSE ratio", "without: time ratio"]
+
+
+def _caustic_section(data, figures):
+    """The HTML of the caustic scenes: their targets' table, setups and equal-time images."""
+    rows = caustic_rows(data)
+    if not rows:
+        return ""
+    d = data["definitions"]
+    out = [f"<h2>Caustic scenes (issue 34)</h2>\n<p class='small'>"
+           f"{html.escape(d['caustic_targets'])}</p>\n{_table(rows, CAUSTIC_HEADER)}"]
+    for sc in data["scenes"]:
+        ct = sc.get("caustic_targets")
+        if not ct:
+            continue
+        setup, e = ct["setup"], ct["equal_time"]
+        cycles_set = "; ".join(f"{k} = {v} ({why})" for k, v, why in setup["cycles_settings"])
+        caption = (f"{sc['name']} at equal time: reference ({sc['reference']['renderer']}: "
+                   f"{sc['reference']['why']}); Snell ({setup['strategy']}) {e['snell']['spp']} "
+                   f"spp, {e['snell']['wall_s']:.2f} s; {setup['without_label']} "
+                   f"{e['snell_without']['spp']} spp, {e['snell_without']['wall_s']:.2f} s; "
+                   f"Cycles {e['cycles']['spp']} spp, {e['cycles']['wall_s']:.2f} s "
+                   f"({cycles_set})")
+        png = (figures or {}).get(sc["name"])
+        img = f"<img src='{data_uri(png)}'>" if png else ""
+        out.append(f"<figure>{img}<figcaption>{html.escape(caption)}</figcaption></figure>")
+    return "\n".join(out) + "\n"
+
+
 def _table(rows, header):
     out = ["<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>"]
     out += ["<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows]
@@ -218,6 +281,8 @@ def markdown_table(data) -> str:
         lines = ["| " + " | ".join(header) + " |", "|" + " --- |" * len(header)]
         return "\n".join(lines + ["| " + " | ".join(str(c) for c in r) + " |" for r in rows])
     out = md(summary_rows(data), SUMMARY_HEADER) + "\n\n" + md(table_rows(data), HEADER)
+    if caustic_rows(data):
+        out += "\n\n" + md(caustic_rows(data), CAUSTIC_HEADER)
     if adaptive_rows(data):
         out += "\n\n" + md(adaptive_rows(data), ADAPTIVE_HEADER)
     if denoised_rows(data):
@@ -248,17 +313,27 @@ def denoised_figures_png(reference, snell, cycles, maps, equal_time) -> dict:
                 "cycles": f"Cycles+OIDN {e['cycles_spp']} spp {e['cycles_s']:.1f} s",
                 "cycles_flip": f"Cycles FLIP {e['cycles_flip']:.3f}"}
     order = ("reference", "snell", "snell_flip", "cycles", "cycles_flip")
-    h = max(t.shape[0] for t in tiles.values())
+    out = {k: png_bytes(v) for k, v in tiles.items()}
+    out["strip"] = png_bytes(labelled_strip([(captions[k], tiles[k]) for k in order]))
+    return out
+
+
+def labelled_strip(tiles) -> np.ndarray:
+    """[(caption, uint8 (H, W, 3))] side by side under their captions, white gaps between."""
+    h = max(t.shape[0] for _, t in tiles)
     gap = np.full((h + 22, 4, 3), 255, np.uint8)
     columns = []
-    for k in order:
-        t = tiles[k]
+    for caption, t in tiles:
         padded = np.zeros((h, t.shape[1], 3), np.uint8)
         padded[:t.shape[0]] = t
-        columns += [np.concatenate([text_label(captions[k], t.shape[1]), padded]), gap]
-    out = {k: png_bytes(v) for k, v in tiles.items()}
-    out["strip"] = png_bytes(np.concatenate(columns[:-1], axis=1))
-    return out
+        columns += [np.concatenate([text_label(caption, t.shape[1]), padded]), gap]
+    return np.concatenate(columns[:-1], axis=1)
+
+
+def equal_time_png(tiles, width=256) -> bytes:
+    """A PNG of linear images [(caption, (H, W, 3))] side by side (sRGB, upscaled to about
+    `width` pixels each), under their captions."""
+    return png_bytes(labelled_strip([(c, upscale(to_srgb8(image), width)) for c, image in tiles]))
 
 
 def _denoised_section(data, figures):
@@ -341,14 +416,16 @@ def _adaptive_section(data, sample_maps):
                f"{s['adaptive_max_spp']}).</p>\n" + "\n".join(figures) + "\n" if figures else ""))
 
 
-def write_html(path, data, svg, maps=None, sample_maps=None, denoised_figures=None):
+def write_html(path, data, svg, maps=None, sample_maps=None, denoised_figures=None,
+               equal_time_figures=None):
     """The bench page; maps: {scene name: PNG of the light tracer's share}; sample_maps: {scene
     name: {renderer: PNG of its samples per pixel}}; denoised_figures: {scene name:
-    denoised_figures_png's PNGs}."""
+    denoised_figures_png's PNGs}; equal_time_figures: {caustic scene name: equal_time_png's}."""
     d = data["definitions"]
     s = data["settings"]
     refs = "".join(
-        f"<li>{html.escape(sc['name'])}: {sc['reference']['seeds']} Cycles seeds x "
+        f"<li>{html.escape(sc['name'])}: {sc['reference']['seeds']} "
+        f"{'Snell batches' if sc['reference'].get('renderer') == 'snell' else 'Cycles seeds'} x "
         f"{sc['reference']['spp_per_seed']} spp = {sc['reference']['spp']} spp, "
         f"{sc['reference']['render_s']:.1f} s ({'cached' if sc['reference']['cached'] else 'rendered now'}); "
         f"own noise: relMSE {fmt(sc['reference']['noise_relmse'])}, RMSE {fmt(sc['reference']['noise_rmse'])}</li>"
@@ -361,6 +438,7 @@ def write_html(path, data, svg, maps=None, sample_maps=None, denoised_figures=No
         f"<h2>Error against wall time</h2>\n{svg}\n"
         f"<h2>Time to equal error</h2>\n{_table(summary_rows(data), SUMMARY_HEADER)}\n"
         f"<p class='small'>{html.escape(d['time_to_equal_error'])}</p>\n"
+        f"{_caustic_section(data, equal_time_figures)}"
         f"{_share_maps(data, maps)}"
         f"{_adaptive_section(data, sample_maps)}"
         f"{_denoised_section(data, denoised_figures)}"

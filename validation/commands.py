@@ -225,8 +225,47 @@ def setup_bench(p):
                    help="both renderers' denoising prefilter (default accurate, Cycles')")
     p.add_argument("--denoise-quality", choices=("high", "balanced", "fast"),
                    help="both renderers' denoising quality (default high, Cycles')")
+    p.add_argument("--caustic-scenes", nargs="?", const="all", metavar="NAME,...",
+                   help="bench issue 34's caustic scenes instead of the default ones (all, or "
+                        "those named: sun_caustic, hdri_caustic, pool, tumbler_caustic; built "
+                        "into the cache from scenes/*.py): Snell with and without the new "
+                        "strategy, Cycles with its shadow caustics, and the targets")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/snell/bench)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
+
+
+def bench_scene_list(args, bench, log) -> tuple:
+    """(the scenes `snell bench` runs, {path: BenchScene} of the caustic ones) for its args."""
+    if args.caustic_scenes:
+        if args.scenes:
+            raise CliError("give SCENEs or --caustic-scenes, not both")
+        from . import bench_scenes
+        try:
+            built = bench_scenes.build(args.cache or bench.default_cache_dir(), log,
+                                       bench_scenes.select(args.caustic_scenes))
+        except (RuntimeError, ValueError) as exc:
+            raise CliError(str(exc)) from None
+        return [path for path, _ in built], dict(built)
+    scenes = args.scenes or bench.DEFAULT_SCENES + (bench.DENOISE_SCENES if args.denoise else [])
+    for s in scenes:
+        if s in bench.DEFAULT_SCENES + bench.DENOISE_SCENES and not os.path.exists(s):
+            raise CliError(f"{s}: no such file (build it with scenes/build_all.py)")
+        check_input_file(s)
+    return scenes, {}
+
+
+def caustic_summary(sc) -> str:
+    """One line of a caustic scene's targets (bench_curves.caustic_targets)."""
+    from .bench_report import fmt
+    ct = sc["caustic_targets"]
+    s, w = ct["snell"], ct["snell_without"]
+    return (f"snell bench: {sc['name']}: caustic relMSE at equal time, Snell / Cycles = "
+            f"{fmt(s['caustic_relmse_ratio'])} (at most {ct['caustic_relmse_target']:g}: "
+            f"{'met' if s['caustic_met'] else 'not met'}; without the new strategy "
+            f"{fmt(w['caustic_relmse_ratio'])}); time to equal error {fmt(s['time_ratio'])} (at "
+            f"most {ct['time_target']:g}: {'met' if s['time_met'] else 'not met'}; without "
+            f"{fmt(w['time_ratio'])})" + (" [merging is biased: its error includes bias]"
+                                          if ct["setup"]["biased"] else ""))
 
 
 def cmd_bench(args) -> int:
@@ -238,12 +277,9 @@ def cmd_bench(args) -> int:
         if exc.name != "bpy":
             raise
         raise CliError("snell bench needs Blender's bpy module (pip install 'snell[blender]')") from None
-    scenes = args.scenes or bench.DEFAULT_SCENES + (bench.DENOISE_SCENES if args.denoise else [])
-    for s in scenes:
-        if s in bench.DEFAULT_SCENES + bench.DENOISE_SCENES and not os.path.exists(s):
-            raise CliError(f"{s}: no such file (build it with scenes/build_all.py)")
-        check_input_file(s)
+    log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr, flush=True))
     check_writable_directory(args.report, "--report", report=True)
+    scenes, setups = bench_scene_list(args, bench, log)
     opts = bench.Options(**(bench.QUICK if args.quick else {}))
     for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),
                        ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"), ("ref_seeds", "ref_seeds"),
@@ -254,9 +290,8 @@ def cmd_bench(args) -> int:
         if getattr(args, name) is not None:
             setattr(opts, attr, getattr(args, name))
     opts.denoise = args.denoise
-    log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr, flush=True))
     try:
-        data = bench.run(scenes, args.report, opts, cache_dir=args.cache, log=log)
+        data = bench.run(scenes, args.report, opts, cache_dir=args.cache, log=log, setups=setups)
     except bench.PointError as exc:
         raise CliError(str(exc)) from None
     print(markdown_table(data))
@@ -277,6 +312,8 @@ def cmd_bench(args) -> int:
             print(f"snell bench: {sc['name']}: adaptive at threshold {at:g}: Snell / Cycles at "
                   f"equal error = {fmt(eq['ratio'])} (time {fmt(eq['time_ratio'])}, "
                   f"relMSE {fmt(eq['relmse_ratio'])} at equal threshold)")
+        if "caustic_targets" in sc:
+            print(caustic_summary(sc))
         if "denoised" in sc:
             a, b = sc["denoised"]["time_target"], sc["denoised"]["fewer_samples_target"]
             print(f"snell bench: {sc['name']}: denoised (not tested): (a) time to Cycles + OIDN's "

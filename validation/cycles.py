@@ -235,9 +235,28 @@ def read_sample_count(path, samples: int) -> np.ndarray:
     raise OSError(f"{path}: no {SAMPLE_COUNT_PASS} pass")
 
 
+# A settings key that switches Cycles' shadow caustics (manifold next-event estimation) off on
+# every object and lamp (value False; True keeps the file's flags): MNEE is biased, so a
+# reference meant to converge renders without it.
+SHADOW_CAUSTICS = "objects.cycles.is_caustics_*"
+
+
+def _shadow_caustics(scene, value):
+    """Keep the file's shadow-caustic flags (value True) or clear them all (False)."""
+    if value:
+        return
+    for obj in scene.objects:
+        obj.cycles.is_caustics_caster = obj.cycles.is_caustics_receiver = False
+        if obj.type == "LIGHT":
+            obj.data.cycles.is_caustics_light = False
+
+
 def _apply(scene, settings):
     for key, value, _ in settings:
         if key == "output":
+            continue
+        if key == SHADOW_CAUSTICS:
+            _shadow_caustics(scene, value)
             continue
         if key.startswith("view_layers.cycles."):
             for layer in scene.view_layers:
@@ -344,9 +363,10 @@ def _render_one(blend_path, settings, camera, workdir):
 
 def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), threads: int = 2,
                  camera=None, progress=None, quiet_blender=True, overrides=None,
-                 film=None, bounces=None) -> CyclesResult:
+                 film=None, bounces=None, added=()) -> CyclesResult:
     """Render the file once per seed with `spp` samples each; mean and variance of the mean.
-    film and bounces: forced_settings'.
+    film and bounces: forced_settings'. added: (setting, value, reason) applied after the
+    forced settings (e.g. SHADOW_CAUSTICS off).
 
     progress(done, total, elapsed_s) is called after each seed.
     """
@@ -359,6 +379,7 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
             settings = forced_settings(max_depth, spp, seed, threads, film, bounces)
             if overrides:  # experiments only: replace forced values
                 settings = [(k, overrides.get(k, v), why) for k, v, why in settings]
+            settings = settings + list(added)
             with stdout_silenced(quiet_blender):
                 rgb, alpha, elapsed, extra = _render_one(blend_path, settings, camera, workdir)
             images.append(rgb)
@@ -371,7 +392,7 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     mean = stack.mean(axis=0)
     var = stack.var(axis=0, ddof=1) / len(seeds)
     settings = forced_settings(max_depth, spp, seeds[0], threads, film, bounces)
-    settings = [s for s in settings if s[0] != "cycles.seed"]
+    settings = [s for s in settings if s[0] != "cycles.seed"] + list(added)
     settings.append(("cycles.seed", ", ".join(map(str, seeds)),
                      f"{len(seeds)} independent renders; variance of the mean from their spread"))
     return CyclesResult(mean, var, spp * len(seeds), seeds, total, settings + extra, images,
