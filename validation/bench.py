@@ -504,6 +504,17 @@ def _denoised_comparison(scene, ladders, ref):
 
 
 def definitions(opts: Options) -> dict:
+    """What each figure of the bench's JSON means (its "definitions")."""
+    return {**_error_definitions(), **_run_definitions(opts), **_caustic_definitions(),
+            **_adaptive_definitions(opts), **_denoised_definitions(opts),
+            "reference_noise": "the reference's own expected contribution to a point's relMSE "
+                               "and RMSE: mean of var / (R^2 + eps) and sqrt(mean var), var = "
+                               "its across-seed variance of the mean; measured errors include it "
+                               "(not subtracted)"}
+
+
+def _error_definitions() -> dict:
+    """What the error figures and the time to equal error mean."""
     return {
         "relmse": f"mean over pixels and channels of (I - R)^2 / (R^2 + eps), eps = {metrics.RELMSE_EPS:g}, "
                   f"after dropping the largest {metrics.RELMSE_DROP:.1%} of the per-value terms "
@@ -519,6 +530,12 @@ def definitions(opts: Options) -> dict:
                                "log time), i.e. the ratio of the geometric means of relMSE x time; "
                                "snell_slope, cycles_slope: free least-squares slopes (-1 for an "
                                "unbiased renderer once fixed costs such as export no longer dominate)",
+    }
+
+
+def _run_definitions(opts: Options) -> dict:
+    """What a point's run figures (time, rays, memory, stages) mean."""
+    return {
         "wall_s": "Snell: export of the .blend + scene build (Embree BVH) + render; Cycles: loading "
                   "the .blend + render (EXR write included); both with the same threads, each point "
                   "in a fresh child process, timed inside it (interpreter start and import bpy excluded); "
@@ -540,12 +557,38 @@ def definitions(opts: Options) -> dict:
                           "light vertices where an adaptive render measured that they do not pay)",
         "stages": "Snell only: every optional stage, whether it ran and why (the render's own "
                   "account: RenderResult.stages)",
+    }
+
+
+def _caustic_definitions() -> dict:
+    """What the caustic region's figures and issue 34's targets mean."""
+    return {
         "caustic_relmse": f"relMSE over the caustic region only: the pixels where the light "
                           f"tracer's image (at the largest Snell point) is at least "
                           f"{CAUSTIC_SHARE:g} of the reference",
         "caustic_gain_at_equal_time": "for each Snell point, the path tracer alone's caustic "
                                       "relMSE at the same wall time (log-log interpolation "
                                       "between its ladder points) over Snell's; median over points",
+        "caustic_targets": "issue 34's targets on its caustic scenes (snell bench "
+                           "--caustic-scenes, bench_scenes.py), for Snell with the new strategy "
+                           "and Snell without it, each against Cycles as users would set it up "
+                           "(its shadow caustics on where a lamp lights the glass, path guiding "
+                           "where it helped): the caustic region's relMSE at equal time, Snell / "
+                           "Cycles = 1 / caustic_gain_at_equal_time's rule with Cycles as the "
+                           "other ladder, at most 0.2; the whole image's time to equal error "
+                           "(time_to_equal_error's rule), at most 0.5. The reference is Cycles' "
+                           "plain path tracer (shadow caustics and guiding off), or Snell's "
+                           "hybrid (caustics on, merging off; unbiased) where Cycles' path "
+                           "tracer renders no caustic (a delta lamp's). Photon merging is "
+                           "consistent, not unbiased: the merged ladders' error includes its "
+                           "bias. Images: Cycles' last point beside each Snell ladder's point "
+                           "nearest its wall time",
+    }
+
+
+def _adaptive_definitions(opts: Options) -> dict:
+    """What the adaptive comparison's figures mean."""
+    return {
         "as_users_render": "both renderers sample adaptively as a user renders with a noise "
                            f"threshold: thresholds {', '.join(f'{t:g}' for t in opts.thresholds)}; "
                            f"max samples {opts.adaptive_max_spp} is the per-pixel cap for both "
@@ -569,6 +612,12 @@ def definitions(opts: Options) -> dict:
                            "(along = cycles), the target is Snell's relMSE and Cycles' time to it "
                            "is interpolated along Cycles' curve. time_ratio, relmse_ratio, "
                            "mean_spp_ratio: Snell / Cycles at the same threshold",
+    }
+
+
+def _denoised_definitions(opts: Options) -> dict:
+    """What the denoised comparison's figures mean."""
+    return {
         "denoised": "not tested (a denoised image is biased and its pixels are not independent: "
                     "compare and study never see one). Each renderer denoised by Open Image "
                     "Denoise guided by its Denoising Albedo and Normal, prefilter "
@@ -593,25 +642,7 @@ def definitions(opts: Options) -> dict:
         "equal_time": "the denoised images shown side by side: Cycles + OIDN's last ladder point "
                       "and the Snell + OIDN point nearest its wall time (log time), with "
                       "per-pixel FLIP maps against the reference",
-        "caustic_targets": "issue 34's targets on its caustic scenes (snell bench "
-                           "--caustic-scenes, bench_scenes.py), for Snell with the new strategy "
-                           "and Snell without it, each against Cycles as users would set it up "
-                           "(its shadow caustics on where a lamp lights the glass, path guiding "
-                           "where it helped): the caustic region's relMSE at equal time, Snell / "
-                           "Cycles = 1 / caustic_gain_at_equal_time's rule with Cycles as the "
-                           "other ladder, at most 0.2; the whole image's time to equal error "
-                           "(time_to_equal_error's rule), at most 0.5. The reference is Cycles' "
-                           "plain path tracer (shadow caustics and guiding off), or Snell's "
-                           "hybrid (caustics on, merging off; unbiased) where Cycles' path "
-                           "tracer renders no caustic (a delta lamp's). Photon merging is "
-                           "consistent, not unbiased: the merged ladders' error includes its "
-                           "bias. Images: Cycles' last point beside each Snell ladder's point "
-                           "nearest its wall time",
-        "reference_noise": "the reference's own expected contribution to a point's relMSE and RMSE: "
-                           "mean of var / (R^2 + eps) and sqrt(mean var), var = its across-seed "
-                           "variance of the mean; measured errors include it (not subtracted)",
     }
-
 
 def _variants(setup) -> dict:
     """A caustic scene's ladders and how each renders (run_point's variant): Snell with the
