@@ -9,8 +9,8 @@ finds at the next surface, then ends there, as it does after its last bounce of 
 Snell's `max_depth` and Cycles' limits of each kind, the kernel's max_*_bounce = setting + 1).
 So a limit of L lets a path scatter L + 1 times that way, the last time towards a light.
 A path's three counts are packed into one int64 (`kinds`, KIND_BITS bits each): a wavefront
-step copies one number per path instead of a row of three, which cost the materials stage
-about 5% on a Cornell box.
+step copies one number per path instead of a row of three (the row cost the materials stage
+about 3% on a Cornell box: docs/measurements.md).
 
 Clamping. Each contribution to the image (a light sample that arrives, or light a path finds) is
 scaled down so that the sum of its red, green and blue is at most 3 x the clamp (Cycles'
