@@ -366,7 +366,6 @@ class Renderer:
         stratified = self.sampler == "stratified"
         wavefront.clear(radiance, n)
         radiance[:n, 3:] = 0.0         # the light groups' columns, where the render has them
-        with_groups = extra is not None and extra.groups is not None
         wavefront.clear(without, without.shape[0])
         if with_features:
             wavefront.clear(feature_albedo, n)
@@ -377,14 +376,7 @@ class Renderer:
             paths.medium[:n] = self.media.camera
         last_connection = -1
         if self.light_vertices and (vertices is None or vertices):
-            # Every camera path's light vertex, before its first bounce (light_vertices.py).
-            last_connection = self.max_depth - 2
-            n_light = light_vertices_module.emit(lights, mesh, bits, stratified, n, paths.key,
-                                                 paths.sample, lv)
-            prim, u, v, _ = geom.intersect(lv.o32[:n_light], lv.d32[:n_light],
-                                           lv.tmax[:n_light])
-            stats[wavefront.VERTEX_RAYS] += n_light
-            light_vertices_module.hits(lights, mesh, mats, self.media, n_light, lv, prim, u, v)
+            last_connection = self._light_vertices(n, bits, stratified, paths, lv, stats)
         m = n
         # Passing a transparent surface is no bounce (wavefront.Paths.bounce): the wavefront
         # goes as deep as the bounces and transparent bounces together allow.
@@ -426,29 +418,45 @@ class Renderer:
             paths, out = out, paths
             if m == 0:
                 break
-        if with_features:
-            with self._film_lock:
+        if extra is not None:
+            self._film_extra(extra, n, start, in_pass, first_sample, pixels, radiance,
+                             (feature_albedo, feature_normal), pass_sums, transparent)
+        return radiance, without, stats
+
+    def _light_vertices(self, n, bits, stratified, paths, lv, stats) -> int:
+        """Every camera path's light vertex, before its first bounce (light_vertices.py);
+        returns the last bounce that connects to it."""
+        geom, lights, mesh = self.geometry, self.lights.tables, self.geometry.mesh
+        n_light = light_vertices_module.emit(lights, mesh, bits, stratified, n, paths.key,
+                                             paths.sample, lv)
+        prim, u, v, _ = geom.intersect(lv.o32[:n_light], lv.d32[:n_light], lv.tmax[:n_light])
+        stats[wavefront.VERTEX_RAYS] += n_light
+        light_vertices_module.hits(lights, mesh, self.materials, self.media, n_light, lv, prim,
+                                   u, v)
+        return self.max_depth - 2
+
+    def _film_extra(self, extra, n, start, in_pass, first_sample, pixels, radiance, features,
+                    pass_sums, transparent):
+        """Add a chunk's denoising features, light passes, light groups and alpha to the rows
+        `extra` has (trace_chunk's), counting the paths left out as NaN or Inf."""
+        half = adaptive.half_of(first_sample)
+        with self._film_lock:
+            if extra.albedo is not None:
                 extra.feature_nans[0] += wavefront.film_features(
-                    feature_albedo, feature_normal, n, start, in_pass, pixels, extra.albedo,
+                    features[0], features[1], n, start, in_pass, pixels, extra.albedo,
                     extra.normal)
-        if with_passes:
-            with self._film_lock:
+            if extra.light is not None:
                 # The sums of the half of the sample indices this chunk's samples are in: an
                 # adaptive pass's samples are all in one half (passes.py).
                 extra.light_nans[0] += light_passes.film_light_passes(
-                    pass_sums, n, start, in_pass, pixels,
-                    extra.light[adaptive.half_of(first_sample)])
-        if with_groups:
-            with self._film_lock:
-                extra.group_nans[0] += light_groups.film_groups(
-                    radiance, n, start, in_pass, pixels,
-                    extra.groups[adaptive.half_of(first_sample)])
-        if with_alpha:
-            with self._film_lock:
+                    pass_sums, n, start, in_pass, pixels, extra.light[half])
+            if extra.groups is not None:
+                extra.group_nans[0] += light_groups.film_groups(radiance, n, start, in_pass,
+                                                                pixels, extra.groups[half])
+            if extra.transparent is not None:
                 extra.alpha_nans[0] += wavefront.film_alpha(transparent, n, start, in_pass,
                                                             pixels, extra.transparent,
                                                             extra.transparent_sq)
-        return radiance, without, stats
 
     def _through_transparency(self, n_shadow, blocked, shadows, scratch, regs):
         """Let the blocked shadow rays through transparent surfaces (wavefront.
