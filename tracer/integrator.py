@@ -451,8 +451,9 @@ class Renderer:
                 extra.light_nans[0] += light_passes.film_light_passes(
                     pass_sums, n, start, in_pass, pixels, extra.light[half])
             if extra.groups is not None:
-                extra.group_nans[0] += light_groups.film_groups(radiance, n, start, in_pass,
-                                                                pixels, extra.groups[half])
+                # A group's columns follow Combined's three (light_groups.columns).
+                extra.group_nans[0] += light_passes.film_rows(radiance, 3, n, start, in_pass,
+                                                              pixels, extra.groups[half])
             if extra.transparent is not None:
                 extra.alpha_nans[0] += wavefront.film_alpha(transparent, n, start, in_pass,
                                                             pixels, extra.transparent,

@@ -18,8 +18,8 @@ With no group columns (the render makes no groups) add_grouped is add_light. The
 splats go to the group of the light their path left (Renderer.trace_light_chunk).
 
 Like the light passes' rows (light_passes.py), the paths' group columns are added to the
-pixels' sums of the half of the sample indices they are in (film_groups), and read as the
-image is (RenderResult.light_group_images).
+pixels' sums of the half of the sample indices they are in (light_passes.film_rows), and read as
+the image is (RenderResult.light_group_images).
 """
 from __future__ import annotations
 
@@ -105,29 +105,6 @@ def emitter_group(lights, emitter):
     """The group of a light vertex's emitter (light_vertices.py: a mesh triangle, or -1 - an
     area lamp)."""
     return lights.prim_group[emitter] if emitter >= 0 else lights.area_group[-1 - emitter]
-
-
-@jit
-def film_groups(radiance, n, start, in_pass, pixels, total):
-    """Add the group columns of the chunk's n paths' radiance rows to their pixels' sums (rows of
-    (pixels, 3 x groups)); a path whose row holds a NaN or Inf adds nothing, as film leaves
-    out a path whose Combined does. Returns how many did."""
-    bad = 0
-    width = radiance.shape[1]
-    for i in range(n):
-        finite = finite_row(radiance, i)
-        for c in range(3, width):
-            if not np.isfinite(radiance[i, c]):
-                finite = False
-        if not finite:
-            bad += 1
-            continue
-        pixel = (start + i) // in_pass
-        if pixels.shape[0] > 0:
-            pixel = pixels[pixel]
-        for c in range(3, width):
-            total[pixel, c - 3] += radiance[i, c]
-    return bad
 
 
 @jit

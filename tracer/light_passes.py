@@ -189,14 +189,15 @@ def add_shadow(light, shadows, j):
 
 
 @jit
-def film_light_passes(light, n, start, in_pass, pixels, total):
-    """Add the chunk's n paths' pass rows to their pixels' sums (rows of (pixels, COLUMNS)); a
-    path whose row holds a NaN or Inf adds nothing. Returns how many did."""
+def film_rows(rows, first, n, start, in_pass, pixels, total):
+    """Add columns first.. of the chunk's n paths' rows to their pixels' sums (total's column c -
+    first); a path whose row holds a NaN or Inf in any column adds nothing, as film leaves out a
+    path whose Combined does. Returns how many did."""
     bad = 0
     for i in range(n):
         finite = True
-        for c in range(light.shape[1]):
-            if not np.isfinite(light[i, c]):
+        for c in range(rows.shape[1]):
+            if not np.isfinite(rows[i, c]):
                 finite = False
                 break
         if not finite:
@@ -205,9 +206,16 @@ def film_light_passes(light, n, start, in_pass, pixels, total):
         pixel = (start + i) // in_pass
         if pixels.shape[0] > 0:
             pixel = pixels[pixel]
-        for c in range(light.shape[1]):
-            total[pixel, c] += light[i, c]
+        for c in range(first, rows.shape[1]):
+            total[pixel, c - first] += rows[i, c]
     return bad
+
+
+@jit
+def film_light_passes(light, n, start, in_pass, pixels, total):
+    """Add the chunk's n paths' pass rows to their pixels' sums (rows of (pixels, COLUMNS)); a
+    path whose row holds a NaN or Inf adds nothing. Returns how many did."""
+    return film_rows(light, 0, n, start, in_pass, pixels, total)
 
 
 def safe_divide_even_color(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from snell.tracer import light_groups as lg
+from snell.tracer import light_groups as lg, light_passes
 from snell.tracer.lights.codes import AREA, EMISSIVE_TRIANGLE, POINT, SUN, WORLD
 from snell.tracer.lights.tables import LightSampler
 from snell.tracer.geometry import Geometry
@@ -39,10 +39,10 @@ def test_film_adds_each_paths_groups_to_its_pixel_and_leaves_out_non_finite_rows
     rows[2, 0] = math.nan
     rows[3, 4] = math.inf
     total = np.zeros((3, 3))
-    bad = lg.film_groups(rows, 4, 0, 2, np.zeros(0, np.int64), total)
+    bad = light_passes.film_rows(rows, 3, 4, 0, 2, np.zeros(0, np.int64), total)
     assert bad == 2 and total[:, 0].tolist() == [3.0, 0.0, 0.0]
     total[:] = 0.0
-    bad = lg.film_groups(rows[:2], 2, 0, 1, np.array([2, 0], np.int64), total)
+    bad = light_passes.film_rows(rows[:2], 3, 2, 0, 1, np.array([2, 0], np.int64), total)
     assert bad == 0 and total[:, 0].tolist() == [2.0, 0.0, 1.0]
 
 
