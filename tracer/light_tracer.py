@@ -4,8 +4,12 @@ diffuse surface, connected to the camera.
 Snell renders with a hybrid of the path tracer and a light tracer that split path space between
 them (LuxCoreRender's hybrid back/forward): the light tracer owns every path "lamp, one or more
 specular vertices, one diffuse vertex, camera" (L S+ D E) and the path tracer skips exactly those
-(wavefront.emitters, the `caustic` state of a path). Both count a path of k bounces alike, so the
-hybrid renders the path tracer's image, with far less noise where glass and mirrors focus light.
+(wavefront.emitters, the `caustic` state of a path). A diffuse vertex is one on a surface light
+paths end on (Materials.receives: a plain diffuse surface, or a Principled or node-tree one with
+a Lambert lobe) where the camera path sampled a Lambert lobe; the light tracer's connection
+there carries the Lambert lobes' share of the BSDF (receivers.py). Both count a path of k
+bounces alike, so the hybrid renders the path tracer's image, with far less noise where glass
+and mirrors focus light.
 
 A light path starts on an emitter whose light camera paths find through mirrors and glass by
 BSDF sampling (emissive triangles, and lamps with Cycles' MIS option: area lamps with a spread,
@@ -14,9 +18,11 @@ radius 0, a sun of angle 0), whose light through mirrors and glass no camera pat
 light tracer is the only technique that renders it, and the path tracer's light samples of it
 at diffuse vertices (direct light, L D) stay the path tracer's. The light tracer owns every path
 from a delta lamp whose first vertex is specular: such a path goes on past its first diffuse
-vertex (diffuse_bounce) and connects to the camera at each diffuse vertex (L S+ D (S|D)* D E),
-since the path tracer renders none of them. It is aimed at the specular
-objects: from a lamp, its direction is drawn in the cone that bounds one of them, seen from the
+vertex (receiver_bounce) and connects to the camera at each diffuse vertex (L S+ D (S|D)* D E),
+since the path tracer renders none of them. On a Principled or node-tree surface it carries
+the whole BSDF there, but for its singular lobes and its transmission, which it does not
+follow (their light is lost), and a program's Light Path inputs are a camera ray's. It is
+aimed at the specular objects: from a lamp, its direction is drawn in the cone that bounds one of them, seen from the
 light point (a mixture over objects; the density of a direction sums every cone that holds it);
 from a sun or the world, the direction is the sun's or drawn from the world's distribution, and
 the line crosses a disk across one of them (aimed_line). The world starts light paths where its
@@ -25,12 +31,14 @@ leaves it the world-lit L S+ D E paths too (wavefront.emitters' world_caustics).
 bounces use the path tracer's own sample_specular, a refraction's weight times the adjoint's
 (n_i / n_t)^2 (specular.light_refraction_scale: Cycles carries radiance across it unscaled;
 the factors cancel through closed glass, not through an open pane). At the first diffuse
-vertex the path connects to a lens point: the camera ray through that lens point that sees the
+vertex (light_bounce's receiving_vertex; specular_vertex scatters) the path connects to a lens
+point: the camera ray through that lens point that sees the
 vertex gives the pixel, a shadow ray checks it, and the contribution is
 
     beta f (|ns . wi| / |ng . wi|) |ng . wo| s / (d^2 cos^3 theta)
 
-(beta the light path's weight, f = albedo / pi, wi towards the light, wo towards the lens, the
+(beta the light path's weight, f = albedo / pi on a plain diffuse surface, f |ns . wi| the
+lobes' receivers.surface_response on others, wi towards the light, wo towards the lens, the
 shading-normal factor of Veach's thesis section 5.3 that makes the adjoint agree with the path
 tracer, s raster pixels per unit of image-plane area, d and theta the distance from the lens point
 and the ray's angle to the optical axis). The image's pixel j gets the sum over light paths of
@@ -70,8 +78,9 @@ from .vec import add, dot, madd, mul, neg, row, store, sub, vmul
 
 LIGHT_DOMAIN = np.uint64(0x11C7_A0C5)   # keys light paths' random numbers apart from camera paths'
 # A camera path's place in the split of path space with the light tracer (wavefront.Paths.caustic):
-# NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was diffuse) then CAUSTIC (and every
-# vertex since specular): the light tracer's paths, whose emitters the path tracer then skips.
+# NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was diffuse, or sampled a Lambert lobe of a
+# surface that receives light paths: receivers.py) then CAUSTIC (and every vertex since
+# specular): the light tracer's paths, whose emitters the path tracer then skips.
 # With photon merging (photon_merging.py): SPECULAR_CAMERA (every vertex so far specular), then
 # SDS_DIFFUSE (one diffuse vertex), then SDS_CAUSTIC (every vertex since specular): the merged
 # paths, whose emitters the path tracer then skips too (caustic_after, left_to_light_paths).
