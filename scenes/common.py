@@ -85,6 +85,22 @@ def material(name, kind, color=(0.8, 0.8, 0.8), **values):
     return mat
 
 
+def checker_material(name, color1, color2, scale, kind="diffuse", **values):
+    """material() with a Checker Texture (its default, Generated, coordinates; scale) into the
+    shader's colour: a node-tree material, which Snell renders as a shader program."""
+    mat = material(name, kind, color1, **values)
+    tree = mat.node_tree
+    shader = next(n for n in tree.nodes if n.type != "OUTPUT_MATERIAL")
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.location = (-600, 0)
+    checker.inputs["Color1"].default_value = (*color1, 1.0)
+    checker.inputs["Color2"].default_value = (*color2, 1.0)
+    checker.inputs["Scale"].default_value = scale
+    tree.links.new(checker.outputs["Color"],
+                   shader.inputs["Base Color" if kind == "principled" else "Color"])
+    return mat
+
+
 def mesh_object(name, verts, faces, mat=None, smooth=False, collection=None):
     """An object from numpy vertices (V, 3) and equal-sized polygons (F, k), built with foreach_set."""
     verts = np.asarray(verts, np.float32).reshape(-1, 3)

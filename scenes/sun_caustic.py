@@ -2,9 +2,9 @@
 under a sun of angle 0, the caustics falling in their shadows towards the camera.
 
 Run: python scenes/sun_caustic.py OUT.blend
-A 4 m floor of 8 x 8 tiles in two Diffuse BSDF colours, a thick-walled glass tube (smooth
-Glass BSDF, IOR 1.5, 0.22 m radius, 4 cm walls, 0.45 m tall, 2 mm above the floor: a tumbler
-without its base) and a smooth glass icosphere (radius 0.22, 3 subdivisions), a sun of angle 0
+A 4 m floor of 8 x 8 tiles (a Checker Texture into a Diffuse BSDF), a thick-walled glass
+tube (smooth Glass BSDF, IOR 1.5, 0.22 m radius, 4 cm walls, 0.45 m tall, 2 mm above the floor:
+a tumbler without its base) and a smooth glass icosphere (radius 0.22, 3 subdivisions), a sun of angle 0
 (a delta direction: no camera path can hit it, so only a light tracer renders its light through
 the glass) and a dim grey world. Cycles' shadow caustics are on (the sun a caustics light, the
 glass casters, the floor a receiver), as a user renders this with Cycles. 256x256, Standard
@@ -24,22 +24,10 @@ CAMERA, TARGET = (0.3, -2.4, 1.7), (0.0, -0.3, 0.1)
 
 
 def checker_floor(half=2.0, n=8):
-    """A square floor of n x n tiles in two Diffuse BSDF colours, as two objects (a Checker
-    texture would make the floor a node-tree material, on which Snell's light paths do not
-    end: tracer/light_tracer.py connects them at plain diffuse surfaces only)."""
-    mats = [common.material("TileLight", "diffuse", (0.8, 0.8, 0.8)),
-            common.material("TileDark", "diffuse", (0.2, 0.2, 0.25))]
-    edges = [-half + 2.0 * half * k / n for k in range(n + 1)]
-    tiles = [[], []]
-    for i in range(n):
-        for j in range(n):
-            x0, x1, y0, y1 = edges[i], edges[i + 1], edges[j], edges[j + 1]
-            tiles[(i + j) % 2].append([(x0, y0, 0), (x1, y0, 0), (x1, y1, 0), (x0, y1, 0)])
-    floors = []
-    for name, mat, quads in zip(("FloorLight", "FloorDark"), mats, tiles):
-        faces = [[4 * k, 4 * k + 1, 4 * k + 2, 4 * k + 3] for k in range(len(quads))]
-        floors.append(common.mesh_object(name, [v for q in quads for v in q], faces, mat))
-    return floors
+    """A square floor of n x n tiles, a Checker Texture into a Diffuse BSDF (a node-tree
+    material: light paths end on it, tracer/receivers.py)."""
+    checker = common.checker_material("Checker", (0.8, 0.8, 0.8), (0.2, 0.2, 0.25), float(n))
+    return [common.floor("Floor", half, checker)]
 
 
 def icosphere(name, location, radius, mat):

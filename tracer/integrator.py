@@ -133,7 +133,6 @@ class Renderer:
                                                    scene.object_ids, self.camera),
                                    self.geometry.corners, self.camera)
         self.tables = shipped_tables()
-        kind = self.materials.kind
         self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
                                    env_sampling=settings.env_sampling)
         self.media = media_tables(scene, self.lights.tables)
@@ -149,7 +148,7 @@ class Renderer:
         pure = settings.pure_light_tracing
         # Built whatever the camera, so that with_camera can switch the light tracer either way.
         self._caustic_tables = (light_tracer.caustics_tables(scene, self.lights, self.geometry,
-                                                             kind, pure=pure)
+                                                             self.materials, pure=pure)
                                 if settings.caustics or pure else None)
         self._use_camera_for_caustics()
         used = np.unique(self.materials.of_triangle)
@@ -263,9 +262,7 @@ class Renderer:
                                       else "no lamps and a black world"),
             "world": (world, "world light" if world else "black world"),
             "environment": (env, "an environment map" if env else "no environment map"),
-            "light tracing": (self.caustics is not None,
-                              "from " + ", ".join(light_tracer.emitter_names(self.scene,
-                                                                              self.caustics))
+            "light tracing": (self.caustics is not None, self._light_tracing_words()
                               if self.caustics is not None else why_no_light),
             "light vertices": (self.light_vertices, self._why_vertices),
             "photon merging": (self.merging is not None, self._why_merging),
@@ -274,6 +271,12 @@ class Renderer:
                                                 "absorbing volumes") if self.media.on else
                                 "no absorbing volumes"),
         }
+
+    def _light_tracing_words(self) -> str:
+        """What the light tracer emits from and, past plain diffuse surfaces, ends on."""
+        words = "from " + ", ".join(light_tracer.emitter_names(self.scene, self.caustics))
+        onto = light_tracer.receiver_names(self.scene, self.materials)
+        return words + (" onto " + ", ".join(onto) if onto else "")
 
     def _choose_light_vertices(self, wanted: bool) -> tuple[bool, str]:
         """(whether camera paths connect to light vertices, why or why not)."""
@@ -505,6 +508,8 @@ class Renderer:
         geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
         mesh, cam = geom.mesh, self.camera.params()
         paths, out, connections, raster = self._buffers.light()
+        chunk = self._buffers.get()           # the hits' lobes: scratch shared with camera paths
+        scratch = (chunk[7], chunk[8][1], chunk[8][0])
         filt = self.pixel_filter
         margin = max(0.0, filt.reach - 0.5)     # how far past the image the filter reaches
         m = light_tracer.emit_light_paths(caustics, lights, mesh, self.media, self.seed,
@@ -519,7 +524,7 @@ class Renderer:
             prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
             m, n_conn, n_photons = light_tracer.light_bounce(
                 caustics, lights, mesh, mats, self.media, cam, margin, self.fresnel, self.limits,
-                m, paths, prim, u, v, out, connections, raster, buffer)
+                m, paths, prim, u, v, out, connections, raster, buffer, self.tables, scratch)
             if n_photons:
                 stored.append(photon_merging.Photons(*(f[:n_photons].copy() for f in buffer)))
             if n_conn:

@@ -4,8 +4,12 @@ diffuse surface, connected to the camera.
 Snell renders with a hybrid of the path tracer and a light tracer that split path space between
 them (LuxCoreRender's hybrid back/forward): the light tracer owns every path "lamp, one or more
 specular vertices, one diffuse vertex, camera" (L S+ D E) and the path tracer skips exactly those
-(wavefront.emitters, the `caustic` state of a path). Both count a path of k bounces alike, so the
-hybrid renders the path tracer's image, with far less noise where glass and mirrors focus light.
+(wavefront.emitters, the `caustic` state of a path). A diffuse vertex is one on a surface light
+paths end on (Materials.receives: a plain diffuse surface, or a Principled or node-tree one with
+a Lambert lobe) where the camera path sampled a Lambert lobe; the light tracer's connection
+there carries the Lambert lobes' share of the BSDF (receivers.py). Both count a path of k
+bounces alike, so the hybrid renders the path tracer's image, with far less noise where glass
+and mirrors focus light.
 
 A light path starts on an emitter whose light camera paths find through mirrors and glass by
 BSDF sampling (emissive triangles, and lamps with Cycles' MIS option: area lamps with a spread,
@@ -14,9 +18,11 @@ radius 0, a sun of angle 0), whose light through mirrors and glass no camera pat
 light tracer is the only technique that renders it, and the path tracer's light samples of it
 at diffuse vertices (direct light, L D) stay the path tracer's. The light tracer owns every path
 from a delta lamp whose first vertex is specular: such a path goes on past its first diffuse
-vertex (diffuse_bounce) and connects to the camera at each diffuse vertex (L S+ D (S|D)* D E),
-since the path tracer renders none of them. It is aimed at the specular
-objects: from a lamp, its direction is drawn in the cone that bounds one of them, seen from the
+vertex (receiver_bounce) and connects to the camera at each diffuse vertex (L S+ D (S|D)* D E),
+since the path tracer renders none of them. On a Principled or node-tree surface it carries
+the whole BSDF there, but for its singular lobes and its transmission, which it does not
+follow (their light is lost), and a program's Light Path inputs are a camera ray's. It is
+aimed at the specular objects: from a lamp, its direction is drawn in the cone that bounds one of them, seen from the
 light point (a mixture over objects; the density of a direction sums every cone that holds it);
 from a sun or the world, the direction is the sun's or drawn from the world's distribution, and
 the line crosses a disk across one of them (aimed_line). The world starts light paths where its
@@ -25,12 +31,14 @@ leaves it the world-lit L S+ D E paths too (wavefront.emitters' world_caustics).
 bounces use the path tracer's own sample_specular, a refraction's weight times the adjoint's
 (n_i / n_t)^2 (specular.light_refraction_scale: Cycles carries radiance across it unscaled;
 the factors cancel through closed glass, not through an open pane). At the first diffuse
-vertex the path connects to a lens point: the camera ray through that lens point that sees the
+vertex (light_bounce's receiving_vertex; specular_vertex scatters) the path connects to a lens
+point: the camera ray through that lens point that sees the
 vertex gives the pixel, a shadow ray checks it, and the contribution is
 
     beta f (|ns . wi| / |ng . wi|) |ng . wo| s / (d^2 cos^3 theta)
 
-(beta the light path's weight, f = albedo / pi, wi towards the light, wo towards the lens, the
+(beta the light path's weight, f = albedo / pi on a plain diffuse surface, f |ns . wi| the
+lobes' receivers.surface_response on others, wi towards the light, wo towards the lens, the
 shading-normal factor of Veach's thesis section 5.3 that makes the adjoint agree with the path
 tracer, s raster pixels per unit of image-plane area, d and theta the distance from the lens point
 and the ray's angle to the optical axis). The image's pixel j gets the sum over light paths of
@@ -55,7 +63,7 @@ from .lights.codes import (AREA, EMISSIVE_TRIANGLE, POINT, SUN, VISIBLE_DIFFUSE,
 from .lights.dispatch import emission_anchor, emit_along, light_seen, starts_light_paths
 from .lights.sun import sun_emission
 from .lights.world import world_emission
-from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, PROGRAM, REFRACTION
+from .material_kinds import DIFFUSE, GLASS, MIRROR, REFRACTION
 from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSION_BOUNCE,
                           add_bounce, kind_count, within_limits)
 from . import media as medium
@@ -64,13 +72,15 @@ from .media import empty_stacks
 from .sampler import mix, random_pair
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
                        sample_uniform_disk, sample_uniform_sphere)
+from .receivers import surface_response
 from .textures import surface_colors
 from .vec import add, dot, madd, mul, neg, row, store, sub, vmul
 
 LIGHT_DOMAIN = np.uint64(0x11C7_A0C5)   # keys light paths' random numbers apart from camera paths'
 # A camera path's place in the split of path space with the light tracer (wavefront.Paths.caustic):
-# NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was diffuse) then CAUSTIC (and every
-# vertex since specular): the light tracer's paths, whose emitters the path tracer then skips.
+# NO_CAUSTIC, or FIRST_DIFFUSE (the camera's first hit was diffuse, or sampled a Lambert lobe of a
+# surface that receives light paths: receivers.py) then CAUSTIC (and every vertex since
+# specular): the light tracer's paths, whose emitters the path tracer then skips.
 # With photon merging (photon_merging.py): SPECULAR_CAMERA (every vertex so far specular), then
 # SDS_DIFFUSE (one diffuse vertex), then SDS_CAUSTIC (every vertex since specular): the merged
 # paths, whose emitters the path tracer then skips too (caustic_after, left_to_light_paths).
@@ -119,10 +129,11 @@ def new_light_paths(n: int) -> LightPaths:
                       np.zeros(n, np.int64))
 
 
-def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caustics | None:
-    """The light tracer's tables for a scene, or None when it has nothing to do (no mirror or
-    glass, or no emitter that camera paths could reach through them)."""
-    specular = np.isin(material_kind, (MIRROR, GLASS, REFRACTION))
+def caustics_tables(scene, lights, geometry, materials, pure=False) -> Caustics | None:
+    """The light tracer's tables for a scene (its materials.Materials), or None when it has
+    nothing to do (no mirror or glass, no surface light paths end on, or no emitter that camera
+    paths could reach through them)."""
+    specular = np.isin(materials.kind, (MIRROR, GLASS, REFRACTION))
     tri_specular = specular[scene.material_ids] if len(scene.material_ids) else np.zeros(0, bool)
     if pure:                       # aim at the whole scene (used by suns and the world only)
         tri_specular = np.ones(len(scene.material_ids), bool)
@@ -130,8 +141,8 @@ def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caust
         scene.object_ids = np.zeros(len(scene.material_ids), np.int32)
     if not tri_specular.any():
         return None
-    if not np.any(material_kind[scene.material_ids] == DIFFUSE):
-        return None                # light paths connect to the camera at diffuse vertices only
+    if not np.any(materials.receives[scene.material_ids]):
+        return None                # no surface for light paths to end on (receivers.py)
     centers, radii = [], []
     for obj in np.unique(scene.object_ids[tri_specular]):
         corners = geometry.corners[tri_specular & (scene.object_ids == obj)].reshape(-1, 3)
@@ -179,6 +190,15 @@ def emitter_names(scene, caustics: Caustics) -> list[str]:
     if triangles:
         names.insert(0, f"{triangles} emissive triangle{'s' if triangles != 1 else ''}")
     return names
+
+
+def receiver_names(scene, materials) -> list[str]:
+    """The surfaces other than plain diffuse ones that light paths end on (receivers.py), in
+    words: each material by name and kind, as `snell info` lists them."""
+    words = {"principled": "Principled", "program": "node tree"}
+    used = np.unique(materials.of_triangle)
+    return [f"{scene.materials[m].get('name', '?')!r} ({words[scene.materials[m]['kind']]})"
+            for m in used if materials.receives[m] and scene.materials[m]["kind"] in words]
 
 
 @jit_inline
@@ -422,131 +442,164 @@ def lamp_sees(caustics, lights, e, w, s1, kind):
 
 @jit
 def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model, limits, m,
-                 paths, prim, u, v, out, connections, raster, photons):
-    """Scatter light paths at specular hits (into `out`); at the first diffuse vertex after one
-    or more specular ones, queue the connection to the camera (its nearest image pixel, and in
-    `raster` its raster point for the pixel filter; margin: how far past the image the filter
-    reaches). In a scene with media, the light is attenuated along its segments and the
-    connection in the media they cross, and the stack of media goes with each path (media.py).
-    limits (path_limits.bounce_limits) bound the camera path each connection makes: its
-    bounces, and each kind's count of scatterings but the last (the first vertex's, towards the
-    light), so that the light tracer owns exactly the paths the path tracer would have ended.
-    When `photons` has rows (photon merging), a path's first diffuse vertex after one or more
-    specular ones is also stored there as a photon (photon_merging.py).
+                 paths, prim, u, v, out, connections, raster, photons, tables, scratch):
+    """Scatter light paths at specular hits (into `out`); at the first vertex on a surface
+    light paths end on (Materials.receives: diffuse, Principled and node-tree surfaces with a
+    Lambert lobe; receivers.py) after one or more specular ones, queue the connection to the
+    camera (its nearest image pixel, and in `raster` its raster point for the pixel filter;
+    margin: how far past the image the filter reaches). In a scene with media, the light is
+    attenuated along its segments and the connection in the media they cross, and the stack of
+    media goes with each path (media.py). limits (path_limits.bounce_limits) bound the camera
+    path each connection makes: its bounces, and each kind's count of scatterings but the last
+    (the first vertex's, towards the light), so that the light tracer owns exactly the paths
+    the path tracer would have ended. When `photons` has rows (photon merging), a path's first
+    plain diffuse vertex after one or more specular ones is also stored there as a photon
+    (photon_merging.py). tables: the albedo tables, scratch: (lobes, program registers,
+    Principled parameters) for the hits' lobes (receivers.surface_response).
     Returns (paths in out, connections queued, photons stored)."""
-    max_depth = limits[0]
-    n_out = 0
-    n_conn = 0
-    n_photons = 0
-    has_normals = mesh.corner_normals.shape[0] > 0
+    n_out, n_conn, n_photons = 0, 0, 0
     for i in range(m):
         tri = prim[i]
         if tri < 0:
             continue
         mat = mats.of_triangle[tri]
         kind = mats.kind[mat]
-        if kind == EMISSION or kind == LAYERED or kind == PROGRAM:
-            continue      # rough, Principled and node-tree surfaces: the path tracer's
+        specular_kind = kind == MIRROR or kind == GLASS or kind == REFRACTION
+        if not (specular_kind or mats.receives[mat]):
+            continue      # emitters, rough glossy and glass: the path tracer's
         d = (np.float64(paths.d32[i, 0]), np.float64(paths.d32[i, 1]), np.float64(paths.d32[i, 2]))
-        p, ng, ns, eps = hit_point(mesh, tri, np.float64(u[i]), np.float64(v[i]))
-        entering = dot(d, ng) < 0.0
-        side = 1.0 if entering else -1.0
-        ng_f, ns_f = mul(ng, side), mul(ns, side)
-        beta = row(paths.beta, i)
+        b1, b2 = np.float64(u[i]), np.float64(v[i])
+        p, ng, ns, eps = hit_point(mesh, tri, b1, b2)
         sigma = medium.ZERO
         if media.on:
             sigma = medium.sigma_of(media, paths.medium, i)
             origin = (np.float64(paths.o32[i, 0]), np.float64(paths.o32[i, 1]),
                       np.float64(paths.o32[i, 2]))
             segment = sub(p, origin)
-            beta = medium.through(beta, sigma, math.sqrt(dot(segment, segment)))
-            store(paths.beta, i, beta)
-        bounces = paths.bounces[i]
-        key = paths.key[i]
-        color, trans_color = surface_colors(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
-        if kind == DIFFUSE:
-            # A photon: every vertex so far specular, and room for one more after this one.
-            if (photons.bounces.shape[0] > 0 and bounces > 0 and not caustics.pure
-                    and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) == 0
-                    and bounces + 2 <= max_depth):
-                n_photons = record_photon(photons, n_photons, p, ng, d, beta, bounces,
-                                          paths.kinds, i)
-            # This vertex is bounce `bounces + 1` of the camera path that ends here.
-            if (bounces == 0 and not caustics.pure) or bounces + 1 > max_depth:
-                continue          # no specular vertex: the path tracer's path; or too long
-            if bounces == 0 and not lamp_sees(caustics, lights, paths.lamp[i], d, p,
-                                              VISIBLE_DIFFUSE):
-                continue
-            # The camera path's diffuse reflection here comes before its last unless this is
-            # the first vertex.
-            if bounces > 0 and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) + 1 > limits[2]:
-                continue
-            lens0, lens1 = random_pair(key, 1 + bounces, 3)
-            # A delta lamp's path goes on from here: no camera path renders light that left a
-            # delta lamp towards a specular vertex, diffusely reflected or not (the path
-            # tracer reaches a delta lamp only by light samples at diffuse and layered
-            # vertices), so the light tracer renders every such path, connecting at each
-            # diffuse vertex.
-            if (caustics.pure or caustics.emitter_delta[paths.lamp[i]]) \
-                    and bounces + 2 <= max_depth:
-                kept = diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, color,
-                                      random_pair(key, 1 + bounces, 4))
-                if kept > n_out and count_scattering(paths, i, out, n_out, DIFFUSE_BOUNCE,
-                                                     limits):
-                    if media.on:
-                        medium.copy_stack(paths.medium, i, out.medium, n_out)
-                    n_out = kept
-            queued = connect_to_camera(cam, margin, (lens0, lens1), connections, raster, n_conn,
-                                       p, ng, ns, eps, d, vmul(beta, color), sigma)
-            if queued > n_conn:       # its light's group, for the light group passes
-                e = paths.lamp[i]
-                connections.group[n_conn] = light_group(lights, caustics.emitter_kind[e],
-                                                        caustics.emitter_index[e])
-            n_conn = queued
-            continue
-        if bounces + 1 >= max_depth:
-            continue              # a further diffuse vertex would exceed the depth
-        n = ns_f
-        if has_normals and kind != REFRACTION:
-            n = specular.valid_reflection_normal(ng_f, neg(d), ns_f)
-        u_choice, _ = random_pair(key, 1 + bounces, 5)
-        new_d, weight, event, valid = specular.sample_specular(
-            kind, d, ng_f, n, entering, color, trans_color, mats.ior[mat], fresnel_model,
-            u_choice)
-        if not valid or event == specular.TIR_ABSORBED:
-            continue
-        if event == specular.TRANSMITTED:
-            # The adjoint of the path tracer's refraction (an open pane's single refraction
-            # was under- or over-counted by ior^2 without it).
-            weight = mul(weight, specular.light_refraction_scale(mats.ior[mat], entering))
-        if bounces == 0:
-            ray_kind = VISIBLE_TRANSMISSION if event == specular.TRANSMITTED else VISIBLE_GLOSSY
-            if not lamp_sees(caustics, lights, paths.lamp[i], d, p, ray_kind):
-                continue
-        beta = (beta[0] * weight[0], beta[1] * weight[1], beta[2] * weight[2])
-        if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
-            continue
-        set_light_path(out, n_out, key, offset_origin(p, ng, eps, new_d), new_d, beta,
-                       bounces + 1, paths.lamp[i])
-        if not count_scattering(paths, i, out, n_out,
-                                TRANSMISSION_BOUNCE if event == specular.TRANSMITTED
-                                else GLOSSY_BOUNCE, limits):
-            continue          # past a limit: no connection from here on would count
-        if media.on:
-            medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
-                         event == specular.TRANSMITTED)
-        n_out += 1
+            store(paths.beta, i, medium.through(row(paths.beta, i), sigma,
+                                                math.sqrt(dot(segment, segment))))
+        color, trans_color = surface_colors(mats, mat, tri, b1, b2)
+        surface = (mat, tri, b1, b2)
+        if specular_kind:
+            n_out = specular_vertex(caustics, lights, mats, media, fresnel_model, limits, paths,
+                                    i, out, n_out, (p, ng, ns, eps), d, kind, surface,
+                                    (color, trans_color), mesh.corner_normals.shape[0] > 0)
+        else:
+            n_out, n_conn, n_photons = receiving_vertex(
+                caustics, lights, mesh, mats, media, cam, margin, limits, paths, i, out,
+                connections, raster, photons, (n_out, n_conn, n_photons), (p, ng, ns, eps), d,
+                kind, surface, (color, trans_color), sigma, tables, scratch)
     return n_out, n_conn, n_photons
 
 
 @jit_inline
-def connect_to_camera(cam, margin, lens, connections, raster, n_conn, p, ng, ns, eps, d, light,
-                      sigma):
-    """Queue the connection of a diffuse light vertex p (geometric and shading normals ng, ns;
-    light arriving along d, `light` its throughput times the albedo) to a point on the lens
-    (lens: its random pair) as connection n_conn, with its pixel and raster point (margin: how
-    far past the image the pixel filter reaches), attenuated in the medium sigma; returns the
-    new count (the same when the point is off the image or the geometry rules it out)."""
+def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, paths, i, out,
+                     connections, raster, photons, counts, vertex, d, kind, surface, colors,
+                     sigma, tables, scratch):
+    """Light path i at a vertex on a surface light paths end on (vertex: point, geometric and
+    shading normals, offset; d the light's direction): a photon stored (photon merging, plain
+    diffuse surfaces), a delta lamp's path continued, the connection to the camera queued.
+    counts: (paths in out, connections, photons) before; returns them after."""
+    n_out, n_conn, n_photons = counts
+    max_depth = limits[0]
+    bounces = paths.bounces[i]
+    key = paths.key[i]
+    p, ng = vertex[0], vertex[1]
+    beta = row(paths.beta, i)
+    # A photon: every vertex so far specular, and room for one more after this one.
+    if (kind == DIFFUSE and photons.bounces.shape[0] > 0 and bounces > 0 and not caustics.pure
+            and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) == 0 and bounces + 2 <= max_depth):
+        n_photons = record_photon(photons, n_photons, p, ng, d, beta, bounces, paths.kinds, i)
+    # This vertex is bounce `bounces + 1` of the camera path that ends here.
+    if (bounces == 0 and not caustics.pure) or bounces + 1 > max_depth:
+        return n_out, n_conn, n_photons      # no specular vertex: the path tracer's; too long
+    if bounces == 0 and not lamp_sees(caustics, lights, paths.lamp[i], d, p, VISIBLE_DIFFUSE):
+        return n_out, n_conn, n_photons
+    # The camera path's diffuse reflection here comes before its last unless this is the
+    # first vertex.
+    if bounces > 0 and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) + 1 > limits[2]:
+        return n_out, n_conn, n_photons
+    lens0, lens1 = random_pair(key, 1 + bounces, 3)
+    # A delta lamp's path goes on from here: no camera path renders light that left a delta
+    # lamp towards a specular vertex, diffusely reflected or not (the path tracer reaches a
+    # delta lamp only by light samples at diffuse and layered vertices), so the light tracer
+    # renders every such path, connecting at each vertex that receives light paths, with the
+    # whole BSDF there (receivers.py).
+    whole = caustics.pure or caustics.emitter_delta[paths.lamp[i]]
+    surf = (mats, tables, mesh.corner_normals.shape[0] > 0, kind, surface, colors, whole,
+            scratch)
+    if whole and bounces + 2 <= max_depth:
+        kept = receiver_bounce(paths, i, out, n_out, vertex, d, surf,
+                               random_pair(key, 1 + bounces, 4))
+        if kept > n_out and count_scattering(paths, i, out, n_out, DIFFUSE_BOUNCE, limits):
+            if media.on:
+                medium.copy_stack(paths.medium, i, out.medium, n_out)
+            n_out = kept
+    queued = connect_to_camera(cam, margin, (lens0, lens1), connections, raster, n_conn,
+                               vertex, d, beta, sigma, surf)
+    if queued > n_conn:       # its light's group, for the light group passes
+        e = paths.lamp[i]
+        connections.group[n_conn] = light_group(lights, caustics.emitter_kind[e],
+                                                caustics.emitter_index[e])
+    return n_out, queued, n_photons
+
+
+@jit_inline
+def specular_vertex(caustics, lights, mats, media, fresnel_model, limits, paths, i, out, n_out,
+                    vertex, d, kind, surface, colors, has_normals):
+    """Light path i at a smooth mirror or glass vertex: its specular scattering into row n_out
+    of `out`; returns the new count."""
+    bounces = paths.bounces[i]
+    if bounces + 1 >= limits[0]:
+        return n_out              # a further diffuse vertex would exceed the depth
+    p, ng, ns, eps = vertex
+    mat, tri = surface[0], surface[1]
+    entering = dot(d, ng) < 0.0
+    side = 1.0 if entering else -1.0
+    ng_f, ns_f = mul(ng, side), mul(ns, side)
+    n = ns_f
+    if has_normals and kind != REFRACTION:
+        n = specular.valid_reflection_normal(ng_f, neg(d), ns_f)
+    key = paths.key[i]
+    u_choice, _ = random_pair(key, 1 + bounces, 5)
+    new_d, weight, event, valid = specular.sample_specular(
+        kind, d, ng_f, n, entering, colors[0], colors[1], mats.ior[mat], fresnel_model,
+        u_choice)
+    if not valid or event == specular.TIR_ABSORBED:
+        return n_out
+    if event == specular.TRANSMITTED:
+        # The adjoint of the path tracer's refraction (an open pane's single refraction was
+        # under- or over-counted by ior^2 without it).
+        weight = mul(weight, specular.light_refraction_scale(mats.ior[mat], entering))
+    if bounces == 0:
+        ray_kind = VISIBLE_TRANSMISSION if event == specular.TRANSMITTED else VISIBLE_GLOSSY
+        if not lamp_sees(caustics, lights, paths.lamp[i], d, p, ray_kind):
+            return n_out
+    beta = vmul(row(paths.beta, i), weight)
+    if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
+        return n_out
+    set_light_path(out, n_out, key, offset_origin(p, ng, eps, new_d), new_d, beta, bounces + 1,
+                   paths.lamp[i])
+    if not count_scattering(paths, i, out, n_out,
+                            TRANSMISSION_BOUNCE if event == specular.TRANSMITTED
+                            else GLOSSY_BOUNCE, limits):
+        return n_out              # past a limit: no connection from here on would count
+    if media.on:
+        medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
+                     event == specular.TRANSMITTED)
+    return n_out + 1
+
+
+@jit_inline
+def connect_to_camera(cam, margin, lens, connections, raster, n_conn, vertex, d, beta, sigma,
+                      surf):
+    """Queue the connection of a light vertex (point, geometric and shading normals, offset;
+    light arriving along d with throughput beta) on a receiving surface (surf: see
+    receiver_bounce) to a point on the lens (lens: its random pair) as connection n_conn, with
+    its pixel and raster point (margin: how far past the image the pixel filter reaches),
+    attenuated in the medium sigma; returns the new count (the same when the point is off the
+    image or the geometry rules it out)."""
+    p, ng, ns, eps = vertex
     pixel, rx, ry, o_cam, d_cam, lens_dist, cos_theta, s = camera_connection(
         cam, p, lens[0], lens[1], margin)
     if pixel < 0:
@@ -557,14 +610,27 @@ def connect_to_camera(cam, margin, lens, connections, raster, n_conn, p, ng, ns,
     face = 1.0 if dot(wo, ng) > 0.0 else -1.0
     ngc, nsc = mul(ng, face), mul(ns, face)
     cos_gi, cos_si, cos_go = dot(wi, ngc), dot(wi, nsc), dot(wo, ngc)
-    if not (cos_gi > 0.0 and cos_si > 0.0 and cos_go > 0.0):
+    if not (cos_gi > 0.0 and cos_go > 0.0):
         return n_conn             # a BSDF sample from p could not have produced wi
-    f = (cos_si / cos_gi) * cos_go * s / (math.pi * lens_dist * lens_dist * cos_theta ** 3)
-    for k in range(3):
-        connections.contrib[n_conn, k] = light[k] * f
     origin = offset_origin(p, ngc, eps, wo)
     segment = sub(o_cam, origin)
     length = math.sqrt(dot(segment, segment))
+    mats, tables, has_normals, kind, surface, colors, whole, scratch = surf
+    if kind == DIFFUSE:
+        if not cos_si > 0.0:
+            return n_conn
+        light = vmul(beta, colors[0])
+        f = (cos_si / cos_gi) * cos_go * s / (math.pi * lens_dist * lens_dist * cos_theta ** 3)
+    else:
+        # The camera path that sees p: a camera ray from o_cam, meeting p's face towards it.
+        light = vmul(beta, surface_response(mats, tables, has_normals, kind, surface, colors,
+                                            (p, ngc, nsc, face > 0.0, length), wo, wi, whole,
+                                            scratch))
+        f = cos_go * s / (cos_gi * lens_dist * lens_dist * cos_theta ** 3)
+        if not (light[0] > 0.0 or light[1] > 0.0 or light[2] > 0.0):
+            return n_conn
+    for k in range(3):
+        connections.contrib[n_conn, k] = light[k] * f
     if medium.absorbs(sigma):
         tr = medium.transmittance(sigma, length)
         for k in range(3):
@@ -580,24 +646,39 @@ def connect_to_camera(cam, margin, lens, connections, raster, n_conn, p, ng, ns,
 
 
 @jit_inline
-def diffuse_bounce(paths, i, out, n_out, p, ng, ns, eps, d, albedo, u):
-    """Pure light tracing, or a delta lamp's path: continue light path i from diffuse vertex p in a cosine-weighted
-    direction, with the adjoint's shading-normal factor; returns the new count in `out`."""
+def receiver_bounce(paths, i, out, n_out, vertex, d, surf, u):
+    """Pure light tracing, or a delta lamp's path: continue light path i from its vertex on a
+    receiving surface (vertex: point, geometric and shading normals, offset; d the light's
+    direction) in a cosine-weighted direction, with the adjoint's shading-normal factor; surf:
+    (materials, albedo tables, whether the mesh has normals, kind, surface, colours, whole,
+    lobe scratch) for receivers.surface_response. Returns the new count in `out`."""
+    p, ng, ns, eps = vertex
     wi = neg(d)                                   # towards where the light came from
     side = 1.0 if dot(wi, ng) > 0.0 else -1.0
     ng_f, ns_f = mul(ng, side), mul(ns, side)
     cos_si, cos_gi = dot(wi, ns_f), dot(wi, ng_f)
-    if not cos_si > 0.0:
+    mats, tables, has_normals, kind, surface, colors, whole, scratch = surf
+    if kind == DIFFUSE and not cos_si > 0.0:
         return n_out
     # Around the geometric normal: the camera path that meets this vertex from wo counts it for
     # every wo above the geometric surface, also below the shading normal's horizon.
     wo, pdf = sample_cosine_hemisphere(ng_f, u[0], u[1])
     if not pdf > 0.0:
         return n_out
-    # f |ng . wo| (|ns . wi| / |ng . wi|) / pdf with f = albedo / pi and pdf = |ng . wo| / pi.
-    scale = cos_si / cos_gi
-    beta = (paths.beta[i, 0] * albedo[0] * scale, paths.beta[i, 1] * albedo[1] * scale,
-            paths.beta[i, 2] * albedo[2] * scale)
+    if kind == DIFFUSE:
+        # f |ng . wo| (|ns . wi| / |ng . wi|) / pdf with f = albedo / pi and pdf = |ng . wo| / pi.
+        scale = cos_si / cos_gi
+        albedo = colors[0]
+        beta = (paths.beta[i, 0] * albedo[0] * scale, paths.beta[i, 1] * albedo[1] * scale,
+                paths.beta[i, 2] * albedo[2] * scale)
+    else:
+        # The same with the surface's f |ns . wi| seen from wo (the camera path's next vertex
+        # is where wo goes; its Light Path inputs are taken as a camera ray's).
+        response = surface_response(mats, tables, has_normals, kind, surface, colors,
+                                    (p, ng_f, ns_f, side > 0.0, 0.0), wo, wi, True, scratch)
+        beta = vmul(row(paths.beta, i), mul(response, math.pi / cos_gi))
+        if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
+            return n_out
     set_light_path(out, n_out, paths.key[i], offset_origin(p, ng_f, eps, wo), wo, beta,
                    paths.bounces[i] + 1, paths.lamp[i])
     return n_out + 1

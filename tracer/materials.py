@@ -14,6 +14,7 @@ import numpy as np
 from . import lobes, microfacet
 from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, PROGRAM, REFRACTION
 from .scene import DISTRIBUTIONS, EXTENSIONS, TEXTURE_SLOTS, emits, material_field
+from .shader import closures
 from .shader.inputs import IMAGE
 from .shader.object_inputs import camera_table, object_table
 from .shader.program import Programs, program_tables
@@ -54,6 +55,7 @@ class Materials(NamedTuple):
     of_object: np.ndarray     # (T,) int64 object of each triangle
     objects: np.ndarray       # (O, object_inputs.OBJECT_FIELDS) each object's matrix, colour ...
     camera: np.ndarray        # (object_inputs.CAMERA_FIELDS,) world to camera and view plane
+    receives: np.ndarray      # (M,) bool: light paths end on it (receives_light_paths)
 
 
 NO_COLOR = (0.0, 0.0, 0.0)   # the colour fields of a program material, which has none
@@ -76,6 +78,15 @@ def kind_code(mat: dict) -> int:
         if not microfacet.is_almost_specular(alpha) or "roughness" in (mat.get("textures") or {}):
             return LAYERED
     return SMOOTH_KINDS[kind]
+
+
+def receives_light_paths(mat: dict) -> bool:
+    """Whether light paths end on this material (receivers.py): it may have a Lambert lobe (a
+    Diffuse BSDF, a Principled BSDF, a program with either closure)."""
+    if mat["kind"] == "program":
+        return any(ins[0] in (closures.DIFFUSE, closures.PRINCIPLED)
+                   for ins in mat["program"]["code"])
+    return mat["kind"] in ("diffuse", "principled")
 
 
 def principled_row(mat: dict) -> np.ndarray:
@@ -181,4 +192,5 @@ def material_tables(mats: list, material_ids: np.ndarray, images=(), texcoords=(
         of_object=(np.zeros(len(material_ids), np.int64) if object_ids is None
                    else np.asarray(object_ids, np.int64)),
         objects=object_table(list(objects)), camera=camera_table(camera),
+        receives=rows(receives_light_paths, bool),
         **_texture_tables(mats, list(images), list(texcoords), len(material_ids)))

@@ -22,15 +22,14 @@ from .jit import jit, jit_inline
 from .light_tracer import CAUSTIC, FIRST_DIFFUSE, NO_CAUSTIC
 from .light_vertices import camera_step_density
 from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
-from .lobes import (DIFFUSE_EVENT, P_METALLIC, P_ROUGHNESS, SHADER_PRINCIPLED, TRANSMIT_EVENT,
-                    TRANSPARENT_EVENT, bsdf_sample, setup_shader)
+from .lobes import DIFFUSE_EVENT, TRANSMIT_EVENT, TRANSPARENT_EVENT, bsdf_sample
 from .material_kinds import DIFFUSE, LAYERED, MIRROR, REFRACTION
+from .receivers import lambert_sampled, layered_lobes
 from .shader.closures import TOTAL_TRANSPARENCY
 from .shader.inputs import (LP_CAMERA, LP_DIFFUSE, LP_GLOSSY, LP_REFLECTION, LP_SINGULAR,
                             LP_TRANSMISSION)
 from .shader.program import run, total
 from .sampling import sample_cosine_hemisphere
-from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_number
 from .vec import dot, neg, sub, vmul
 
 
@@ -67,13 +66,8 @@ def scatter_lit(kind, lights, mesh, mats, tables, can_sample_lights, has_normals
             step = camera_step_density(pdf_in, o, p, ng, d)
     else:
         stats[LAYERED_HITS] += 1
-        n = specular.valid_reflection_normal(ng_f, view, ns_f) if has_normals else ns_f
-        roughness, shader_params = mats.roughness[mat], mats.principled[mat]
-        if mats.textured[mat]:
-            roughness, shader_params = textured_params(mats, mat, tri, b1, b2, params)
-        count = setup_shader(lobes, tables, mats.shader[mat], color, trans_color, mats.ior[mat],
-                             roughness, mats.distribution[mat], shader_params, n, ns_f, view,
-                             entering)
+        count = layered_lobes(mats, tables, has_normals, surface, color, trans_color, ng_f, ns_f,
+                              view, entering, params, lobes)
     if can_sample_lights:
         n_shadow = sample_direct_light(lights, mesh, key, sample, 3 + 3 * depth, bits, strat,
                                        u_pick, vertex_kind, p, ng_f, ns_f, eps, beta, step,
@@ -95,9 +89,8 @@ def scatter_lit(kind, lights, mesh, mats, tables, can_sample_lights, has_normals
     beta = vmul(beta, factor) if valid else (0.0, 0.0, 0.0)
     ray_kind = VISIBLE_DIFFUSE if event == DIFFUSE_EVENT else \
         VISIBLE_TRANSMISSION if event == TRANSMIT_EVENT else VISIBLE_GLOSSY
-    # The light tracer ends its paths on layered surfaces, so the path tracer counts every path
-    # through them.
-    return new_d, beta, ray_kind, pdf_prev, NO_CAUSTIC, 0.0, n_shadow, count
+    return (new_d, beta, ray_kind, pdf_prev, lobe_split(mats, mat, depth, event, new_d, ng_f),
+            0.0, n_shadow, count)
 
 
 @jit_inline
@@ -145,7 +138,19 @@ def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, 
         return new_d, beta, kind_in, pdf_in, NO_CAUSTIC, 0.0, n_shadow, count, mis_t + length
     ray_kind = VISIBLE_DIFFUSE if event == DIFFUSE_EVENT else \
         VISIBLE_TRANSMISSION if event == TRANSMIT_EVENT else VISIBLE_GLOSSY
-    return new_d, beta, ray_kind, pdf_prev, NO_CAUSTIC, 0.0, n_shadow, count, 0.0
+    return (new_d, beta, ray_kind, pdf_prev, lobe_split(mats, mat, depth, event, new_d, ng_f),
+            0.0, n_shadow, count, 0.0)
+
+
+@jit_inline
+def lobe_split(mats, mat, depth, event, wo, ng_f):
+    """A layered or program vertex's place in the split with the light tracer: FIRST_DIFFUSE
+    where the camera's first hit, on a surface light paths end on, sampled wo from a Lambert
+    lobe (receivers.py: the light tracer carries that share of its paths through mirrors and
+    glass to a light)."""
+    if depth == 0 and mats.receives[mat] and lambert_sampled(event, wo, ng_f):
+        return FIRST_DIFFUSE
+    return NO_CAUSTIC
 
 
 @jit
@@ -181,23 +186,6 @@ def scatter_specular(kind, has_normals, fresnel_model, u0, beta, caustic_in, d, 
     ray_kind = VISIBLE_TRANSMISSION if event == specular.TRANSMITTED else VISIBLE_GLOSSY
     caustic = CAUSTIC if caustic_in != NO_CAUSTIC else NO_CAUSTIC
     return new_d, beta, ray_kind, 0.0, caustic, 0.0
-
-
-@jit
-def textured_params(mats, mat, tri, b1, b2, params):
-    """(roughness, Principled parameters) of a textured layered material at a hit: its
-    roughness texture's value, and for a Principled BSDF its parameters copied into the scratch
-    row `params` with the roughness and metallic textures' values."""
-    roughness = material_number(mats, mat, ROUGHNESS_SLOT, tri, b1, b2, mats.roughness[mat])
-    if mats.shader[mat] != SHADER_PRINCIPLED:
-        return roughness, mats.principled[mat]
-    for k in range(params.shape[0]):
-        params[k] = mats.principled[mat, k]
-    params[P_ROUGHNESS] = material_number(mats, mat, ROUGHNESS_SLOT, tri, b1, b2,
-                                          mats.principled[mat, P_ROUGHNESS])
-    params[P_METALLIC] = material_number(mats, mat, METALLIC_SLOT, tri, b1, b2,
-                                         mats.principled[mat, P_METALLIC])
-    return roughness, params
 
 
 @jit

@@ -20,6 +20,7 @@ import pytest
 
 from support.builders import icosphere, make_scene, quad
 from support.caustic_scenes import BATCHES, GLASS, WALLS, WHITE, look_at, room
+from support.stats import region_z
 from snell.tracer.integrator import Renderer
 from snell.validation import metrics
 
@@ -131,14 +132,6 @@ class Case:
 @pytest.fixture(scope="module", params=sorted(SCENES))
 def case(request):
     return Case(request.param)
-
-
-def region_z(image, variance, reference, ref_variance, region):
-    """z of the difference of two images' means over region (independent estimates)."""
-    n = region.sum()
-    diff = (image[region].sum() - reference[region].sum()) / n
-    var = (variance[region].sum() + ref_variance[region].sum()) / n ** 2
-    return diff / math.sqrt(var)
 
 
 def test_delta_lamps_start_light_paths():

@@ -163,6 +163,14 @@ class PassesReference:
         return out
 
 
+def without_light_tracer(result):
+    """A deliberate error: a Snell render's light-traced part taken out of its batches, while
+    its path tracer still skips those paths (the caustic then rendered by nothing)."""
+    result.batch_images = [b - l for b, l in zip(result.batch_images, result.light_batch_images)]
+    result.light_batch_images = [np.zeros_like(l) for l in result.light_batch_images]
+    return result
+
+
 def verdict(result):
     """(verdict, the numbers an assertion message should show)."""
     detail = {k: result[k] for k in ("tests", "z_pass_fraction", "tiles_failed", "mean_z",

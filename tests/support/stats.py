@@ -8,6 +8,8 @@
   probability of each bin integrated from a density (adaptive Gauss-Legendre), for chi2_pvalue.
 - estimators_agree(scene, ...): per-pixel and whole-image z-tests between two unbiased
   estimators of one image (NEE+MIS against BSDF sampling).
+- region_z(image, variance, reference, ref_variance, region): z of two independent images'
+  means over a region (the caustic region of the delta-lamp tests).
 
 Binomial intervals (exact, Clopper-Pearson) are the package's own: snell.validation.false_alarms
 (tests/validation/test_false_alarms.py holds them).
@@ -20,6 +22,14 @@ import numpy as np
 from scipy import stats
 
 from snell.tracer.sampling import orthonormal_basis
+
+
+def region_z(image, variance, reference, ref_variance, region):
+    """z of the difference of two images' means over region (independent estimates)."""
+    n = region.sum()
+    diff = (image[region].sum() - reference[region].sum()) / n
+    var = (variance[region].sum() + ref_variance[region].sum()) / n ** 2
+    return diff / math.sqrt(var)
 
 
 def sidak(alpha, n):

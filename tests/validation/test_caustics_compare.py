@@ -25,6 +25,7 @@ import pytest
 from support import hdri
 from support.cycles_reference import Reference
 from support.cycles_reference import verdict as _verdict
+from support.cycles_reference import without_light_tracer
 
 bpy = pytest.importorskip("bpy")
 
@@ -121,14 +122,6 @@ def hdri_caustic(tmp_path_factory):
     exr = hdri.write_exr(tmp / "sky.exr", hdri.sky(sun_phi=SUN_PHI, sun_peak=200.0))
     return Reference(build_hdri_caustic(str(tmp / "hdri_caustic.blend"), exr), framing=FULL,
                      spp=SPP)
-
-
-def without_light_tracer(result):
-    """A deliberate error: the render's light-traced part taken out of its batches, while its
-    path tracer still skips those paths (the world's caustic then rendered by nothing)."""
-    result.batch_images = [b - l for b, l in zip(result.batch_images, result.light_batch_images)]
-    result.light_batch_images = [np.zeros_like(l) for l in result.light_batch_images]
-    return result
 
 
 def test_hdri_caustic_is_consistent_with_cycles(hdri_caustic):
