@@ -14,6 +14,7 @@ import numpy as np
 from ...tracer import scene as scene_mod
 from ...tracer.scene import Scene, SceneError
 from .camera import convert_camera
+from .contacts import refracting_contacts
 from .custom_properties import instance_rgba, view_layer_rgba
 from .light_groups import NOT_LISTED, LightGroups
 from .lights import convert_light
@@ -399,7 +400,20 @@ def export_depsgraph(depsgraph, *, source=""):
         ex.add_instance(inst)
     scene = ex.scene(bl_scene, camera, source)
     scene_mod.validate(scene)
+    warn_contacts(scene, ex.warn)
     return scene, ex.warnings
+
+
+def warn_contacts(scene, warn):
+    """Warn for each refracting object with faces lying on another object's (contacts.py)."""
+    if not scene.objects or not scene.materials:
+        return
+    refracting = np.array([scene_mod.refracts(m) for m in scene.materials])[scene.material_ids]
+    for glass, other in refracting_contacts(scene.positions, scene.triangles, scene.object_ids,
+                                            refracting):
+        warn(f"object {scene.objects[glass]['name']!r}: refracting faces lie on object "
+             f"{scene.objects[other]['name']!r}'s faces (in one plane): Cycles and Snell "
+             "resolve coincident faces differently; lift it by 0.1 mm")
 
 
 def rendered_instances(depsgraph, ex):

@@ -262,7 +262,10 @@ MAPPINGS = {
 }
 
 
-@pytest.mark.parametrize("name", list(MAPPINGS))
+# The Texture type (rotation about two axes, an uneven scale, the inverse matrix) by default; the
+# other two slow.
+@pytest.mark.parametrize("name", [pytest.param(name, marks=pytest.mark.slow)
+                                  if name != "texture" else name for name in MAPPINGS])
 def test_mapping_node_matrix_sampling(name):
     """Any Mapping node without a location (rotation about every axis, scale, the Texture type):
     samples carry the density pdf_env gives them, the radiance is the image at the mapped

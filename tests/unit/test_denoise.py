@@ -4,6 +4,7 @@ DenoiseError naming what is missing, and denoise_result then keeps the noisy ima
 from __future__ import annotations
 
 import ctypes.util
+import os
 import types
 
 import numpy as np
@@ -93,3 +94,29 @@ def test_without_oidn_the_result_keeps_its_noisy_image(fresh, monkeypatch):
     out = denoise.denoise_result(result, RenderSettings(denoise=True))
     assert not out.denoised and out.image is noisy
     assert "not available" in out.warning and "undenoised" in out.warning
+
+
+# Where bpy 5.0.1's wheels keep OIDN's libraries (listed from PyPI's wheels' zip directories,
+# 2026-11-27): the main library and the modules it loads beside it.
+WHEEL_LAYOUTS = {
+    "darwin": ["lib/libOpenImageDenoise.dylib", "lib/libOpenImageDenoise_core.dylib",
+               "lib/libOpenImageDenoise_device_cpu.dylib", "lib/libtbb.dylib"],
+    "win32": ["OpenImageDenoise.dll", "OpenImageDenoise_core.dll",
+              "OpenImageDenoise_device_cpu.dll", "tbb12.dll"],
+    "linux": ["lib/libOpenImageDenoise.so.2", "lib/libOpenImageDenoise_core.so.2.3.3",
+              "lib/libOpenImageDenoise_device_cpu.so.2.3.3"],
+}
+
+
+@pytest.mark.parametrize("platform", sorted(WHEEL_LAYOUTS))
+def test_the_bpy_wheels_library_is_found_on_each_platform(platform, tmp_path, monkeypatch):
+    for name in WHEEL_LAYOUTS[platform]:
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_bytes(b"")
+    monkeypatch.delenv(denoise.ENV_LIBRARY, raising=False)
+    monkeypatch.setattr(denoise.sys, "platform", platform)
+    monkeypatch.setattr(denoise, "_package_dir", lambda name: str(tmp_path) if name == "bpy"
+                        else None)
+    monkeypatch.setattr(denoise.ctypes.util, "find_library", lambda name: None)
+    found = [os.path.normpath(p) for p in denoise.candidate_paths()]
+    assert found == [str(tmp_path / WHEEL_LAYOUTS[platform][0])]

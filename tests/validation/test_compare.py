@@ -216,7 +216,8 @@ def _lamps(scale):
 # Adaptive sampling at Cycles' default threshold against the fixed-sample Cycles references:
 # each pixel's variance from its own samples (RenderResult.variance_and_dof); the stopping rule
 # must leave no bias the tests can see, and a 2% error must still be seen.
-@pytest.mark.parametrize("scene", ["spheres_converged", "dragon"])
+@pytest.mark.parametrize("scene", ["spheres_converged",
+                                   pytest.param("dragon", marks=pytest.mark.slow)])
 def test_adaptive_sampling_is_consistent(scene, request):
     reference = request.getfixturevalue(scene)
     result = reference.compare(noise_threshold=0.01, spp=1024)

@@ -256,7 +256,9 @@ def test_startup_scene_consistent(startup):
 SEEDS = {"glossy": 1}
 
 
-@pytest.mark.parametrize("name", ["glossy", "glass", "principled", "principled_close", "panel"])
+@pytest.mark.parametrize("name", ["glossy", "glass", "principled",
+                                  pytest.param("principled_close", marks=pytest.mark.slow),
+                                  "panel"])
 def test_rough_scene_consistent(name, request):
     seed = SEEDS.get(name, 0)
     verdict, detail = _verdict(request.getfixturevalue(name).compare(
@@ -277,9 +279,14 @@ def test_rough_scene_consistent(name, request):
 # is the lamp's own shape, which so narrow a lobe barely blurs) and 0.3 (1.1 in the row, 4.8 in
 # a close-up of the sphere), the coated plastic's base and coat roughness (0.8, 0.1), the row's
 # rough glass and refraction spheres (0.7 to 1.9: the room seen through them, blurred).
-ROUGHNESS_ERRORS = [("glossy", "Glossy_GGX_0.7"), ("glossy", "Glossy_MULTI_GGX_0.7"),
-                    ("principled_close", "Gold"), ("panel", "Glass_0.4"),
-                    ("panel", "PrincipledGlass"), ("panel", "Refraction_0.3")]
+# One error per kind of lobe runs by default (GGX reflection, GGX glass, Principled glass); the
+# others are slow, to keep the default run short: multi-scatter GGX, Principled metal (whose
+# close-up scene alone takes a minute) and Refraction.
+ROUGHNESS_ERRORS = [("glossy", "Glossy_GGX_0.7"),
+                    pytest.param("glossy", "Glossy_MULTI_GGX_0.7", marks=pytest.mark.slow),
+                    pytest.param("principled_close", "Gold", marks=pytest.mark.slow),
+                    ("panel", "Glass_0.4"), ("panel", "PrincipledGlass"),
+                    pytest.param("panel", "Refraction_0.3", marks=pytest.mark.slow)]
 
 
 @pytest.mark.parametrize("name, material", ROUGHNESS_ERRORS)
@@ -293,8 +300,11 @@ def test_roughness_off_by_10_percent_is_caught(name, material, request):
 # image mean, sharpness); refraction 0.3: 24.7, 1.0054 (tiles, image mean). In the Cornell box
 # rows the same errors stay below |z| 3 at 256 spp: the rough glass there shows the room's
 # walls, blurred, whose noise hides the change.
-IOR_ERRORS = [("panel", "Glass_0.1"), ("panel", "Glass_0.4"), ("panel", "PrincipledGlass"),
-              ("panel", "Refraction_0.3")]
+# Glass 0.1 (the largest |z|) and Principled glass by default, the other two slow.
+IOR_ERRORS = [("panel", "Glass_0.1"),
+              pytest.param("panel", "Glass_0.4", marks=pytest.mark.slow),
+              ("panel", "PrincipledGlass"),
+              pytest.param("panel", "Refraction_0.3", marks=pytest.mark.slow)]
 
 
 @pytest.mark.parametrize("name, material", IOR_ERRORS)
