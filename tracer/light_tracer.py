@@ -57,7 +57,7 @@ from .lights.sun import sun_emission
 from .lights.world import world_emission
 from .material_kinds import DIFFUSE, EMISSION, GLASS, LAYERED, MIRROR, PROGRAM, REFRACTION
 from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSION_BOUNCE,
-                          add_bounce, kind_count, within_limits)
+                          add_bounce, drops, kind_count, within_limits)
 from . import media as medium
 from .photon_merging import record_photon
 from .media import empty_stacks
@@ -109,6 +109,8 @@ class LightPaths(NamedTuple):
     medium: np.ndarray       # (n, media.MAX_MEDIA) int64 the media the ray is inside (media.py)
     kinds: np.ndarray        # (n,) int64 its diffuse, glossy and transmission scatterings
     #                          after the first vertex, packed (path_limits.py; see light_bounce)
+    dropped: np.ndarray      # (n,) int64 1 when its last scattering is of a kind of caustics
+    #                          switched off (path_limits): a diffuse vertex next ends it
 
 
 def new_light_paths(n: int) -> LightPaths:
@@ -116,7 +118,7 @@ def new_light_paths(n: int) -> LightPaths:
     return LightPaths(np.empty(n, np.uint64), np.empty((n, 3), np.float32),
                       np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                       np.empty(n, np.int64), np.empty(n, np.int64), empty_stacks(n),
-                      np.zeros(n, np.int64))
+                      np.zeros(n, np.int64), np.zeros(n, np.int64))
 
 
 def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caustics | None:
@@ -345,6 +347,7 @@ def set_light_path(paths, j, key, origin, direction, beta, bounces, lamp):
     paths.bounces[j] = bounces
     paths.lamp[j] = lamp
     paths.kinds[j] = NO_BOUNCES
+    paths.dropped[j] = 0
 
 
 @jit_inline
@@ -430,7 +433,9 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
     connection in the media they cross, and the stack of media goes with each path (media.py).
     limits (path_limits.bounce_limits) bound the camera path each connection makes: its
     bounces, and each kind's count of scatterings but the last (the first vertex's, towards the
-    light), so that the light tracer owns exactly the paths the path tracer would have ended.
+    light), so that the light tracer owns exactly the paths the path tracer would have ended,
+    and limits[5] the caustics switched off: a path whose specular scattering into a diffuse
+    vertex is of such a kind ends there, as the camera path's lobe there is dropped.
     When `photons` has rows (photon merging), a path's first diffuse vertex after one or more
     specular ones is also stored there as a photon (photon_merging.py).
     Returns (paths in out, connections queued, photons stored)."""
@@ -465,6 +470,8 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
         key = paths.key[i]
         color, trans_color = surface_colors(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
         if kind == DIFFUSE:
+            if paths.dropped[i] != 0:
+                continue          # the camera path's diffuse ray here drops that lobe there
             # A photon: every vertex so far specular, and room for one more after this one.
             if (photons.bounces.shape[0] > 0 and bounces > 0 and not caustics.pure
                     and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) == 0
@@ -532,6 +539,7 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
                                 TRANSMISSION_BOUNCE if event == specular.TRANSMITTED
                                 else GLOSSY_BOUNCE, limits):
             continue          # past a limit: no connection from here on would count
+        out.dropped[n_out] = drops(limits[5], event == specular.TRANSMITTED)
         if media.on:
             medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
                          event == specular.TRANSMITTED)

@@ -1267,12 +1267,12 @@ def test_info_names_where_each_setting_came_from(bl, tmp_path):
     assert ("render     96 spp, max depth 7, seed 9, fresnel exact, pixel filter blackman-harris "
             "1.5 px") in text, text
     assert ("paths      bounces diffuse 4, glossy 4, transmission 12, transparent 8; "
-            "clamp direct 5, indirect 4") in text, text
+            "clamp direct 5, indirect 4; caustics reflective on, refractive on") in text, text
     sources = next(line for line in lines if line.startswith("sources"))
     assert sources == ("sources    file's Cycles setting: spp, max_depth, "
                        "transparent_max_bounces, diffuse_bounces, glossy_bounces, "
-                       "transmission_bounces, sample_clamp_direct, sample_clamp_indirect, "
-                       "seed, noise_threshold, "
+                       "transmission_bounces, caustics_reflective, caustics_refractive, "
+                       "sample_clamp_direct, sample_clamp_indirect, seed, noise_threshold, "
                        "min_spp, time_limit, pixel_filter, filter_width, film_exposure, "
                        "film_transparent, film_transparent_glass, film_transparent_roughness, "
                        "denoise, "
