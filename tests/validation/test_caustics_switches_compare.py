@@ -33,13 +33,14 @@ def build(path, reflective, refractive):
     scene.cycles.caustics_reflective, scene.cycles.caustics_refractive = reflective, refractive
     common.quad("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)],
                 common.material("Floor", "diffuse", (0.8, 0.8, 0.8)))
-    common.uv_sphere("Glass", (-0.7, 0.0, 0.5), 0.45,
+    # Raised so that its focus is above the floor: the caustic spreads over a few pixels.
+    common.uv_sphere("Glass", (-0.6, 0.0, 0.9), 0.45,
                      common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5),
                      segments=32, rings=16)
     # A vertical mirror facing the lamp: its reflection lands on the floor at x 0.1 .. 1.1.
     common.quad("Mirror", [(1.2, -0.5, 0.2), (1.2, -0.5, 1.2), (1.2, 0.5, 1.2), (1.2, 0.5, 0.2)],
                 common.material("Mirror", "glossy", (0.9, 0.9, 0.9)))
-    common.uv_sphere("Principled", (0.3, 0.9, 0.35), 0.35,
+    common.uv_sphere("Principled", (-0.3, 1.1, 0.35), 0.35,
                      common.material("Principled", "principled", (0.8, 0.5, 0.2),
                                      Metallic=0.5, Roughness=0.2,
                                      **{"Coat Weight": 0.5, "Coat Roughness": 0.1}),
@@ -47,7 +48,7 @@ def build(path, reflective, refractive):
     s = 0.15
     common.quad("Light", [(-s, -s, 2.5), (-s, s, 2.5), (s, s, 2.5), (s, -s, 2.5)],
                 common.material("Light", "emission", (1.0, 1.0, 1.0), Strength=200.0))
-    common.camera(scene, (0.0, -3.5, 2.8), (0.0, 0.2, 0.3), lens=35.0)
+    common.camera(scene, (0.0, -2.6, 2.3), (0.1, 0.2, 0.2), lens=35.0)
     return common.save(path)
 
 
@@ -85,10 +86,14 @@ def test_the_switches_as_cycles(case):
 
 
 def test_the_switch_ignored_is_caught(case):
-    """Snell before the switches: every caustic rendered."""
+    """Snell before the switches: every caustic rendered. By the path tracer alone: the
+    verdict calls Snell too bright where its light tracer carries light only if it is so
+    without that light (validation/metrics.py), so a light tracer that ignored the switch is
+    held by tests/render/test_caustics_switches.py instead."""
     ref, _ = case
     v, detail = _verdict(ref.compare(
-        modify=lambda s: s.with_render(caustics_reflective=True, caustics_refractive=True)))
+        modify=lambda s: s.with_render(caustics_reflective=True, caustics_refractive=True,
+                                       caustics=False)))
     assert v == "inconsistent", detail
 
 
