@@ -8,7 +8,7 @@ import pytest
 
 from snell.tracer import lobes, path_limits
 from snell.tracer.lights.codes import VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
-from support.microfacet import TABLES
+from support.microfacet import TABLES, principled_bsdf
 
 UP = (0.0, 0.0, 1.0)
 WI = (math.sqrt(1 - 0.7 ** 2), 0.0, 0.7)
@@ -16,17 +16,10 @@ BASE = (0.8, 0.5, 0.2)
 REFLECTIVE, REFRACTIVE = path_limits.NO_REFLECTIVE_CAUSTICS, path_limits.NO_REFRACTIVE_CAUSTICS
 
 
-def principled(drop, dist=lobes.DIST_MULTI_GGX, **params):
-    p = np.zeros(lobes.P_FIELDS)
-    values = {"roughness": 0.3, "ior": 1.5, "specular_level": 0.5, "coat_roughness": 0.1,
-              "coat_ior": 1.5, "metallic": 0.5, "transmission": 0.3, "coat": 0.5}
-    values.update(params)
-    for name, value in values.items():
-        p[getattr(lobes, "P_" + name.upper())] = value
-    p[lobes.P_SPECULAR_TINT:lobes.P_SPECULAR_TINT + 3] = 1.0
-    p[lobes.P_COAT_TINT:lobes.P_COAT_TINT + 3] = 1.0
-    rows = np.zeros((lobes.MAX_LOBES, lobes.FIELDS))
-    count = lobes.setup_principled(rows, TABLES, UP, UP, WI, True, BASE, p, dist, drop)
+def principled(drop, dist=lobes.DIST_MULTI_GGX):
+    """The lobes of a Principled BSDF with coat, metallic and transmission, dropping `drop`."""
+    rows, count = principled_bsdf(WI, base=BASE, dist=dist, drop=drop, roughness=0.3,
+                                  coat_roughness=0.1, metallic=0.5, transmission=0.3, coat=0.5)
     return rows[:count]
 
 

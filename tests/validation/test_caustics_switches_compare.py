@@ -31,8 +31,7 @@ def build(path, reflective, refractive):
     scene = common.reset()
     common.setup_render(scene, (40, 40))
     scene.cycles.caustics_reflective, scene.cycles.caustics_refractive = reflective, refractive
-    common.quad("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)],
-                common.material("Floor", "diffuse", (0.8, 0.8, 0.8)))
+    common.floor("Floor", 2.0, common.material("Floor", "diffuse", (0.8, 0.8, 0.8)))
     # Raised so that its focus is above the floor: the caustic spreads over a few pixels.
     common.uv_sphere("Glass", (-0.6, 0.0, 0.9), 0.45,
                      common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5),
@@ -45,8 +44,8 @@ def build(path, reflective, refractive):
                                      Metallic=0.5, Roughness=0.2,
                                      **{"Coat Weight": 0.5, "Coat Roughness": 0.1}),
                      segments=32, rings=16)
-    s = 0.15
-    common.quad("Light", [(-s, -s, 2.5), (-s, s, 2.5), (s, s, 2.5), (s, -s, 2.5)],
+    corners = [(0.15 * x, 0.15 * y, 2.5) for x, y in ((-1, -1), (-1, 1), (1, 1), (1, -1))]
+    common.quad("Light", corners,
                 common.material("Light", "emission", (1.0, 1.0, 1.0), Strength=200.0))
     common.camera(scene, (0.0, -2.6, 2.3), (0.1, 0.2, 0.2), lens=35.0)
     return common.save(path)
