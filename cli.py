@@ -549,14 +549,18 @@ def describe(scene) -> list[str]:
 
 
 def light_paths(settings) -> str:
-    """The bounce limits of each kind and the clamps, as Cycles' Light Paths panel has them."""
+    """The bounce limits of each kind, the clamps and the caustics switches, as Cycles' Light
+    Paths panel has them."""
     kinds = ", ".join(f"{name} {getattr(settings, name + '_bounces')}"
                       for name in ("diffuse", "glossy", "transmission"))
     clamps = ", ".join(f"{name} {value:g}" if value > 0 else f"{name} off"
                        for name, value in (("direct", settings.sample_clamp_direct),
                                            ("indirect", settings.sample_clamp_indirect)))
+    caustics = ", ".join(f"{name} {'on' if on else 'off'}"
+                         for name, on in (("reflective", settings.caustics_reflective),
+                                          ("refractive", settings.caustics_refractive)))
     return (f"bounces {kinds}, transparent {settings.transparent_max_bounces}; "
-            f"clamp {clamps}")
+            f"clamp {clamps}; caustics {caustics}")
 
 
 def setting_sources(render: dict) -> str:

@@ -210,14 +210,16 @@ class RENDER_PT_snell_light_paths(SnellPanel, bpy.types.Panel):
             col.label(text=f"Snell: Max Depth {cycles.max_bounces + 1}")
             col.prop(cycles, "sample_clamp_direct", text="Clamp Direct")
             col.prop(cycles, "sample_clamp_indirect", text="Clamp Indirect")
-            col.label(text="Filter Glossy and the caustics switches are not rendered")
+            col.prop(cycles, "caustics_reflective", text="Reflective Caustics")
+            col.prop(cycles, "caustics_refractive", text="Refractive Caustics")
+            col.label(text="Filter Glossy is not rendered")
         else:
             col.prop(props, "max_depth")
             col.label(text=f"Cycles: Max Bounces {props.max_depth - 1}" if props.max_depth > 0
                       else "No Cycles equivalent (emitters only)")
             for name in ("diffuse_bounces", "glossy_bounces", "transmission_bounces",
                          "transparent_max_bounces", "sample_clamp_direct",
-                         "sample_clamp_indirect"):
+                         "sample_clamp_indirect", "caustics_reflective", "caustics_refractive"):
                 col.prop(props, name)
         # What Snell adds: its own whether or not it follows Cycles.
         col.prop(props, "fresnel")

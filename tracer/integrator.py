@@ -140,7 +140,8 @@ class Renderer:
         # Cycles' bounce limits and clamping, as the stages read them (path_limits.py).
         self.limits = path_limits.bounce_limits(
             settings.max_depth, settings.transparent_max_bounces, settings.diffuse_bounces,
-            settings.glossy_bounces, settings.transmission_bounces)
+            settings.glossy_bounces, settings.transmission_bounces,
+            path_limits.caustics_bits(settings.caustics_reflective, settings.caustics_refractive))
         self.clamp = path_limits.clamp_limits(settings.sample_clamp_direct,
                                               settings.sample_clamp_indirect)
         self.seed = settings.seed
@@ -149,7 +150,8 @@ class Renderer:
         # Built whatever the camera, so that with_camera can switch the light tracer either way.
         self._caustic_tables = (light_tracer.caustics_tables(scene, self.lights, self.geometry,
                                                              self.materials, pure=pure)
-                                if settings.caustics or pure else None)
+                                if (settings.caustics and self._any_caustics()) or pure
+                                else None)
         self._use_camera_for_caustics()
         used = np.unique(self.materials.of_triangle)
         # Shadow rays look through surfaces only where a program may be transparent.
@@ -205,6 +207,11 @@ class Renderer:
         other._film_lock = threading.Lock()
         return other
 
+    def _any_caustics(self) -> bool:
+        """Whether Cycles' caustics switches leave the light tracer any path: with both off, a
+        camera path drops every mirror and glass lobe after a diffuse bounce (path_limits)."""
+        return self.settings.caustics_reflective or self.settings.caustics_refractive
+
     def _use_camera_for_caustics(self):
         """Run the light tracer (where the scene has one) unless the camera is orthographic:
         the light tracer connects to a pinhole or a thin lens, so an orthographic camera leaves
@@ -244,6 +251,8 @@ class Renderer:
         world, env = bool(lights.has_world), bool(lights.has_env)
         if not (self.settings.caustics or self.settings.pure_light_tracing):
             why_no_light = "caustics off"
+        elif not self._any_caustics():
+            why_no_light = "Cycles' reflective and refractive caustics off"
         elif self.camera.ortho:
             why_no_light = "orthographic camera"
         else:

@@ -65,7 +65,7 @@ from .lights.sun import sun_emission
 from .lights.world import world_emission
 from .material_kinds import DIFFUSE, GLASS, MIRROR, REFRACTION
 from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSION_BOUNCE,
-                          add_bounce, kind_count, within_limits)
+                          add_bounce, drops, kind_count, within_limits)
 from . import media as medium
 from .photon_merging import record_photon
 from .media import empty_stacks
@@ -119,6 +119,8 @@ class LightPaths(NamedTuple):
     medium: np.ndarray       # (n, media.MAX_MEDIA) int64 the media the ray is inside (media.py)
     kinds: np.ndarray        # (n,) int64 its diffuse, glossy and transmission scatterings
     #                          after the first vertex, packed (path_limits.py; see light_bounce)
+    dropped: np.ndarray      # (n,) int64 1 when its last scattering is of a kind of caustics
+    #                          switched off (path_limits): a diffuse vertex next ends it
 
 
 def new_light_paths(n: int) -> LightPaths:
@@ -126,7 +128,7 @@ def new_light_paths(n: int) -> LightPaths:
     return LightPaths(np.empty(n, np.uint64), np.empty((n, 3), np.float32),
                       np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                       np.empty(n, np.int64), np.empty(n, np.int64), empty_stacks(n),
-                      np.zeros(n, np.int64))
+                      np.zeros(n, np.int64), np.zeros(n, np.int64))
 
 
 def caustics_tables(scene, lights, geometry, materials, pure=False) -> Caustics | None:
@@ -365,6 +367,7 @@ def set_light_path(paths, j, key, origin, direction, beta, bounces, lamp):
     paths.bounces[j] = bounces
     paths.lamp[j] = lamp
     paths.kinds[j] = NO_BOUNCES
+    paths.dropped[j] = 0
 
 
 @jit_inline
@@ -454,7 +457,9 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
     (the first vertex's, towards the light), so that the light tracer owns exactly the paths
     the path tracer would have ended. When `photons` has rows (photon merging), a path's first
     plain diffuse vertex after one or more specular ones is also stored there as a photon
-    (photon_merging.py). tables: the albedo tables, scratch: (lobes, program registers,
+    (photon_merging.py). limits[5]: the caustics switched off: a path whose specular scattering
+    into a receiving vertex is of such a kind ends there, as the camera path's lobe there is
+    dropped. tables: the albedo tables, scratch: (lobes, program registers,
     Principled parameters) for the hits' lobes (receivers.surface_response).
     Returns (paths in out, connections queued, photons stored)."""
     n_out, n_conn, n_photons = 0, 0, 0
@@ -501,6 +506,8 @@ def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, p
     diffuse surfaces), a delta lamp's path continued, the connection to the camera queued.
     counts: (paths in out, connections, photons) before; returns them after."""
     n_out, n_conn, n_photons = counts
+    if paths.dropped[i] != 0:
+        return counts             # the camera path's diffuse ray here drops that lobe there
     max_depth = limits[0]
     bounces = paths.bounces[i]
     key = paths.key[i]
@@ -584,6 +591,7 @@ def specular_vertex(caustics, lights, mats, media, fresnel_model, limits, paths,
                             TRANSMISSION_BOUNCE if event == specular.TRANSMITTED
                             else GLOSSY_BOUNCE, limits):
         return n_out              # past a limit: no connection from here on would count
+    out.dropped[n_out] = drops(limits[5], event == specular.TRANSMITTED)
     if media.on:
         medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
                      event == specular.TRANSMITTED)

@@ -23,6 +23,7 @@ from .fresnel import (dielectric_fss, f0_from_ior, f82_fss, f82_tint_b, fresnel_
 from .jit import jit
 from .microfacet import BECKMANN, GGX, is_almost_specular, ndf, smith_lambda
 from .microfacet_tables import ggx_albedo, glass_albedo, remap_albedo
+from .path_limits import drops
 from .sampling import orthonormal_basis, sample_cosine_hemisphere
 from .vec import add, dot, madd, mean3, mul, normalize, vmul
 
@@ -410,8 +411,11 @@ def preserve_energy(lobe, tables, wi, fss):
 
 
 @jit
-def setup_glossy(lobes, tables, n, wi, color, roughness, dist):
-    """The Glossy BSDF: microfacet reflection weighted by its colour (no Fresnel)."""
+def setup_glossy(lobes, tables, n, wi, color, roughness, dist, drop=0):
+    """The Glossy BSDF: microfacet reflection weighted by its colour (no Fresnel); none where
+    the hit drops reflective caustics (drop: path_limits.dropped_at)."""
+    if drops(drop, False):
+        return 0
     lobe = lobes[0]
     new_microfacet(lobe, n, color, dist, roughness * roughness, 1.0, True, False, NO_FRESNEL)
     if dist == DIST_MULTI_GGX:
@@ -420,26 +424,45 @@ def setup_glossy(lobes, tables, n, wi, color, roughness, dist):
 
 
 @jit
-def setup_glass(lobes, tables, n, wi, entering, color, trans_color, roughness, dist, ior):
+def setup_glass(lobes, tables, n, wi, entering, color, trans_color, roughness, dist, ior,
+                drop=0):
     """The Glass BSDF: microfacet reflection and refraction with the dielectric Fresnel, tinted
-    by colour (and trans_color for the refraction)."""
+    by colour (and trans_color for the refraction); a kind of caustics the hit drops (drop:
+    path_limits.dropped_at) has tint 0, and with both dropped there is no lobe."""
+    reflects, refracts = not drops(drop, False), not drops(drop, True)
+    if not (reflects or refracts):
+        return 0
     lobe = lobes[0]
     eta = ior if entering else 1.0 / ior
     new_microfacet(lobe, n, (1.0, 1.0, 1.0), dist, roughness * roughness, eta, True, True,
                    REMAPPED)
     f0 = f0_from_ior(ior)
     set_vec(lobe, F0, (f0, f0, f0))
-    set_vec(lobe, R_TINT, color)
-    set_vec(lobe, T_TINT, trans_color)
+    set_vec(lobe, R_TINT, color if reflects else (0.0, 0.0, 0.0))
+    set_vec(lobe, T_TINT, trans_color if refracts else (0.0, 0.0, 0.0))
     if dist == DIST_MULTI_GGX:
-        preserve_energy(lobe, tables, wi, trans_color)
+        preserve_energy(lobe, tables, wi, glass_fss(lobe, refracts))
     return 1
 
 
 @jit
-def setup_refraction(lobes, n, entering, color, roughness, dist, ior):
+def glass_fss(lobe, refracts):
+    """The multiple-bounce Fresnel a glass lobe's energy preservation assumes (Cycles'
+    bsdf_microfacet_setup_fresnel_generalized_schlick): its transmission tint, or with none
+    (refractive caustics dropped) its reflection tint x the remapped Fresnel's average."""
+    if refracts:
+        return vec_at(lobe, T_TINT)
+    eta = lobe[ETA]
+    s = remap_factor(dielectric_fss(eta), f0_from_ior(eta))
+    return vmul(vec_at(lobe, R_TINT), mix_to_one3(vec_at(lobe, F0), s))
+
+
+@jit
+def setup_refraction(lobes, n, entering, color, roughness, dist, ior, drop=0):
     """The Refraction BSDF: microfacet refraction weighted by its colour, nothing under total
-    internal reflection."""
+    internal reflection; none where the hit drops refractive caustics."""
+    if drops(drop, True):
+        return 0
     eta = ior if entering else 1.0 / ior
     new_microfacet(lobes[0], n, color, dist, roughness * roughness, eta, False, True, NO_FRESNEL)
     return 1
@@ -457,9 +480,13 @@ def layering_weight(weight, lobe_weight, albedo):
 
 
 @jit
-def setup_principled(lobes, tables, n, n_diffuse, wi, entering, base, params, dist):
+def setup_principled(lobes, tables, n, n_diffuse, wi, entering, base, params, dist, drop=0):
     """The Principled BSDF's layers as Cycles 5.0 stacks them: coat, metallic, transmission,
-    dielectric specular over a Lambert base. Returns the number of lobes."""
+    dielectric specular over a Lambert base. Returns the number of lobes. Where the hit drops
+    a kind of caustics (drop: path_limits.dropped_at), Cycles leaves out the coat, metallic
+    and specular layers (reflective) and the transmission's tint of that kind, and a dropped
+    coat or specular layer no longer dims the layers below it."""
+    reflects, refracts = not drops(drop, False), not drops(drop, True)
     count = 0
     weight = (1.0, 1.0, 1.0)
     clamped = (min(base[0], 1.0), min(base[1], 1.0), min(base[2], 1.0))
@@ -471,19 +498,10 @@ def setup_principled(lobes, tables, n, n_diffuse, wi, entering, base, params, di
     coat = max(params[P_COAT], 0.0)
     if coat > WEIGHT_CUTOFF:
         coat_ior = max(params[P_COAT_IOR], 1.0)
-        coat_rough = min(max(params[P_COAT_ROUGHNESS], 0.0), 1.0)
-        lobe = lobes[count]
-        new_microfacet(lobe, n, mul(weight, coat), DIST_GGX, coat_rough * coat_rough, coat_ior,
-                       True, False, DIELECTRIC)
-        fss = dielectric_fss(coat_ior)
-        preserve_energy(lobe, tables, wi, (fss, fss, fss))
-        f = 0.0                 # Cycles' albedo estimate of a dielectric of index 1 is 0
-        if coat_ior > 1.0:
-            f = mix_to_one(f0_from_ior(coat_ior),
-                           remap_albedo(tables, coat_rough, dot(wi, n), coat_ior))
-        lobe[SAMPLE_WEIGHT] *= f
-        weight = layering_weight(weight, vec_at(lobe, WEIGHT), (f, f, f))
-        count += 1
+        if reflects:
+            weight = setup_coat(lobes[count], tables, n, wi, weight, coat, coat_ior,
+                                min(max(params[P_COAT_ROUGHNESS], 0.0), 1.0))
+            count += 1
         coat_tint = (params[P_COAT_TINT], params[P_COAT_TINT + 1], params[P_COAT_TINT + 2])
         if coat_tint[0] != 1.0 or coat_tint[1] != 1.0 or coat_tint[2] != 1.0:
             # Beer's law through a coat of unit thickness along the refracted view ray.
@@ -491,7 +509,7 @@ def setup_principled(lobes, tables, n, n_diffuse, wi, entering, base, params, di
             cos_t = math.sqrt(1.0 - (1.0 - cos_i * cos_i) / (coat_ior * coat_ior))
             weight = vmul(weight, tuple_mix(coat, coat_tint, 1.0 / cos_t))
     metallic = min(max(params[P_METALLIC], 0.0), 1.0)
-    if metallic > WEIGHT_CUTOFF:
+    if metallic > WEIGHT_CUTOFF and reflects:
         lobe = lobes[count]
         new_microfacet(lobe, n, mul(weight, metallic), DIST_GGX, alpha, 1.0, True, False, F82)
         set_vec(lobe, F0, clamped)
@@ -501,19 +519,24 @@ def setup_principled(lobes, tables, n, n_diffuse, wi, entering, base, params, di
         if dist == DIST_MULTI_GGX:
             preserve_energy(lobe, tables, wi, f82_fss(clamped, b))
         count += 1
+    if metallic > WEIGHT_CUTOFF:
         weight = mul(weight, 1.0 - metallic)
     transmission = min(max(params[P_TRANSMISSION], 0.0), 1.0)
-    if transmission > WEIGHT_CUTOFF:
+    if transmission > WEIGHT_CUTOFF and (reflects or refracts):
         lobe = lobes[count]
         new_microfacet(lobe, n, mul(weight, transmission), DIST_GGX, alpha,
                        ior if entering else 1.0 / ior, True, True, REMAPPED)
         f0 = f0_from_ior(ior)
         set_vec(lobe, F0, mul(tint, f0))
-        trans_tint = (math.sqrt(clamped[0]), math.sqrt(clamped[1]), math.sqrt(clamped[2]))
-        set_vec(lobe, T_TINT, trans_tint)
+        if refracts:
+            set_vec(lobe, T_TINT, (math.sqrt(clamped[0]), math.sqrt(clamped[1]),
+                                   math.sqrt(clamped[2])))
+        if not reflects:
+            set_vec(lobe, R_TINT, (0.0, 0.0, 0.0))
         if dist == DIST_MULTI_GGX:
-            preserve_energy(lobe, tables, wi, trans_tint)
+            preserve_energy(lobe, tables, wi, glass_fss(lobe, refracts))
         count += 1
+    if transmission > WEIGHT_CUTOFF:
         weight = mul(weight, 1.0 - transmission)
     level = max(params[P_SPECULAR_LEVEL], 0.0)
     eta = ior
@@ -523,7 +546,7 @@ def setup_principled(lobes, tables, n, n_diffuse, wi, entering, base, params, di
         eta = ior_from_f0(f0)
         if ior < 1.0:
             eta = 1.0 / eta
-    if eta != 1.0:
+    if eta != 1.0 and reflects:
         lobe = lobes[count]
         new_microfacet(lobe, n, weight, DIST_GGX, alpha, eta, True, False, REMAPPED)
         f0_rgb = mul(tint, f0)
@@ -544,6 +567,22 @@ def setup_principled(lobes, tables, n, n_diffuse, wi, entering, base, params, di
 
 
 @jit
+def setup_coat(lobe, tables, n, wi, weight, coat, coat_ior, coat_rough):
+    """The Principled BSDF's coat lobe over layers of weight `weight`; returns what it leaves
+    to them."""
+    new_microfacet(lobe, n, mul(weight, coat), DIST_GGX, coat_rough * coat_rough, coat_ior,
+                   True, False, DIELECTRIC)
+    fss = dielectric_fss(coat_ior)
+    preserve_energy(lobe, tables, wi, (fss, fss, fss))
+    f = 0.0                 # Cycles' albedo estimate of a dielectric of index 1 is 0
+    if coat_ior > 1.0:
+        f = mix_to_one(f0_from_ior(coat_ior),
+                       remap_albedo(tables, coat_rough, dot(wi, n), coat_ior))
+    lobe[SAMPLE_WEIGHT] *= f
+    return layering_weight(weight, vec_at(lobe, WEIGHT), (f, f, f))
+
+
+@jit
 def tuple_mix(t, color, exponent):
     """1 + t (color^exponent - 1) per component."""
     return (1.0 + t * (color[0] ** exponent - 1.0), 1.0 + t * (color[1] ** exponent - 1.0),
@@ -556,14 +595,16 @@ SHADER_GLOSSY, SHADER_GLASS, SHADER_REFRACTION, SHADER_PRINCIPLED = range(4)
 
 @jit
 def setup_shader(lobes, tables, shader, color, trans_color, ior, roughness, dist, params, n,
-                 n_diffuse, wi, entering):
+                 n_diffuse, wi, entering, drop):
     """The lobes of one hit on a layered material (n: the normal bent for specular reflection,
-    n_diffuse: the shading normal); returns their number."""
+    n_diffuse: the shading normal; drop: the caustics it drops, path_limits.dropped_at);
+    returns their number."""
     if shader == SHADER_GLOSSY:
-        return setup_glossy(lobes, tables, n, wi, color, roughness, dist)
+        return setup_glossy(lobes, tables, n, wi, color, roughness, dist, drop)
     if shader == SHADER_GLASS:
         return setup_glass(lobes, tables, n, wi, entering, color, trans_color, roughness, dist,
-                           ior)
+                           ior, drop)
     if shader == SHADER_REFRACTION:
-        return setup_refraction(lobes, n, entering, color, roughness, dist, ior)
-    return setup_principled(lobes, tables, n, n_diffuse, wi, entering, color, params, dist)
+        return setup_refraction(lobes, n, entering, color, roughness, dist, ior, drop)
+    return setup_principled(lobes, tables, n, n_diffuse, wi, entering, color, params, dist,
+                            drop)

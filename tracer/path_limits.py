@@ -1,6 +1,6 @@
-"""How far a path may go and how bright one sample may be: Cycles' bounce limits of each kind
-(kernel/integrator/path_state.h, path_state_next) and its sample clamping
-(kernel/film/light_passes.h, film_clamp_light).
+"""How far a path may go, which caustics it renders and how bright one sample may be: Cycles'
+bounce limits of each kind (kernel/integrator/path_state.h, path_state_next), its caustics
+switches and its sample clamping (kernel/film/light_passes.h, film_clamp_light).
 
 Bounces. Cycles counts a path's diffuse reflections, glossy reflections (singular ones, a
 mirror's or glass's, included) and transmissions (refraction and translucency) apart from its
@@ -11,6 +11,13 @@ So a limit of L lets a path scatter L + 1 times that way, the last time towards 
 A path's three counts are packed into one int64 (`kinds`, KIND_BITS bits each): a wavefront
 step copies one number per path instead of a row of three (the row cost the materials stage
 about 3% on a Cornell box: docs/measurements.md).
+
+Caustics. Cycles' Light Paths > Caustics switches, off, drop a glossy reflection's or a
+refraction's closures at a surface that a diffuse ray reached (kernel/svm/closure.h,
+__CAUSTICS_TRICKS__: PATH_RAY_DIFFUSE, set by a diffuse reflection or translucency and kept
+through transparent surfaces): a mirror there is black, glass keeps the other kind's share of
+its Fresnel split, a Principled BSDF keeps its lower layers unattenuated by the dropped ones.
+limits[5] holds the switched-off kinds (NO_REFLECTIVE_CAUSTICS, NO_REFRACTIVE_CAUSTICS bits).
 
 Clamping. Each contribution to the image (a light sample that arrives, or light a path finds) is
 scaled down so that the sum of its red, green and blue is at most 3 x the clamp (Cycles'
@@ -32,15 +39,37 @@ DIFFUSE_BOUNCE, GLOSSY_BOUNCE, TRANSMISSION_BOUNCE = range(3)
 KIND_BITS = 16          # Cycles' limits are at most 1024, a path's depth at most 1024 + 1024
 KIND_MASK = (1 << KIND_BITS) - 1
 NO_BOUNCES = 0          # the packed counts of a path that has not scattered
+# Cycles' caustics switches that are off (bounce_limits' caustics_off, limits[5]).
+NO_REFLECTIVE_CAUSTICS, NO_REFRACTIVE_CAUSTICS = 1, 2
 NO_CLAMP = math.inf
 
 
 def bounce_limits(max_depth: int, transparent: int, diffuse: int, glossy: int,
-                  transmission: int) -> tuple:
+                  transmission: int, caustics_off: int = 0) -> tuple:
     """The limits the wavefront's stages read: (max depth, transparent bounces, then each
-    kind's as Cycles' setting)."""
+    kind's as Cycles' setting, then the caustics switched off: caustics_bits)."""
     return (np.int64(max_depth), np.int64(transparent), np.int64(diffuse), np.int64(glossy),
-            np.int64(transmission))
+            np.int64(transmission), np.int64(caustics_off))
+
+
+def caustics_bits(reflective: bool, refractive: bool) -> int:
+    """bounce_limits' caustics_off from Cycles' two caustics switches."""
+    return (0 if reflective else NO_REFLECTIVE_CAUSTICS) | (0 if refractive else
+                                                           NO_REFRACTIVE_CAUSTICS)
+
+
+@jit_inline
+def dropped_at(limits, ray_kind):
+    """The caustics bits (NO_*_CAUSTICS) whose lobes a hit reached by a ray of ray_kind (a
+    lights.codes VISIBLE_* flag) drops: the switched-off ones after a diffuse ray, else none."""
+    return limits[5] if ray_kind == VISIBLE_DIFFUSE else np.int64(0)
+
+
+@jit_inline
+def drops(drop, transmits):
+    """Whether a hit dropping the caustics bits `drop` drops a refraction (transmits) or a
+    glossy reflection (not)."""
+    return (drop & (NO_REFRACTIVE_CAUSTICS if transmits else NO_REFLECTIVE_CAUSTICS)) != 0
 
 
 def clamp_limits(direct: float, indirect: float) -> tuple:

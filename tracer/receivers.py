@@ -51,9 +51,10 @@ def textured_params(mats, mat, tri, b1, b2, params):
 
 @jit_inline
 def layered_lobes(mats, tables, has_normals, surface, color, trans_color, ng_f, ns_f, view,
-                  entering, params, lobes):
+                  entering, params, lobes, drop):
     """The lobes of a hit on a LAYERED material (surface: material, triangle, barycentrics;
-    normals facing view); returns their number."""
+    normals facing view; drop: the caustics it drops, path_limits.dropped_at); returns their
+    number."""
     mat, tri, b1, b2 = surface
     n = specular.valid_reflection_normal(ng_f, view, ns_f) if has_normals else ns_f
     roughness, shader_params = mats.roughness[mat], mats.principled[mat]
@@ -61,7 +62,7 @@ def layered_lobes(mats, tables, has_normals, surface, color, trans_color, ng_f, 
         roughness, shader_params = textured_params(mats, mat, tri, b1, b2, params)
     return setup_shader(lobes, tables, mats.shader[mat], color, trans_color, mats.ior[mat],
                         roughness, mats.distribution[mat], shader_params, n, ns_f, view,
-                        entering)
+                        entering, drop)
 
 
 @jit_inline
@@ -102,7 +103,7 @@ def surface_response(mats, tables, has_normals, kind, surface, colors, hit, view
     mat, tri, b1, b2 = surface
     if kind == LAYERED:
         count = layered_lobes(mats, tables, has_normals, surface, colors[0], colors[1], ng_f,
-                              ns_f, view, entering, params, lobes)
+                              ns_f, view, entering, params, lobes, 0)  # seen by the camera
     else:
         count = run(mats, mat, regs, (p, ng_f, ns_f, view, entering, tri, b1, b2,
                                       1 << LP_CAMERA, 0, length), lobes, tables, has_normals)

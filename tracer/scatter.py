@@ -24,10 +24,11 @@ from .light_vertices import camera_step_density
 from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
 from .lobes import DIFFUSE_EVENT, TRANSMIT_EVENT, TRANSPARENT_EVENT, bsdf_sample
 from .material_kinds import DIFFUSE, LAYERED, MIRROR, REFRACTION
+from .path_limits import drops
 from .receivers import lambert_sampled, layered_lobes
 from .shader.closures import TOTAL_TRANSPARENCY
-from .shader.inputs import (LP_CAMERA, LP_DIFFUSE, LP_GLOSSY, LP_REFLECTION, LP_SINGULAR,
-                            LP_TRANSMISSION)
+from .shader.inputs import (DROP_SHIFT, LP_CAMERA, LP_DIFFUSE, LP_GLOSSY, LP_REFLECTION,
+                            LP_SINGULAR, LP_TRANSMISSION)
 from .shader.program import run, total
 from .sampling import sample_cosine_hemisphere
 from .vec import dot, neg, sub, vmul
@@ -36,13 +37,14 @@ from .vec import dot, neg, sub, vmul
 @jit_inline
 def scatter_lit(kind, lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth, u,
                 beta, path, ray, hit, entering, surface, color, trans_color, connection, lv, lobes,
-                params, shadows, n_shadow, radiance, without, stats, clamp_direct):
+                params, shadows, n_shadow, radiance, without, stats, clamp_direct, drop):
     """A DIFFUSE (Lambert) or LAYERED (rough or Principled: its lobes, lobes.setup_shader)
     vertex: a light sample and the light-vertex connection evaluated on its surface, then a
     cosine-weighted sample (diffuse) or a sample of one lobe. `ray`: the origin, direction and
     BSDF density of the ray that hit; `surface`: the material, triangle and barycentrics (for
     textures); `connection`: (the last bounce that connects to light vertices, whether this
-    one does); `clamp_direct` the clamp of its light samples (path_limits). Returns the lobe
+    one does); `clamp_direct` the clamp of its light samples and `drop` the caustics its lobes
+    drop (path_limits.dropped_at: a Lambert surface has none to drop). Returns the lobe
     count too (a layered hit's lobes stay in `lobes` for the
     denoising features). One function for both kinds, so that a kernel holds one copy of the
     light-sampling steps (each copy is compiled anew into every kernel that inlines it)."""
@@ -67,7 +69,7 @@ def scatter_lit(kind, lights, mesh, mats, tables, can_sample_lights, has_normals
     else:
         stats[LAYERED_HITS] += 1
         count = layered_lobes(mats, tables, has_normals, surface, color, trans_color, ng_f, ns_f,
-                              view, entering, params, lobes)
+                              view, entering, params, lobes, drop)
     if can_sample_lights:
         n_shadow = sample_direct_light(lights, mesh, key, sample, 3 + 3 * depth, bits, strat,
                                        u_pick, vertex_kind, p, ng_f, ns_f, eps, beta, step,
@@ -103,7 +105,8 @@ def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, 
     hit, the distance it went since its last scattering vertex). A Transparent sample lets the
     path go on unbent as the same ray: its kind and density stay, and the distance grows.
     bounces: (the path's bounces, whether they are spent, the clamp of the vertex's light
-    samples): a path past its last bounce only passes through the surface's transparency, as
+    samples, the caustics its closures drop: path_limits.dropped_at, passed to them in the
+    hit's flags from bit inputs.DROP_SHIFT): a path past its last bounce only passes through the surface's transparency, as
     Cycles' PATH_RAY_TERMINATE_AFTER_TRANSPARENT paths do (their shader keeps no closure but
     Transparent).
     Returns scatter_lit's results, then the new distance since the last scattering vertex."""
@@ -116,9 +119,10 @@ def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, 
     view = neg(d)
     segment = sub(p, o)
     length = math.sqrt(dot(segment, segment))
-    bounce, spent, clamp_direct = bounces
+    bounce, spent, clamp_direct, drop = bounces
     count = run(mats, mat, regs, (p, ng_f, ns_f, view, entering, tri, b1, b2,
-                                  ray_flags(kind_in, pdf_in), bounce, length),
+                                  ray_flags(kind_in, pdf_in) | drop << DROP_SHIFT, bounce,
+                                  length),
                 lobes, tables, has_normals)
     if spent:
         clear = total(regs, TOTAL_TRANSPARENCY)
@@ -171,15 +175,19 @@ def ray_flags(ray_kind, pdf_bsdf):
 
 @jit_inline
 def scatter_specular(kind, has_normals, fresnel_model, u0, beta, caustic_in, d, ng_f, ns_f,
-                     entering, color, trans_color, ior, stats):
+                     entering, color, trans_color, ior, stats, drop):
     """A mirror, smooth glass or refraction-only vertex (specular.sample_specular): no light
-    sample can compete, so the next ray has BSDF density 0."""
+    sample can compete, so the next ray has BSDF density 0. A sample of a kind of caustics the
+    hit drops (path_limits.dropped_at) carries nothing: glass keeps the other kind's share, as
+    Cycles' glass with that tint 0."""
     n = ns_f
     if has_normals and kind != REFRACTION:
         n = specular.valid_reflection_normal(ng_f, neg(d), ns_f)
     new_d, weight, event, valid = specular.sample_specular(
         kind, d, ng_f, n, entering, color, trans_color, ior, fresnel_model, u0)
     count_specular(stats, event, valid)
+    if drop != 0 and drops(drop, event == specular.TRANSMITTED):
+        valid = False
     if kind != MIRROR:
         stats[DIELECTRIC_SAMPLES] += 1
     beta = vmul(beta, weight) if valid else (0.0, 0.0, 0.0)

@@ -113,6 +113,15 @@ SETTINGS = (
     Setting("transmission_bounces", int, 1024, "Transmissions (refraction, translucency) a path "
             "takes at most before its last (Cycles' Max Bounces > Transmission)",
             least=0, greatest=MAX_INT, metavar="N", label="Transmission", ui={"soft_max": 64}),
+    # Cycles' Light Paths > Caustics switches (path_limits.py), on as in a new Blender file.
+    Setting("caustics_reflective", bool, True, "Reflective caustics (Cycles' Light Paths > "
+            "Caustics > Reflective): off, a surface a diffuse bounce reaches drops its glossy "
+            "reflection (a mirror there is black), as Cycles; the light tracer follows",
+            label="Reflective Caustics"),
+    Setting("caustics_refractive", bool, True, "Refractive caustics (Cycles' Light Paths > "
+            "Caustics > Refractive): off, a surface a diffuse bounce reaches drops its "
+            "refraction (glass there only reflects), as Cycles; the light tracer follows",
+            label="Refractive Caustics"),
     Setting("sample_clamp_direct", float, 0.0, "Scale down each sample of direct light whose "
             "red + green + blue exceeds 3 x this (Cycles' Clamping > Direct Light): fewer "
             "fireflies, a darker image where they were; 0 is off", least=0.0, metavar="C",

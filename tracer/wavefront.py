@@ -39,7 +39,7 @@ from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
 from .media import empty_stacks
 from . import media as medium
 from .path_limits import (DIFFUSE_BOUNCE, NO_BOUNCES, add_bounce, bounce_kind, clamp_light,
-                          clamp_limit, kind_count, past_last_bounce)
+                          clamp_limit, dropped_at, kind_count, past_last_bounce)
 from .pixel_filter import position as filter_position
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
@@ -388,7 +388,8 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
     program_materials, their rows written into `programs` (as pbrt-v4 queues each material
     type for a kernel of its own: this one stays the size it was without programs). When
     pass_sums has rows, hits add to the light passes (record_passes). A lamp that casts no
-    shadow adds its light at once, clamped by `clamp` as emitters'; `limits` as emitters'.
+    shadow adds its light at once, clamped by `clamp` as emitters'; `limits` as emitters',
+    whose caustics switches drop lobes at the hits a diffuse ray reached (path_limits).
     `clear`: with Transparent Glass, which materials' transmissions keep a path see-through
     (go_on; empty: none).
 
@@ -425,17 +426,18 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         rng, u_bounce, hit = (key, sample, bits, strat), (u_pick, u0, u1), (p, ng, ng_f, ns_f, eps)
         count = 0
         first_shadow = n_shadow
+        drop = dropped_at(limits, paths.ray_kind[i])
         if kind == DIFFUSE or kind == LAYERED:
             new_d, beta, ray_kind, pdf_prev, caustic, connect, n_shadow, count = scatter_lit(
                 kind, lights, mesh, mats, tables, can_sample_lights, has_normals, rng, depth,
                 u_bounce, beta, path, (row(paths.o, i), d, paths.pdf_prev[i]), hit, entering,
                 (mat, tri, b1, b2), color, trans_color, (last_connection, connects), lv, lobes,
                 params, shadows, n_shadow, radiance, without, stats,
-                clamp_limit(clamp, paths.bounce[i] == 0))
+                clamp_limit(clamp, paths.bounce[i] == 0), drop)
         else:
             new_d, beta, ray_kind, pdf_prev, caustic, connect = scatter_specular(
                 kind, has_normals, fresnel_model, u0, beta, paths.caustic[i], d, ng_f, ns_f,
-                entering, color, trans_color, mats.ior[mat], stats)
+                entering, color, trans_color, mats.ior[mat], stats, drop)
         caustic = caustic_after(paths.caustic[i], caustic, kind, depth)   # photon merging's
         shadows.bounce[first_shadow:n_shadow] = paths.bounce[i]
         if media.on:
@@ -534,7 +536,8 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
          mis_t) = scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals,
                                   (key, sample, bits, strat), depth,
                                   (bounce, past_last_bounce(bounce, paths.kinds[i], limits),
-                                   clamp_limit(clamp, bounce == 0)), (u_pick, u0, u1),
+                                   clamp_limit(clamp, bounce == 0),
+                                   dropped_at(limits, paths.ray_kind[i])), (u_pick, u0, u1),
                                   beta_in, path, ray, (p, ng, ng_f, ns_f, eps),
                                   entering, (mat, tri, b1, b2), connects, lv, lobes, regs,
                                   shadows, n_shadow, radiance, without, stats)

@@ -111,15 +111,16 @@ def snell_estimate(result) -> metrics.Estimate:
 
 
 def cycles_render(blend_path, *, spp, max_depth, seed, n_seeds=DEFAULT_CYCLES_SEEDS, camera=None,
-                  progress=None, threads=2, film=None, bounces=None):
+                  progress=None, threads=2, film=None, bounces=None, caustics=None):
     """Cycles' images of the file at spp samples in n_seeds seeds; film: the pixel filter
     (pixel_filter, filter_width) of the Snell scene compared (None: the file's own); bounces:
-    its bounce limits of each kind (cycles.scene_bounces)."""
+    its bounce limits of each kind (cycles.scene_bounces); caustics: its caustics switches
+    (cycles.scene_caustics)."""
     per_seed = max(1, math.ceil(spp / n_seeds))
     return cycles.render_seeds(blend_path, spp=per_seed, max_depth=max_depth,
                                seeds=cycles.seeds_for(n_seeds, seed), camera=camera,
                                progress=progress, threads=threads, film=film,
-                               bounces=bounces)
+                               bounces=bounces, caustics=caustics)
 
 
 def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label="",
@@ -253,7 +254,8 @@ def compare_blend(blend_path, *, spp=None, max_depth=None, seed=None, scale=None
         cyc = cycles_render(blend_path, spp=r["spp"], max_depth=r["max_depth"], seed=r["seed"],
                             n_seeds=n_seeds, camera=cam_over, progress=progress.cycles(),
                             threads=threads, film=cycles.scene_film(scene),
-                            bounces=cycles.scene_bounces(scene))
+                            bounces=cycles.scene_bounces(scene),
+                            caustics=cycles.scene_caustics(scene))
     except cycles.NoCyclesEquivalent as exc:
         return snell_only(snell_result, scene, str(exc))
     out = compare_renders(snell_result, cyc, not_comparable=not_comparable,

@@ -31,12 +31,14 @@ class NoCyclesEquivalent(ValueError):
 
 
 def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=None,
-                    bounces=None):
+                    bounces=None, caustics=None):
     """[(setting, value, reason)] applied to the scene before a Cycles render. film: the Snell
     scene's (pixel_filter, filter_width[, film_transparent]: scene_film), which Cycles then
     renders with; None keeps the file's own filter (the exported scene's when it follows the
     file's Cycles settings) and an opaque film. bounces: the Snell scene's (diffuse, glossy,
-    transmission) limits (scene_bounces); None: each kind limited by the total alone."""
+    transmission) limits (scene_bounces); None: each kind limited by the total alone.
+    caustics: the Snell scene's (reflective, refractive) caustics switches (scene_caustics);
+    None: both on."""
     transparent = is_transparent(film)
     if max_depth < 1:
         raise NoCyclesEquivalent(f"max depth {max_depth}: Cycles has no max_bounces equivalent "
@@ -64,8 +66,7 @@ def forced_settings(max_depth: int, spp: int, seed: int, threads: int = 2, film=
         ("cycles.sample_clamp_direct", 0.0, CLAMP_REASON),
         ("cycles.sample_clamp_indirect", 0.0, CLAMP_REASON),
         ("cycles.blur_glossy", 0.0, "no filter glossy (biased)"),
-        ("cycles.caustics_reflective", True, "Snell renders caustics"),
-        ("cycles.caustics_refractive", True, "Snell renders caustics"),
+        *_caustics_settings(caustics),
         ("cycles.use_guiding", False, "plain path tracing"),
         ("cycles.light_sampling_threshold", 0.0, "no probabilistic shadow-ray termination"),
         ("cycles.max_bounces", b, bounce),
@@ -125,6 +126,23 @@ def scene_bounces(scene):
     return limits if any(limit < total for limit in limits) else None
 
 
+def _caustics_settings(caustics) -> list:
+    """The caustics switches' entries of forced_settings."""
+    reflective, refractive = caustics or (True, True)
+    why = ("the Snell scene's switch (Snell drops the same lobes after a diffuse bounce)"
+           if caustics else "on, as the Snell scene's")
+    return [("cycles.caustics_reflective", bool(reflective), why),
+            ("cycles.caustics_refractive", bool(refractive), why)]
+
+
+def scene_caustics(scene):
+    """A Snell scene's (reflective, refractive) caustics switches for forced_settings, or None
+    when both are on (Cycles' default)."""
+    pair = (bool(scene.render.get("caustics_reflective", True)),
+            bool(scene.render.get("caustics_refractive", True)))
+    return None if all(pair) else pair
+
+
 def is_transparent(film) -> bool:
     """Whether a forced_settings film renders Film > Transparent."""
     return film is not None and len(film) > 2 and bool(film[2])
@@ -168,11 +186,11 @@ MULTILAYER = "OPEN_EXR_MULTILAYER 32-bit, Combined and Debug Sample Count"
 
 
 def adaptive_settings(max_depth: int, threshold: float, max_spp: int, seed: int, threads: int = 2,
-                      film=None, bounces=None):
+                      film=None, bounces=None, caustics=None):
     """[(setting, value, reason)] for Cycles' adaptive sampling as a user renders with it: the
     forced settings, but noise threshold `threshold`, automatic minimum samples, at most
-    `max_spp` per pixel, all samples (no subset), and the per-pixel sample count pass (film and
-    bounces: as forced_settings')."""
+    `max_spp` per pixel, all samples (no subset), and the per-pixel sample count pass (film,
+    bounces and caustics: as forced_settings')."""
     if threshold <= 0:
         raise ValueError(f"noise threshold {threshold}: adaptive sampling needs one above 0")
     replaced = {
@@ -182,7 +200,8 @@ def adaptive_settings(max_depth: int, threshold: float, max_spp: int, seed: int,
         "output": (MULTILAYER, "the render and each pixel's sample count, read back"),
     }
     out = []
-    for key, value, why in forced_settings(max_depth, max_spp, seed, threads, film, bounces):
+    for key, value, why in forced_settings(max_depth, max_spp, seed, threads, film, bounces,
+                                           caustics):
         if key in _SUBSET_KEYS:
             continue
         out.append((key, *replaced[key]) if key in replaced else (key, value, why))
@@ -363,9 +382,9 @@ def _render_one(blend_path, settings, camera, workdir):
 
 def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), threads: int = 2,
                  camera=None, progress=None, quiet_blender=True, overrides=None,
-                 film=None, bounces=None, added=()) -> CyclesResult:
+                 film=None, bounces=None, caustics=None, added=()) -> CyclesResult:
     """Render the file once per seed with `spp` samples each; mean and variance of the mean.
-    film and bounces: forced_settings'. added: (setting, value, reason) applied after the
+    film, bounces and caustics: forced_settings'. added: (setting, value, reason) applied after the
     forced settings (e.g. SHADOW_CAUSTICS off).
 
     progress(done, total, elapsed_s) is called after each seed.
@@ -376,7 +395,7 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     images, alphas, total, extra = [], [], 0.0, []
     with tempfile.TemporaryDirectory(prefix="snell-cycles-") as workdir:
         for k, seed in enumerate(seeds):
-            settings = forced_settings(max_depth, spp, seed, threads, film, bounces)
+            settings = forced_settings(max_depth, spp, seed, threads, film, bounces, caustics)
             if overrides:  # experiments only: replace forced values
                 settings = [(k, overrides.get(k, v), why) for k, v, why in settings]
             settings = settings + list(added)
@@ -391,7 +410,7 @@ def render_seeds(blend_path, *, spp: int, max_depth: int, seeds=(1, 2, 3, 4), th
     stack = np.stack(images)
     mean = stack.mean(axis=0)
     var = stack.var(axis=0, ddof=1) / len(seeds)
-    settings = forced_settings(max_depth, spp, seeds[0], threads, film, bounces)
+    settings = forced_settings(max_depth, spp, seeds[0], threads, film, bounces, caustics)
     settings = [s for s in settings if s[0] != "cycles.seed"] + list(added)
     settings.append(("cycles.seed", ", ".join(map(str, seeds)),
                      f"{len(seeds)} independent renders; variance of the mean from their spread"))

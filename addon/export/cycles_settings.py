@@ -79,6 +79,12 @@ FOLLOWED = (
              lambda c, f: int(c.glossy_bounces)),
     Followed("transmission_bounces", "Light Paths > Max Bounces > Transmission",
              lambda c, f: int(c.transmission_bounces)),
+    # Snell drops the same lobes after a diffuse bounce, its light tracer the same paths
+    # (tracer/path_limits.py).
+    Followed("caustics_reflective", "Light Paths > Caustics > Reflective",
+             lambda c, f: bool(c.caustics_reflective)),
+    Followed("caustics_refractive", "Light Paths > Caustics > Refractive",
+             lambda c, f: bool(c.caustics_refractive)),
     # Snell's light tracer's caustics are not clamped (NOT_RENDERED's "clamped caustics").
     Followed("sample_clamp_direct", "Light Paths > Clamping > Direct Light",
              lambda c, f: float(f"{c.sample_clamp_direct:.7g}")),
@@ -150,10 +156,6 @@ NOT_RENDERED = (
                 "Cycles render's where Cycles' caustics are fireflies", _zero),
     NotRendered("blur_glossy", "Light Paths > Caustics > Filter Glossy", "no glossy filtering: "
                 "sharper caustics", _zero),
-    NotRendered("caustics_reflective", "Light Paths > Caustics > Reflective",
-                "Snell always renders reflective caustics", lambda v, c: bool(v)),
-    NotRendered("caustics_refractive", "Light Paths > Caustics > Refractive",
-                "Snell always renders refractive caustics", lambda v, c: bool(v)),
     NotRendered("use_light_tree", "Sampling > Lights > Light Tree", "Snell's own light "
                 "sampling", lambda v, c: False, noise_only=True),
     NotRendered("light_sampling_threshold", "Sampling > Lights > Light Threshold", "Snell's own "

@@ -1029,7 +1029,8 @@ def test_render_settings_default(bl):
     assert s.render["sources"] == {
         **dict.fromkeys(["spp", "noise_threshold", "min_spp", "time_limit", "seed", "max_depth",
                          "transparent_max_bounces", "diffuse_bounces", "glossy_bounces",
-                         "transmission_bounces", "sample_clamp_direct", "sample_clamp_indirect",
+                         "transmission_bounces", "caustics_reflective", "caustics_refractive",
+                         "sample_clamp_direct", "sample_clamp_indirect",
                          "pixel_filter", "filter_width",
                          "film_exposure", "film_transparent", "film_transparent_glass",
                          "film_transparent_roughness", "denoise",
@@ -1081,6 +1082,11 @@ def test_the_files_cycles_settings_are_followed(bl):
     assert not any("Transparent Glass" in w for w in glass_warnings), glass_warnings
     c.film_transparent_glass = False
     assert not any("Clamping" in w for w in warnings)       # followed; caustics: 0 unclamped
+    c.caustics_reflective = False          # followed (tracer/path_limits.py), not warned
+    s, caustics_warnings = run()
+    assert (s.render["caustics_reflective"], s.render["caustics_refractive"]) == (False, True)
+    assert not any("Caustics" in w for w in caustics_warnings), caustics_warnings
+    c.caustics_reflective = True
     c.sample_clamp_indirect = 3.0
     assert any("Clamping > Indirect Light (caustics) 3" in w for w in run()[1])
     c.sample_clamp_indirect = 0.0
@@ -1267,12 +1273,12 @@ def test_info_names_where_each_setting_came_from(bl, tmp_path):
     assert ("render     96 spp, max depth 7, seed 9, fresnel exact, pixel filter blackman-harris "
             "1.5 px") in text, text
     assert ("paths      bounces diffuse 4, glossy 4, transmission 12, transparent 8; "
-            "clamp direct 5, indirect 4") in text, text
+            "clamp direct 5, indirect 4; caustics reflective on, refractive on") in text, text
     sources = next(line for line in lines if line.startswith("sources"))
     assert sources == ("sources    file's Cycles setting: spp, max_depth, "
                        "transparent_max_bounces, diffuse_bounces, glossy_bounces, "
-                       "transmission_bounces, sample_clamp_direct, sample_clamp_indirect, "
-                       "seed, noise_threshold, "
+                       "transmission_bounces, caustics_reflective, caustics_refractive, "
+                       "sample_clamp_direct, sample_clamp_indirect, seed, noise_threshold, "
                        "min_spp, time_limit, pixel_filter, filter_width, film_exposure, "
                        "film_transparent, film_transparent_glass, film_transparent_roughness, "
                        "denoise, "

@@ -21,6 +21,8 @@ COUNTERPARTS = {
     "CYCLES_RENDER_PT_light_paths": "RENDER_PT_snell_light_paths",
     "CYCLES_RENDER_PT_light_paths_max_bounces": "RENDER_PT_snell_light_paths",
     "CYCLES_RENDER_PT_light_paths_clamping": "RENDER_PT_snell_light_paths",
+    # The caustics switches (Filter Glossy is listed there as not rendered).
+    "CYCLES_RENDER_PT_light_paths_caustics": "RENDER_PT_snell_light_paths",
     "CYCLES_RENDER_PT_film": "RENDER_PT_snell_film",
     "CYCLES_RENDER_PT_film_pixel_filter": "RENDER_PT_snell_film",
     "CYCLES_RENDER_PT_film_transparency": "RENDER_PT_snell_film",
@@ -43,8 +45,6 @@ ABSENT = {
                                         "way (snell info lists them as not rendered)",
     "CYCLES_RENDER_PT_sampling_path_guiding": "no path guiding",
     "CYCLES_RENDER_PT_sampling_path_guiding_debug": "no path guiding",
-    "CYCLES_RENDER_PT_light_paths_caustics": "Snell always renders caustics, unfiltered "
-                                             "(snell info says so when the file differs)",
     "CYCLES_RENDER_PT_light_paths_fast_gi": "no fast GI approximation",
     "CYCLES_RENDER_PT_performance_acceleration_structure": "Embree's BVH, no options",
     "CYCLES_RENDER_PT_performance_compositor": "the compositor's own device settings",

@@ -311,13 +311,14 @@ def test_render_options_reach_the_integrator(scene_file, tmp_path, stub_integrat
                      "--transparent-max-bounces", "4", "--film-exposure", "2",
                      "--film-transparent", "--diffuse-bounces", "2", "--glossy-bounces", "3",
                      "--transmission-bounces", "5", "--sample-clamp-direct", "1.5",
-                     "--sample-clamp-indirect", "10"])
+                     "--sample-clamp-indirect", "10", "--caustics-refractive", "off"])
     assert code == 0
     settings = stub_integrator.calls[0]["settings"]
     assert settings.threads == 3
     assert settings.to_render() == {"spp": 9, "max_depth": 0, "transparent_max_bounces": 4,
                                     "diffuse_bounces": 2, "glossy_bounces": 3,
-                                    "transmission_bounces": 5, "sample_clamp_direct": 1.5,
+                                    "transmission_bounces": 5, "caustics_reflective": True,
+                                    "caustics_refractive": False, "sample_clamp_direct": 1.5,
                                     "sample_clamp_indirect": 10.0,
                                     "seed": 5, "fresnel": "schlick",
                                     "caustics": True, "light_vertices": False,

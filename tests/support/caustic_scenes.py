@@ -1,12 +1,16 @@
 """The caustics tests' room, built in code (no Blender): a closed 2 m room with a red floor and a
 small emissive lamp under the ceiling, and the caustic room (a glass sphere focusing the lamp onto
-the floor, a mirror sphere beside it). Used by render/test_caustics.py and render/test_adaptive.py.
+the floor, a mirror sphere beside it), and the check that the hybrid renders the path tracer's
+image. Used by render/test_caustics.py, test_caustics_switches.py, test_media_render.py and
+test_adaptive.py.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from support.builders import box, camera, icosphere, make_scene, quad
+from snell.tracer.integrator import Renderer
+from snell.validation import metrics
 
 BATCHES = 16    # independent batches per render: the variances of the caustics tests
 
@@ -58,3 +62,20 @@ def caustic_room(max_depth, resolution=(24, 24)):
     mirror = (*icosphere(3, radius=0.25, center=(0.55, 0.45, 0.25))[:2], MIRROR)
     cam = look_at((0.0, -0.9, 1.5), (0.1, 0.1, 0.1), resolution)
     return room([glass, mirror], cam, max_depth=max_depth, lamp_half=0.25)
+
+
+def hybrid_agrees(scene, spp=512):
+    """Render the scene with the hybrid and with the path tracer alone (another seed), each in
+    BATCHES independent batches, and assert that they agree: every 8x8 tile and the image mean,
+    and 99% of pixels (single pixels stay heavy-tailed where the path tracer finds caustics by
+    rare paths). Returns the two results."""
+    hybrid = Renderer(scene, scene.settings(sampler="independent", spp=spp,
+                                            batches=BATCHES)).render()
+    path = Renderer(scene, scene.settings(seed=1, sampler="independent", caustics=False, spp=spp,
+                                          batches=BATCHES)).render()
+    va, dfa = hybrid.variance_and_dof()
+    vb, dfb = path.variance_and_dof()
+    stats = metrics.compare(hybrid.mean(), va, dfa, path.mean(), vb, dfb)
+    assert stats["tests"]["tiles"] and stats["tests"]["image_mean"], stats
+    assert stats["z_pass_fraction"] >= 0.99, stats
+    return hybrid, path

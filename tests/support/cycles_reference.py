@@ -58,6 +58,9 @@ class Reference:
         bounces = cycles.scene_bounces(scene)
         if bounces is not None:     # only then: the stored references' keys stay
             settings["bounces"] = list(bounces)
+        caustics = cycles.scene_caustics(scene)
+        if caustics is not None:    # likewise
+            settings["caustics"] = list(caustics)
         self.key = reference_key(scene, settings, cycles_only_settings())
         self.path = os.path.join(REFERENCES, self.key + ".npz")
         mode = os.environ.get("SNELL_CYCLES_REFERENCES", "read")
@@ -206,9 +209,12 @@ def reference_key(scene, settings, cycles_only=None):
         image.pop("source", None)
     per_seed = max(1, -(-settings["spp"] // settings["n_seeds"]))
     film, bounces = settings.get("film"), settings.get("bounces")
+    caustics = settings.get("caustics")
     forced = [(k, v) for k, v, _ in cycles.forced_settings(settings["max_depth"], per_seed, 0,
                                                            film=film and tuple(film),
-                                                           bounces=bounces and tuple(bounces))
+                                                           bounces=bounces and tuple(bounces),
+                                                           caustics=caustics and
+                                                           tuple(caustics))
               if k not in ("cycles.seed", "render.threads")]
     h = hashlib.sha256(json.dumps([blender_version(), header, settings, forced, cycles_only],
                                   sort_keys=True, default=str).encode())

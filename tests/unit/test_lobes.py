@@ -11,7 +11,7 @@ import pytest
 from scipy import integrate, special
 
 from snell.tracer import fresnel, lobes, microfacet, microfacet_albedo
-from support.microfacet import STANDARD_ERRORS, TABLES
+from support.microfacet import STANDARD_ERRORS, TABLES, principled_bsdf
 from support.stats import SphereGrid, integrate_bins, z_bound
 from support.stats import chi2_pvalue as _chi2_pvalue
 
@@ -37,21 +37,6 @@ def microfacet_bsdf(dist, roughness, eta=1.0, reflects=True, transmits=False,
     if tint_b is not None:
         lobes.set_vec(rows[0], lobes.TINT_B, tint_b)
     return rows, 1
-
-
-def principled_bsdf(wi, entering=True, base=(0.8, 0.8, 0.8), **params):
-    """(lobes array, count) of a Principled BSDF with Blender's defaults but for `params`."""
-    p = np.zeros(lobes.P_FIELDS)
-    defaults = {"roughness": 0.5, "ior": 1.5, "specular_level": 0.5, "coat_roughness": 0.03,
-                "coat_ior": 1.5, "metallic": 0.0, "transmission": 0.0, "coat": 0.0}
-    defaults.update(params)
-    for name, value in defaults.items():
-        p[getattr(lobes, "P_" + name.upper())] = value
-    p[lobes.P_SPECULAR_TINT:lobes.P_SPECULAR_TINT + 3] = 1.0
-    p[lobes.P_COAT_TINT:lobes.P_COAT_TINT + 3] = 1.0
-    rows = np.zeros((lobes.MAX_LOBES, lobes.FIELDS))
-    count = lobes.setup_principled(rows, TABLES, UP, UP, wi, entering, base, p, MULTI_GGX)
-    return rows, count
 
 
 @numba.njit(cache=True)

@@ -16,10 +16,11 @@ def test_the_defaults_are_the_scene_files_defaults():
     # The scene file's defaults before the schema: files written then render as they did
     # (time_limit 0: no limit; a 1-pixel box, the only filter before pixel filters).
     # (transparent_max_bounces: Cycles' default 8; files before it had no transparent surface)
-    # (the limits of each kind and clamping: none, as before)
+    # (the limits of each kind and clamping: none, as before; both caustics switches on)
     assert DEFAULT_RENDER == {"spp": 64, "max_depth": 8, "transparent_max_bounces": 8,
                               "diffuse_bounces": 1024, "glossy_bounces": 1024,
-                              "transmission_bounces": 1024, "sample_clamp_direct": 0.0,
+                              "transmission_bounces": 1024, "caustics_reflective": True,
+                              "caustics_refractive": True, "sample_clamp_direct": 0.0,
                               "sample_clamp_indirect": 0.0,
                               "seed": 0, "fresnel": "exact",
                               "caustics": True, "light_vertices": True, "noise_threshold": 0.01,

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from snell.tracer import lobes
+from snell.tracer import lobes, path_limits
 from snell.tracer.materials import material_tables
 from snell.tracer.microfacet_tables import shipped_tables
 from snell.tracer.scatter import ray_flags
@@ -167,3 +167,31 @@ def test_light_path_outputs():
 def test_ray_flags_are_cycles_path_flags(kind, pdf, expect):
     flags = ray_flags(kind, pdf)
     assert {k for k in range(7) if flags & (1 << k)} == expect
+
+
+@pytest.mark.parametrize("drop, kinds", [
+    (0, ("glossy", "glass")),
+    (path_limits.NO_REFLECTIVE_CAUSTICS, ("refracting glass",)),
+    (path_limits.NO_REFRACTIVE_CAUSTICS, ("glossy", "reflecting glass")),
+    (path_limits.NO_REFLECTIVE_CAUSTICS | path_limits.NO_REFRACTIVE_CAUSTICS, ()),
+])
+def test_the_caustics_a_hit_drops_reach_its_closures(drop, kinds):
+    """Mix(0.5, Glossy, Glass) at a hit a diffuse ray reached, the caustics switched off in the
+    hit's flags from bit inputs.DROP_SHIFT (scatter_program puts them there): Cycles' closure
+    nodes leave out a dropped Glossy and set a Glass closure's dropped tint to 0."""
+    consts = [0.5, 0.9, 0.9, 0.9, 0.3, 1.5]
+    w1, w2 = 8, 9
+    code = [[closures.MIX_CLOSURE, w1, w2, -1, 0],
+            [closures.GLOSSY, w1, 1, 4, lobes.DIST_GGX, -1],
+            [closures.GLASS, w2, 1, 4, 5, lobes.DIST_GGX, -1]]
+    flags = ray_flags(VISIBLE_DIFFUSE, 0.3) | drop << inputs.DROP_SHIFT
+    lobe, count, _ = _run(code, consts, flags=flags)
+    found = []
+    for k in range(count):
+        r, t = lobe[k, lobes.R_TINT], lobe[k, lobes.T_TINT]
+        if lobe[k, lobes.TRANSMITS] == 0.0:
+            found.append("glossy")
+        else:
+            found.append("glass" if r > 0 and t > 0 else "refracting glass" if t > 0
+                         else "reflecting glass")
+    assert tuple(found) == kinds

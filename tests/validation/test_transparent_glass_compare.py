@@ -8,10 +8,9 @@ sphere, a Glass BSDF of roughness 0.05 (under Cycles' default threshold 0.1) and
 RGBA render; Snell without Transparent Glass, and with a threshold that makes the 0.05 glass
 opaque, are each caught in the alpha.
 
-Not held here: a Holdout seen through clear glass. Snell counts it as the sky seen there (as
-Cycles' integrate_surface_holdout reads), but Cycles' render is less transparent there: a Holdout
-card behind the smooth sphere measured alpha 0.204 through it in Cycles, 0.169 in Snell, and
-0.169 in both without the card (docs/measurements.md).
+Not held here: a Holdout seen through clear glass, where Cycles' Russian roulette biases its
+Holdout low behind tinted glass (tests/validation/test_holdout_glass_compare.py,
+docs/measurements.md).
 """
 from __future__ import annotations
 

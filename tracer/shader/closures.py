@@ -20,6 +20,7 @@ from ..lobes import (MAX_LOBES, SAMPLE_WEIGHT, TRANSLUCENT, TRANSPARENT, WEIGHT,
                      LAMBERT, new_lobe, setup_glass, setup_glossy, setup_principled,
                      setup_refraction)
 from ..specular import valid_reflection_normal
+from .inputs import DROP_SHIFT
 from ..vec import mean3, mul, normalize
 
 # Opcodes 0-19.
@@ -120,6 +121,7 @@ def execute(ins, regs, base, hit, lobes, count, tables, has_normals):
     if w == 0.0:
         return count
     ng, ns, view, entering = hit[1], hit[2], hit[3], hit[4]
+    drop = hit[8] >> DROP_SHIFT     # the caustics this hit drops (inputs.DROP_SHIFT)
     if op == EMISSION:
         strength = regs[ins[3]]
         add_total(regs, base, TOTAL_EMISSION, mul(vector(regs, ins[2]), strength * w))
@@ -159,7 +161,7 @@ def execute(ins, regs, base, hit, lobes, count, tables, has_normals):
             return count
         added = setup_principled(lobes[count:], tables, n, n_diffuse, view, entering,
                                  vector(regs, block + P_BASE),
-                                 regs[block + P_PARAMS:block + P_PARAMS + 14], ins[3])
+                                 regs[block + P_PARAMS:block + P_PARAMS + 14], ins[3], drop)
         scale_lobes(lobes, count, count + added, w)
         return count + added
     normal_slot = ins[5] if op == GLOSSY else ins[6]
@@ -169,14 +171,17 @@ def execute(ins, regs, base, hit, lobes, count, tables, has_normals):
     color = vector(regs, ins[2])
     roughness = min(max(regs[ins[3]], 0.0), 1.0)
     if op == GLOSSY:
-        setup_glossy(lobes[count:], tables, n, view, color, roughness, ins[4])
+        added = setup_glossy(lobes[count:], tables, n, view, color, roughness, ins[4], drop)
     else:
         ior = max(regs[ins[4]], 1e-5)
         if op == GLASS:
-            setup_glass(lobes[count:], tables, n, view, entering, color, color, roughness,
-                        ins[5], ior)
+            added = setup_glass(lobes[count:], tables, n, view, entering, color, color,
+                                roughness, ins[5], ior, drop)
         else:
-            setup_refraction(lobes[count:], n, entering, color, roughness, ins[5], ior)
+            added = setup_refraction(lobes[count:], n, entering, color, roughness, ins[5], ior,
+                                     drop)
+    if added == 0:
+        return count
     scale_lobes(lobes, count, count + 1, w)
     if abs(lobes[count, SAMPLE_WEIGHT]) < WEIGHT_CUTOFF:
         return count

@@ -24,6 +24,9 @@ FIRST, LAST = 20, 39
 (LP_CAMERA, LP_SHADOW, LP_DIFFUSE, LP_GLOSSY, LP_SINGULAR, LP_REFLECTION, LP_TRANSMISSION,
  LP_BACKFACING, LP_RAY_LENGTH, LP_RAY_DEPTH) = range(10)
 LIGHT_PATH_OUTPUTS = 10
+# The hit's flags from this bit on hold the caustics the hit drops (path_limits.dropped_at),
+# which the closures read as Cycles' closure nodes read PATH_RAY_DIFFUSE and its switches.
+DROP_SHIFT = 16
 # Geometry outputs (GEOMETRY's literal).
 G_POSITION, G_NORMAL, G_TRUE_NORMAL, G_INCOMING = range(4)
 GEOMETRY_OUTPUTS = 4
