@@ -61,6 +61,7 @@ from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSIO
 from . import media as medium
 from .photon_merging import record_photon
 from .media import empty_stacks
+from .mnee import FROM_RECEIVER, NO_CHAIN, RECEIVER, mnee_after
 from .sampler import mix, random_pair
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
                        sample_uniform_disk, sample_uniform_sphere)
@@ -109,6 +110,9 @@ class LightPaths(NamedTuple):
     medium: np.ndarray       # (n, media.MAX_MEDIA) int64 the media the ray is inside (media.py)
     kinds: np.ndarray        # (n,) int64 its diffuse, glossy and transmission scatterings
     #                          after the first vertex, packed (path_limits.py; see light_bounce)
+    mnee: np.ndarray         # (n,) int64 from a lamp manifold next-event estimation samples:
+    #                          mnee.FROM_RECEIVER + its refractions at casters so far, else
+    #                          NO_CHAIN (mnee.py: at a receiver after them the path is MNEE's)
 
 
 def new_light_paths(n: int) -> LightPaths:
@@ -116,7 +120,7 @@ def new_light_paths(n: int) -> LightPaths:
     return LightPaths(np.empty(n, np.uint64), np.empty((n, 3), np.float32),
                       np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                       np.empty(n, np.int64), np.empty(n, np.int64), empty_stacks(n),
-                      np.zeros(n, np.int64))
+                      np.zeros(n, np.int64), np.zeros(n, np.int64))
 
 
 def caustics_tables(scene, lights, geometry, material_kind, pure=False) -> Caustics | None:
@@ -345,6 +349,7 @@ def set_light_path(paths, j, key, origin, direction, beta, bounces, lamp):
     paths.bounces[j] = bounces
     paths.lamp[j] = lamp
     paths.kinds[j] = NO_BOUNCES
+    paths.mnee[j] = NO_CHAIN
 
 
 @jit_inline
@@ -371,9 +376,12 @@ def light_path_key(base, index):
 
 
 @jit
-def emit_light_paths(caustics, lights, mesh, media, seed, pass_index, start, n, paths):
+def emit_light_paths(caustics, lights, mesh, media, seed, pass_index, start, n, paths,
+                     mnee_lamps):
     """Light paths start .. start + n of a pass leave their emitters (zero weight: left out),
-    inside the media around them (media.py) in a scene with media."""
+    inside the media around them (media.py) in a scene with media; those from the point lamps
+    manifold next-event estimation samples (mnee_lamps, lamps_to_cross's index; empty: none)
+    start a chain (LightPaths.mnee)."""
     # Chained hashes: a single mix of seed ^ pass would give (seed 0, pass 1) the keys of
     # (seed 1, pass 0).
     base = mix(mix(mix(np.uint64(0), np.uint64(seed)), LIGHT_DOMAIN), np.uint64(pass_index))
@@ -390,6 +398,9 @@ def emit_light_paths(caustics, lights, mesh, media, seed, pass_index, start, n, 
         if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
             continue
         set_light_path(paths, kept, key, origin, w, beta, 0, e)
+        if (mnee_lamps.shape[0] > 0 and caustics.emitter_kind[e] == POINT
+                and mnee_lamps[lights.area_area.shape[0] + caustics.emitter_index[e]]):
+            paths.mnee[kept] = FROM_RECEIVER
         if media.on:
             start_stack(caustics, lights, media, e, paths.medium, kept)
         kept += 1
@@ -422,7 +433,7 @@ def lamp_sees(caustics, lights, e, w, s1, kind):
 
 @jit
 def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model, limits, m,
-                 paths, prim, u, v, out, connections, raster, photons):
+                 paths, prim, u, v, out, connections, raster, photons, mnee_flags):
     """Scatter light paths at specular hits (into `out`); at the first diffuse vertex after one
     or more specular ones, queue the connection to the camera (its nearest image pixel, and in
     `raster` its raster point for the pixel filter; margin: how far past the image the filter
@@ -433,6 +444,9 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
     light), so that the light tracer owns exactly the paths the path tracer would have ended.
     When `photons` has rows (photon merging), a path's first diffuse vertex after one or more
     specular ones is also stored there as a photon (photon_merging.py).
+    A path that reaches a shadow-caustics receiver (mnee_flags, the triangles' mnee.py flags;
+    empty: none) after refractions at casters only, from a lamp manifold next-event
+    estimation samples, is that stage's: neither connected nor stored.
     Returns (paths in out, connections queued, photons stored)."""
     max_depth = limits[0]
     n_out = 0
@@ -465,6 +479,8 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
         key = paths.key[i]
         color, trans_color = surface_colors(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
         if kind == DIFFUSE:
+            if paths.mnee[i] > FROM_RECEIVER and mnee_flags[tri] & RECEIVER:
+                continue          # manifold next-event estimation's path
             # A photon: every vertex so far specular, and room for one more after this one.
             if (photons.bounces.shape[0] > 0 and bounces > 0 and not caustics.pure
                     and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) == 0
@@ -528,6 +544,10 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
             continue
         set_light_path(out, n_out, key, offset_origin(p, ng, eps, new_d), new_d, beta,
                        bounces + 1, paths.lamp[i])
+        if paths.mnee[i] != NO_CHAIN:
+            out.mnee[n_out] = mnee_after(mnee_flags, paths.mnee[i], tri, kind,
+                                         VISIBLE_TRANSMISSION if event == specular.TRANSMITTED
+                                         else VISIBLE_GLOSSY)
         if not count_scattering(paths, i, out, n_out,
                                 TRANSMISSION_BOUNCE if event == specular.TRANSMITTED
                                 else GLOSSY_BOUNCE, limits):
