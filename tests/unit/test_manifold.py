@@ -191,3 +191,70 @@ def test_refraction_weight_is_one_minus_fresnel_on_opposite_sides():
     weight = manifold.refraction_weight(0, wi, wo, n, n, IOR, (1.0, 0.5, 0.25))
     assert weight == pytest.approx(((1 - f), 0.5 * (1 - f), 0.25 * (1 - f)))
     assert manifold.refraction_weight(0, wi, wi, n, n, IOR, (1.0, 1.0, 1.0)) == (0.0, 0.0, 0.0)
+
+
+# -- a slab: two flat interfaces (a chain of two vertices) -----------------------------------
+
+DOWN = (0.0, 0.0, -1.0)
+SLAB = 0.2                 # the slab's thickness below z = 0; its bottom faces down
+
+
+def _slab_system(x0, y, x1, x2):
+    """fill_system for the chain x0 (below the slab), x2 on its bottom, x1 on its top, y."""
+    m = np.zeros((12, 15))
+    a_top, b_top = orthonormal_basis(UP)
+    a_bottom, b_bottom = orthonormal_basis(DOWN)
+    worst = manifold.fill_system(
+        m, 2, tuple(x0), tuple(y), ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)), np.array([x2, x1]),
+        np.array([DOWN, UP]), np.zeros((2, 3)), np.zeros((2, 3)), np.array([a_bottom, a_top]),
+        np.array([b_bottom, b_top]), np.array([DOWN, UP]), np.array([IOR, IOR]))
+    return m, worst, (a_bottom, b_bottom), (a_top, b_top)
+
+
+def _solve_slab(x0, y, iterations=40):
+    x0, y = np.asarray(x0, float), np.asarray(y, float)
+    x2 = x0 + (y - x0) * ((-SLAB - x0[2]) / (y[2] - x0[2]))
+    x1 = x0 + (y - x0) * (-x0[2] / (y[2] - x0[2]))
+    for _ in range(iterations):
+        m, worst, (a2, b2), (a1, b1) = _slab_system(x0, y, x1, x2)
+        if worst < 1e-13:
+            break
+        assert manifold.solve_in_place(m, 4, 7) != 0.0
+        x2 = x2 - m[0, 6] * np.array(a2) - m[1, 6] * np.array(b2)
+        x1 = x1 - m[2, 6] * np.array(a1) - m[3, 6] * np.array(b1)
+    return x1, x2, m
+
+
+def test_a_chain_of_two_interfaces_refracts_at_both():
+    """Newton's walk on a slab converges to the path that bends by Snell's law at both faces
+    and leaves parallel to the direction it entered with (a slab shifts, never turns, a
+    ray)."""
+    x0, y = np.array([0.1, -0.2, -0.9]), np.array([1.0, 0.6, 1.5])
+    x1, x2, _ = _solve_slab(x0, y)
+    _, worst, _, _ = _slab_system(x0, y, x1, x2)
+    assert worst < 1e-12
+    unit = lambda v: v / np.linalg.norm(v)      # noqa: E731
+    below, inside, above = unit(x2 - x0), unit(x1 - x2), unit(y - x1)
+    assert np.allclose(below, above, atol=1e-10)
+    sin_air = np.linalg.norm(np.cross(above, UP))
+    assert IOR * np.linalg.norm(np.cross(inside, UP)) == pytest.approx(sin_air, rel=1e-10)
+
+
+def test_a_chains_geometry_term_is_the_solid_angle_per_lamp_area():
+    """The two-vertex chain's transfer determinant gives dw0/dA(y) as finite differences of
+    the solved chain do."""
+    x0, y = np.array([0.1, -0.2, -0.9]), np.array([1.0, 0.6, 1.5])
+
+    def direction(y):
+        _, x2, _ = _solve_slab(x0, y)
+        return (x2 - x0) / np.linalg.norm(x2 - x0), x2
+
+    w, x2 = direction(y)
+    x1, _, _ = _solve_slab(x0, y)
+    m, _, _, _ = _slab_system(x0, y, x1, x2)
+    manifold.solve_in_place(m, 4, 7)
+    g = manifold.geometry_term(tuple(x0), tuple(x2), DOWN, manifold.transfer_determinant(m, 2))
+    h = 1e-5
+    wx = (direction(y + [h, 0, 0])[0] - direction(y - [h, 0, 0])[0]) / (2 * h)
+    wy = (direction(y + [0, h, 0])[0] - direction(y - [0, h, 0])[0]) / (2 * h)
+    assert g == pytest.approx(abs(np.dot(np.cross(wx, wy), w)), rel=1e-5)
