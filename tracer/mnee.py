@@ -245,6 +245,18 @@ def segment_origin(mesh, chains, c, i, toward):
 
 
 @jit_inline
+def queue_ray(chains, m, c, origin, target, reach):
+    """Ray m of the buffers, chain c's: from origin towards target, reach times as long as
+    the distance."""
+    w, distance = unit_towards(origin, target)
+    for q in range(3):
+        chains.o32[m, q] = origin[q]
+        chains.d32[m, q] = w[q]
+    chains.tmax[m] = reach * distance
+    chains.owner[m] = c
+
+
+@jit_inline
 def pick_lamp(cdf, u):
     """The point lamp whose cdf interval holds u."""
     for k in range(cdf.shape[0]):
@@ -409,13 +421,7 @@ def newton_rays(mesh, chains, n):
             # A first step that would pass below the receiver goes the other way (Cycles).
             if i == 0 and dot(row(chains.ng0, c), sub(moved, x0)) <= 0.0:
                 moved = madd(p, step, move)
-            origin = segment_origin(mesh, chains, c, i, moved)
-            w, distance = unit_towards(origin, moved)
-            for q in range(3):
-                chains.o32[m, q] = origin[q]
-                chains.d32[m, q] = w[q]
-            chains.tmax[m] = 2.0 * distance
-            chains.owner[m] = c
+            queue_ray(chains, m, c, segment_origin(mesh, chains, c, i, moved), moved, 2.0)
             m += 1
     return m
 
@@ -492,13 +498,8 @@ def visibility_rays(mesh, chains, n):
             continue
         chains.first_ray[c] = m
         for i in range(chains.k[c]):
-            origin = segment_origin(mesh, chains, c, i, vertex_row(chains.pos[c], i))
-            w, distance = unit_towards(origin, vertex_row(chains.pos[c], i))
-            for q in range(3):
-                chains.o32[m, q] = origin[q]
-                chains.d32[m, q] = w[q]
-            chains.tmax[m] = 1.5 * distance
-            chains.owner[m] = c
+            p = vertex_row(chains.pos[c], i)
+            queue_ray(chains, m, c, segment_origin(mesh, chains, c, i, p), p, 1.5)
             m += 1
     return m
 
@@ -532,14 +533,10 @@ def light_rays(mesh, chains, n):
         k = chains.k[c]
         p = vertex_row(chains.pos[c], k - 1)
         tri = chains.prim[c, k - 1]
-        w, _ = unit_towards(p, row(chains.y, c))
-        origin = offset_origin(p, vertex_row(chains.ng[c], k - 1), hit_offset(mesh, tri, p), w)
-        rest = sub(row(chains.y, c), origin)
-        for q in range(3):
-            chains.o32[m, q] = origin[q]
-            chains.d32[m, q] = w[q]
-        chains.tmax[m] = math.sqrt(dot(rest, rest))
-        chains.owner[m] = c
+        y = row(chains.y, c)
+        origin = offset_origin(p, vertex_row(chains.ng[c], k - 1), hit_offset(mesh, tri, p),
+                               sub(y, p))
+        queue_ray(chains, m, c, origin, y, 1.0)
         m += 1
     return m
 
