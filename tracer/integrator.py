@@ -18,10 +18,11 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import (adaptive, jit, light_groups, light_passes, light_tracer, lobes, passes,
+from . import (adaptive, jit, light_groups, light_passes, light_tracer, lobes, mnee, passes,
                path_limits, photon_merging, wavefront)
 from . import light_vertices as light_vertices_module
 from .camera import Camera
+from .counters import MNEE_PATHS
 from .geometry import Geometry
 from .lights.codes import WORLD
 from .lights.tables import LightSampler
@@ -136,6 +137,7 @@ class Renderer:
         self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
                                    env_sampling=settings.env_sampling)
         self.media = media_tables(scene, self.lights.tables)
+        self.mnee, self._why_mnee = self._choose_mnee()
         self.max_depth = settings.max_depth
         # Cycles' bounce limits and clamping, as the stages read them (path_limits.py).
         self.limits = path_limits.bounce_limits(
@@ -275,6 +277,7 @@ class Renderer:
                               if self.caustics is not None else why_no_light),
             "light vertices": (self.light_vertices, self._why_vertices),
             "photon merging": (self.merging is not None, self._why_merging),
+            "shadow caustics": (self.mnee.lamp.shape[0] > 0, self._why_mnee),
             "absorbing media": (self.media.on, ("absorbing volumes, the camera inside one"
                                                 if camera_in_medium(self.media) else
                                                 "absorbing volumes") if self.media.on else
@@ -286,6 +289,24 @@ class Renderer:
         words = "from " + ", ".join(light_tracer.emitter_names(self.scene, self.caustics))
         onto = light_tracer.receiver_names(self.scene, self.materials)
         return words + (" onto " + ", ".join(onto) if onto else "")
+
+    def _choose_mnee(self) -> tuple[mnee.MneeTables, str]:
+        """(manifold next-event estimation's tables, mnee.OFF where it does not run; why or why
+        not)."""
+        settings = self.settings
+        for off, why in ((not settings.shadow_caustics, "shadow caustics off"),
+                         # Cycles' casters are seen after a diffuse bounce: with refractive
+                         # caustics off it renders no shadow caustics at all (cyclesflags' read
+                         # of kernel/integrator/mnee.h).
+                         (not settings.caustics_refractive, "refractive caustics off"),
+                         (not self.next_event, "no light sampling"),
+                         (self.media.on, "absorbing volumes"),
+                         (settings.light_passes, "light passes asked for"),
+                         (settings.light_groups, "light groups asked for")):
+            if off:
+                return mnee.OFF, why
+        return mnee.mnee_tables(self.scene, self.lights.tables, self.materials.kind,
+                                self.materials.of_triangle)
 
     def _choose_light_vertices(self, wanted: bool) -> tuple[bool, str]:
         """(whether camera paths connect to light vertices, why or why not)."""
@@ -400,7 +421,7 @@ class Renderer:
                                       self.world_split, depth, limits, clamp, m, paths, prim, t,
                                       radiance, without, active, stats, with_features,
                                       feature_albedo, self.film_transparent, transparent,
-                                      pass_sums)
+                                      pass_sums, self.mnee.lamp)
             if self.programs_emit:
                 wavefront.program_emitters(lights, mesh, mats, self.tables, self.split_mode,
                                            depth, m, paths, prim, u, v, t, radiance, without,
@@ -412,7 +433,12 @@ class Renderer:
                 lights, mesh, mats, self.media, self.tables, self.fresnel, self.next_event, bits,
                 stratified, depth, limits, clamp, self.clear, kept, active, paths, prim, u, v, out,
                 shadows, radiance, without, scratch, params, stats, lv, last_connection,
-                with_features, feature_albedo, feature_normal, programs, pass_sums)
+                with_features, feature_albedo, feature_normal, programs, pass_sums,
+                self.mnee.tri_flags)
+            if self.mnee.lamp.shape[0] > 0:
+                stats[MNEE_PATHS] += mnee.stage(
+                    geom, self.mnee, lights, mats, self.fresnel, depth, limits, clamp, kept,
+                    active, paths, prim, u, v, radiance, without)
             if n_programs:
                 m, n_shadow = wavefront.program_materials(
                     lights, mesh, mats, self.media, self.tables, self.next_event, bits,
@@ -522,7 +548,7 @@ class Renderer:
         filt = self.pixel_filter
         margin = max(0.0, filt.reach - 0.5)     # how far past the image the filter reaches
         m = light_tracer.emit_light_paths(caustics, lights, mesh, self.media, self.seed,
-                                          pass_index, start, n, paths)
+                                          pass_index, start, n, paths, self.mnee.lamp)
         pixels, contributions, reached = [], [], 0
         grouped = [] if self.light_groups else None
         buffer = self._buffers.photons() if photons is not None else NO_PHOTONS
@@ -533,7 +559,8 @@ class Renderer:
             prim, u, v, _ = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
             m, n_conn, n_photons = light_tracer.light_bounce(
                 caustics, lights, mesh, mats, self.media, cam, margin, self.fresnel, self.limits,
-                m, paths, prim, u, v, out, connections, raster, buffer, self.tables, scratch)
+                m, paths, prim, u, v, out, connections, raster, buffer, self.tables, scratch,
+                self.mnee.tri_flags)
             if n_photons:
                 stored.append(photon_merging.Photons(*(f[:n_photons].copy() for f in buffer)))
             if n_conn:

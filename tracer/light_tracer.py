@@ -69,6 +69,7 @@ from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSIO
 from . import media as medium
 from .photon_merging import record_photon
 from .media import empty_stacks
+from .mnee import FROM_RECEIVER, NO_CHAIN, RECEIVER, mnee_after
 from .sampler import mix, random_pair
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
                        sample_uniform_disk, sample_uniform_sphere)
@@ -121,6 +122,9 @@ class LightPaths(NamedTuple):
     #                          after the first vertex, packed (path_limits.py; see light_bounce)
     dropped: np.ndarray      # (n,) int64 1 when its last scattering is of a kind of caustics
     #                          switched off (path_limits): a diffuse vertex next ends it
+    mnee: np.ndarray         # (n,) int64 from a lamp manifold next-event estimation samples:
+    #                          mnee.FROM_RECEIVER + its refractions at casters so far, else
+    #                          NO_CHAIN (mnee.py: at a receiver after them the path is MNEE's)
 
 
 def new_light_paths(n: int) -> LightPaths:
@@ -128,7 +132,7 @@ def new_light_paths(n: int) -> LightPaths:
     return LightPaths(np.empty(n, np.uint64), np.empty((n, 3), np.float32),
                       np.empty((n, 3), np.float32), np.empty(n, np.float32), np.empty((n, 3)),
                       np.empty(n, np.int64), np.empty(n, np.int64), empty_stacks(n),
-                      np.zeros(n, np.int64), np.zeros(n, np.int64))
+                      np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64))
 
 
 def caustics_tables(scene, lights, geometry, materials, pure=False) -> Caustics | None:
@@ -368,6 +372,7 @@ def set_light_path(paths, j, key, origin, direction, beta, bounces, lamp):
     paths.lamp[j] = lamp
     paths.kinds[j] = NO_BOUNCES
     paths.dropped[j] = 0
+    paths.mnee[j] = NO_CHAIN
 
 
 @jit_inline
@@ -394,9 +399,12 @@ def light_path_key(base, index):
 
 
 @jit
-def emit_light_paths(caustics, lights, mesh, media, seed, pass_index, start, n, paths):
+def emit_light_paths(caustics, lights, mesh, media, seed, pass_index, start, n, paths,
+                     mnee_lamps):
     """Light paths start .. start + n of a pass leave their emitters (zero weight: left out),
-    inside the media around them (media.py) in a scene with media."""
+    inside the media around them (media.py) in a scene with media; those from the point lamps
+    manifold next-event estimation samples (mnee_lamps, lamps_to_cross's index; empty: none)
+    start a chain (LightPaths.mnee)."""
     # Chained hashes: a single mix of seed ^ pass would give (seed 0, pass 1) the keys of
     # (seed 1, pass 0).
     base = mix(mix(mix(np.uint64(0), np.uint64(seed)), LIGHT_DOMAIN), np.uint64(pass_index))
@@ -413,6 +421,9 @@ def emit_light_paths(caustics, lights, mesh, media, seed, pass_index, start, n, 
         if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
             continue
         set_light_path(paths, kept, key, origin, w, beta, 0, e)
+        if (mnee_lamps.shape[0] > 0 and caustics.emitter_kind[e] == POINT
+                and mnee_lamps[lights.area_area.shape[0] + caustics.emitter_index[e]]):
+            paths.mnee[kept] = FROM_RECEIVER
         if media.on:
             start_stack(caustics, lights, media, e, paths.medium, kept)
         kept += 1
@@ -445,7 +456,8 @@ def lamp_sees(caustics, lights, e, w, s1, kind):
 
 @jit
 def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model, limits, m,
-                 paths, prim, u, v, out, connections, raster, photons, tables, scratch):
+                 paths, prim, u, v, out, connections, raster, photons, tables, scratch,
+                 mnee_flags):
     """Scatter light paths at specular hits (into `out`); at the first vertex on a surface
     light paths end on (Materials.receives: diffuse, Principled and node-tree surfaces with a
     Lambert lobe; receivers.py) after one or more specular ones, queue the connection to the
@@ -461,6 +473,9 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
     into a receiving vertex is of such a kind ends there, as the camera path's lobe there is
     dropped. tables: the albedo tables, scratch: (lobes, program registers,
     Principled parameters) for the hits' lobes (receivers.surface_response).
+    A path that reaches a shadow-caustics receiver (mnee_flags, the triangles' mnee.py flags;
+    empty: none) after refractions at casters only, from a lamp manifold next-event
+    estimation samples, is that stage's: neither connected nor stored.
     Returns (paths in out, connections queued, photons stored)."""
     n_out, n_conn, n_photons = 0, 0, 0
     for i in range(m):
@@ -488,19 +503,20 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
         if specular_kind:
             n_out = specular_vertex(caustics, lights, mats, media, fresnel_model, limits, paths,
                                     i, out, n_out, (p, ng, ns, eps), d, kind, surface,
-                                    (color, trans_color), mesh.corner_normals.shape[0] > 0)
+                                    (color, trans_color), mesh.corner_normals.shape[0] > 0,
+                                    mnee_flags)
         else:
             n_out, n_conn, n_photons = receiving_vertex(
                 caustics, lights, mesh, mats, media, cam, margin, limits, paths, i, out,
                 connections, raster, photons, (n_out, n_conn, n_photons), (p, ng, ns, eps), d,
-                kind, surface, (color, trans_color), sigma, tables, scratch)
+                kind, surface, (color, trans_color), sigma, tables, scratch, mnee_flags)
     return n_out, n_conn, n_photons
 
 
 @jit_inline
 def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, paths, i, out,
                      connections, raster, photons, counts, vertex, d, kind, surface, colors,
-                     sigma, tables, scratch):
+                     sigma, tables, scratch, mnee_flags):
     """Light path i at a vertex on a surface light paths end on (vertex: point, geometric and
     shading normals, offset; d the light's direction): a photon stored (photon merging, plain
     diffuse surfaces), a delta lamp's path continued, the connection to the camera queued.
@@ -508,6 +524,8 @@ def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, p
     n_out, n_conn, n_photons = counts
     if paths.dropped[i] != 0:
         return counts             # the camera path's diffuse ray here drops that lobe there
+    if kind == DIFFUSE and paths.mnee[i] > FROM_RECEIVER and mnee_flags[surface[1]] & RECEIVER:
+        return counts             # manifold next-event estimation's path
     max_depth = limits[0]
     bounces = paths.bounces[i]
     key = paths.key[i]
@@ -553,7 +571,7 @@ def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, p
 
 @jit_inline
 def specular_vertex(caustics, lights, mats, media, fresnel_model, limits, paths, i, out, n_out,
-                    vertex, d, kind, surface, colors, has_normals):
+                    vertex, d, kind, surface, colors, has_normals, mnee_flags):
     """Light path i at a smooth mirror or glass vertex: its specular scattering into row n_out
     of `out`; returns the new count."""
     bounces = paths.bounces[i]
@@ -587,6 +605,10 @@ def specular_vertex(caustics, lights, mats, media, fresnel_model, limits, paths,
         return n_out
     set_light_path(out, n_out, key, offset_origin(p, ng, eps, new_d), new_d, beta, bounces + 1,
                    paths.lamp[i])
+    if paths.mnee[i] != NO_CHAIN:
+        out.mnee[n_out] = mnee_after(mnee_flags, paths.mnee[i], tri, kind,
+                                     VISIBLE_TRANSMISSION if event == specular.TRANSMITTED
+                                     else VISIBLE_GLOSSY)
     if not count_scattering(paths, i, out, n_out,
                             TRANSMISSION_BOUNCE if event == specular.TRANSMITTED
                             else GLOSSY_BOUNCE, limits):

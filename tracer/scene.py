@@ -419,7 +419,7 @@ def _check_angle(light, key, where, maximum=math.pi, default=None):
 
 def _check_light(i, light):
     where, kind = _entry_kind("lights", i, light, LIGHT_KINDS)
-    for key in LIGHT_FLAGS:
+    for key in LIGHT_FLAGS + ("caustics_light",):
         _check_flag(light, key, where)
     if kind == "area":
         if light.get("shape") not in AREA_SHAPES:
@@ -535,6 +535,9 @@ def _check_objects(objects):
         if "random_id" in obj:
             _int_in(obj["random_id"], f"objects[{i}].random_id", 0, 2 ** 32 - 1,
                     "a 32-bit unsigned integer")
+        # Cycles' shadow caustics (tracer/mnee.py); absent: false.
+        for key in ("caustics_caster", "caustics_receiver"):
+            _check_flag(obj, key, f"objects[{i}]")
 
 
 def _image_entries(images):

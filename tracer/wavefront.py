@@ -37,6 +37,7 @@ from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lig
                               triangle_hit)
 from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
 from .media import empty_stacks
+from .mnee import NO_CHAIN, left_to_mnee, mnee_after
 from . import media as medium
 from .path_limits import (DIFFUSE_BOUNCE, NO_BOUNCES, add_bounce, bounce_kind, clamp_light,
                           clamp_limit, dropped_at, kind_count, past_last_bounce)
@@ -97,6 +98,8 @@ class Paths(NamedTuple):
     see_through: np.ndarray   # (n,) int64: 1 while the path has only passed transparent surfaces
     #                           (and, with Transparent Glass, clear glass: go_on), Cycles'
     #                           PATH_RAY_TRANSPARENT_BACKGROUND
+    mnee: np.ndarray          # (n,) int64: mnee.NO_CHAIN, or FROM_RECEIVER + the refractions at
+    #                           shadow-caustics casters since the last receiver (mnee_after)
 
 
 class Shadows(NamedTuple):
@@ -122,7 +125,7 @@ def new_paths(n: int) -> Paths:
                  np.empty(n, np.int64), np.empty(n), np.empty(n, np.int64), np.empty(n),
                  np.empty((n, 3)), np.zeros(n, np.int64), np.zeros(n), empty_stacks(n),
                  np.zeros(n, np.int64), np.zeros((n, 3)), np.zeros((n, 3)),
-                 np.zeros(n, np.int64), np.zeros(n, np.int64))
+                 np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64))
 
 
 def new_shadows(n: int) -> Shadows:
@@ -188,6 +191,7 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
         paths.bounce[i] = 0
         paths.kinds[i] = NO_BOUNCES
         paths.see_through[i] = 1
+        paths.mnee[i] = NO_CHAIN
         if features:
             for k in range(3):
                 paths.feature[i, k] = 1.0
@@ -197,7 +201,7 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 @jit
 def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, limits, clamp,
              m, paths, prim, t, radiance, without, active, stats, features, feature_albedo,
-             film_transparent, transparent, pass_sums):
+             film_transparent, transparent, pass_sums, mnee_lamps):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
 
@@ -212,6 +216,9 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
     the CAUSTIC state (and SDS_CAUSTIC with photon merging: light_tracer.left_to_light_paths)
     get no light from lamps, emissive triangles or suns, and with `world_caustics` (it starts
     paths on the world) none from the world: those paths are the light tracer's to count.
+    Paths that refracted at shadow-caustics casters since a receiver get no light from the
+    lamps in `mnee_lamps` (mnee.left_to_mnee; empty: none): manifold next-event estimation
+    counts those.
     limits (path_limits.bounce_limits): a path ends at a surface after its last bounce (of
     all, or of one kind), or after as many transparent surfaces as the second allows, as in
     Cycles (path_state_next): what it ends on still adds its light, and after the last bounce a
@@ -243,6 +250,8 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
         light_tracers = left_to_light_paths(caustics, paths.caustic[i])
         emitters_count = not light_tracers
         for lamp in range(lamps_to_cross(lights) if emitters_count else 0):
+            if left_to_mnee(mnee_lamps, paths.mnee[i], lamp):
+                continue
             crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
                                                                  kind, pdf_prev, connect, mis_t)
             if crossed:
@@ -373,7 +382,7 @@ def program_emitters(lights, mesh, mats, tables, caustics, depth, m, paths, prim
 def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits, stratified,
               depth, limits, clamp, clear, n_active, active, paths, prim, u, v, out, shadows,
               radiance, without, lobes, params, stats, lv, last_connection, features,
-              feature_albedo, feature_normal, programs, pass_sums):
+              feature_albedo, feature_normal, programs, pass_sums, mnee_flags):
     """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
     layered vertices sample a light (a shadow ray, or direct light for lamps that cast no
     shadow) and, up to bounce last_connection (-1: never), connect to the path's light vertex
@@ -391,7 +400,8 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
     shadow adds its light at once, clamped by `clamp` as emitters'; `limits` as emitters',
     whose caustics switches drop lobes at the hits a diffuse ray reached (path_limits).
     `clear`: with Transparent Glass, which materials' transmissions keep a path see-through
-    (go_on; empty: none).
+    (go_on; empty: none). mnee_flags: the triangles' shadow-caustics flags (mnee.py; empty:
+    none), from which each next ray's mnee state follows (mnee_after).
 
     Returns (paths in out, shadow rays queued, program hits left).
     """
@@ -462,6 +472,8 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
                                                        caustic, connect, 0.0),
                      offset_origin(p, ng, eps, new_d), features, stats, media,
                      (tri, mat, entering, ng_f), clear)
+        if kept > n_out and mnee_flags.shape[0] > 0:
+            out.mnee[n_out] = mnee_after(mnee_flags, paths.mnee[i], tri, kind, ray_kind)
         if light_passes:
             carry_pass_weights(out, n_out, kept, weights)
         n_out = kept
@@ -621,6 +633,7 @@ def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, 
     out.kinds[n_out] = add_bounce(kinds, bounce_kind(ray_kind, dot(new_d, ng_f) < 0.0)) \
         if scattered_here else kinds
     out.see_through[n_out] = paths.see_through[i]
+    out.mnee[n_out] = NO_CHAIN          # materials sets it where shadow caustics run
     if scattered_here and not (clear.shape[0] > 0 and ray_kind == VISIBLE_TRANSMISSION
                                and (pdf_prev == 0.0 or clear[mat])):
         out.see_through[n_out] = 0

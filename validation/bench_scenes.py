@@ -64,7 +64,7 @@ PLAIN_REFERENCE = [(cycles.SHADOW_CAUSTICS, False, "the reference converges: Cyc
                    ("cycles.use_guiding", False, "plain path tracing")]
 
 _LIGHT_PATHS = "Snell, caustics off (the path tracer alone)"
-_MERGING_OFF = "Snell, photon merging off (path tracer and light tracer)"
+_MNEE_OFF = "Snell, shadow caustics off (path tracer and light tracer)"
 
 CAUSTIC_SCENES = (
     BenchScene("sun_caustic", "light paths from a delta lamp (a sun of angle 0)",
@@ -75,14 +75,14 @@ CAUSTIC_SCENES = (
     BenchScene("hdri_caustic", "light paths from the world (an HDRI with a sun)",
                {"caustics": True}, {"caustics": False}, _LIGHT_PATHS, "cycles",
                "Cycles' plain path tracer (unbiased; shadow caustics do not apply to the world)"),
-    BenchScene("pool", "photon merging of caustics seen through glass",
-               {"caustics": True, "photon_merging": True}, {"caustics": True,
-                                                             "photon_merging": False},
-               _MERGING_OFF, "cycles", "Cycles' plain path tracer (unbiased)", biased=True),
-    BenchScene("tumbler_caustic", "photon merging of caustics seen through glass",
-               {"caustics": True, "photon_merging": True}, {"caustics": True,
-                                                             "photon_merging": False},
-               _MERGING_OFF, "cycles", "Cycles' plain path tracer (unbiased)", biased=True),
+    BenchScene("pool", "manifold next-event estimation (the file's shadow caustics)",
+               {"caustics": True, "shadow_caustics": True}, {"caustics": True,
+                                                             "shadow_caustics": False},
+               _MNEE_OFF, "cycles", "Cycles' plain path tracer (unbiased)"),
+    BenchScene("tumbler_caustic", "manifold next-event estimation (the file's shadow caustics)",
+               {"caustics": True, "shadow_caustics": True}, {"caustics": True,
+                                                             "shadow_caustics": False},
+               _MNEE_OFF, "cycles", "Cycles' plain path tracer (unbiased)"),
 )
 
 

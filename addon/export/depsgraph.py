@@ -196,6 +196,7 @@ class Exporter:
         # files without one export as before.
         self.objects.append({"name": name, "closed": mesh.closed,
                              **({"pass_index": int(obj.pass_index)} if obj.pass_index else {}),
+                             **shadow_caustics(obj),
                              **self.light_groups.entry(obj, f"object {name!r}")})
         # Kept aside: the scene's objects carry them only if a program reads them
         # (scene_objects).
@@ -343,6 +344,15 @@ def object_data(inst, matrix):
         random_id = object_random_id(obj.name)
     return {"matrix": matrix.tolist(), "color": [float(x) for x in obj.color],
             "pass_index": int(obj.pass_index), "random_id": int(random_id)}
+
+
+def shadow_caustics(obj) -> dict:
+    """The object's Cycles shadow-caustics flags (caster, receiver: tracer/mnee.py), only those
+    that are on (files without them read as before)."""
+    cycles = getattr(getattr(obj, "original", obj), "cycles", None)
+    return {key: True for key, prop in (("caustics_caster", "is_caustics_caster"),
+                                        ("caustics_receiver", "is_caustics_receiver"))
+            if getattr(cycles, prop, False)}
 
 
 def object_random_id(name):

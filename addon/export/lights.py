@@ -83,7 +83,9 @@ def _light_flags(obj):
             "visible_glossy": bool(obj.visible_glossy),
             "visible_transmission": bool(obj.visible_transmission),
             "cast_shadow": bool(getattr(light, "use_shadow", True)),
-            "use_mis": bool(getattr(cycles, "use_multiple_importance_sampling", True))}
+            "use_mis": bool(getattr(cycles, "use_multiple_importance_sampling", True)),
+            # Cycles' shadow caustics (tracer/mnee.py): written only when on.
+            **({"caustics_light": True} if getattr(cycles, "is_caustics_light", False) else {})}
 
 
 def convert_light(obj, matrix, warn):

@@ -20,10 +20,23 @@ POOL_MATERIALS = [{"name": "Floor", "kind": "diffuse", "color": [0.8, 0.8, 0.8]}
                   {"name": "Water", "kind": "glass", "color": [1.0, 1.0, 1.0], "ior": WATER_IOR}]
 
 
+def shadow_caustics(scene, on=True):
+    """The scene with Cycles' shadow-caustics flags as scenes/common.py sets them: the lamps
+    caustics lights, object 0 (the floor or table) a receiver, object 1 (the glass) a caster
+    (tracer/mnee.py); on=False: none."""
+    if on:
+        scene.objects[0]["caustics_receiver"] = True
+        scene.objects[1]["caustics_caster"] = True
+        for light in scene.lights:
+            light["caustics_light"] = True
+    return scene
+
+
 def pool(resolution=(32, 32), max_depth=8, lamp_radius=LAMP_RADIUS, **render):
     """The pool: a 2 m diffuse floor 0.5 m under a wavy water surface (glass, IOR 1.33), a small
     round lamp 2 m above the water, the camera 1.4 m above the water looking down at the floor
-    through it (every pixel sees the floor through the water)."""
+    through it (every pixel sees the floor through the water). No shadow-caustics flags
+    (shadow_caustics sets them)."""
     floor = quad((0.0, 0.0, 0.0), POOL_HALF, POOL_HALF)
     water = water_surface()
     lamp = {"name": "Lamp", "kind": "point", "position": [0.3, 0.2, 2.5],

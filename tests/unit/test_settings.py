@@ -23,7 +23,8 @@ def test_the_defaults_are_the_scene_files_defaults():
                               "caustics_refractive": True, "sample_clamp_direct": 0.0,
                               "sample_clamp_indirect": 0.0,
                               "seed": 0, "fresnel": "exact",
-                              "caustics": True, "light_vertices": True, "noise_threshold": 0.01,
+                              "caustics": True, "shadow_caustics": True,  # no file sets flags
+                              "light_vertices": True, "noise_threshold": 0.01,
                               "min_spp": 0, "time_limit": 0.0,   # time_limit 0: no limit, as before
                               "pixel_filter": "box", "filter_width": 1.0,
                               "film_exposure": 1.0, "film_transparent": False,  # as before

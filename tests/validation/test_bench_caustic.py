@@ -73,10 +73,12 @@ def test_the_flag_selects_the_caustic_scenes(monkeypatch, tmp_path):
     assert [os.path.basename(p) for p in scenes] == [f"{n}.blend" for n in NAMES]
     assert built == [str(tmp_path)] and set(setups) == set(scenes)
     assert [setups[p].name for p in scenes] == NAMES
-    # merging (biased) on the scenes seen through glass, light paths on the others
-    assert [setups[p].snell.get("photon_merging", False) for p in scenes] == [False, False,
-                                                                              True, True]
-    assert [setups[p].biased for p in scenes] == [False, False, True, True]
+    # shadow caustics (MNEE) against none on the scenes seen through glass, light paths on the
+    # others; merging (biased) on none
+    assert [setups[p].without.get("shadow_caustics", True) for p in scenes] == [True, True,
+                                                                                False, False]
+    assert not any(setups[p].snell.get("photon_merging", False) for p in scenes)
+    assert [setups[p].biased for p in scenes] == [False, False, False, False]
     assert [setups[p].reference for p in scenes] == ["snell", "cycles", "cycles", "cycles"]
     scenes, setups = bench_scene_list(_args("--caustic-scenes", "pool,sun_caustic"), bench,
                                       print)
@@ -138,9 +140,9 @@ def test_tiny_caustic_bench_fills_every_figure(tmp_path):
                 assert math.isfinite(figures[name]) and figures[name] > 0, (sc["name"], key)
         assert set(ct["equal_time"]) == {"snell", "snell_without", "cycles"}
         assert (report / f"equal_time_{sc['name']}.png").stat().st_size > 0
-        merging = ct["setup"]["snell"].get("photon_merging", False)
-        for key, runs in (("snell", merging), ("snell_without", False)):
-            stage = sc[key]["points"][0]["stages"]["photon merging"]
+        mnee = not ct["setup"]["without"].get("shadow_caustics", True)
+        for key, runs in (("snell", mnee), ("snell_without", False)):
+            stage = sc[key]["points"][0]["stages"]["shadow caustics"]
             assert stage["runs"] is runs, (sc["name"], key, stage)
     sun = data["scenes"][0]
     # Without the light tracer no light path leaves the sun of angle 0.

@@ -1,0 +1,260 @@
+"""The manifold formulas of manifold next-event estimation (tracer/manifold.py): the constraint's
+derivatives against finite differences, the chain's linear solve against numpy, and on a flat
+interface (where Snell's law is the answer) the Newton walk's solution and the generalized
+geometry term against finite differences of the solved map from the lamp point to x0's
+direction."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from snell.tracer import manifold
+from snell.tracer.fresnel import fresnel_dielectric
+from snell.tracer.sampling import orthonormal_basis
+
+RNG = np.random.default_rng(34)
+
+
+def _triangle():
+    """A small tilted triangle with distinct, smoothly varying vertex normals."""
+    corners = np.array([[0.0, 0.0, 0.0], [0.3, 0.02, 0.05], [0.04, 0.25, -0.03]])
+    normals = np.array([[0.1, -0.05, 1.0], [-0.15, 0.1, 1.0], [0.05, 0.2, 1.0]])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return corners, normals
+
+
+def _ng(corners):
+    c = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+    return c / np.linalg.norm(c)
+
+
+def _barycentrics(corners, p):
+    e1, e2 = corners[1] - corners[0], corners[2] - corners[0]
+    g = np.array([[e1 @ e1, e1 @ e2], [e1 @ e2, e2 @ e2]])
+    return np.linalg.solve(g, [e1 @ (p - corners[0]), e2 @ (p - corners[0])])
+
+
+def _normal_at(corners, normals, p, a, b):
+    b1, b2 = _barycentrics(corners, p)
+    return manifold.normal_derivatives(corners, normals, b1, b2, tuple(a), tuple(b))
+
+
+def test_normal_derivatives_match_finite_differences():
+    corners, normals = _triangle()
+    a, b = orthonormal_basis(tuple(_ng(corners)))
+    p = corners[0] + 0.3 * (corners[1] - corners[0]) + 0.25 * (corners[2] - corners[0])
+    n, dn_da, dn_db = _normal_at(corners, normals, p, a, b)
+    h = 1e-6
+    for e, analytic in ((a, dn_da), (b, dn_db)):
+        plus = np.array(_normal_at(corners, normals, p + h * np.array(e), a, b)[0])
+        minus = np.array(_normal_at(corners, normals, p - h * np.array(e), a, b)[0])
+        assert np.allclose((plus - minus) / (2 * h), analytic, atol=1e-7)
+    assert abs(np.linalg.norm(n) - 1.0) < 1e-12
+
+
+def _constraint_at(corners, normals, ior, prev, p, nxt):
+    a, b = orthonormal_basis(tuple(_ng(corners)))
+    n, _, _ = _normal_at(corners, normals, p, a, b)
+    return np.array(manifold.constraint(tuple(prev), tuple(p), tuple(nxt), n, a,
+                                        tuple(_ng(corners)), ior))
+
+
+@pytest.mark.parametrize("below", [False, True])
+def test_constraint_derivatives_match_finite_differences(below):
+    """Each of the three 2x2 blocks against central differences, the path entering the glass
+    from above (eta = ior) and leaving it (eta = 1 / ior)."""
+    corners, normals = _triangle()
+    ng = _ng(corners)
+    a, b = orthonormal_basis(tuple(ng))
+    p = corners[0] + 0.4 * (corners[1] - corners[0]) + 0.3 * (corners[2] - corners[0])
+    prev = p + (1.0 if not below else -1.0) * np.array([0.2, -0.1, 0.9])
+    nxt = p - (1.0 if not below else -1.0) * np.array([-0.3, 0.25, 1.4])
+    prev_ab = tuple(map(tuple, np.linalg.qr(RNG.normal(size=(3, 2)))[0].T))
+    next_ab = tuple(map(tuple, np.linalg.qr(RNG.normal(size=(3, 2)))[0].T))
+    n, dn_da, dn_db = _normal_at(corners, normals, p, a, b)
+    ior = 1.45
+    before, here, after = manifold.constraint_derivatives(
+        tuple(prev), tuple(p), tuple(nxt), n, dn_da, dn_db, a, b, tuple(ng), ior, prev_ab,
+        next_ab)
+    h = 1e-6
+
+    def block(move):
+        cols = []
+        for e in range(2):
+            plus = _constraint_at(corners, normals, ior, *move(e, h))
+            minus = _constraint_at(corners, normals, ior, *move(e, -h))
+            cols.append((plus - minus) / (2 * h))
+        return np.array([cols[0][0], cols[1][0], cols[0][1], cols[1][1]])
+
+    def moved(which, ab):
+        def move(e, step):
+            pts = [prev.copy(), p.copy(), nxt.copy()]
+            pts[which] = pts[which] + step * np.array(ab[e])
+            return pts
+        return move
+
+    assert np.allclose(block(moved(0, prev_ab)), before, atol=1e-6)
+    assert np.allclose(block(moved(1, (a, b))), here, atol=1e-6)
+    assert np.allclose(block(moved(2, next_ab)), after, atol=1e-6)
+
+
+def test_solve_in_place_matches_numpy():
+    m = np.zeros((12, 15))
+    a = RNG.normal(size=(8, 8)) + 4 * np.eye(8)
+    rhs = RNG.normal(size=(8, 3))
+    m[:8, :8], m[:8, 8:11] = a, rhs
+    det = manifold.solve_in_place(m, 8, 11)
+    assert np.allclose(m[:8, 8:11], np.linalg.solve(a, rhs))
+    assert det == pytest.approx(np.linalg.det(a), rel=1e-10)
+    singular = np.zeros((12, 15))
+    singular[:2, :2] = [[1.0, 2.0], [2.0, 4.0]]
+    assert manifold.solve_in_place(singular, 2, 3) == 0.0
+
+
+# -- a flat interface: the plane z = 0, glass below ------------------------------------------
+
+IOR = 1.33
+UP = (0.0, 0.0, 1.0)
+
+
+def _flat_system(x0, y, x1):
+    """fill_system for one vertex x1 on the plane z = 0 (flat normals, glass below), the lamp's
+    tangents the world's x and y."""
+    m = np.zeros((12, 15))
+    a, b = orthonormal_basis(UP)
+    rows = lambda v: np.array([v], np.float64)   # noqa: E731
+    worst = manifold.fill_system(m, 1, tuple(x0), tuple(y), ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+                                 rows(x1), rows(UP), np.zeros((1, 3)), np.zeros((1, 3)), rows(a),
+                                 rows(b), rows(UP), np.array([IOR]))
+    return m, worst, a, b
+
+
+def _solve_flat(x0, y, iterations=30):
+    """Newton's walk from the straight segment's crossing of the plane (what mnee.py does, the
+    projection onto a plane being exact)."""
+    x0, y = np.asarray(x0, float), np.asarray(y, float)
+    x1 = x0 + (y - x0) * (-x0[2] / (y[2] - x0[2]))
+    for _ in range(iterations):
+        m, worst, a, b = _flat_system(x0, y, x1)
+        if worst < 1e-13:
+            break
+        assert manifold.solve_in_place(m, 2, 5) != 0.0
+        x1 = x1 - m[0, 4] * np.array(a) - m[1, 4] * np.array(b)
+    return x1
+
+
+def test_newton_on_a_flat_interface_obeys_snells_law():
+    x0, y = (0.1, -0.2, -0.7), (1.2, 0.5, 2.0)
+    x1 = _solve_flat(x0, y)
+    _, worst, _, _ = _flat_system(x0, y, x1)
+    assert worst < 1e-12
+    w_in = (x1 - np.array(x0)) / np.linalg.norm(x1 - np.array(x0))   # in the glass
+    w_out = (np.array(y) - x1) / np.linalg.norm(np.array(y) - x1)     # in the air
+    sin_glass = np.linalg.norm(np.cross(w_in, UP))
+    sin_air = np.linalg.norm(np.cross(w_out, UP))
+    assert IOR * sin_glass == pytest.approx(sin_air, rel=1e-10)
+    # Coplanar with the normal: both directions' horizontal parts point the same way.
+    assert np.cross(w_in[:2], w_out[:2]) == pytest.approx(0.0, abs=1e-12)
+
+
+def _direction(x0, y):
+    x1 = _solve_flat(x0, y)
+    w = x1 - np.array(x0)
+    return w / np.linalg.norm(w), x1
+
+
+def test_geometry_term_is_the_solid_angle_per_lamp_area():
+    """dw0/dA(y) from the transfer matrix against the solid angle that a small square of the
+    lamp's plane maps to (finite differences of the solved chain)."""
+    x0, y = np.array([0.1, -0.2, -0.7]), np.array([1.2, 0.5, 2.0])
+    w, x1 = _direction(x0, y)
+    m, _, _, _ = _flat_system(x0, y, x1)
+    manifold.solve_in_place(m, 2, 5)
+    g = manifold.geometry_term(tuple(x0), tuple(x1), UP, manifold.transfer_determinant(m, 1))
+    h = 1e-5
+    wx = (_direction(x0, y + [h, 0, 0])[0] - _direction(x0, y - [h, 0, 0])[0]) / (2 * h)
+    wy = (_direction(x0, y + [0, h, 0])[0] - _direction(x0, y - [0, h, 0])[0]) / (2 * h)
+    solid_angle = abs(np.dot(np.cross(wx, wy), w))
+    assert g == pytest.approx(solid_angle, rel=1e-5)
+    # Without the interface (ior 1) it is the plain cos / d^2 of a lamp facing up.
+    d = y - x0
+    assert solid_angle != pytest.approx(abs(d[2]) / np.linalg.norm(d) ** 3, rel=0.05)
+
+
+def test_refraction_weight_is_one_minus_fresnel_on_opposite_sides():
+    n = UP
+    wi = (0.3, 0.0, math.sqrt(1 - 0.09))            # from above: entering the glass
+    wo = (-0.2, 0.0, -math.sqrt(1 - 0.04))
+    f, _ = fresnel_dielectric(math.sqrt(1 - 0.09), IOR)
+    weight = manifold.refraction_weight(0, wi, wo, n, n, IOR, (1.0, 0.5, 0.25))
+    assert weight == pytest.approx(((1 - f), 0.5 * (1 - f), 0.25 * (1 - f)))
+    assert manifold.refraction_weight(0, wi, wi, n, n, IOR, (1.0, 1.0, 1.0)) == (0.0, 0.0, 0.0)
+
+
+# -- a slab: two flat interfaces (a chain of two vertices) -----------------------------------
+
+DOWN = (0.0, 0.0, -1.0)
+SLAB = 0.2                 # the slab's thickness below z = 0; its bottom faces down
+
+
+def _slab_system(x0, y, x1, x2):
+    """fill_system for the chain x0 (below the slab), x2 on its bottom, x1 on its top, y."""
+    m = np.zeros((12, 15))
+    a_top, b_top = orthonormal_basis(UP)
+    a_bottom, b_bottom = orthonormal_basis(DOWN)
+    worst = manifold.fill_system(
+        m, 2, tuple(x0), tuple(y), ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)), np.array([x2, x1]),
+        np.array([DOWN, UP]), np.zeros((2, 3)), np.zeros((2, 3)), np.array([a_bottom, a_top]),
+        np.array([b_bottom, b_top]), np.array([DOWN, UP]), np.array([IOR, IOR]))
+    return m, worst, (a_bottom, b_bottom), (a_top, b_top)
+
+
+def _solve_slab(x0, y, iterations=40):
+    x0, y = np.asarray(x0, float), np.asarray(y, float)
+    x2 = x0 + (y - x0) * ((-SLAB - x0[2]) / (y[2] - x0[2]))
+    x1 = x0 + (y - x0) * (-x0[2] / (y[2] - x0[2]))
+    for _ in range(iterations):
+        m, worst, (a2, b2), (a1, b1) = _slab_system(x0, y, x1, x2)
+        if worst < 1e-13:
+            break
+        assert manifold.solve_in_place(m, 4, 7) != 0.0
+        x2 = x2 - m[0, 6] * np.array(a2) - m[1, 6] * np.array(b2)
+        x1 = x1 - m[2, 6] * np.array(a1) - m[3, 6] * np.array(b1)
+    return x1, x2, m
+
+
+def test_a_chain_of_two_interfaces_refracts_at_both():
+    """Newton's walk on a slab converges to the path that bends by Snell's law at both faces
+    and leaves parallel to the direction it entered with (a slab shifts, never turns, a
+    ray)."""
+    x0, y = np.array([0.1, -0.2, -0.9]), np.array([1.0, 0.6, 1.5])
+    x1, x2, _ = _solve_slab(x0, y)
+    _, worst, _, _ = _slab_system(x0, y, x1, x2)
+    assert worst < 1e-12
+    unit = lambda v: v / np.linalg.norm(v)      # noqa: E731
+    below, inside, above = unit(x2 - x0), unit(x1 - x2), unit(y - x1)
+    assert np.allclose(below, above, atol=1e-10)
+    sin_air = np.linalg.norm(np.cross(above, UP))
+    assert IOR * np.linalg.norm(np.cross(inside, UP)) == pytest.approx(sin_air, rel=1e-10)
+
+
+def test_a_chains_geometry_term_is_the_solid_angle_per_lamp_area():
+    """The two-vertex chain's transfer determinant gives dw0/dA(y) as finite differences of
+    the solved chain do."""
+    x0, y = np.array([0.1, -0.2, -0.9]), np.array([1.0, 0.6, 1.5])
+
+    def direction(y):
+        _, x2, _ = _solve_slab(x0, y)
+        return (x2 - x0) / np.linalg.norm(x2 - x0), x2
+
+    w, x2 = direction(y)
+    x1, _, _ = _solve_slab(x0, y)
+    m, _, _, _ = _slab_system(x0, y, x1, x2)
+    manifold.solve_in_place(m, 4, 7)
+    g = manifold.geometry_term(tuple(x0), tuple(x2), DOWN, manifold.transfer_determinant(m, 2))
+    h = 1e-5
+    wx = (direction(y + [h, 0, 0])[0] - direction(y - [h, 0, 0])[0]) / (2 * h)
+    wy = (direction(y + [0, h, 0])[0] - direction(y - [0, h, 0])[0]) / (2 * h)
+    assert g == pytest.approx(abs(np.dot(np.cross(wx, wy), w)), rel=1e-5)

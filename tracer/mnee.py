@@ -1,0 +1,628 @@
+"""Manifold next-event estimation (MNEE): light that reaches a diffuse surface through smooth
+refracting surfaces, sampled at the surface as a light sample (Hanika et al. 2015; Cycles'
+shadow caustics, kernel/integrator/mnee.h). The formulas are manifold.py's; this is the stage.
+
+Where it runs is the file's: Cycles' shadow-caustics flags (an object's caustics caster and
+receiver, a lamp's caustics light; docs/scene-format.md). At a diffuse vertex on a receiver the
+stage samples a point y on a caustics lamp (point and spot lamps of radius > 0, the disk that
+faces the vertex x0), follows the straight segment x0 y collecting the smooth refracting
+triangles of casters it crosses (other objects are passed, as in Cycles; at most
+manifold.MAX_CASTERS), walks that seed chain onto the specular manifold by Newton's method (each
+step's points projected back onto their objects by a ray from the vertex before them, halving
+the step where a projection misses or a vertex stops refracting), checks that each converged
+segment is free, and adds
+
+    beta (albedo / pi) cos(x0) prod(tint (1 - F)) L_e G / (pmf p_A(y))
+
+with G = dw0/dA(y) (manifold.geometry_term), no clamp.
+
+The split with the other techniques is exact, as the light tracer's is: the stage owns every
+path "caustics lamp, one or more refractions at caster triangles, a diffuse receiver vertex"
+(the camera side anything), and the others skip exactly those. A camera path's `mnee` state
+(wavefront.Paths.mnee, mnee_after) counts the caster refractions since its last receiver vertex;
+wavefront.emitters gives it no light from a caustics lamp then (Cycles skips caustic lamps after
+a caster too, but also after reflections, which MNEE does not render). A light path's state
+(light_tracer.LightPaths.mnee) counts the same from its lamp, and the light tracer neither
+connects nor stores a photon at a receiver after them. What MNEE itself leaves out is its bias:
+one solution per lamp sample (where waves fold the light, several paths join x0 and y, and the
+walk finds the one nearest its seed), and none where the seed segment misses the casters.
+
+Runs only where the flags name a receiver, a caster and a lamp, light sampling is on, and the
+render has no absorbing media, light passes or light groups (its light is no one pass's).
+"""
+from __future__ import annotations
+
+import math
+import threading
+from typing import NamedTuple
+
+import numpy as np
+
+from .geometry import hit_offset, hit_point, offset_origin
+from .jit import jit, jit_inline
+from .lights.codes import VISIBLE_TRANSMISSION, seen_by
+from .lights.point import point_lamp_radiance, spot_attenuation
+from .manifold import (MAX_CASTERS, fill_system, geometry_term, normal_derivatives,
+                       refraction_weight, solve_in_place, transfer_determinant, unit_towards,
+                       vertex_row)
+from .material_kinds import DIFFUSE, GLASS, REFRACTION
+from .path_limits import DIFFUSE_BOUNCE, TRANSMISSION_BOUNCE, add_bounce, clamp_light, \
+    clamp_limit, within_limits
+from .sampler import mix, random_pair
+from .sampling import orthonormal_basis, sample_uniform_disk
+from .textures import surface_colors
+from .vec import dot, madd, mul, row, store, sub, vmul
+
+CASTER, RECEIVER = 1, 2          # MneeTables.tri_flags bits
+# A path's state (Paths.mnee, LightPaths.mnee): NO_CHAIN, or FROM_RECEIVER + j after a receiver
+# (camera side) or a caustics lamp (light side) and j refractions at casters since.
+NO_CHAIN, FROM_RECEIVER = 0, 1
+# Chains.state
+PROBING, SOLVING, CONVERGED, FAILED = range(4)
+MAX_PROBE_HITS = 10              # surfaces the seed segment may cross (Cycles' 10)
+MAX_ITERATIONS = 64
+# |constraint| (sine of the half vector's angle to the normal) of a solution. Not much below:
+# Embree's float32 barycentrics stall the walk on the tumbler's curved walls near 2e-6 (the
+# vertices then stop moving and the chain failed, 8 in 10 there); Cycles takes 1e-3.
+TOLERANCE = 1e-4
+MIN_STEP = 1e-4                  # the Newton step's scale below which the walk fails
+MIN_PROGRESS = 1e-7              # metres a vertex must move per accepted step
+MNEE_DOMAIN = np.uint64(0x3A11_F0D5)   # keys the stage's random numbers apart
+
+
+class MneeTables(NamedTuple):
+    """Where the stage runs (empty arrays: nowhere)."""
+    tri_flags: np.ndarray        # (T,) int64 CASTER | RECEIVER of each triangle's object
+    tri_object: np.ndarray       # (T,) int64 each triangle's object
+    lamp: np.ndarray             # (lamps_to_cross,) bool: lamps the stage samples (area first)
+    point_cdf: np.ndarray        # (P,) the cdf of picking point lamp k (0 for the others)
+
+
+OFF = MneeTables(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool), np.zeros(0))
+
+
+def mnee_lamp(light: dict, tables, k: int) -> bool:
+    """Whether point-table row k (scene light `light`) is a lamp the stage samples: a caustics
+    light, a disk of radius > 0 that transmission rays see."""
+    return (bool(light.get("caustics_light", False)) and tables.point_radius[k] > 0.0
+            and not tables.point_sphere[k]
+            and bool(seen_by(int(tables.point_flags[k]), VISIBLE_TRANSMISSION)))
+
+
+def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, str]:
+    """(the stage's tables, OFF where it does not run; why or why not)."""
+    objects = scene.objects
+    flags = np.array([(CASTER if o.get("caustics_caster") else 0)
+                      | (RECEIVER if o.get("caustics_receiver") else 0) for o in objects]
+                     + [0], np.int64)
+    oid = scene.object_ids.astype(np.int64) if len(scene.object_ids) else np.zeros(0, np.int64)
+    tri_flags = flags[np.minimum(oid, len(objects))] if len(objects) else np.zeros(len(oid),
+                                                                                  np.int64)
+    kinds = material_kind[of_triangle]
+    receivers = np.any((tri_flags & RECEIVER != 0) & (kinds == DIFFUSE))
+    casters = np.any((tri_flags & CASTER != 0) & np.isin(kinds, (GLASS, REFRACTION)))
+    points = [light for light in scene.lights if light["kind"] in ("point", "spot")]
+    chosen = np.array([mnee_lamp(light, lights, k) for k, light in enumerate(points)], bool)
+    if not (receivers and casters and chosen.any()):
+        return OFF, ("no shadow-caustics receiver, smooth glass caster and caustics light "
+                     "(a point or spot lamp of radius > 0, soft falloff on)")
+    pmf = np.where(chosen, lights.point_pmf, 0.0)
+    pmf = pmf / pmf.sum() if pmf.sum() > 0 else chosen / chosen.sum()
+    lamp = np.concatenate([np.zeros(lights.area_area.shape[0], bool), chosen])
+    return (MneeTables(tri_flags, oid, lamp, np.cumsum(pmf)),
+            f"shadow caustics: {int(chosen.sum())} caustics light(s)")
+
+
+@jit_inline
+def mnee_after(tri_flags, state, tri, kind, ray_kind):
+    """A path's state (NO_CHAIN, FROM_RECEIVER + j) after scattering at triangle tri (material
+    kind `kind`) into a ray of ray_kind: a diffuse receiver starts a chain, a refraction at a
+    caster extends it (up to MAX_CASTERS), anything else ends it."""
+    if tri_flags.shape[0] == 0:
+        return NO_CHAIN
+    flags = tri_flags[tri]
+    if kind == DIFFUSE and flags & RECEIVER:
+        return FROM_RECEIVER
+    if ((kind == GLASS or kind == REFRACTION) and flags & CASTER
+            and ray_kind == VISIBLE_TRANSMISSION
+            and FROM_RECEIVER <= state < FROM_RECEIVER + MAX_CASTERS):
+        return state + 1
+    return NO_CHAIN
+
+
+@jit_inline
+def left_to_mnee(lamp_flags, state, lamp):
+    """Whether a camera path in this state leaves the light of lamp `lamp` (lamps_to_cross's
+    index) to the stage."""
+    return state > FROM_RECEIVER and lamp_flags.shape[0] > 0 and lamp_flags[lamp]
+
+
+# -- the chains --------------------------------------------------------------------------------
+
+class Chains(NamedTuple):
+    """Up to n chains: their receiver vertex, lamp sample, refracting vertices and rays."""
+    path: np.ndarray         # (n,) the camera path's radiance row
+    x0: np.ndarray           # (n, 3) the receiver vertex
+    ng0: np.ndarray          # (n, 3) its geometric normal, facing the camera side
+    ns0: np.ndarray          # (n, 3) its shading normal, likewise
+    eps0: np.ndarray         # (n,) its offset (geometry.hit_offset)
+    weight: np.ndarray       # (n, 3) throughput x albedo
+    limit: np.ndarray        # (n,) the clamp of its light
+    lamp: np.ndarray         # (n,) point lamp
+    y: np.ndarray            # (n, 3) the lamp point
+    y_ab: np.ndarray         # (n, 2, 3) the lamp disk's tangents
+    pdf: np.ndarray          # (n,) pick x area density of y
+    state: np.ndarray        # (n,) PROBING ... FAILED
+    k: np.ndarray            # (n,) refracting vertices
+    room: np.ndarray         # (n,) how many refracting vertices the bounce limits allow
+    prim: np.ndarray         # (n, MAX_CASTERS) their triangles
+    pos: np.ndarray          # (n, MAX_CASTERS, 3)
+    n: np.ndarray            # (n, MAX_CASTERS, 3) shading normals
+    dn_da: np.ndarray        # (n, MAX_CASTERS, 3) and their derivatives
+    dn_db: np.ndarray
+    ta: np.ndarray           # (n, MAX_CASTERS, 3) the triangles' unit tangents
+    tb: np.ndarray
+    ng: np.ndarray           # (n, MAX_CASTERS, 3) geometric normals (outward)
+    ior: np.ndarray          # (n, MAX_CASTERS)
+    tint: np.ndarray         # (n, MAX_CASTERS, 3) transmission colours
+    step: np.ndarray         # (n,) the Newton step's scale
+    resolve: np.ndarray      # (n,) 1: solve again before the next step
+    delta: np.ndarray        # (n, 2 MAX_CASTERS) the last Newton step
+    transfer: np.ndarray     # (n,) |det dx1/dy| at convergence
+    ray_o: np.ndarray        # (n, 3) a probing chain's next ray
+    ray_d: np.ndarray
+    ray_t: np.ndarray        # (n,)
+    first_ray: np.ndarray    # (n,) its first ray in the ray buffers
+    new_prim: np.ndarray     # (n, MAX_CASTERS) projections' triangles and barycentrics
+    new_u: np.ndarray
+    new_v: np.ndarray
+    o32: np.ndarray          # (n MAX_CASTERS, 3) float32 rays for Embree
+    d32: np.ndarray
+    tmax: np.ndarray
+    owner: np.ndarray        # (n MAX_CASTERS,) the chain of each ray
+    scratch: np.ndarray      # (2 MAX_CASTERS, 2 MAX_CASTERS + 3) the linear system
+
+
+def new_chains(n: int) -> Chains:
+    """Buffers for n chains."""
+    v, m = MAX_CASTERS, MAX_CASTERS * n
+    f = lambda *shape: np.zeros(shape)                    # noqa: E731
+    i = lambda *shape: np.zeros(shape, np.int64)          # noqa: E731
+    return Chains(i(n), f(n, 3), f(n, 3), f(n, 3), f(n), f(n, 3), f(n), i(n), f(n, 3), f(n, 2, 3),
+                  f(n), i(n), i(n), i(n), i(n, v), f(n, v, 3), f(n, v, 3), f(n, v, 3),
+                  f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v), f(n, v, 3), f(n),
+                  i(n), f(n, 2 * v), f(n), f(n, 3), f(n, 3), f(n), i(n), i(n, v), f(n, v),
+                  f(n, v), np.zeros((m, 3), np.float32), np.zeros((m, 3), np.float32),
+                  np.zeros(m, np.float32), i(m), f(2 * v, 2 * v + 3))
+
+
+_local = threading.local()
+
+
+def chains_for(n: int) -> Chains:
+    """This thread's chain buffers, for at least n chains."""
+    chains = getattr(_local, "chains", None)
+    if chains is None or chains.path.shape[0] < n:
+        chains = _local.chains = new_chains(n)
+    return chains
+
+
+@jit_inline
+def set_vertex(chains, c, i, mesh, mats, tri, b1, b2):
+    """Vertex i of chain c on triangle tri at barycentrics (b1, b2): its point, normals and
+    their derivatives, tangents, index and tint."""
+    p, ng, ns, _ = hit_point(mesh, tri, b1, b2)
+    a, b = orthonormal_basis(ng)
+    n, dn_da, dn_db = ns, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    if mesh.corner_normals.shape[0] > 0:
+        n, dn_da, dn_db = normal_derivatives(mesh.corners[tri], mesh.corner_normals[tri], b1,
+                                             b2, a, b)
+    mat = mats.of_triangle[tri]
+    _, tint = surface_colors(mats, mat, tri, b1, b2)
+    chains.prim[c, i] = tri
+    for k in range(3):
+        chains.pos[c, i, k] = p[k]
+        chains.n[c, i, k] = n[k]
+        chains.dn_da[c, i, k] = dn_da[k]
+        chains.dn_db[c, i, k] = dn_db[k]
+        chains.ta[c, i, k] = a[k]
+        chains.tb[c, i, k] = b[k]
+        chains.ng[c, i, k] = ng[k]
+        chains.tint[c, i, k] = tint[k]
+    chains.ior[c, i] = mats.ior[mat]
+
+
+@jit_inline
+def segment_origin(mesh, chains, c, i, toward):
+    """Where chain c's ray from vertex i - 1 (the receiver for i = 0) towards `toward` starts:
+    the vertex lifted off its surface to the side the ray leaves to."""
+    if i == 0:
+        return offset_origin(row(chains.x0, c), row(chains.ng0, c), chains.eps0[c],
+                             sub(toward, row(chains.x0, c)))
+    p = vertex_row(chains.pos[c], i - 1)
+    return offset_origin(p, vertex_row(chains.ng[c], i - 1),
+                         hit_offset(mesh, chains.prim[c, i - 1], p), sub(toward, p))
+
+
+@jit_inline
+def queue_ray(chains, m, c, origin, target, reach):
+    """Ray m of the buffers, chain c's: from origin towards target, reach times as long as
+    the distance."""
+    w, distance = unit_towards(origin, target)
+    for q in range(3):
+        chains.o32[m, q] = origin[q]
+        chains.d32[m, q] = w[q]
+    chains.tmax[m] = reach * distance
+    chains.owner[m] = c
+
+
+@jit_inline
+def pick_lamp(cdf, u):
+    """The point lamp whose cdf interval holds u."""
+    for k in range(cdf.shape[0]):
+        if u < cdf[k]:
+            return k
+    return cdf.shape[0] - 1
+
+
+@jit
+def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, active, paths, prim,
+                u, v, chains):
+    """A chain per kept hit (rows `active`) on a diffuse receiver: a lamp point y sampled on
+    a caustics lamp's disk facing the hit, and the seed ray towards it. Returns the count."""
+    n = 0
+    cdf = tables.point_cdf
+    for j in range(n_active):
+        i = active[j]
+        tri = prim[i]
+        mat = mats.of_triangle[tri]
+        if mats.kind[mat] != DIFFUSE or not tables.tri_flags[tri] & RECEIVER:
+            continue
+        # Room for the diffuse vertex and at least one refraction (joined as photon merging's
+        # gather joins a photon: photon_merging.joined_within_limits).
+        bounce, kinds = paths.bounce[i], add_bounce(paths.kinds[i], DIFFUSE_BOUNCE)
+        room = 0
+        while (room < MAX_CASTERS and bounce + 2 + room <= limits[0]
+               and within_limits(add_times(kinds, TRANSMISSION_BOUNCE, room), limits)):
+            room += 1
+        if room == 0:
+            continue
+        b1, b2 = np.float64(u[i]), np.float64(v[i])
+        p, ng, ns, eps = hit_point(mesh, tri, b1, b2)
+        d = row(paths.d, i)
+        side = 1.0 if dot(d, ng) < 0.0 else -1.0
+        key = mix(paths.key[i], MNEE_DOMAIN)
+        u_pick, _ = random_pair(key, paths.sample[i], 2 * depth)
+        u0, u1 = random_pair(key, paths.sample[i], 2 * depth + 1)
+        lamp = pick_lamp(cdf, u_pick)
+        pmf = cdf[lamp] - (cdf[lamp - 1] if lamp > 0 else 0.0)
+        c = row(lights.point_pos, lamp)
+        r = lights.point_radius[lamp]
+        facing, _ = unit_towards(c, p)
+        ta, tb = orthonormal_basis(facing)
+        dx, dy = sample_uniform_disk(u0, u1)
+        y = madd(madd(c, dx * r, ta), dy * r, tb)
+        color, _ = surface_colors(mats, mat, tri, b1, b2)
+        chains.path[n] = paths.path[i]
+        store(chains.x0, n, p)
+        store(chains.ng0, n, mul(ng, side))
+        store(chains.ns0, n, mul(ns, side))
+        chains.eps0[n] = eps
+        store(chains.weight, n, vmul(row(paths.beta, i), color))
+        chains.limit[n] = clamp_limit(clamp, bounce == 0)
+        chains.lamp[n] = lamp
+        store(chains.y, n, y)
+        store(chains.y_ab[n], 0, ta)
+        store(chains.y_ab[n], 1, tb)
+        chains.pdf[n] = pmf / (math.pi * r * r)
+        chains.state[n] = PROBING
+        chains.k[n] = 0
+        chains.room[n] = room
+        w, distance = unit_towards(p, y)
+        origin = offset_origin(p, ng, eps, w)
+        store(chains.ray_o, n, origin)
+        store(chains.ray_d, n, w)
+        chains.ray_t[n] = math.sqrt(dot(sub(y, origin), sub(y, origin)))
+        n += 1
+    return n
+
+
+@jit_inline
+def add_times(kinds, kind, times):
+    """Packed counts with `times` more bounces of this kind."""
+    for _ in range(times):
+        kinds = add_bounce(kinds, kind)
+    return kinds
+
+
+@jit
+def probe_rays(chains, n):
+    """Queue the next seed-segment ray of each probing chain; returns the count."""
+    m = 0
+    for c in range(n):
+        if chains.state[c] != PROBING:
+            continue
+        for k in range(3):
+            chains.o32[m, k] = chains.ray_o[c, k]
+            chains.d32[m, k] = chains.ray_d[c, k]
+        chains.tmax[m] = chains.ray_t[c]
+        chains.owner[m] = c
+        m += 1
+    return m
+
+
+@jit
+def probe_hits(tables, mesh, mats, chains, m, prim, u, v, t):
+    """Record the caster triangles the seed rays met (a non-refracting caster, or more than
+    the chain may hold, fails the chain; other objects are passed) and move each ray past its
+    hit; a ray that meets nothing more ends the probe."""
+    for j in range(m):
+        c = chains.owner[j]
+        tri = prim[j]
+        if tri < 0:
+            chains.state[c] = SOLVING if chains.k[c] > 0 else FAILED
+            chains.step[c] = 1.0
+            chains.resolve[c] = 1
+            continue
+        b1, b2 = np.float64(u[j]), np.float64(v[j])
+        if tables.tri_flags[tri] & CASTER:
+            kind = mats.kind[mats.of_triangle[tri]]
+            if not (kind == GLASS or kind == REFRACTION) or chains.k[c] >= chains.room[c]:
+                chains.state[c] = FAILED
+                continue
+            set_vertex(chains, c, chains.k[c], mesh, mats, tri, b1, b2)
+            chains.k[c] += 1
+        p, ng, _, eps = hit_point(mesh, tri, b1, b2)
+        d = row(chains.ray_d, c)
+        origin = offset_origin(p, ng, eps, d)
+        store(chains.ray_o, c, origin)
+        rest = sub(row(chains.y, c), origin)
+        chains.ray_t[c] = math.sqrt(dot(rest, rest))
+        if dot(rest, d) <= 0.0:
+            chains.state[c] = SOLVING if chains.k[c] > 0 else FAILED
+            chains.step[c] = 1.0
+            chains.resolve[c] = 1
+
+
+@jit
+def newton_rays(mesh, chains, n):
+    """For each solving chain: solve its linear system where its vertices moved (converged
+    chains keep their transfer determinant and stop), then queue the projections of its
+    vertices moved by the step onto their objects: rays from the vertex before each (as it
+    is) through the moved point. Returns the rays queued."""
+    m = 0
+    system = chains.scratch
+    for c in range(n):
+        if chains.state[c] != SOLVING:
+            continue
+        k = chains.k[c]
+        if chains.resolve[c]:
+            worst = fill_system(system, k, row(chains.x0, c), row(chains.y, c), (
+                row(chains.y_ab[c], 0), row(chains.y_ab[c], 1)), chains.pos[c], chains.n[c],
+                chains.dn_da[c], chains.dn_db[c], chains.ta[c], chains.tb[c], chains.ng[c],
+                chains.ior[c])
+            if solve_in_place(system, 2 * k, 2 * k + 3) == 0.0:
+                chains.state[c] = FAILED
+                continue
+            if worst < TOLERANCE:
+                chains.state[c] = CONVERGED
+                chains.transfer[c] = transfer_determinant(system, k)
+                continue
+            for r in range(2 * k):
+                chains.delta[c, r] = system[r, 2 * k + 2]
+        chains.first_ray[c] = m
+        x0 = row(chains.x0, c)
+        for i in range(k):
+            p = vertex_row(chains.pos[c], i)
+            step = chains.step[c]
+            move = madd(mul(vertex_row(chains.ta[c], i), chains.delta[c, 2 * i]),
+                        chains.delta[c, 2 * i + 1], vertex_row(chains.tb[c], i))
+            moved = madd(p, -step, move)
+            # A first step that would pass below the receiver goes the other way (Cycles).
+            if i == 0 and dot(row(chains.ng0, c), sub(moved, x0)) <= 0.0:
+                moved = madd(p, step, move)
+            queue_ray(chains, m, c, segment_origin(mesh, chains, c, i, moved), moved, 2.0)
+            m += 1
+    return m
+
+
+@jit
+def newton_accept(tables, mesh, mats, chains, n, prim, u, v):
+    """Take each stepping chain's projected vertices if every projection found its own object
+    and every vertex still refracts (its neighbours on opposite sides of its shading normal),
+    doubling the step up to 1; else halve the step (a chain whose step falls below MIN_STEP,
+    or whose vertices stop moving, fails)."""
+    for c in range(n):
+        if chains.state[c] != SOLVING:
+            continue
+        k = chains.k[c]
+        j0 = chains.first_ray[c]
+        ok = True
+        for i in range(k):
+            tri = prim[j0 + i]
+            if tri < 0 or tables.tri_object[tri] != tables.tri_object[chains.prim[c, i]]:
+                ok = False
+                break
+            chains.new_prim[c, i] = tri
+            chains.new_u[c, i] = np.float64(u[j0 + i])
+            chains.new_v[c, i] = np.float64(v[j0 + i])
+        if ok:
+            ok = still_refracts(mesh, chains, c, k)
+        if not ok:
+            chains.step[c] *= 0.5
+            chains.resolve[c] = 0
+            if chains.step[c] < MIN_STEP:
+                chains.state[c] = FAILED
+            continue
+        moved = 0.0
+        for i in range(k):
+            before = vertex_row(chains.pos[c], i)
+            set_vertex(chains, c, i, mesh, mats, chains.new_prim[c, i], chains.new_u[c, i],
+                       chains.new_v[c, i])
+            shift = sub(vertex_row(chains.pos[c], i), before)
+            moved = max(moved, math.sqrt(dot(shift, shift)))
+        if moved < MIN_PROGRESS:
+            chains.state[c] = FAILED     # stuck (at a mesh's edge): no nearer solution
+            continue
+        chains.step[c] = min(1.0, 2.0 * chains.step[c])
+        chains.resolve[c] = 1
+
+
+@jit_inline
+def still_refracts(mesh, chains, c, k):
+    """Whether each projected vertex of chain c has its neighbours on opposite sides of its
+    shading normal."""
+    for i in range(k):
+        tri = chains.new_prim[c, i]
+        p, _, n, _ = hit_point(mesh, tri, chains.new_u[c, i], chains.new_v[c, i])
+        prev = row(chains.x0, c)
+        if i > 0:
+            prev, _, _, _ = hit_point(mesh, chains.new_prim[c, i - 1], chains.new_u[c, i - 1],
+                                      chains.new_v[c, i - 1])
+        nxt = row(chains.y, c)
+        if i < k - 1:
+            nxt, _, _, _ = hit_point(mesh, chains.new_prim[c, i + 1], chains.new_u[c, i + 1],
+                                     chains.new_v[c, i + 1])
+        if dot(n, sub(prev, p)) * dot(n, sub(nxt, p)) >= 0.0:
+            return False
+    return True
+
+
+@jit
+def visibility_rays(mesh, chains, n):
+    """For each converged chain, the rays along its segments x0 x1 .. x(k-1) xk (each must
+    meet the next vertex first; owner and first_ray say whose); returns the count."""
+    m = 0
+    for c in range(n):
+        if chains.state[c] != CONVERGED:
+            continue
+        chains.first_ray[c] = m
+        for i in range(chains.k[c]):
+            p = vertex_row(chains.pos[c], i)
+            queue_ray(chains, m, c, segment_origin(mesh, chains, c, i, p), p, 1.5)
+            m += 1
+    return m
+
+
+@jit
+def check_segments(tables, mesh, chains, n, prim, t):
+    """Fail each converged chain one of whose segment rays met something before its vertex,
+    or met its vertex's object elsewhere."""
+    for c in range(n):
+        if chains.state[c] != CONVERGED:
+            continue
+        j0 = chains.first_ray[c]
+        for i in range(chains.k[c]):
+            tri = prim[j0 + i]
+            p = vertex_row(chains.pos[c], i)
+            _, distance = unit_towards(segment_origin(mesh, chains, c, i, p), p)
+            if (tri < 0 or tables.tri_object[tri] != tables.tri_object[chains.prim[c, i]]
+                    or abs(np.float64(t[j0 + i]) - distance) > 1e-4 * (1.0 + distance)):
+                chains.state[c] = FAILED
+                break
+
+
+@jit
+def light_rays(mesh, chains, n):
+    """For each converged chain, the shadow ray from its last vertex to its lamp point (rows
+    in the ray buffers, owner says whose); returns the count."""
+    m = 0
+    for c in range(n):
+        if chains.state[c] != CONVERGED:
+            continue
+        k = chains.k[c]
+        p = vertex_row(chains.pos[c], k - 1)
+        tri = chains.prim[c, k - 1]
+        y = row(chains.y, c)
+        origin = offset_origin(p, vertex_row(chains.ng[c], k - 1), hit_offset(mesh, tri, p),
+                               sub(y, p))
+        queue_ray(chains, m, c, origin, y, 1.0)
+        m += 1
+    return m
+
+
+@jit
+def deliver(lights, fresnel_model, chains, m, blocked, radiance, without):
+    """Add each unblocked converged chain's light (the module docstring's estimate) to its
+    path's radiance (and to `without` where it has rows: light vertices do not compete)."""
+    for j in range(m):
+        if blocked[j] == 0:
+            continue
+        c = chains.owner[j]
+        light = chain_light(lights, fresnel_model, chains, c)
+        if not (light[0] > 0.0 or light[1] > 0.0 or light[2] > 0.0):
+            continue
+        light = clamp_light(light, chains.limit[c])
+        path = chains.path[c]
+        for q in range(3):
+            radiance[path, q] += light[q]
+            if without.shape[0] > 0:
+                without[path, q] += light[q]
+
+
+@jit_inline
+def chain_light(lights, fresnel_model, chains, c):
+    """The light chain c carries to its receiver's path (before the clamp)."""
+    k = chains.k[c]
+    x0 = row(chains.x0, c)
+    x1 = vertex_row(chains.pos[c], 0)
+    w0, _ = unit_towards(x0, x1)
+    ng0, ns0 = row(chains.ng0, c), row(chains.ns0, c)
+    cos0 = dot(w0, ns0)
+    # As the path tracer's diffuse BSDF sample: above both normals.
+    if not (cos0 > 0.0 and dot(w0, ng0) > 0.0):
+        return (0.0, 0.0, 0.0)
+    light = mul(row(chains.weight, c), cos0 / math.pi)
+    for i in range(k):
+        p = vertex_row(chains.pos[c], i)
+        prev = x0 if i == 0 else vertex_row(chains.pos[c], i - 1)
+        nxt = row(chains.y, c) if i == k - 1 else vertex_row(chains.pos[c], i + 1)
+        wi, _ = unit_towards(p, prev)
+        wo, _ = unit_towards(p, nxt)
+        light = vmul(light, refraction_weight(fresnel_model, wi, wo, vertex_row(chains.n[c], i),
+                                              vertex_row(chains.ng[c], i), chains.ior[c, i],
+                                              vertex_row(chains.tint[c], i)))
+    lamp = chains.lamp[c]
+    y = row(chains.y, c)
+    leaving, _ = unit_towards(y, vertex_row(chains.pos[c], k - 1))
+    emitted = mul(point_lamp_radiance(lights, lamp), spot_attenuation(lights, lamp, leaving))
+    g = geometry_term(x0, x1, vertex_row(chains.ng[c], 0), chains.transfer[c])
+    return mul(vmul(light, emitted), g / chains.pdf[c])
+
+
+def stage(geometry, tables: MneeTables, lights, mats, fresnel_model: int, depth: int, limits,
+          clamp, n_active: int, active, paths, prim, u, v, radiance, without) -> int:
+    """Manifold next-event estimation at the kept hits (rows `active` of paths, hits prim, u,
+    v) of one bounce, its light added to `radiance` (and `without`). Returns the chains that
+    delivered light."""
+    chains = chains_for(n_active)
+    mesh = geometry.mesh
+    n = seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, active, paths,
+                    prim, u, v, chains)
+    if n == 0:
+        return 0
+    for _ in range(MAX_PROBE_HITS):
+        m = probe_rays(chains, n)
+        if m == 0:
+            break
+        hit, hu, hv, ht = geometry.intersect(chains.o32[:m], chains.d32[:m], chains.tmax[:m])
+        probe_hits(tables, mesh, mats, chains, m, hit, hu, hv, ht)
+    chains.state[:n][chains.state[:n] == PROBING] = FAILED     # more surfaces than probed
+    for _ in range(MAX_ITERATIONS):
+        m = newton_rays(mesh, chains, n)
+        if m == 0:
+            break
+        hit, hu, hv, _ = geometry.intersect(chains.o32[:m], chains.d32[:m], chains.tmax[:m])
+        newton_accept(tables, mesh, mats, chains, n, hit, hu, hv)
+    chains.state[:n][chains.state[:n] == SOLVING] = FAILED
+    m = visibility_rays(mesh, chains, n)
+    if m == 0:
+        return 0
+    hit, _, _, ht = geometry.intersect(chains.o32[:m], chains.d32[:m], chains.tmax[:m])
+    check_segments(tables, mesh, chains, n, hit, ht)
+    m = light_rays(mesh, chains, n)
+    if m == 0:
+        return 0
+    blocked = geometry.occluded(chains.o32[:m], chains.d32[:m], chains.tmax[:m])
+    deliver(lights, fresnel_model, chains, m, blocked, radiance, without)
+    return int(np.count_nonzero(blocked[:m]))
