@@ -60,13 +60,17 @@ def test_the_path_tracer_leaves_exactly_the_refractions_at_casters_after_a_recei
 
 def test_mnee_runs_only_where_the_flags_say():
     """The stage runs with a caustics light, a caster and a receiver, and not without the
-    flags, with the setting off, or without light sampling; it says why."""
+    flags, with the setting off, without light sampling or with refractive caustics off; it says
+    why."""
     flagged = shadow_caustics(pool(resolution=(4, 4)))
     runs, why = Renderer(flagged).stages()["shadow caustics"]
     assert runs and "caustics light" in why
     for scene, overrides, reason in ((pool(resolution=(4, 4)), {}, "no shadow-caustics"),
                                      (flagged, {"shadow_caustics": False}, "off"),
-                                     (flagged, {"next_event": False}, "no light sampling")):
+                                     (flagged, {"next_event": False}, "no light sampling"),
+                                     # Cycles renders no shadow caustics then either.
+                                     (flagged, {"caustics_refractive": False},
+                                      "refractive caustics off")):
         runs, why = Renderer(scene, scene.settings(**overrides)).stages()["shadow caustics"]
         assert not runs and reason in why, why
     # A lamp of radius 0 is the light tracer's (a delta lamp: no chain ends on it).
