@@ -1037,7 +1037,8 @@ def test_render_settings_default(bl):
                          "denoising_input_passes",
                          "denoising_prefilter", "denoising_quality", "denoising_passes"],
                         "file's Cycles setting"),
-        **dict.fromkeys(["fresnel", "caustics", "light_vertices"], "default")}
+        **dict.fromkeys(["fresnel", "caustics", "shadow_caustics", "light_vertices"],
+                        "default")}
     labels = {e["label"]: e for e in s.render["cycles_not_rendered"]}
     assert "Light Paths > Diffuse bounces" not in labels        # rendered
     # Cycles' default indirect clamp, which Snell's light tracer does not apply: no warning.
@@ -1284,7 +1285,7 @@ def test_info_names_where_each_setting_came_from(bl, tmp_path):
                        "denoise, "
                        "denoising_input_passes, denoising_prefilter, denoising_quality, "
                        "denoising_passes; default: fresnel, "
-                       "caustics, light_vertices"), sources
+                       "caustics, shadow_caustics, light_vertices"), sources
     cycles = [line for line in lines if line.startswith("cycles")]
     # Rendered as Cycles, but not on the light tracer's caustics: a warning.
     assert ("cycles     warning: Light Paths > Clamping > Indirect Light (caustics) 4: "
