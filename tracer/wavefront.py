@@ -249,19 +249,9 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
         sigma = medium.sigma_of(media, paths.medium, i) if media.on else medium.ZERO
         light_tracers = left_to_light_paths(caustics, paths.caustic[i])
         emitters_count = not light_tracers
-        for lamp in range(lamps_to_cross(lights) if emitters_count else 0):
-            if left_to_mnee(mnee_lamps, paths.mnee[i], lamp):
-                continue
-            crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
-                                                                 kind, pdf_prev, connect, mis_t)
-            if crossed:
-                if media.on:
-                    light = medium.through(light, sigma, medium.lamp_distance(lights, lamp, o, d))
-                add_found_light(radiance, without, paths, i, beta, light,
-                                mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
-                                mis_weight(next_event, pdf_prev, pdf_light, 0.0), features,
-                                feature_albedo, pass_sums, False, clamp,
-                                lamp_group(lights, lamp))
+        if emitters_count:
+            crossed_lamps(lights, media, next_event, clamp, paths, i, t_surface, sigma, radiance,
+                          without, features, feature_albedo, pass_sums, mnee_lamps)
         if media.on and medium.absorbs(sigma):
             beta = medium.through(beta, sigma, t_surface)
             store(paths.beta, i, beta)
@@ -304,6 +294,28 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
         active[kept] = i
         kept += 1
     return kept
+
+
+@jit_inline
+def crossed_lamps(lights, media, next_event, clamp, paths, i, t_surface, sigma, radiance, without,
+                  features, feature_albedo, pass_sums, mnee_lamps):
+    """The lamps path i's ray crosses before t_surface add their light (those left to manifold
+    next-event estimation aside), attenuated by the medium it is in (sigma)."""
+    o, d = row(paths.o, i), row(paths.d, i)
+    beta, kind = row(paths.beta, i), paths.ray_kind[i]
+    pdf_prev, connect, mis_t = paths.pdf_prev[i], paths.connect[i], paths.mis_t[i]
+    for lamp in range(lamps_to_cross(lights)):
+        if left_to_mnee(mnee_lamps, paths.mnee[i], lamp):
+            continue
+        crossed, light, pdf_light, pdf_vertex = lamp_crossed(lights, lamp, o, d, t_surface,
+                                                             kind, pdf_prev, connect, mis_t)
+        if crossed:
+            if media.on:
+                light = medium.through(light, sigma, medium.lamp_distance(lights, lamp, o, d))
+            add_found_light(radiance, without, paths, i, beta, light,
+                            mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
+                            mis_weight(next_event, pdf_prev, pdf_light, 0.0), features,
+                            feature_albedo, pass_sums, False, clamp, lamp_group(lights, lamp))
 
 
 @jit_inline
