@@ -392,8 +392,11 @@ class Renderer:
         with_passes = extra is not None and extra.light is not None
         transparent = transparent[:n] if with_alpha else transparent[:0]
         transparent[:] = 0.0
-        pass_sums = pass_sums[:n] if with_passes else pass_sums[:0]
-        pass_sums[:] = 0.0
+        # What the render does not make is None, so that the stages it runs are compiled
+        # without its code (wavefront.py).
+        pass_sums = pass_sums[:n] if with_passes else None
+        if with_passes:
+            pass_sums[:] = 0.0
         without = without[:n] if pilot else without[:0]
         stats[:] = 0
         stratified = self.sampler == "stratified"
@@ -403,6 +406,8 @@ class Renderer:
         if with_features:
             wavefront.clear(feature_albedo, n)
             wavefront.clear(feature_normal, n)
+        else:
+            feature_albedo = feature_normal = None
         wavefront.generate(self.camera.params(), self.pixel_filter, self.seed, start, in_pass,
                            first_sample, pixels, bits, stratified, n, paths, stats, with_features)
         if self.media.on:
@@ -419,13 +424,13 @@ class Renderer:
             prim, u, v, t = geom.intersect(paths.o32[:m], paths.d32[:m], paths.tmax[:m])
             kept = wavefront.emitters(lights, mats, self.media, self.next_event, self.split_mode,
                                       self.world_split, depth, limits, clamp, m, paths, prim, t,
-                                      radiance, without, active, stats, with_features,
-                                      feature_albedo, self.film_transparent, transparent,
+                                      radiance, without, active, stats, feature_albedo,
+                                      self.film_transparent, transparent,
                                       pass_sums, self.mnee.lamp)
             if self.programs_emit:
                 wavefront.program_emitters(lights, mesh, mats, self.tables, self.split_mode,
                                            depth, m, paths, prim, u, v, t, radiance, without,
-                                           with_features, feature_albedo, scratch, regs,
+                                           feature_albedo, scratch, regs,
                                            pass_sums, clamp)
             if kept == 0:
                 break
@@ -433,7 +438,7 @@ class Renderer:
                 lights, mesh, mats, self.media, self.tables, self.fresnel, self.next_event, bits,
                 stratified, depth, limits, clamp, self.clear, kept, active, paths, prim, u, v, out,
                 shadows, radiance, without, scratch, params, stats, lv, last_connection,
-                with_features, feature_albedo, feature_normal, programs, pass_sums,
+                feature_albedo, feature_normal, programs, pass_sums,
                 self.mnee.tri_flags)
             if self.mnee.lamp.shape[0] > 0:
                 stats[MNEE_PATHS] += mnee.stage(
@@ -444,7 +449,7 @@ class Renderer:
                     lights, mesh, mats, self.media, self.tables, self.next_event, bits,
                     stratified, depth, limits, clamp, self.clear, n_programs, programs, paths,
                     prim, u, v, out, m, shadows, n_shadow, radiance, without, scratch, regs,
-                    stats, lv, last_connection, with_features, feature_albedo, feature_normal,
+                    stats, lv, last_connection, feature_albedo, feature_normal,
                     transparent, pass_sums)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
@@ -877,6 +882,9 @@ def warm_up() -> float:
                                    np.float32))
     for sampler in SAMPLERS:
         Renderer(scene, scene.settings(threads=1, sampler=sampler)).render()
+    # The stages a render with the denoising features runs are compiled apart (wavefront.py),
+    # and Cycles' F12 denoises by default.
+    Renderer(scene, scene.settings(threads=1, denoising_passes=True)).render()
     jit.mark_warm()
     return time.perf_counter() - start
 

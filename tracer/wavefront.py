@@ -8,6 +8,12 @@ ray of the bounce in one call, and `shadow_rays` adds the light of those that ar
 adds a finished chunk's paths to the image. Paths live in `Paths`, a structure of arrays that
 each chunk reuses from bounce to bounce: no allocation in the hot loop.
 
+What a render does not make, the light passes (pass_sums) and the denoising features
+(feature_albedo, feature_normal), is passed as None. Numba compiles a stage for the types of its
+arguments and leaves out a branch on an argument that is None, so the stages of a render without
+them hold none of their code: their code alone, never run, made the materials stage about 6%
+slower on cornell_spheres (docs/measurements.md).
+
 Max depth m is the seed's max_ray_depth: emission plus up to m bounces (Cycles' max_bounces =
 m - 1). A path's random numbers are keyed by its pixel, sample index and a dimension: 0 pixel
 position, 1 lens position, and per bounce k the pairs 2 + 3k (light choice, roulette),
@@ -200,7 +206,7 @@ def generate(cam, filt, seed, start, in_pass, first_sample, pixels, bits, strati
 
 @jit
 def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, limits, clamp,
-             m, paths, prim, t, radiance, without, active, stats, features, feature_albedo,
+             m, paths, prim, t, radiance, without, active, stats, feature_albedo,
              film_transparent, transparent, pass_sums, mnee_lamps):
     """Lamps, the world, suns and emissive triangles add their light; returns how many paths go
     on to scatter (their rows in `active`).
@@ -224,9 +230,10 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
     Cycles (path_state_next): what it ends on still adds its light, and after the last bounce a
     path still passes through transparent surfaces (program_materials), since shadow rays do.
     What a path finds is clamped by `clamp` (path_limits.clamp_limits) as Cycles' film.
-    With `features`, paths that still carry the denoising features add what they find to the
-    Denoising Albedo too, as Cycles does (features.add_feature_light; a CAUSTIC path has
-    written its features at its first, diffuse, hit).
+    When the render makes the denoising features (feature_albedo is not None), paths that
+    still carry them add what they find to the Denoising Albedo too, as Cycles does
+    (features.add_feature_light; a CAUSTIC path has written its features at its first, diffuse,
+    hit).
     With `film_transparent` (Film > Transparent), a camera ray that escapes having passed only
     transparent surfaces (and clear glass with Transparent Glass: Paths.see_through, Cycles'
     PATH_RAY_TRANSPARENT_BACKGROUND) sees no world and adds its mean throughput to
@@ -234,13 +241,13 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
     suns still shine, as Cycles' distant lights do.
     Shader programs whose emission varies add it in program_emitters. In a scene with media
     (media.py), the ray's segment inside them attenuates what it finds and the path's
-    throughput from here on. When pass_sums has rows (the render makes the light passes),
+    throughput from here on. When pass_sums is not None (the render makes the light passes),
     each light found is also added to the path's row of them (light_passes.add_found); with
     Film > Transparent the world a camera ray sees still goes to Environment, as in Cycles'
     integrate_background. Each light found goes to its light's group too (light_groups.py).
     """
     kept = 0
-    light_passes = pass_sums.shape[0] > 0
+    light_passes = pass_sums is not None
     for i in range(m):
         o, d = row(paths.o, i), row(paths.d, i)
         beta, path, kind = row(paths.beta, i), paths.path[i], paths.ray_kind[i]
@@ -251,7 +258,7 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
         emitters_count = not light_tracers
         if emitters_count:
             crossed_lamps(lights, media, next_event, clamp, paths, i, t_surface, sigma, radiance,
-                          without, features, feature_albedo, pass_sums, mnee_lamps)
+                          without, feature_albedo, pass_sums, mnee_lamps)
         if media.on and medium.absorbs(sigma):
             beta = medium.through(beta, sigma, t_surface)
             store(paths.beta, i, beta)
@@ -273,7 +280,7 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                 found, light, pdf_light = light_at_escape(lights, k, d, kind)
                 if found:
                     w = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
-                    add_found_light(radiance, without, paths, i, beta, light, w, w, features,
+                    add_found_light(radiance, without, paths, i, beta, light, w, w,
                                     feature_albedo, pass_sums, lights.has_world and k == 0, clamp,
                                     escape_group(lights, k))
             continue
@@ -284,8 +291,8 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
                                                  t_surface + mis_t, connect)
             add_found_light(radiance, without, paths, i, beta, emission,
                             mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
-                            mis_weight(next_event, pdf_prev, pdf_light, 0.0), features,
-                            feature_albedo, pass_sums, False, clamp, lights.prim_group[prim[i]])
+                            mis_weight(next_event, pdf_prev, pdf_light, 0.0), feature_albedo,
+                            pass_sums, False, clamp, lights.prim_group[prim[i]])
         if mats.kind[mat] == EMISSION:
             continue
         if ended(mats, mat, depth, paths, i, limits):
@@ -298,7 +305,7 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
 
 @jit_inline
 def crossed_lamps(lights, media, next_event, clamp, paths, i, t_surface, sigma, radiance, without,
-                  features, feature_albedo, pass_sums, mnee_lamps):
+                  feature_albedo, pass_sums, mnee_lamps):
     """The lamps path i's ray crosses before t_surface add their light (those left to manifold
     next-event estimation aside), attenuated by the medium it is in (sigma)."""
     o, d = row(paths.o, i), row(paths.d, i)
@@ -314,13 +321,13 @@ def crossed_lamps(lights, media, next_event, clamp, paths, i, t_surface, sigma, 
                 light = medium.through(light, sigma, medium.lamp_distance(lights, lamp, o, d))
             add_found_light(radiance, without, paths, i, beta, light,
                             mis_weight(next_event, pdf_prev, pdf_light, pdf_vertex),
-                            mis_weight(next_event, pdf_prev, pdf_light, 0.0), features,
-                            feature_albedo, pass_sums, False, clamp, lamp_group(lights, lamp))
+                            mis_weight(next_event, pdf_prev, pdf_light, 0.0), feature_albedo,
+                            pass_sums, False, clamp, lamp_group(lights, lamp))
 
 
 @jit_inline
-def add_found_light(radiance, without, paths, i, beta, light, w, w_without, features,
-                    feature_albedo, pass_sums, environment, clamp, group):
+def add_found_light(radiance, without, paths, i, beta, light, w, w_without, feature_albedo,
+                    pass_sums, environment, clamp, group):
     """Light path i finds, throughput beta, clamped (path_limits): to its radiance at MIS
     weight w (and to its light group's columns: light_groups.py) and to its radiance without
     light vertices at w_without, to the Denoising Albedo while the path carries the features,
@@ -332,9 +339,9 @@ def add_found_light(radiance, without, paths, i, beta, light, w, w_without, feat
     add_grouped(radiance, paths.path[i], group, contribution)
     if without.shape[0] > 0:
         add_light(without, paths.path[i], clamp_light(mul(found, w_without), limit))
-    if features and paths.feature_on[i] != 0:
+    if feature_albedo is not None and paths.feature_on[i] != 0:
         add_feature_light(feature_albedo, paths, i, beta, light, w_without)
-    if pass_sums.shape[0] > 0:
+    if pass_sums is not None:
         add_found(pass_sums, paths, i, ONE, contribution, 1.0, environment)
 
 
@@ -363,7 +370,7 @@ def ended(mats, mat, depth, paths, i, limits):
 
 @jit
 def program_emitters(lights, mesh, mats, tables, caustics, depth, m, paths, prim, u, v, t,
-                     radiance, without, features, feature_albedo, lobes, regs, pass_sums, clamp):
+                     radiance, without, feature_albedo, lobes, regs, pass_sums, clamp):
     """The emission of the shader programs whose emission varies over the surface or with
     the ray (shader/program.py; `lobes` and `regs` their scratch), each run at the hit of
     every path of the m: no light sample finds such emission, so it weighs 1 (a path the
@@ -386,29 +393,29 @@ def program_emitters(lights, mesh, mats, tables, caustics, depth, m, paths, prim
         run(mats, mat, regs, hit, lobes, tables, has_normals)
         emission = total(regs, TOTAL_EMISSION)
         beta = row(paths.beta, i)
-        add_found_light(radiance, without, paths, i, beta, emission, 1.0, 1.0, features,
-                        feature_albedo, pass_sums, False, clamp, lights.prim_group[tri])
+        add_found_light(radiance, without, paths, i, beta, emission, 1.0, 1.0, feature_albedo,
+                        pass_sums, False, clamp, lights.prim_group[tri])
 
 
 @jit
 def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits, stratified,
               depth, limits, clamp, clear, n_active, active, paths, prim, u, v, out, shadows,
-              radiance, without, lobes, params, stats, lv, last_connection, features,
-              feature_albedo, feature_normal, programs, pass_sums, mnee_flags):
+              radiance, without, lobes, params, stats, lv, last_connection, feature_albedo,
+              feature_normal, programs, pass_sums, mnee_flags):
     """Scatter each kept hit (rows `active`) by its surface kind (scatter.py): diffuse and
     layered vertices sample a light (a shadow ray, or direct light for lamps that cast no
     shadow) and, up to bounce last_connection (-1: never), connect to the path's light vertex
     in `lv` (light_vertices.py; another shadow ray); every kind samples its BSDF. After Russian
     roulette the surviving paths' next rays go into `out`. `lobes` is scratch for a layered
     hit's lobes (lobes.py), `tables` its albedo tables, `params` for a textured Principled
-    BSDF's parameters; `without` as for emitters. With `features`, paths that still carry the
-    denoising features apply this hit to them (features.py), writing into the rows of
-    feature_albedo and feature_normal. In a scene with media, the shadow rays are attenuated
+    BSDF's parameters; `without` as for emitters. Paths that still carry the denoising
+    features apply this hit to them (features.py), writing into the rows of feature_albedo and
+    feature_normal (None: the render makes no features). In a scene with media, the shadow rays are attenuated
     in the media they cross and the next rays carry their path's stack of media, entered or
     left where they pass through the surface (media.py). Hits on shader programs are left for
     program_materials, their rows written into `programs` (as pbrt-v4 queues each material
     type for a kernel of its own: this one stays the size it was without programs). When
-    pass_sums has rows, hits add to the light passes (record_passes). A lamp that casts no
+    pass_sums is not None, hits add to the light passes (record_passes). A lamp that casts no
     shadow adds its light at once, clamped by `clamp` as emitters'; `limits` as emitters',
     whose caustics switches drop lobes at the hits a diffuse ray reached (path_limits).
     `clear`: with Transparent Glass, which materials' transmissions keep a path see-through
@@ -420,7 +427,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
     n_out = 0
     n_shadow = 0
     n_programs = 0
-    light_passes = pass_sums.shape[0] > 0
+    light_passes = pass_sums is not None
     has_normals = mesh.corner_normals.shape[0] > 0
     can_sample_lights = next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0
     strat = stratified and depth < STRATIFIED_BOUNCES
@@ -465,7 +472,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         if media.on:
             medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
                                      first_shadow, n_shadow)
-        with_features = features and paths.feature_on[i] != 0
+        with_features = feature_albedo is not None and paths.feature_on[i] != 0
         weights = (ONE, ZERO)
         if light_passes:
             # Before smooth_lobes: a diffuse hit's shadow rays need no lobes, a layered one's
@@ -475,14 +482,15 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         if kind != LAYERED and (with_features or light_passes and paths.bounce[i] == 0):
             count = smooth_lobes(kind, lobes, tables, neg(d), ns_f, entering, color,
                                  trans_color, mats.ior[mat])
-        if with_features:
+        # The None test first: Numba leaves the call out only on a test of the argument.
+        if feature_albedo is not None and with_features:
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
         if light_passes and paths.bounce[i] == 0:
             add_colors(pass_sums, path, lobes, count, tables, neg(d), beta_in)
         kept = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
                                                        caustic, connect, 0.0),
-                     offset_origin(p, ng, eps, new_d), features, stats, media,
+                     offset_origin(p, ng, eps, new_d), feature_albedo, stats, media,
                      (tri, mat, entering, ng_f), clear)
         if kept > n_out and mnee_flags.shape[0] > 0:
             out.mnee[n_out] = mnee_after(mnee_flags, paths.mnee[i], tri, kind, ray_kind)
@@ -528,7 +536,7 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
                       limits, clamp, clear, n_programs, programs, paths, prim, u, v, out, n_out,
                       shadows,
                       n_shadow, radiance, without, lobes, regs, stats, lv, last_connection,
-                      features, feature_albedo, feature_normal, transparent, pass_sums):
+                      feature_albedo, feature_normal, transparent, pass_sums):
     """The materials stage for the hits on shader programs that `materials` left in
     `programs` (scatter.scatter_program), their next rays after out's first n_out and their
     shadow rays after the first n_shadow. Returns the new (n_out, n_shadow). A path past its
@@ -537,7 +545,7 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
     weight times the path's mean throughput to it, as Cycles' integrate_surface_holdout (a
     path that is still see-through: Paths.see_through). `clear` as materials'.
     pass_sums as materials'."""
-    light_passes = pass_sums.shape[0] > 0
+    light_passes = pass_sums is not None
     has_normals = mesh.corner_normals.shape[0] > 0
     can_sample_lights = next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0
     strat = stratified and depth < STRATIFIED_BOUNCES
@@ -572,7 +580,7 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
         if media.on:
             medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
                                      first_shadow, n_shadow)
-        if features and paths.feature_on[i] != 0:
+        if feature_albedo is not None and paths.feature_on[i] != 0:
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
         weights = (ONE, ZERO)
@@ -583,7 +591,7 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
                 add_colors(pass_sums, path, lobes, count, tables, neg(d), beta_in)
         kept = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
                                                        caustic, connect, mis_t),
-                     offset_origin(p, ng, eps, new_d), features, stats, media,
+                     offset_origin(p, ng, eps, new_d), feature_albedo, stats, media,
                      (tri, mat, entering, ng_f), clear)
         if light_passes:
             carry_pass_weights(out, n_out, kept, weights)
@@ -604,7 +612,7 @@ def facing_hit(mesh, paths, i, tri, b1, b2):
 
 
 @jit_inline
-def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, media,
+def go_on(out, n_out, paths, i, u_roulette, scattered, origin, feature_albedo, stats, media,
           surface, clear):
     """After Russian roulette, path i's next ray from origin (`scattered`: direction,
     throughput, ray kind, BSDF density, caustic state, light-vertex factor, distance since the
@@ -652,7 +660,7 @@ def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, 
     if media.on:
         medium.carry(media, paths.medium, i, out.medium, n_out, tri, mat, entering,
                      dot(new_d, ng_f) < 0.0)
-    if features:
+    if feature_albedo is not None:     # the render makes the denoising features
         out.feature_on[n_out] = paths.feature_on[i]
         for k in range(3):
             out.feature[n_out, k] = paths.feature[i, k]
@@ -663,11 +671,11 @@ def go_on(out, n_out, paths, i, u_roulette, scattered, origin, features, stats, 
 def shadow_rays(n, blocked, shadows, radiance, without, pass_sums, clamp):
     """Add the light of every shadow ray that nothing blocked (Embree: 0 where blocked),
     clamped (path_limits: direct for a light sample of the first hit), and when `without` has
-    rows their light without light vertices to it; when pass_sums has rows, to the light passes
+    rows their light without light vertices to it; when pass_sums is not None, to the light passes
     too (light_passes.add_shadow); to its light's group where radiance has group columns
     (light_groups.py)."""
     tracking = without.shape[0] > 0
-    light_passes = pass_sums.shape[0] > 0
+    light_passes = pass_sums is not None
     grouped = radiance.shape[1] > 3
     for j in range(n):
         if blocked[j] != 0:

@@ -418,15 +418,18 @@ scene = make_scene([(pos, tri, 0, nrm), (*quad((0, 0, -1), 3, 3), 1), (*quad((0,
                    world=[0.2, 0.2, 0.2], lights=[area, sun], spp=4, max_depth=6)
 for sampler in integrator.SAMPLERS:
     integrator.Renderer(scene, scene.settings(sampler=sampler)).render()
+integrator.Renderer(scene, scene.settings(denoising_passes=True)).render()
 print(before, count())
 """
 
 
 def test_warm_up_loads_every_kernel_signature_a_render_uses():
     """After warm_up, rendering a scene with every feature (node-graph materials and absorbing
-    media among them) compiles or loads nothing more: the one-time cost is all in warm_up (the
-    kernels' argument types do not depend on the scene). Before warm_up had a program material,
-    this scene compiled a signature more after it (the Python-facing ones counted: 6 -> 7)."""
+    media among them), also with the denoising features F12 makes by default, compiles or loads
+    nothing more: the one-time cost is all in warm_up (the kernels' argument types do not depend
+    on the scene). Before warm_up had a program material, this scene compiled a signature more
+    after it (the Python-facing ones counted: 6 -> 7); without warm_up's render with the
+    features, 7 -> 10."""
     import subprocess
     import sys
     from support.paths import ROOT as root
@@ -485,3 +488,29 @@ def test_time_limit_stops_after_whole_passes():
     assert np.isfinite(limited.mean()).all() and limited.mean().max() > 0
     full = Renderer(scene, scene.settings(spp=4, noise_threshold=0.0, threads=1)).render()
     assert not full.time_limited and full.spp == 4
+
+
+@pytest.mark.parametrize("passes", [False, True])
+def test_the_stages_get_none_for_what_a_render_does_not_make(monkeypatch, passes):
+    """Without the light passes and the denoising features the materials stage gets None for
+    their arrays, so it is compiled without their code (wavefront.py); with them, their rows."""
+    import inspect
+    from snell.tracer import wavefront
+    seen = []
+    real = wavefront.materials
+    names = inspect.signature(real.py_func)
+
+    def spy(*args):
+        given = names.bind(*args).arguments
+        seen.append((given["pass_sums"], given["feature_albedo"], given["feature_normal"]))
+        return real(*args)
+
+    monkeypatch.setattr(wavefront, "materials", spy)
+    scene = _lit_floor(3, {"name": "L", "kind": "point", "position": [0, 0, 1],
+                           "intensity": WHITE})
+    settings = scene.settings(spp=1, threads=1, denoising_passes=passes,
+                              light_passes=passes)
+    Renderer(scene, settings).render()
+    assert seen
+    for arrays in seen:
+        assert all((a is not None) == passes for a in arrays)
