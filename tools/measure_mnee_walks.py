@@ -193,6 +193,10 @@ def summary(records, show):
     bad = collections.Counter((r["bad vertex"], r["exit"] == "converged") for r in retried)
     print("  the refracted seeds by their first vertex that does not refract (-1: none), "
           "converged or not:", dict(bad))
+    done = [r["iterations"] for r in retried if r["exit"] == "converged"]
+    if done:
+        print("  iterations of the refracted seeds' converged walks: quantiles 50/90/99/100%",
+              np.percentile(done, [50, 90, 99, 100]))
     rejected = sum((r["rejected"] for r in retried if r["exit"] != "converged"),
                    collections.Counter())
     print("  the rejections of the refracted seeds' failing walks:", dict(rejected.most_common(6)))

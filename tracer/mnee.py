@@ -349,11 +349,11 @@ def start_probe(chains, c, bent):
 
 @jit
 def reseed(chains, n):
-    """Set each chain whose walk from a straight seed failed probing again with a refracted
-    seed; returns how many."""
+    """Set each chain whose walk from a straight seed of two or more vertices failed probing
+    again with a refracted seed (of one vertex it is the straight seed); returns how many."""
     m = 0
     for c in range(n):
-        if chains.state[c] == FAILED and chains.k[c] > 0 and chains.bent[c] == 0:
+        if chains.state[c] == FAILED and chains.k[c] > 1 and chains.bent[c] == 0:
             start_probe(chains, c, 1)
             m += 1
     return m
