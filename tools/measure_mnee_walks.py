@@ -70,6 +70,8 @@ class Walks:
             for c in again:
                 recs[c]["straight"] = (recs[c]["k"], recs[c]["exit"], recs[c]["seed"])
                 recs[c]["exit"], recs[c]["rejected"] = None, collections.Counter()
+                recs[c]["straight rays"] = recs[c].pop("rays", 0)
+                recs[c].pop("min step", None)
             self._probe(mnee, geometry, tables, mesh, mats, chains, n, recs)
             self._seeds(mesh, chains, again, recs)
             self._walk(mnee, geometry, tables, mesh, mats, chains, n, recs)
@@ -127,6 +129,8 @@ class Walks:
             steps = chains.step[:n].copy()
             mnee.newton_accept(tables, mesh, mats, chains, n, hit, hu, hv)
             for c, cause in causes.items():
+                recs[c]["min step"] = min(recs[c].get("min step", 1.0), chains.step[c])
+                recs[c]["rays"] = recs[c].get("rays", 0) + int(chains.k[c])
                 if chains.step[c] < steps[c]:
                     recs[c]["rejected"][cause] += 1
                     recs[c]["last"] = cause
@@ -197,6 +201,15 @@ def summary(records, show):
     if done:
         print("  iterations of the refracted seeds' converged walks: quantiles 50/90/99/100%",
               np.percentile(done, [50, 90, 99, 100]))
+        steps = [r.get("min step", 1.0) for r in retried if r["exit"] == "converged"]
+        print("  their smallest step: quantiles 0/1/10/50%", np.percentile(steps, [0, 1, 10, 50]))
+    for label, group in (("straight", [r for r in records if "straight" not in r]),
+                         ("refracted", retried)):
+        rays = collections.Counter()
+        for r in group:
+            rays["converged" if r["exit"] == "converged" else "failed"] += r.get("rays", 0)
+            rays["their straight walks (failed)"] += r.get("straight rays", 0)
+        print(f"  projection rays of the walks from {label} seeds: {dict(rays)}")
     rejected = sum((r["rejected"] for r in retried if r["exit"] != "converged"),
                    collections.Counter())
     print("  the rejections of the refracted seeds' failing walks:", dict(rejected.most_common(6)))
