@@ -128,3 +128,11 @@ def offset_origin(p, ng, eps, direction):
     """Move p off its surface along ng, to the side `direction` leaves to."""
     return madd(p, eps if dot(ng, direction) >= 0.0 else -eps, ng)
 
+
+@jit_inline
+def facing(d, ng, ns):
+    """(geometric normal, shading normal, entering) of a hit, the normals turned to face the
+    ray along d that met it (entering: it met the front face)."""
+    entering = dot(d, ng) < 0.0
+    side = 1.0 if entering else -1.0
+    return mul(ng, side), mul(ns, side), entering

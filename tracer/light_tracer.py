@@ -55,7 +55,7 @@ import numpy as np
 
 from . import specular
 from .camera import camera_connection
-from .geometry import hit_point, offset_origin
+from .geometry import facing, hit_point, offset_origin
 from .jit import jit, jit_inline
 from .light_groups import light_group
 from .lights.codes import (AREA, EMISSIVE_TRIANGLE, POINT, SUN, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
@@ -579,17 +579,12 @@ def specular_vertex(caustics, lights, mats, media, fresnel_model, limits, paths,
         return n_out              # a further diffuse vertex would exceed the depth
     p, ng, ns, eps = vertex
     mat, tri = surface[0], surface[1]
-    entering = dot(d, ng) < 0.0
-    side = 1.0 if entering else -1.0
-    ng_f, ns_f = mul(ng, side), mul(ns, side)
-    n = ns_f
-    if has_normals and kind != REFRACTION:
-        n = specular.valid_reflection_normal(ng_f, neg(d), ns_f)
+    ng_f, ns_f, entering = facing(d, ng, ns)
     key = paths.key[i]
     u_choice, _ = random_pair(key, 1 + bounces, 5)
-    new_d, weight, event, valid = specular.sample_specular(
-        kind, d, ng_f, n, entering, colors[0], colors[1], mats.ior[mat], fresnel_model,
-        u_choice)
+    new_d, weight, event, valid = specular.sample_at_hit(
+        kind, d, ng_f, ns_f, entering, has_normals, colors[0], colors[1], mats.ior[mat],
+        fresnel_model, u_choice)
     if not valid or event == specular.TIR_ABSORBED:
         return n_out
     if event == specular.TRANSMITTED:

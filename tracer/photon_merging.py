@@ -53,7 +53,7 @@ import numpy as np
 
 from . import specular
 from .camera import camera_ray
-from .geometry import hit_point, offset_origin
+from .geometry import facing, hit_point, offset_origin
 from .jit import jit, jit_inline
 from .material_kinds import DIFFUSE, GLASS, MIRROR, REFRACTION
 from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSION_BOUNCE,
@@ -61,7 +61,7 @@ from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSIO
 from .pixel_filter import position as filter_position
 from .sampler import mix, random_pair
 from .textures import surface_colors
-from .vec import dot, mul, neg, row, store
+from .vec import dot, neg, row, store
 
 MERGE_DOMAIN = np.uint64(0x5D5_3E26)   # keys camera walks' random numbers apart from others'
 ALPHA = 2.0 / 3.0                      # Knaus and Zwicker's alpha (the radius schedule)
@@ -315,9 +315,7 @@ def walk_bounce(mesh, mats, fresnel_model, limits, grid, m, walks, prim, u, v, o
         d = (np.float64(walks.d32[i, 0]), np.float64(walks.d32[i, 1]),
              np.float64(walks.d32[i, 2]))
         p, ng, ns, eps = hit_point(mesh, tri, np.float64(u[i]), np.float64(v[i]))
-        entering = dot(d, ng) < 0.0
-        side = 1.0 if entering else -1.0
-        ng_f, ns_f = mul(ng, side), mul(ns, side)
+        ng_f, ns_f, entering = facing(d, ng, ns)
         bounces = walks.bounces[i]
         color, trans_color = surface_colors(mats, mat, tri, np.float64(u[i]), np.float64(v[i]))
         beta = row(walks.beta, i)
@@ -335,13 +333,10 @@ def walk_bounce(mesh, mats, fresnel_model, limits, grid, m, walks, prim, u, v, o
             continue              # rough, Principled, node-tree or emitting: not merged
         if bounces + 3 > limits[0]:
             continue              # no room for this vertex, a diffuse one and a specular one
-        n = ns_f
-        if has_normals and kind != REFRACTION:
-            n = specular.valid_reflection_normal(ng_f, neg(d), ns_f)
         u_choice, _ = random_pair(walks.key[i], 1 + bounces, 0)
-        new_d, weight, event, valid = specular.sample_specular(
-            kind, d, ng_f, n, entering, color, trans_color, mats.ior[mat], fresnel_model,
-            u_choice)
+        new_d, weight, event, valid = specular.sample_at_hit(
+            kind, d, ng_f, ns_f, entering, has_normals, color, trans_color, mats.ior[mat],
+            fresnel_model, u_choice)
         if not valid or event == specular.TIR_ABSORBED:
             continue
         beta = (beta[0] * weight[0], beta[1] * weight[1], beta[2] * weight[2])

@@ -23,7 +23,7 @@ from .light_tracer import CAUSTIC, FIRST_DIFFUSE, NO_CAUSTIC
 from .light_vertices import camera_step_density
 from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
 from .lobes import DIFFUSE_EVENT, TRANSMIT_EVENT, TRANSPARENT_EVENT, bsdf_sample
-from .material_kinds import DIFFUSE, LAYERED, MIRROR, REFRACTION
+from .material_kinds import DIFFUSE, LAYERED, MIRROR
 from .path_limits import drops
 from .receivers import lambert_sampled, layered_lobes
 from .shader.closures import TOTAL_TRANSPARENCY
@@ -180,11 +180,8 @@ def scatter_specular(kind, has_normals, fresnel_model, u0, beta, caustic_in, d, 
     sample can compete, so the next ray has BSDF density 0. A sample of a kind of caustics the
     hit drops (path_limits.dropped_at) carries nothing: glass keeps the other kind's share, as
     Cycles' glass with that tint 0."""
-    n = ns_f
-    if has_normals and kind != REFRACTION:
-        n = specular.valid_reflection_normal(ng_f, neg(d), ns_f)
-    new_d, weight, event, valid = specular.sample_specular(
-        kind, d, ng_f, n, entering, color, trans_color, ior, fresnel_model, u0)
+    new_d, weight, event, valid = specular.sample_at_hit(
+        kind, d, ng_f, ns_f, entering, has_normals, color, trans_color, ior, fresnel_model, u0)
     count_specular(stats, event, valid)
     if drop != 0 and drops(drop, event == specular.TRANSMITTED):
         valid = False

@@ -10,9 +10,9 @@ from __future__ import annotations
 import math
 
 from .fresnel import fresnel
-from .jit import jit
+from .jit import jit, jit_inline
 from .material_kinds import GLASS, MIRROR, REFRACTION
-from .vec import add, dot, madd, mul, sub
+from .vec import add, dot, madd, mul, neg, sub
 
 # What a specular vertex did (for the integrator's counters).
 REFLECTED, TRANSMITTED, TIR, TIR_ABSORBED = range(4)
@@ -87,6 +87,19 @@ def sample_specular(kind, d, ng, n, entering, color, trans_color, ior, fresnel_m
     refracts = event == TRANSMITTED
     valid = cos_i > 0.0 and (dot(ng, out) < 0.0) == refracts and (dot(n, out) < 0.0) == refracts
     return out, weight, event, valid
+
+
+@jit_inline
+def sample_at_hit(kind, d, ng_f, ns_f, entering, has_normals, color, trans_color, ior,
+                  fresnel_model, u):
+    """sample_specular at a hit whose normals face the ray (geometry.facing), the shading
+    normal bent as Cycles bends it for a reflection where the mesh has shading normals (a
+    refraction-only surface's is not)."""
+    n = ns_f
+    if has_normals and kind != REFRACTION:
+        n = valid_reflection_normal(ng_f, neg(d), ns_f)
+    return sample_specular(kind, d, ng_f, n, entering, color, trans_color, ior, fresnel_model,
+                           u)
 
 
 @jit

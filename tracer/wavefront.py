@@ -32,7 +32,7 @@ from .counters import (CAUSTIC_SPLATS, CONNECTIONS, DEPTH_LIMITED, LENS_SAMPLES,
                        RR_KILLED, STATS, VERTEX_RAYS)
 from .direct_light import add_light
 from .features import add_feature_light, record_features, smooth_lobes
-from .geometry import FAR, hit_point, offset_origin
+from .geometry import FAR, facing, hit_point, offset_origin
 from .jit import jit, jit_inline
 from .light_groups import add_grouped, add_to_group, escape_group, lamp_group
 from .light_tracer import NO_CAUSTIC, caustic_after, left_to_light_paths
@@ -605,10 +605,9 @@ def facing_hit(mesh, paths, i, tri, b1, b2):
     the incoming ray, offset size, entering (the ray met the front face), ray direction)."""
     p, ng, ns, eps = hit_point(mesh, tri, b1, b2)
     d = row(paths.d, i)
-    # Face the normals towards the incoming ray (two-sided surfaces, inside of glass).
-    entering = dot(d, ng) < 0.0
-    side = 1.0 if entering else -1.0
-    return p, ng, mul(ng, side), mul(ns, side), eps, entering, d
+    # Normals facing the incoming ray (two-sided surfaces, the inside of glass).
+    ng_f, ns_f, entering = facing(d, ng, ns)
+    return p, ng, ng_f, ns_f, eps, entering, d
 
 
 @jit_inline
@@ -712,9 +711,8 @@ def shadow_transparency(mesh, mats, tables, n, pending, prim, u, v, t, shadows, 
              np.float64(shadows.d32[r, 2]))
         b1, b2 = np.float64(u[j]), np.float64(v[j])
         p, ng, ns, eps = hit_point(mesh, prim[j], b1, b2)
-        entering = dot(d, ng) < 0.0
-        side = 1.0 if entering else -1.0
-        run(mats, mat, regs, (p, mul(ng, side), mul(ns, side), neg(d), entering, prim[j], b1, b2,
+        ng_f, ns_f, entering = facing(d, ng, ns)
+        run(mats, mat, regs, (p, ng_f, ns_f, neg(d), entering, prim[j], b1, b2,
                               1 << LP_SHADOW, shadows.bounce[r], np.float64(t[j])),
             lobes, tables, mesh.corner_normals.shape[0] > 0)
         clear = total(regs, TOTAL_TRANSPARENCY)

@@ -226,3 +226,25 @@ def test_valid_reflection_normal_lifts_reflections_to_cycles_threshold():
     assert np.allclose(after[low], threshold[low], atol=1e-9)
     assert np.array_equal(bent[:, ~low], normal[:, ~low])
     assert np.allclose(np.linalg.norm(bent, axis=0), 1.0, atol=1e-12)
+
+
+def test_a_hit_faces_its_normals_to_the_ray_and_samples_with_them():
+    """geometry.facing turns both normals towards the ray (a back face: not entering), and
+    sample_at_hit samples with the shading normal bent for a reflection only where the mesh has
+    shading normals and the surface reflects (not refraction-only)."""
+    from snell.tracer.geometry import facing
+    s = 1.0 / math.sqrt(1.0 + 0.6 ** 2)
+    ng, ns = (0.0, 0.0, 1.0), (-0.6 * s, 0.0, s)
+    d = (0.8, 0.0, 0.6)                        # from below: meets the back face
+    ng_f, ns_f, entering = facing(d, ng, ns)
+    assert not entering and ng_f == (-0.0, -0.0, -1.0) and ns_f == tuple(-c for c in ns)
+    assert facing((0.0, 0.0, -1.0), ng, ns) == (ng, ns, True)
+    white = (1.0, 1.0, 1.0)
+    bent = specular.valid_reflection_normal(ng_f, tuple(-c for c in d), ns_f)
+    assert bent != ns_f                        # this grazing view needs the bend
+    for kind, normals, n in ((MIRROR, True, bent), (MIRROR, False, ns_f),
+                             (GLASS, True, bent), (REFRACTION, True, ns_f)):
+        got = specular.sample_at_hit(kind, d, ng_f, ns_f, entering, normals, white, white, 1.5,
+                                     fresnel.EXACT, 0.3)
+        assert got == specular.sample_specular(kind, d, ng_f, n, entering, white, white, 1.5,
+                                               fresnel.EXACT, 0.3), (kind, normals)
