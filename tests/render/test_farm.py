@@ -365,6 +365,7 @@ def test_the_light_groups_of_passes_on_the_cluster_are_the_local_render(client, 
     assert same_group_images(local, merged)
 
 
+@pytest.mark.slow     # 85 s; the same data paths on the cluster are held by the client tests above
 def test_render_workers_writes_the_local_alpha_passes_and_denoised_image(tmp_path):
     """`snell render --workers 2` with a transparent film, a Holdout, --denoise and --passes
     writes the local render's EXR: every channel (R, G, B, A, samples, the noisy image, the
