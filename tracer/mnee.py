@@ -43,7 +43,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .geometry import hit_offset, hit_point, offset_origin
+from .direct_light import add_light
+from .geometry import facing, hit_offset, hit_point, offset_origin
 from .jit import jit, jit_inline
 from .lights.codes import VISIBLE_TRANSMISSION, seen_by
 from .lights.point import point_lamp_radiance, spot_attenuation
@@ -57,7 +58,7 @@ from .sampler import mix, random_pair
 from .sampling import orthonormal_basis, sample_uniform_disk
 from .specular import refract
 from .textures import surface_colors
-from .vec import dot, madd, mul, neg, row, store, sub, vmul
+from .vec import dot, length, madd, mul, neg, row, store, sub, vmul
 
 CASTER, RECEIVER = 1, 2          # MneeTables.tri_flags bits
 # A path's state (Paths.mnee, LightPaths.mnee): NO_CHAIN, or FROM_RECEIVER + j after a receiver
@@ -300,8 +301,7 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
             continue
         b1, b2 = np.float64(u[i]), np.float64(v[i])
         p, ng, ns, eps = hit_point(mesh, tri, b1, b2)
-        d = row(paths.d, i)
-        side = 1.0 if dot(d, ng) < 0.0 else -1.0
+        ng_f, ns_f, _ = facing(row(paths.d, i), ng, ns)
         key = mix(paths.key[i], MNEE_DOMAIN)
         u_pick, _ = random_pair(key, paths.sample[i], 2 * depth)
         u0, u1 = random_pair(key, paths.sample[i], 2 * depth + 1)
@@ -309,15 +309,15 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
         pmf = cdf[lamp] - (cdf[lamp - 1] if lamp > 0 else 0.0)
         c = row(lights.point_pos, lamp)
         r = lights.point_radius[lamp]
-        facing, _ = unit_towards(c, p)
-        ta, tb = orthonormal_basis(facing)
+        toward, _ = unit_towards(c, p)
+        ta, tb = orthonormal_basis(toward)
         dx, dy = sample_uniform_disk(u0, u1)
         y = madd(madd(c, dx * r, ta), dy * r, tb)
         color, _ = surface_colors(mats, mat, tri, b1, b2)
         chains.path[n] = paths.path[i]
         store(chains.x0, n, p)
-        store(chains.ng0, n, mul(ng, side))
-        store(chains.ns0, n, mul(ns, side))
+        store(chains.ng0, n, ng_f)
+        store(chains.ns0, n, ns_f)
         chains.eps0[n] = eps
         store(chains.weight, n, vmul(row(paths.beta, i), color))
         chains.limit[n] = clamp_limit(clamp, bounce == 0)
@@ -344,7 +344,7 @@ def start_probe(chains, c, bent):
     origin = offset_origin(x0, row(chains.ng0, c), chains.eps0[c], w)
     store(chains.ray_o, c, origin)
     store(chains.ray_d, c, w)
-    chains.ray_t[c] = math.sqrt(dot(sub(y, origin), sub(y, origin)))
+    chains.ray_t[c] = length(sub(y, origin))
 
 
 @jit
@@ -413,7 +413,7 @@ def probe_hits(tables, mesh, mats, chains, m, prim, u, v, t):
         origin = offset_origin(p, ng, eps, d)
         store(chains.ray_o, c, origin)
         rest = sub(row(chains.y, c), origin)
-        chains.ray_t[c] = math.sqrt(dot(rest, rest))
+        chains.ray_t[c] = length(rest)
         if dot(rest, d) <= 0.0:
             end_probe(chains, c)
 
@@ -434,13 +434,13 @@ def seed_direction(d, n, ng, ior):
     geometric normal ng, index ior): d refracted by Snell's law, or d itself where the light
     would be totally reflected."""
     wi = neg(d)
-    facing = n if dot(wi, ng) > 0.0 else neg(n)
-    cos_i = dot(wi, facing)
+    n_wi = n if dot(wi, ng) > 0.0 else neg(n)
+    cos_i = dot(wi, n_wi)
     eta = relative_ior(wi, ng, ior)
     g = 1.0 - (1.0 - cos_i * cos_i) / (eta * eta)
     if cos_i <= 0.0 or g <= 0.0:
         return d
-    return refract(d, facing, eta, cos_i, math.sqrt(g))
+    return refract(d, n_wi, eta, cos_i, math.sqrt(g))
 
 
 @jit
@@ -519,7 +519,7 @@ def newton_accept(tables, mesh, mats, chains, n, prim, u, v):
             set_vertex(chains, c, i, mesh, mats, chains.new_prim[c, i], chains.new_u[c, i],
                        chains.new_v[c, i])
             shift = sub(vertex_row(chains.pos[c], i), before)
-            moved = max(moved, math.sqrt(dot(shift, shift)))
+            moved = max(moved, length(shift))
         if moved < MIN_PROGRESS:
             chains.state[c] = FAILED     # stuck (at a mesh's edge): no nearer solution
             continue
@@ -612,11 +612,9 @@ def deliver(lights, fresnel_model, chains, m, blocked, radiance, without):
         if not (light[0] > 0.0 or light[1] > 0.0 or light[2] > 0.0):
             continue
         light = clamp_light(light, chains.limit[c])
-        path = chains.path[c]
-        for q in range(3):
-            radiance[path, q] += light[q]
-            if without.shape[0] > 0:
-                without[path, q] += light[q]
+        add_light(radiance, chains.path[c], light)
+        if without.shape[0] > 0:
+            add_light(without, chains.path[c], light)
 
 
 @jit_inline

@@ -410,9 +410,9 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
     hit's lobes (lobes.py), `tables` its albedo tables, `params` for a textured Principled
     BSDF's parameters; `without` as for emitters. Paths that still carry the denoising
     features apply this hit to them (features.py), writing into the rows of feature_albedo and
-    feature_normal (None: the render makes no features). In a scene with media, the shadow rays are attenuated
-    in the media they cross and the next rays carry their path's stack of media, entered or
-    left where they pass through the surface (media.py). Hits on shader programs are left for
+    feature_normal (None: the render makes no features). In a scene with media, the shadow
+    rays are attenuated in the media they cross and the next rays carry their path's stack of
+    media, entered or left where they pass through the surface (media.py). Hits on shader programs are left for
     program_materials, their rows written into `programs` (as pbrt-v4 queues each material
     type for a kernel of its own: this one stays the size it was without programs). When
     pass_sums is not None, hits add to the light passes (record_passes). A lamp that casts no
@@ -482,8 +482,7 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         if kind != LAYERED and (with_features or light_passes and paths.bounce[i] == 0):
             count = smooth_lobes(kind, lobes, tables, neg(d), ns_f, entering, color,
                                  trans_color, mats.ior[mat])
-        # The None test first: Numba leaves the call out only on a test of the argument.
-        if feature_albedo is not None and with_features:
+        if with_features:
             record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
                             feature_normal)
         if light_passes and paths.bounce[i] == 0:
