@@ -150,9 +150,11 @@ def _reference(name):
 def test_suns_and_area_lamps_agree_with_the_path_traced_reference(name, lamp):
     """The pool (16x16) under a sun of angle 0.2 rad, and under a 0.5 m square area lamp, as
     caustics lights, 4 seeds x 256 spp, against Snell's own reference without the flags (the
-    path tracer finding the lamp through the water, and the light tracer; 16 x 2048 spp):
-    _assert_consistent's bounds. Measured: see docs/measurements.md. Deliberate errors caught:
-    the sun's radiance 5% high in the stage, the area lamp's density per area 5% low."""
+    path tracer finding the lamp through the water, and the light tracer; 131072 spp):
+    _assert_consistent's bounds. Measured: the sun z RMS 1.17, mean ratio 0.996 +- 0.006; the
+    area lamp 1.25, 1.005 +- 0.005. Deliberate error caught: the lamp 5% brighter in the
+    rendered scene, as a 5% error in the stage's lamp radiance (z RMS 1.74 and 1.81, mean
+    ratios 1.046 and 1.055)."""
     reference, reference_var = _reference(name)
     scene = shadow_caustics(pool(resolution=(16, 16), lamp=lamp))
     assert Renderer(scene).stages()["shadow caustics"][0]
