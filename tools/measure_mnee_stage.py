@@ -119,7 +119,8 @@ def main():
             it = np.array(counts[label])
             if len(it):
                 print(f"  {label}: {len(it) // args.runs} walks a run, iterations mean "
-                      f"{it.mean():.2f}, median {np.median(it):.0f}, 90% {np.quantile(it, 0.9):.0f}")
+                      f"{it.mean():.2f}, median {np.median(it):.0f}, 90% {np.quantile(it, 0.9):.0f}, "
+                      f"99% {np.quantile(it, 0.99):.0f}, 99.9% {np.quantile(it, 0.999):.0f}")
         print(f"  newton passes {counts['passes'] // args.runs} a run, chains visited "
               f"{counts['chain visits'] // args.runs}, of them solving "
               f"{counts['solving visits'] // args.runs}")
