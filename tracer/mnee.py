@@ -179,6 +179,14 @@ def left_to_mnee(lamp_flags, state, lamp):
 
 
 @jit_inline
+def escape_left_to_mnee(lights, lamp_flags, state, k):
+    """Whether a path in this state that escaped leaves light k of lights.dispatch's
+    lights_at_escape (the world first where it gives light, then the suns) to the stage."""
+    sun = k - 1 if lights.has_world else k
+    return sun >= 0 and left_to_mnee(lamp_flags, state, lamp_row(lights, SUN, sun))
+
+
+@jit_inline
 def lamp_row(lights, kind, i):
     """Row of MneeTables.lamp of light i of this codes kind (lights.dispatch.lamps_to_cross's
     index for area, point and spot lamps, the suns after them; -1 for other kinds)."""

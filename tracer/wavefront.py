@@ -38,13 +38,12 @@ from .light_groups import add_grouped, add_to_group, escape_group, lamp_group
 from .light_tracer import NO_CAUSTIC, caustic_after, left_to_light_paths
 from .light_passes import (ONE, ZERO, add_colors, add_found, add_shadow, pass_weights,
                            shadow_weights)
-from .lights.codes import (SUN, VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
-                           VISIBLE_TRANSMISSION)
+from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
 from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lights_at_escape,
                               triangle_hit)
 from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
 from .media import empty_stacks
-from .mnee import NO_CHAIN, lamp_row, left_to_mnee, mnee_after
+from .mnee import NO_CHAIN, escape_left_to_mnee, left_to_mnee, mnee_after
 from . import media as medium
 from .path_limits import (DIFFUSE_BOUNCE, NO_BOUNCES, add_bounce, bounce_kind, clamp_light,
                           clamp_limit, dropped_at, kind_count, past_last_bounce)
@@ -278,9 +277,7 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
             first, end = lights_at_escape(lights, not (light_tracers and world_caustics
                                                        or clear_film), emitters_count)
             for k in range(first, end):
-                sun = k - 1 if lights.has_world else k
-                if sun >= 0 and left_to_mnee(mnee_lamps, paths.mnee[i], lamp_row(lights, SUN,
-                                                                                   sun)):
+                if escape_left_to_mnee(lights, mnee_lamps, paths.mnee[i], k):
                     continue
                 found, light, pdf_light = light_at_escape(lights, k, d, kind)
                 if found:
