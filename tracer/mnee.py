@@ -8,8 +8,7 @@ stage samples a caustics lamp and on it a point y (point and spot lamps of radiu
 that faces the vertex x0; area lamps of spread > 0: a point uniform on the lamp) or, for a sun,
 a direction (uniform in its cone; a sun of angle 0: its one direction, and y stands for that
 direction, manifold.py's fixed direction), follows the segment x0 y collecting the smooth
-refracting
-triangles of casters it crosses (other objects are passed, as in Cycles; at most
+refracting triangles of casters it crosses (other objects are passed, as in Cycles; at most
 manifold.MAX_CASTERS), walks that seed chain onto the specular manifold by Newton's method (each
 step's points projected back onto their objects by a ray from the vertex before them, halving
 the step where a projection misses or a vertex stops refracting), where that walk fails walks
@@ -28,19 +27,18 @@ path "caustics lamp, one or more refractions at caster triangles, a diffuse rece
 (wavefront.Paths.mnee, mnee_after) counts the caster refractions since its last receiver vertex;
 wavefront.emitters gives it no light from a caustics lamp then, whether it crosses the lamp or
 escapes into a sun's disc (Cycles skips caustic lamps after a caster too, but also after
-reflections, which MNEE does not render). A light path's state
-(light_tracer.LightPaths.mnee) counts the same from its lamp, and the light tracer neither
-connects nor stores a photon at a receiver after them. Delta lamps: a sun of angle 0 is the
-stage's where the file flags it, as in Cycles (no camera path finds it, and the light tracer,
-which then leaves the stage its paths, cannot render them seen through glass); point lamps of
-radius 0 and area lamps of spread 0 stay the light tracer's alone. What MNEE itself leaves out
-is its bias:
-one solution per lamp sample (where waves fold the light, several paths join x0 and y, and the
-walk finds the one nearest its seed), and none where the seed segment misses the casters or
-neither walk converges. The second seed is Snell's: Cycles and Hanika et al. walk from the
-straight one only, and where that segment crosses the edge of a thick wall (a tube's, twice its
-outer surface) no path with those vertices exists, so that walk can only fail; the refracted
-seed has the vertices a path through the wall has (docs/measurements.md, the tumbler).
+reflections, which MNEE does not render). A light path's state (light_tracer.LightPaths.mnee)
+counts the same from its lamp, and the light tracer neither connects nor stores a photon at a
+receiver after them. Delta lamps: a sun of angle 0 is the stage's where the file flags it, as in
+Cycles (no camera path finds it, and the light tracer, which then leaves the stage its paths,
+cannot render them seen through glass); point lamps of radius 0 and area lamps of spread 0 stay
+the light tracer's alone. What MNEE itself leaves out is its bias: one solution per lamp sample
+(where waves fold the light, several paths join x0 and y, and the walk finds the one nearest its
+seed), and none where the seed segment misses the casters or neither walk converges. The second
+seed is Snell's: Cycles and Hanika et al. walk from the straight one only, and where that segment
+crosses the edge of a thick wall (a tube's, twice its outer surface) no path with those vertices
+exists, so that walk can only fail; the refracted seed has the vertices a path through the wall
+has (docs/measurements.md, the tumbler).
 
 Runs only where the flags name a receiver, a caster and a lamp, light sampling is on, and the
 render has no absorbing media, light passes or light groups (its light is no one pass's).
@@ -255,12 +253,12 @@ def new_chains(n: int) -> Chains:
     f = lambda *shape: np.zeros(shape)                    # noqa: E731
     i = lambda *shape: np.zeros(shape, np.int64)          # noqa: E731
     return Chains(i(n), f(n, 3), f(n, 3), f(n, 3), f(n), f(n, 3), f(n), i(n), i(n), i(n), f(n, 3),
-                  f(n, 2, 3),
-                  f(n), i(n), i(n), i(n), i(n), i(n, v), f(n, v, 3), f(n, v, 3), f(n, v, 3),
-                  f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v), f(n, v, 3), f(n),
-                  i(n), f(n, 2 * v), f(n), f(n, 3), f(n, 3), f(n), i(n), i(n, v), f(n, v),
-                  f(n, v), np.zeros((m, 3), np.float32), np.zeros((m, 3), np.float32),
-                  np.zeros(m, np.float32), i(m), f(2 * v, SYSTEM_COLUMNS))
+                  f(n, 2, 3), f(n), i(n), i(n), i(n), i(n), i(n, v), f(n, v, 3), f(n, v, 3),
+                  f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v),
+                  f(n, v, 3), f(n), i(n), f(n, 2 * v), f(n), f(n, 3), f(n, 3), f(n), i(n),
+                  i(n, v), f(n, v), f(n, v), np.zeros((m, 3), np.float32),
+                  np.zeros((m, 3), np.float32), np.zeros(m, np.float32), i(m),
+                  f(2 * v, SYSTEM_COLUMNS))
 
 
 _local = threading.local()
@@ -341,8 +339,9 @@ def pick_lamp(cdf, u):
 @jit
 def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, active, paths, prim,
                 u, v, chains):
-    """A chain per kept hit (rows `active`) on a diffuse receiver: a lamp point y sampled on
-    a caustics lamp's disk facing the hit, and the seed ray towards it. Returns the count."""
+    """A chain per kept hit (rows `active`) on a diffuse receiver: a caustics lamp picked, a
+    point y on it (a sun's direction) sampled (sample_lamp), and the seed ray towards it.
+    Returns the count."""
     n = 0
     cdf = tables.pick_cdf
     for j in range(n_active):
