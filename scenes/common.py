@@ -165,6 +165,16 @@ def point_lamp(name, location, intensity, radius):
     return place(name, data, location)
 
 
+def sun(name, direction, irradiance, angle=0.0):
+    """A sun lamp shining along `direction` (its travel direction) with `irradiance` W/m^2 and
+    this angle (radians; 0: a direction)."""
+    data = bpy.data.lights.new(name, "SUN")
+    data.energy = irradiance
+    data.angle = angle
+    return place(name, data, (0.0, 0.0, 0.0),
+                 Vector(direction).to_track_quat("-Z", "Y").to_euler())
+
+
 def area_lamp(name, energy, size, location, rotation):
     """A square area lamp of energy watts and size metres."""
     data = bpy.data.lights.new(name, "AREA")

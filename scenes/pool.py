@@ -19,15 +19,25 @@ LAMP_POSITION, LAMP_RADIUS, LAMP_INTENSITY = (0.3, 0.2, 2.5), 0.25, 20.0   # W/s
 CAMERA, TARGET = (0.0, -0.25, 1.9), (0.0, 0.0, 0.0)
 
 
-def build(path):
-    """Build the scene and save it to path."""
+# The lamp's alternatives (tests/validation/test_mnee_compare.py): a sun of angle 0 of about the
+# point lamp's irradiance at the water, and a square area lamp where the point lamp is.
+SUN_DIRECTION, SUN_IRRADIANCE = (-0.12, -0.08, -1.0), 3.0
+AREA_SIZE, AREA_POWER = 0.5, 78.5          # W: radiance P / (pi A) = 100
+
+
+def build(path, light="point"):
+    """Build the scene and save it to path; light: "point", "sun" or "area"."""
     scene = common.new_scene((0.0, 0.0, 0.0))
     floor = common.floor("Floor", POOL_HALF, common.material("Floor", "diffuse",
                                                              (0.8, 0.8, 0.8)))
     water = common.material("Water", "glass", (1.0, 1.0, 1.0), IOR=1.33, Roughness=0.0)
     positions, triangles, _ = water_surface()
     water = common.mesh_object("Water", positions, triangles, water, smooth=True)
-    lamp = common.point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY, LAMP_RADIUS)
+    lamp = {"point": lambda: common.point_lamp("Lamp", LAMP_POSITION, LAMP_INTENSITY,
+                                               LAMP_RADIUS),
+            "sun": lambda: common.sun("Sun", SUN_DIRECTION, SUN_IRRADIANCE),
+            "area": lambda: common.area_lamp("Area", AREA_POWER, AREA_SIZE, LAMP_POSITION,
+                                             None)}[light]()
     common.shadow_caustics(lamp, [water], [floor])
     common.camera(scene, CAMERA, TARGET, lens=50.0)
     return common.save(path)

@@ -16,7 +16,6 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bpy  # noqa: E402
 import common  # noqa: E402
-from mathutils import Vector  # noqa: E402
 from sds_geometry import TUBE_LIFT, tube  # noqa: E402
 
 SUN_DIRECTION, SUN_IRRADIANCE = (0.25, -0.8, -0.55), 3.0    # travel direction; W/m^2
@@ -40,15 +39,6 @@ def icosphere(name, location, radius, mat):
     return obj
 
 
-def sun(name, direction, irradiance, angle=0.0):
-    """A sun lamp shining along `direction` (its travel direction) with `irradiance` W/m^2."""
-    data = bpy.data.lights.new(name, "SUN")
-    data.energy = irradiance
-    data.angle = angle
-    return common.place(name, data, (0.0, 0.0, 0.0),
-                        Vector(direction).to_track_quat("-Z", "Y").to_euler())
-
-
 def glass_pair(glass):
     """The tumbler (left) and the icosphere (right) on the floor."""
     positions, triangles, normals = tube(outer=0.22, inner=0.18, height=0.45)
@@ -65,7 +55,7 @@ def build(path):
     floors = checker_floor()
     glass = common.material("Glass", "glass", (1.0, 1.0, 1.0), IOR=1.5, Roughness=0.0)
     casters = glass_pair(glass)
-    lamp = sun("Sun", SUN_DIRECTION, SUN_IRRADIANCE)
+    lamp = common.sun("Sun", SUN_DIRECTION, SUN_IRRADIANCE)
     common.shadow_caustics(lamp, casters, floors)
     common.camera(scene, CAMERA, TARGET, lens=40.0)
     return common.save(path)

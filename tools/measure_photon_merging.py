@@ -7,7 +7,8 @@ sds_scenes.py): the path-traced references and the error of merged renders again
     .venv/bin/python tools/measure_photon_merging.py measure [--scene pool] [--spp-per-pass 16]
         [--passes 1,4,16,64] [--seeds 4] [--light-paths 1.0] [--alpha 0.6667] [--radius 0]
 
-`reference` renders Snell's own hybrid (path tracer and light tracer, merging off: unbiased) at
+Scenes: pool, tumbler, and the pool under a sun (pool_sun) or an area lamp (pool_area) instead of
+its round lamp. `reference` renders Snell's own hybrid (path tracer and light tracer, merging off: unbiased) at
 16x16 with 16 independent batches and writes the mean and the variance of the mean to
 tests/references/sds_<scene>.npz (--merge-with adds an earlier file's samples, weighted by
 their spp). `measure` renders K passes of --spp-per-pass samples each, merging on and off, over
@@ -26,12 +27,19 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESOLUTION = (16, 16)
+# The pool_sun reference's sun (radians): wide enough for the path tracer to find it through
+# the water (tests/render/test_mnee.py holds manifold next-event estimation against it).
+POOL_SUN_ANGLE = 0.2
 
 
 def scene_of(name):
     """The scene builder of a name (tests/support/sds_scenes.py)."""
     sys.path[:0] = [os.path.join(ROOT, "tests"), os.path.join(ROOT, "scenes")]
     from support import sds_scenes
+    lamp = {"pool_sun": sds_scenes.pool_sun(POOL_SUN_ANGLE),
+            "pool_area": sds_scenes.pool_area()}.get(name)
+    if lamp:
+        return sds_scenes.pool(resolution=RESOLUTION, lamp=lamp)
     return {"pool": sds_scenes.pool, "tumbler": sds_scenes.tumbler}[name](resolution=RESOLUTION)
 
 

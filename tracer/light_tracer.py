@@ -69,7 +69,7 @@ from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSIO
 from . import media as medium
 from .photon_merging import record_photon
 from .media import empty_stacks
-from .mnee import FROM_RECEIVER, NO_CHAIN, RECEIVER, mnee_after
+from .mnee import FROM_RECEIVER, NO_CHAIN, RECEIVER, lamp_row, mnee_after
 from .sampler import mix, random_pair
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
                        sample_uniform_disk, sample_uniform_sphere)
@@ -402,8 +402,8 @@ def light_path_key(base, index):
 def emit_light_paths(caustics, lights, mesh, media, seed, pass_index, start, n, paths,
                      mnee_lamps):
     """Light paths start .. start + n of a pass leave their emitters (zero weight: left out),
-    inside the media around them (media.py) in a scene with media; those from the point lamps
-    manifold next-event estimation samples (mnee_lamps, lamps_to_cross's index; empty: none)
+    inside the media around them (media.py) in a scene with media; those from the lamps
+    manifold next-event estimation samples (mnee_lamps, mnee.lamp_row's index; empty: none)
     start a chain (LightPaths.mnee)."""
     # Chained hashes: a single mix of seed ^ pass would give (seed 0, pass 1) the keys of
     # (seed 1, pass 0).
@@ -421,9 +421,10 @@ def emit_light_paths(caustics, lights, mesh, media, seed, pass_index, start, n, 
         if not (beta[0] > 0.0 or beta[1] > 0.0 or beta[2] > 0.0):
             continue
         set_light_path(paths, kept, key, origin, w, beta, 0, e)
-        if (mnee_lamps.shape[0] > 0 and caustics.emitter_kind[e] == POINT
-                and mnee_lamps[lights.area_area.shape[0] + caustics.emitter_index[e]]):
-            paths.mnee[kept] = FROM_RECEIVER
+        if mnee_lamps.shape[0] > 0:
+            lamp = lamp_row(lights, caustics.emitter_kind[e], caustics.emitter_index[e])
+            if lamp >= 0 and mnee_lamps[lamp]:
+                paths.mnee[kept] = FROM_RECEIVER
         if media.on:
             start_stack(caustics, lights, media, e, paths.medium, kept)
         kept += 1

@@ -14,8 +14,15 @@ x0 y) onto the manifold; the implicit function theorem then gives how x1 moves w
 determinant is the generalized geometry term that turns the lamp's area density into x0's
 solid angle.
 
-Each formula is one scalar function over tuples; the chain's linear algebra uses a scratch
-matrix of 2k rows (k at most MAX_CASTERS), since compiled code allocates nothing.
+A sun's chain ends in a fixed direction instead of a point y (Cycles' light_fixed_direction):
+the last vertex's wo is that direction whatever the vertex does, and the lamp's two coordinates
+are the direction's own along two unit tangents of it, so the transfer determinant is per unit
+of the sun's solid angle and the geometry term dw0/dw(sun).
+
+Each formula is one scalar function over tuples. The chain's Jacobian is block tridiagonal (a
+vertex's constraint depends on its neighbours only): a scratch of 2k rows (k at most
+MAX_CASTERS, since compiled code allocates nothing) holds each vertex's three 2x2 blocks and
+right-hand sides (SYSTEM_COLUMNS), and a block LU solves it in O(k).
 """
 from __future__ import annotations
 
@@ -26,8 +33,14 @@ from .jit import jit_inline
 from .vec import add, cross, dot, madd, mul, neg, sub
 
 MAX_CASTERS = 6          # refracting vertices in a chain (Cycles' MNEE_MAX_CAUSTIC_CASTERS)
-# Below this |pivot| the chain's Jacobian counts as singular (no solution to walk to).
+# Below this |determinant| of a block of the factorised Jacobian the chain counts as singular
+# (no solution to walk to).
 SINGULAR = 1e-12
+# The system's columns, per vertex's two rows: the constraint's derivatives in the previous
+# vertex's coordinates, its own, the next vertex's, the lamp's (last vertex only: dC/dy), and
+# the constraint; solve_blocks leaves the solutions in DY's and C's columns.
+BEFORE, HERE, AFTER, DY, C = 0, 2, 4, 6, 8
+SYSTEM_COLUMNS = 9
 
 
 @jit_inline
@@ -36,6 +49,15 @@ def unit_towards(p, q):
     d = sub(q, p)
     length = math.sqrt(dot(d, d))
     return mul(d, 1.0 / length), length
+
+
+@jit_inline
+def toward_next(p, p_next, fixed):
+    """(unit direction from p to the next vertex, distance): p_next is that direction itself, at
+    distance 1, where fixed (a sun's)."""
+    if fixed:
+        return p_next, 1.0
+    return unit_towards(p, p_next)
 
 
 @jit_inline
@@ -65,12 +87,13 @@ def half_vector(wi, wo, eta):
 
 
 @jit_inline
-def constraint(p_prev, p, p_next, n, a, ng, ior):
+def constraint(p_prev, p, p_next, n, a, ng, ior, fixed):
     """The constraint at vertex p (shading normal n, tangent a of its triangle, geometric normal
-    ng, index ior) between p_prev and p_next: the half vector's components (along s, along t)
-    of the shading frame; (0, 0) where the path refracts by Snell's law."""
+    ng, index ior) between p_prev and p_next (a direction where fixed): the half vector's
+    components (along s, along t) of the shading frame; (0, 0) where the path refracts by
+    Snell's law."""
     wi, _ = unit_towards(p, p_prev)
-    wo, _ = unit_towards(p, p_next)
+    wo, _ = toward_next(p, p_next, fixed)
     h, _ = half_vector(wi, wo, relative_ior(wi, ng, ior))
     s, t, _ = shading_frame(n, a)
     return dot(h, s), dot(h, t)
@@ -108,13 +131,17 @@ def _moved_end(wi, li, wo, lo, eta, h, h_length, s, t, ei, eo):
 
 
 @jit_inline
-def constraint_derivatives(p_prev, p, p_next, n, dn_da, dn_db, a, b, ng, ior, prev_ab, next_ab):
+def constraint_derivatives(p_prev, p, p_next, n, dn_da, dn_db, a, b, ng, ior, prev_ab, next_ab,
+                           fixed):
     """The constraint's derivatives at vertex p (constraint's arguments; dn_da, dn_db the
     shading normal's derivatives along its triangle's unit tangents a and b) with respect to
     the tangent coordinates of p_prev (along prev_ab = (a', b')), of p itself and of p_next
-    (along next_ab): three 2x2 blocks, each (dC0/du, dC0/dv, dC1/du, dC1/dv)."""
+    (along next_ab; where fixed, p_next is a direction and next_ab its unit tangents): three
+    2x2 blocks, each (dC0/du, dC0/dv, dC1/du, dC1/dv)."""
     wi, li = unit_towards(p, p_prev)
-    wo, lo = unit_towards(p, p_next)
+    wo, lo = toward_next(p, p_next, fixed)
+    # A fixed direction does not turn when p moves (its far end is at infinity).
+    lo_self = math.inf if fixed else lo
     eta = relative_ior(wi, ng, ior)
     h, h_length = half_vector(wi, wo, eta)
     s, t, s_length = shading_frame(n, a)
@@ -125,8 +152,8 @@ def constraint_derivatives(p_prev, p, p_next, n, dn_da, dn_db, a, b, ng, ior, pr
     nu = _moved_end(wi, li, wo, lo, eta, h, h_length, s, t, zero, next_ab[0])
     nv = _moved_end(wi, li, wo, lo, eta, h, h_length, s, t, zero, next_ab[1])
     # p itself moves both directions' near ends (their far ends by -e), the normal and frame.
-    su = _moved_end(wi, li, wo, lo, eta, h, h_length, s, t, neg(a), neg(a))
-    sv = _moved_end(wi, li, wo, lo, eta, h, h_length, s, t, neg(b), neg(b))
+    su = _moved_end(wi, li, wo, lo_self, eta, h, h_length, s, t, neg(a), neg(a))
+    sv = _moved_end(wi, li, wo, lo_self, eta, h, h_length, s, t, neg(b), neg(b))
     dsu, dtu = _frame_derivative(n, dn_da, a, s, s_length)
     dsv, dtv = _frame_derivative(n, dn_db, a, s, s_length)
     return ((pu[0], pv[0], pu[1], pv[1]),
@@ -166,34 +193,66 @@ def _normal_change(n, length, d1, d2, e1, e2, g11, g12, g22, det, e):
 
 
 @jit_inline
-def solve_in_place(m, rows, columns):
-    """Gaussian elimination with partial pivoting of the system in m[:rows, :rows] with
-    right-hand sides m[:rows, rows:columns], the solutions left there; returns the
-    determinant of the square part (0 where singular)."""
+def _block(m, row, col):
+    """The 2x2 block at m[row:row + 2, col:col + 2] (row-major 4-tuple)."""
+    return m[row, col], m[row, col + 1], m[row + 1, col], m[row + 1, col + 1]
+
+
+@jit_inline
+def _times(x, y):
+    """The product of 2x2 blocks x y."""
+    return (x[0] * y[0] + x[1] * y[2], x[0] * y[1] + x[1] * y[3],
+            x[2] * y[0] + x[3] * y[2], x[2] * y[1] + x[3] * y[3])
+
+
+@jit_inline
+def _sub4(x, y):
+    """x - y of 2x2 blocks."""
+    return x[0] - y[0], x[1] - y[1], x[2] - y[2], x[3] - y[3]
+
+
+@jit_inline
+def _apply(m, row, block, col):
+    """block times the 2-vector m[row:row + 2, col]."""
+    return (block[0] * m[row, col] + block[1] * m[row + 1, col],
+            block[2] * m[row, col] + block[3] * m[row + 1, col])
+
+
+@jit_inline
+def solve_blocks(m, k):
+    """Solve the block tridiagonal system that fill_system left in m[:2k] (block LU, no
+    pivoting across blocks: the Thomas algorithm on 2x2 blocks), its three right-hand sides
+    (DY's two, C) replaced by the solutions; returns the Jacobian's determinant (0 where a
+    factorised block is singular)."""
     det = 1.0
-    for c in range(rows):
-        pivot = c
-        for r in range(c + 1, rows):
-            if abs(m[r, c]) > abs(m[pivot, c]):
-                pivot = r
-        if abs(m[pivot, c]) < SINGULAR:
+    for i in range(k):
+        r = 2 * i
+        if i > 0:
+            # Eliminate the block before the diagonal with the previous row, whose diagonal
+            # block holds its inverse by now: L = before inv(D), D -= L after', rhs -= L rhs'.
+            ell = _times(_block(m, r, BEFORE), _block(m, r - 2, HERE))
+            shift = _times(ell, _block(m, r - 2, AFTER))
+            put_block(m, r, HERE, _sub4(_block(m, r, HERE), shift))
+            for col in range(DY, SYSTEM_COLUMNS):
+                x = _apply(m, r - 2, ell, col)
+                m[r, col] -= x[0]
+                m[r + 1, col] -= x[1]
+        d = _block(m, r, HERE)
+        block_det = d[0] * d[3] - d[1] * d[2]
+        if abs(block_det) < SINGULAR:
             return 0.0
-        if pivot != c:
-            det = -det
-            for j in range(columns):
-                m[c, j], m[pivot, j] = m[pivot, j], m[c, j]
-        det *= m[c, c]
-        inv = 1.0 / m[c, c]
-        for r in range(rows):
-            if r != c and m[r, c] != 0.0:
-                f = m[r, c] * inv
-                for j in range(c, columns):
-                    m[r, j] -= f * m[c, j]
-    for r in range(rows):
-        inv = 1.0 / m[r, r]
-        for j in range(rows, columns):
-            m[r, j] *= inv
-        m[r, r] = 1.0
+        det *= block_det
+        inv = 1.0 / block_det
+        put_block(m, r, HERE, (d[3] * inv, -d[1] * inv, -d[2] * inv, d[0] * inv))
+    for i in range(k - 1, -1, -1):
+        r = 2 * i
+        for col in range(DY, SYSTEM_COLUMNS):
+            if i < k - 1:
+                x = _apply(m, r + 2, _block(m, r, AFTER), col)
+                m[r, col] -= x[0]
+                m[r + 1, col] -= x[1]
+            x = _apply(m, r, _block(m, r, HERE), col)
+            m[r, col], m[r + 1, col] = x[0], x[1]
     return det
 
 
@@ -211,16 +270,13 @@ def vertex_row(a, i):
 
 
 @jit_inline
-def fill_system(m, k, x0, y, y_ab, pos, n, dn_da, dn_db, ta, tb, ng, ior):
-    """Fill m[:2k, :2k + 3] for the chain x0, pos[0 .. k), y (vertex i: shading normal n[i]
-    and its derivatives, tangents ta[i], tb[i] of its triangle, geometric normal ng[i], index
-    ior[i]; y_ab the lamp's tangents at y): columns 0 .. 2k the constraint's Jacobian in the
-    vertices' tangent coordinates (block tridiagonal), 2k and 2k + 1 its derivatives in y's,
-    2k + 2 the constraint itself. Returns the largest |constraint| of a vertex."""
-    cols = 2 * k + 3
-    for r in range(2 * k):
-        for j in range(cols):
-            m[r, j] = 0.0
+def fill_system(m, k, x0, y, y_ab, fixed, pos, n, dn_da, dn_db, ta, tb, ng, ior):
+    """Fill m[:2k] (SYSTEM_COLUMNS) for the chain x0, pos[0 .. k), y (vertex i: shading normal
+    n[i] and its derivatives, tangents ta[i], tb[i] of its triangle, geometric normal ng[i],
+    index ior[i]; y_ab the lamp's tangents at y; y a direction where fixed): each vertex's
+    blocks of the constraint's Jacobian in the vertices' tangent coordinates, the last one's
+    derivatives in y's, and the constraint itself. Returns the largest |constraint| of a
+    vertex."""
     worst = 0.0
     for i in range(k):
         p = vertex_row(pos, i)
@@ -231,31 +287,34 @@ def fill_system(m, k, x0, y, y_ab, pos, n, dn_da, dn_db, ta, tb, ng, ior):
         next_ab = (vertex_row(ta, i + 1), vertex_row(tb, i + 1)) if i < k - 1 else y_ab
         a, b, ngi = vertex_row(ta, i), vertex_row(tb, i), vertex_row(ng, i)
         ni = vertex_row(n, i)
-        c = constraint(p_prev, p, p_next, ni, a, ngi, ior[i])
+        last = i == k - 1
+        c = constraint(p_prev, p, p_next, ni, a, ngi, ior[i], fixed and last)
         worst = max(worst, math.sqrt(c[0] * c[0] + c[1] * c[1]))
-        m[2 * i, 2 * k + 2], m[2 * i + 1, 2 * k + 2] = c[0], c[1]
+        m[2 * i, C], m[2 * i + 1, C] = c[0], c[1]
         before, here, after = constraint_derivatives(
             p_prev, p, p_next, ni, vertex_row(dn_da, i), vertex_row(dn_db, i), a, b, ngi,
-            ior[i], prev_ab, next_ab)
-        if i > 0:
-            put_block(m, 2 * i, 2 * i - 2, before)
-        put_block(m, 2 * i, 2 * i, here)
-        # The last vertex's next is the lamp point: its block lands in dC/dy's columns.
-        put_block(m, 2 * i, 2 * i + 2, after)
+            ior[i], prev_ab, next_ab, fixed and last)
+        put_block(m, 2 * i, BEFORE, before)
+        put_block(m, 2 * i, HERE, here)
+        # The last vertex's next is the lamp: its block is dC/dy; the others' dC/dy is zero.
+        put_block(m, 2 * i, DY if last else AFTER, after)
+        if not last:
+            put_block(m, 2 * i, DY, (0.0, 0.0, 0.0, 0.0))
     return worst
 
 
 @jit_inline
-def transfer_determinant(m, k):
-    """|det dx1/dy| from a solved system (solve_in_place) whose last two columns were dC/dy:
-    the rows of x1's coordinates hold -dx1/dy (the implicit function theorem)."""
-    return abs(m[0, 2 * k] * m[1, 2 * k + 1] - m[0, 2 * k + 1] * m[1, 2 * k])
+def transfer_determinant(m):
+    """|det dx1/dy| from a solved system (solve_blocks): x1's rows of DY's columns hold -dx1/dy
+    (the implicit function theorem)."""
+    return abs(m[0, DY] * m[1, DY + 1] - m[0, DY + 1] * m[1, DY])
 
 
 @jit_inline
 def geometry_term(x0, x1, ng1, transfer):
-    """The generalized geometry term dw0/dA(y): x0's solid angle per unit of lamp area, from x1
-    (on a triangle of geometric normal ng1) and |det dx1/dy| (transfer_determinant)."""
+    """The generalized geometry term dw0/dA(y): x0's solid angle per unit of lamp area (per unit
+    of a sun's solid angle for a fixed direction), from x1 (on a triangle of geometric normal
+    ng1) and |det dx1/dy| (transfer_determinant)."""
     w, distance = unit_towards(x0, x1)
     return abs(dot(w, ng1)) / (distance * distance) * transfer
 

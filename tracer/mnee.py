@@ -4,9 +4,11 @@ shadow caustics, kernel/integrator/mnee.h). The formulas are manifold.py's; this
 
 Where it runs is the file's: Cycles' shadow-caustics flags (an object's caustics caster and
 receiver, a lamp's caustics light; docs/scene-format.md). At a diffuse vertex on a receiver the
-stage samples a point y on a caustics lamp (point and spot lamps of radius > 0, the disk that
-faces the vertex x0), follows the straight segment x0 y collecting the smooth refracting
-triangles of casters it crosses (other objects are passed, as in Cycles; at most
+stage samples a caustics lamp and on it a point y (point and spot lamps of radius > 0: the disk
+that faces the vertex x0; area lamps of spread > 0: a point uniform on the lamp) or, for a sun,
+a direction (uniform in its cone; a sun of angle 0: its one direction, and y stands for that
+direction, manifold.py's fixed direction), follows the segment x0 y collecting the smooth
+refracting triangles of casters it crosses (other objects are passed, as in Cycles; at most
 manifold.MAX_CASTERS), walks that seed chain onto the specular manifold by Newton's method (each
 step's points projected back onto their objects by a ray from the vertex before them, halving
 the step where a projection misses or a vertex stops refracting), where that walk fails walks
@@ -15,22 +17,28 @@ converged segment is free, and adds
 
     beta (albedo / pi) cos(x0) prod(tint (1 - F)) L_e G / (pmf p_A(y))
 
-with G = dw0/dA(y) (manifold.geometry_term), no clamp.
+with G = dw0/dA(y) (manifold.geometry_term), no clamp; for a sun dw0/dw(sun) over the cone's
+solid-angle density (a sun of angle 0: its irradiance over density 1, as the light tracer's
+sun_emission).
 
 The split with the other techniques is exact, as the light tracer's is: the stage owns every
 path "caustics lamp, one or more refractions at caster triangles, a diffuse receiver vertex"
 (the camera side anything), and the others skip exactly those. A camera path's `mnee` state
 (wavefront.Paths.mnee, mnee_after) counts the caster refractions since its last receiver vertex;
-wavefront.emitters gives it no light from a caustics lamp then (Cycles skips caustic lamps after
-a caster too, but also after reflections, which MNEE does not render). A light path's state
-(light_tracer.LightPaths.mnee) counts the same from its lamp, and the light tracer neither
-connects nor stores a photon at a receiver after them. What MNEE itself leaves out is its bias:
-one solution per lamp sample (where waves fold the light, several paths join x0 and y, and the
-walk finds the one nearest its seed), and none where the seed segment misses the casters or
-neither walk converges. The second seed is Snell's: Cycles and Hanika et al. walk from the
-straight one only, and where that segment crosses the edge of a thick wall (a tube's, twice its
-outer surface) no path with those vertices exists, so that walk can only fail; the refracted
-seed has the vertices a path through the wall has (docs/measurements.md, the tumbler).
+wavefront.emitters gives it no light from a caustics lamp then, whether it crosses the lamp or
+escapes into a sun's disc (Cycles skips caustic lamps after a caster too, but also after
+reflections, which MNEE does not render). A light path's state (light_tracer.LightPaths.mnee)
+counts the same from its lamp, and the light tracer neither connects nor stores a photon at a
+receiver after them. Delta lamps: a sun of angle 0 is the stage's where the file flags it, as in
+Cycles (no camera path finds it, and the light tracer, which then leaves the stage its paths,
+cannot render them seen through glass); point lamps of radius 0 and area lamps of spread 0 stay
+the light tracer's alone. What MNEE itself leaves out is its bias: one solution per lamp sample
+(where waves fold the light, several paths join x0 and y, and the walk finds the one nearest its
+seed), and none where the seed segment misses the casters or neither walk converges. The second
+seed is Snell's: Cycles and Hanika et al. walk from the straight one only, and where that segment
+crosses the edge of a thick wall (a tube's, twice its outer surface) no path with those vertices
+exists, so that walk can only fail; the refracted seed has the vertices a path through the wall
+has (docs/measurements.md, the tumbler).
 
 Runs only where the flags name a receiver, a caster and a lamp, light sampling is on, and the
 render has no absorbing media, light passes or light groups (its light is no one pass's).
@@ -46,11 +54,13 @@ import numpy as np
 from .direct_light import add_light
 from .geometry import facing, hit_offset, hit_point, offset_origin
 from .jit import jit, jit_inline
-from .lights.codes import VISIBLE_TRANSMISSION, seen_by
+from .lights.area import area_lamp_emitted, area_lamp_point
+from .lights.codes import AREA, POINT, SUN, VISIBLE_TRANSMISSION, seen_by
 from .lights.point import point_lamp_radiance, spot_attenuation
-from .manifold import (MAX_CASTERS, fill_system, geometry_term, normal_derivatives,
-                       refraction_weight, relative_ior, solve_in_place, transfer_determinant,
-                       unit_towards, vertex_row)
+from .lights.sun import sample_sun
+from .manifold import (MAX_CASTERS, SYSTEM_COLUMNS, C, fill_system, geometry_term,
+                       normal_derivatives, refraction_weight, relative_ior, solve_blocks,
+                       toward_next, transfer_determinant, unit_towards, vertex_row)
 from .material_kinds import DIFFUSE, GLASS, REFRACTION
 from .path_limits import DIFFUSE_BOUNCE, TRANSMISSION_BOUNCE, add_bounce, clamp_light, \
     clamp_limit, within_limits
@@ -85,19 +95,27 @@ class MneeTables(NamedTuple):
     """Where the stage runs (empty arrays: nowhere)."""
     tri_flags: np.ndarray        # (T,) int64 CASTER | RECEIVER of each triangle's object
     tri_object: np.ndarray       # (T,) int64 each triangle's object
-    lamp: np.ndarray             # (lamps_to_cross,) bool: lamps the stage samples (area first)
-    point_cdf: np.ndarray        # (P,) the cdf of picking point lamp k (0 for the others)
+    lamp: np.ndarray             # (areas + points + suns,) bool: the lamps the stage samples
+    #                              (lamp_row's order: area lamps, point and spot lamps, suns)
+    pick_cdf: np.ndarray         # (M,) the cdf of picking the stage's lamp j
+    pick_kind: np.ndarray        # (M,) its codes kind (AREA, POINT, SUN)
+    pick_index: np.ndarray       # (M,) its row in that kind's light tables
 
 
-OFF = MneeTables(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool), np.zeros(0))
+OFF = MneeTables(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool), np.zeros(0),
+                 np.zeros(0, np.int64), np.zeros(0, np.int64))
 
 
-def mnee_lamp(light: dict, tables, k: int) -> bool:
-    """Whether point-table row k (scene light `light`) is a lamp the stage samples: a caustics
-    light, a disk of radius > 0 that transmission rays see."""
-    return (bool(light.get("caustics_light", False)) and tables.point_radius[k] > 0.0
-            and not tables.point_sphere[k]
-            and bool(seen_by(int(tables.point_flags[k]), VISIBLE_TRANSMISSION)))
+def mnee_lamp(light: dict, tables, kind: int, k: int) -> bool:
+    """Whether row k of the light tables of this kind (scene light `light`) is a lamp the stage
+    samples: a caustics light that transmission rays see, and a point or spot lamp a disk of
+    radius > 0, an area lamp of spread > 0, or a sun (of any angle)."""
+    flags = {AREA: tables.area_flags, POINT: tables.point_flags, SUN: tables.sun_flags}[kind]
+    if not (light.get("caustics_light", False) and seen_by(int(flags[k]), VISIBLE_TRANSMISSION)):
+        return False
+    if kind == POINT:
+        return bool(tables.point_radius[k] > 0.0 and not tables.point_sphere[k])
+    return kind == SUN or bool(tables.area_spread_tan[k] > 0.0)
 
 
 def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, str]:
@@ -112,16 +130,26 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
     kinds = material_kind[of_triangle]
     receivers = np.any((tri_flags & RECEIVER != 0) & (kinds == DIFFUSE))
     casters = np.any((tri_flags & CASTER != 0) & np.isin(kinds, (GLASS, REFRACTION)))
-    points = [light for light in scene.lights if light["kind"] in ("point", "spot")]
-    chosen = np.array([mnee_lamp(light, lights, k) for k, light in enumerate(points)], bool)
-    if not (receivers and casters and chosen.any()):
+    lamp, pmf, kinds, index = [], [], [], []
+    for kind, names, pmfs in ((AREA, ("area",), lights.area_pmf),
+                              (POINT, ("point", "spot"), lights.point_pmf),
+                              (SUN, ("sun",), lights.sun_pmf)):
+        of_kind = [light for light in scene.lights if light["kind"] in names]
+        for k, light in enumerate(of_kind):
+            lamp.append(mnee_lamp(light, lights, kind, k))
+            if lamp[-1]:
+                pmf.append(pmfs[k])
+                kinds.append(kind)
+                index.append(k)
+    if not (receivers and casters and any(lamp)):
         return OFF, ("no shadow-caustics receiver, smooth glass caster and caustics light "
-                     "(a point or spot lamp of radius > 0, soft falloff on)")
-    pmf = np.where(chosen, lights.point_pmf, 0.0)
-    pmf = pmf / pmf.sum() if pmf.sum() > 0 else chosen / chosen.sum()
-    lamp = np.concatenate([np.zeros(lights.area_area.shape[0], bool), chosen])
-    return (MneeTables(tri_flags, oid, lamp, np.cumsum(pmf)),
-            f"shadow caustics: {int(chosen.sum())} caustics light(s)")
+                     "(a point or spot lamp of radius > 0 with soft falloff on, an area lamp "
+                     "of spread > 0 or a sun)")
+    pmf = np.array(pmf)
+    pmf = pmf / pmf.sum() if pmf.sum() > 0 else np.full(len(pmf), 1.0 / len(pmf))
+    return (MneeTables(tri_flags, oid, np.array(lamp, bool), np.cumsum(pmf),
+                       np.array(kinds, np.int64), np.array(index, np.int64)),
+            f"shadow caustics: {len(kinds)} caustics light(s)")
 
 
 @jit_inline
@@ -143,9 +171,31 @@ def mnee_after(tri_flags, state, tri, kind, ray_kind):
 
 @jit_inline
 def left_to_mnee(lamp_flags, state, lamp):
-    """Whether a camera path in this state leaves the light of lamp `lamp` (lamps_to_cross's
-    index) to the stage."""
-    return state > FROM_RECEIVER and lamp_flags.shape[0] > 0 and lamp_flags[lamp]
+    """Whether a path in this state leaves the light of lamp `lamp` (lamp_row's; -1: none) to
+    the stage."""
+    return state > FROM_RECEIVER and lamp >= 0 and lamp_flags.shape[0] > 0 and lamp_flags[lamp]
+
+
+@jit_inline
+def escape_left_to_mnee(lights, lamp_flags, state, k):
+    """Whether a path in this state that escaped leaves light k of lights.dispatch's
+    lights_at_escape (the world first where it gives light, then the suns) to the stage."""
+    sun = k - 1 if lights.has_world else k
+    return sun >= 0 and left_to_mnee(lamp_flags, state, lamp_row(lights, SUN, sun))
+
+
+@jit_inline
+def lamp_row(lights, kind, i):
+    """Row of MneeTables.lamp of light i of this codes kind (lights.dispatch.lamps_to_cross's
+    index for area, point and spot lamps, the suns after them; -1 for other kinds)."""
+    n_area, n_point = lights.area_area.shape[0], lights.point_radius.shape[0]
+    if kind == AREA:
+        return i
+    if kind == POINT:
+        return n_area + i
+    if kind == SUN:
+        return n_area + n_point + i
+    return -1
 
 
 # -- the chains --------------------------------------------------------------------------------
@@ -159,10 +209,12 @@ class Chains(NamedTuple):
     eps0: np.ndarray         # (n,) its offset (geometry.hit_offset)
     weight: np.ndarray       # (n, 3) throughput x albedo
     limit: np.ndarray        # (n,) the clamp of its light
-    lamp: np.ndarray         # (n,) point lamp
-    y: np.ndarray            # (n, 3) the lamp point
-    y_ab: np.ndarray         # (n, 2, 3) the lamp disk's tangents
-    pdf: np.ndarray          # (n,) pick x area density of y
+    lamp: np.ndarray         # (n,) the lamp's row in its kind's tables
+    lamp_kind: np.ndarray    # (n,) its codes kind
+    fixed: np.ndarray        # (n,) 1: y is a direction (a sun's), 0: a point
+    y: np.ndarray            # (n, 3) the lamp point (or direction)
+    y_ab: np.ndarray         # (n, 2, 3) the lamp's unit tangents at y
+    pdf: np.ndarray          # (n,) pick x area density of y (solid-angle density for a sun)
     state: np.ndarray        # (n,) PROBING ... FAILED
     bent: np.ndarray         # (n,) 1: the seed refracts at each caster (reseed), 0: straight
     k: np.ndarray            # (n,) refracting vertices
@@ -192,7 +244,7 @@ class Chains(NamedTuple):
     d32: np.ndarray
     tmax: np.ndarray
     owner: np.ndarray        # (n MAX_CASTERS,) the chain of each ray
-    scratch: np.ndarray      # (2 MAX_CASTERS, 2 MAX_CASTERS + 3) the linear system
+    scratch: np.ndarray      # (2 MAX_CASTERS, SYSTEM_COLUMNS) the linear system
 
 
 def new_chains(n: int) -> Chains:
@@ -200,12 +252,13 @@ def new_chains(n: int) -> Chains:
     v, m = MAX_CASTERS, MAX_CASTERS * n
     f = lambda *shape: np.zeros(shape)                    # noqa: E731
     i = lambda *shape: np.zeros(shape, np.int64)          # noqa: E731
-    return Chains(i(n), f(n, 3), f(n, 3), f(n, 3), f(n), f(n, 3), f(n), i(n), f(n, 3), f(n, 2, 3),
-                  f(n), i(n), i(n), i(n), i(n), i(n, v), f(n, v, 3), f(n, v, 3), f(n, v, 3),
-                  f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v), f(n, v, 3), f(n),
-                  i(n), f(n, 2 * v), f(n), f(n, 3), f(n, 3), f(n), i(n), i(n, v), f(n, v),
-                  f(n, v), np.zeros((m, 3), np.float32), np.zeros((m, 3), np.float32),
-                  np.zeros(m, np.float32), i(m), f(2 * v, 2 * v + 3))
+    return Chains(i(n), f(n, 3), f(n, 3), f(n, 3), f(n), f(n, 3), f(n), i(n), i(n), i(n), f(n, 3),
+                  f(n, 2, 3), f(n), i(n), i(n), i(n), i(n), i(n, v), f(n, v, 3), f(n, v, 3),
+                  f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v),
+                  f(n, v, 3), f(n), i(n), f(n, 2 * v), f(n), f(n, 3), f(n, 3), f(n), i(n),
+                  i(n, v), f(n, v), f(n, v), np.zeros((m, 3), np.float32),
+                  np.zeros((m, 3), np.float32), np.zeros(m, np.float32), i(m),
+                  f(2 * v, SYSTEM_COLUMNS))
 
 
 _local = threading.local()
@@ -261,16 +314,22 @@ def queue_ray(chains, m, c, origin, target, reach):
     """Ray m of the buffers, chain c's: from origin towards target, reach times as long as
     the distance."""
     w, distance = unit_towards(origin, target)
+    queue_along(chains, m, c, origin, w, reach * distance)
+
+
+@jit_inline
+def queue_along(chains, m, c, origin, w, tmax):
+    """Ray m of the buffers, chain c's: from origin along the unit direction w up to tmax."""
     for q in range(3):
         chains.o32[m, q] = origin[q]
         chains.d32[m, q] = w[q]
-    chains.tmax[m] = reach * distance
+    chains.tmax[m] = tmax
     chains.owner[m] = c
 
 
 @jit_inline
 def pick_lamp(cdf, u):
-    """The point lamp whose cdf interval holds u."""
+    """The stage's lamp whose cdf interval holds u."""
     for k in range(cdf.shape[0]):
         if u < cdf[k]:
             return k
@@ -280,10 +339,11 @@ def pick_lamp(cdf, u):
 @jit
 def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, active, paths, prim,
                 u, v, chains):
-    """A chain per kept hit (rows `active`) on a diffuse receiver: a lamp point y sampled on
-    a caustics lamp's disk facing the hit, and the seed ray towards it. Returns the count."""
+    """A chain per kept hit (rows `active`) on a diffuse receiver: a caustics lamp picked, a
+    point y on it (a sun's direction) sampled (sample_lamp), and the seed ray towards it.
+    Returns the count."""
     n = 0
-    cdf = tables.point_cdf
+    cdf = tables.pick_cdf
     for j in range(n_active):
         i = active[j]
         tri = prim[i]
@@ -305,14 +365,12 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
         key = mix(paths.key[i], MNEE_DOMAIN)
         u_pick, _ = random_pair(key, paths.sample[i], 2 * depth)
         u0, u1 = random_pair(key, paths.sample[i], 2 * depth + 1)
-        lamp = pick_lamp(cdf, u_pick)
-        pmf = cdf[lamp] - (cdf[lamp - 1] if lamp > 0 else 0.0)
-        c = row(lights.point_pos, lamp)
-        r = lights.point_radius[lamp]
-        toward, _ = unit_towards(c, p)
-        ta, tb = orthonormal_basis(toward)
-        dx, dy = sample_uniform_disk(u0, u1)
-        y = madd(madd(c, dx * r, ta), dy * r, tb)
+        j = pick_lamp(cdf, u_pick)
+        pmf = cdf[j] - (cdf[j - 1] if j > 0 else 0.0)
+        kind, lamp = tables.pick_kind[j], tables.pick_index[j]
+        y, ta, tb, density = sample_lamp(lights, kind, lamp, p, u0, u1)
+        if not density > 0.0:
+            continue
         color, _ = surface_colors(mats, mat, tri, b1, b2)
         chains.path[n] = paths.path[i]
         store(chains.x0, n, p)
@@ -322,14 +380,46 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
         store(chains.weight, n, vmul(row(paths.beta, i), color))
         chains.limit[n] = clamp_limit(clamp, bounce == 0)
         chains.lamp[n] = lamp
+        chains.lamp_kind[n] = kind
+        chains.fixed[n] = kind == SUN
         store(chains.y, n, y)
         store(chains.y_ab[n], 0, ta)
         store(chains.y_ab[n], 1, tb)
-        chains.pdf[n] = pmf / (math.pi * r * r)
+        chains.pdf[n] = pmf * density
         chains.room[n] = room
         start_probe(chains, n, 0)
         n += 1
     return n
+
+
+@jit_inline
+def sample_lamp(lights, kind, lamp, p, u0, u1):
+    """A point y on lamp `lamp` of this codes kind for the receiver vertex p, or a sun's
+    direction: (y, the lamp's unit tangents at y, y's density: per area, per solid angle for a
+    sun, 1 for a sun of angle 0; 0: no sample)."""
+    if kind == SUN:
+        w, _, density = sample_sun(lights, lamp, u0, u1)
+        ta, tb = orthonormal_basis(w)
+        return w, ta, tb, density if density > 0.0 else 1.0
+    if kind == AREA:
+        y = area_lamp_point(lights, lamp, u0, u1)
+        return (y, row(lights.area_ex, lamp), row(lights.area_ey, lamp),
+                1.0 / lights.area_area[lamp])
+    # A point lamp's disk faces the receiver vertex.
+    c = row(lights.point_pos, lamp)
+    r = lights.point_radius[lamp]
+    toward, _ = unit_towards(c, p)
+    ta, tb = orthonormal_basis(toward)
+    dx, dy = sample_uniform_disk(u0, u1)
+    return madd(madd(c, dx * r, ta), dy * r, tb), ta, tb, 1.0 / (math.pi * r * r)
+
+
+@jit_inline
+def towards_lamp(chains, c, p):
+    """(unit direction from p towards chain c's lamp, distance: infinite for a sun's)."""
+    if chains.fixed[c]:
+        return row(chains.y, c), math.inf
+    return unit_towards(p, row(chains.y, c))
 
 
 @jit_inline
@@ -339,12 +429,13 @@ def start_probe(chains, c, bent):
     chains.state[c] = PROBING
     chains.k[c] = 0
     chains.bent[c] = bent
-    x0, y = row(chains.x0, c), row(chains.y, c)
-    w, _ = unit_towards(x0, y)
+    x0 = row(chains.x0, c)
+    w, _ = towards_lamp(chains, c, x0)
     origin = offset_origin(x0, row(chains.ng0, c), chains.eps0[c], w)
     store(chains.ray_o, c, origin)
     store(chains.ray_d, c, w)
-    chains.ray_t[c] = length(sub(y, origin))
+    _, distance = towards_lamp(chains, c, origin)
+    chains.ray_t[c] = distance
 
 
 @jit
@@ -412,9 +503,9 @@ def probe_hits(tables, mesh, mats, chains, m, prim, u, v, t):
         p, ng, _, eps = hit_point(mesh, tri, b1, b2)
         origin = offset_origin(p, ng, eps, d)
         store(chains.ray_o, c, origin)
-        rest = sub(row(chains.y, c), origin)
-        chains.ray_t[c] = length(rest)
-        if dot(rest, d) <= 0.0:
+        to_lamp, distance = towards_lamp(chains, c, origin)
+        chains.ray_t[c] = distance
+        if dot(to_lamp, d) <= 0.0:
             end_probe(chains, c)
 
 
@@ -457,18 +548,18 @@ def newton_rays(mesh, chains, n):
         k = chains.k[c]
         if chains.resolve[c]:
             worst = fill_system(system, k, row(chains.x0, c), row(chains.y, c), (
-                row(chains.y_ab[c], 0), row(chains.y_ab[c], 1)), chains.pos[c], chains.n[c],
-                chains.dn_da[c], chains.dn_db[c], chains.ta[c], chains.tb[c], chains.ng[c],
-                chains.ior[c])
-            if solve_in_place(system, 2 * k, 2 * k + 3) == 0.0:
+                row(chains.y_ab[c], 0), row(chains.y_ab[c], 1)), chains.fixed[c] != 0,
+                chains.pos[c], chains.n[c], chains.dn_da[c], chains.dn_db[c], chains.ta[c],
+                chains.tb[c], chains.ng[c], chains.ior[c])
+            if solve_blocks(system, k) == 0.0:
                 chains.state[c] = FAILED
                 continue
             if worst < TOLERANCE:
                 chains.state[c] = CONVERGED
-                chains.transfer[c] = transfer_determinant(system, k)
+                chains.transfer[c] = transfer_determinant(system)
                 continue
             for r in range(2 * k):
-                chains.delta[c, r] = system[r, 2 * k + 2]
+                chains.delta[c, r] = system[r, C]
         chains.first_ray[c] = m
         x0 = row(chains.x0, c)
         for i in range(k):
@@ -538,11 +629,12 @@ def still_refracts(mesh, chains, c, k):
         if i > 0:
             prev, _, _, _ = hit_point(mesh, chains.new_prim[c, i - 1], chains.new_u[c, i - 1],
                                       chains.new_v[c, i - 1])
-        nxt = row(chains.y, c)
+        wo, _ = towards_lamp(chains, c, p)
         if i < k - 1:
             nxt, _, _, _ = hit_point(mesh, chains.new_prim[c, i + 1], chains.new_u[c, i + 1],
                                      chains.new_v[c, i + 1])
-        if dot(n, sub(prev, p)) * dot(n, sub(nxt, p)) >= 0.0:
+            wo = sub(nxt, p)
+        if dot(n, sub(prev, p)) * dot(n, wo) >= 0.0:
             return False
     return True
 
@@ -592,10 +684,10 @@ def light_rays(mesh, chains, n):
         k = chains.k[c]
         p = vertex_row(chains.pos[c], k - 1)
         tri = chains.prim[c, k - 1]
-        y = row(chains.y, c)
-        origin = offset_origin(p, vertex_row(chains.ng[c], k - 1), hit_offset(mesh, tri, p),
-                               sub(y, p))
-        queue_ray(chains, m, c, origin, y, 1.0)
+        w, _ = towards_lamp(chains, c, p)
+        origin = offset_origin(p, vertex_row(chains.ng[c], k - 1), hit_offset(mesh, tri, p), w)
+        w, distance = towards_lamp(chains, c, origin)
+        queue_along(chains, m, c, origin, w, distance)
         m += 1
     return m
 
@@ -633,18 +725,32 @@ def chain_light(lights, fresnel_model, chains, c):
     for i in range(k):
         p = vertex_row(chains.pos[c], i)
         prev = x0 if i == 0 else vertex_row(chains.pos[c], i - 1)
-        nxt = row(chains.y, c) if i == k - 1 else vertex_row(chains.pos[c], i + 1)
         wi, _ = unit_towards(p, prev)
-        wo, _ = unit_towards(p, nxt)
+        if i == k - 1:
+            wo, _ = towards_lamp(chains, c, p)
+        else:
+            wo, _ = unit_towards(p, vertex_row(chains.pos[c], i + 1))
         light = vmul(light, refraction_weight(fresnel_model, wi, wo, vertex_row(chains.n[c], i),
                                               vertex_row(chains.ng[c], i), chains.ior[c, i],
                                               vertex_row(chains.tint[c], i)))
-    lamp = chains.lamp[c]
-    y = row(chains.y, c)
-    leaving, _ = unit_towards(y, vertex_row(chains.pos[c], k - 1))
-    emitted = mul(point_lamp_radiance(lights, lamp), spot_attenuation(lights, lamp, leaving))
+    last, _ = towards_lamp(chains, c, vertex_row(chains.pos[c], k - 1))
+    emitted = lamp_radiance(lights, chains, c, last)
     g = geometry_term(x0, x1, vertex_row(chains.ng[c], 0), chains.transfer[c])
     return mul(vmul(light, emitted), g / chains.pdf[c])
+
+
+@jit_inline
+def lamp_radiance(lights, chains, c, wo):
+    """The radiance chain c's lamp sends its last vertex, wo the direction from that vertex to
+    the lamp (a sun of angle 0: its irradiance, sample_lamp's density being 1)."""
+    lamp, kind = chains.lamp[c], chains.lamp_kind[c]
+    if kind == SUN:
+        if lights.sun_one_minus_cos[lamp] == 0.0:
+            return row(lights.sun_irradiance, lamp)
+        return row(lights.sun_radiance, lamp)
+    if kind == AREA:
+        return area_lamp_emitted(lights, lamp, neg(wo))
+    return mul(point_lamp_radiance(lights, lamp), spot_attenuation(lights, lamp, neg(wo)))
 
 
 def probe(geometry, tables: MneeTables, mats, chains: Chains, n: int) -> None:

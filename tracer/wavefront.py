@@ -43,7 +43,7 @@ from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lig
                               triangle_hit)
 from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
 from .media import empty_stacks
-from .mnee import NO_CHAIN, left_to_mnee, mnee_after
+from .mnee import NO_CHAIN, escape_left_to_mnee, left_to_mnee, mnee_after
 from . import media as medium
 from .path_limits import (DIFFUSE_BOUNCE, NO_BOUNCES, add_bounce, bounce_kind, clamp_light,
                           clamp_limit, dropped_at, kind_count, past_last_bounce)
@@ -223,8 +223,8 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
     get no light from lamps, emissive triangles or suns, and with `world_caustics` (it starts
     paths on the world) none from the world: those paths are the light tracer's to count.
     Paths that refracted at shadow-caustics casters since a receiver get no light from the
-    lamps in `mnee_lamps` (mnee.left_to_mnee; empty: none): manifold next-event estimation
-    counts those.
+    lamps and suns in `mnee_lamps` (mnee.left_to_mnee; empty: none): manifold next-event
+    estimation counts those.
     limits (path_limits.bounce_limits): a path ends at a surface after its last bounce (of
     all, or of one kind), or after as many transparent surfaces as the second allows, as in
     Cycles (path_state_next): what it ends on still adds its light, and after the last bounce a
@@ -277,6 +277,8 @@ def emitters(lights, mats, media, next_event, caustics, world_caustics, depth, l
             first, end = lights_at_escape(lights, not (light_tracers and world_caustics
                                                        or clear_film), emitters_count)
             for k in range(first, end):
+                if escape_left_to_mnee(lights, mnee_lamps, paths.mnee[i], k):
+                    continue
                 found, light, pdf_light = light_at_escape(lights, k, d, kind)
                 if found:
                     w = mis_weight(next_event, pdf_prev, pdf_light, 0.0)
