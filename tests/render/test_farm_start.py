@@ -131,8 +131,8 @@ atexit.register(worker._exit_now)
 
 
 class Torn:
-    def __del__(self):
-        open(sys.argv[2] + "/teardown", "w").close()
+    def __del__(self, write=open, path=sys.argv[2] + "/teardown"):   # bound: builtins go first
+        write(path, "w").close()
 
 
 torn = Torn()
