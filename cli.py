@@ -706,8 +706,21 @@ def _farm_opening(args, quiet: bool = False):
     from .farm.render import opening
     if args.cluster is None:
         _compile_kernels(quiet)
+    if _extension(args.scene) == ".blend":
+        _import_blender()
     with opening(args.cluster, args.workers, quiet) as started:
         yield started
+
+
+def _import_blender() -> None:
+    """Import bpy now, before a thread opens the cluster: Blender's start inside bpy's import,
+    beside that thread's imports of extension modules, hung the process (1 run in 5: both
+    threads in create_module). Without bpy, the scene's load says so later."""
+    try:
+        import bpy  # noqa: F401
+    except ModuleNotFoundError as exc:
+        if exc.name != "bpy":
+            raise
 
 
 # ---------------------------------------------------------------------------------------------
