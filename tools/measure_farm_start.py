@@ -5,11 +5,10 @@
 Runs `snell render` with the given arguments in this process and prints, in seconds since the
 interpreter started, when each step began and ended: the scene's load (a .blend's export), the
 LocalCluster's start (its workers' imports and kernel loads, with the preload), the workers'
-checks, the scene scattered, each worker's first task (its Renderer's build and its first
-window), the first and last windows back, the cluster's close and the EXR's write. The steps
+checks, the scene scattered, each worker's first window back (its Renderer's build and its
+task's own seconds), the first and last windows back, the cluster's close and the EXR's write. The steps
 are wrapped where the command calls them; nothing of the render changes.
 """
-import contextlib
 import os
 import sys
 import time
@@ -83,18 +82,10 @@ def wrap_steps():
     real_frame = render.render_frame
 
     def render_frame(*args, **kwargs):
-        with contextlib.ExitStack() as stack:
-            stream = stack.enter_context(distributed.get_task_stream(args[0]))
-            try:
-                return real_frame(*args, **kwargs)
-            finally:
-                event("last window back")
-                tasks = [t for t in stream.data if t["startstops"]]
-                for address in sorted({t["worker"] for t in tasks}):
-                    first = min((s for t in tasks if t["worker"] == address
-                                 for s in t["startstops"] if s["action"] == "compute"),
-                                key=lambda s: s["start"])
-                    event(f"{address}'s first task computes", first["start"])
+        try:
+            return real_frame(*args, **kwargs)
+        finally:
+            event("last window back")
     render.render_frame = render_frame
     return cli
 
