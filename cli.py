@@ -79,12 +79,19 @@ def _extension(path: str) -> str:
     return os.path.splitext(path)[1].lower()
 
 
-def load_scene(path: str):
-    """A Scene from a .snell file, or exported on the fly from a .blend (warnings to stderr)."""
+def check_scene_path(path: str) -> str:
+    """A scene file's extension, .blend or .snell, once the file is there to read; CliError
+    otherwise."""
     ext = _extension(path)
     if ext not in SCENE_EXTENSIONS:
         raise CliError(f"{path}: unknown scene extension {ext or '(none)'!r} (expected .blend or .snell)")
     check_input_file(path, SCENE_EXTENSIONS)
+    return ext
+
+
+def load_scene(path: str):
+    """A Scene from a .snell file, or exported on the fly from a .blend (warnings to stderr)."""
+    ext = check_scene_path(path)
     if ext == ".snell":
         try:
             return load(path)
@@ -273,40 +280,13 @@ def cmd_render(args) -> int:
     _check_output(args.output, ".exr", "-o")
     if args.png:
         _check_output(args.png, ".png", "--png")
-    scene = load_scene(args.scene)
-    if args.scale is not None:
-        scene = scene.with_camera(resolution_percentage=args.scale)
-    settings = scene.settings(**setting_overrides(args))
-    if {"Denoising Albedo", "Denoising Normal"} & set(args.passes):
-        settings = settings.replace(denoising_passes=True)
-    if set(LIGHT_PASSES) & set(args.passes):
-        settings = settings.replace(light_passes=True)
-    if _light_groups_asked(args, scene):
-        settings = settings.replace(light_groups=True)
-    farm = args.workers is not None or args.cluster is not None
-    if farm:
-        from .farm.render import check_settings
-        check_settings(settings, args.scene)
+    check_scene_path(args.scene)
+    # The cluster starts (or is connected to) while the scene loads: a .blend's export takes
+    # the client seconds, a LocalCluster's start and its workers' kernel loads as long.
+    with _farm_opening(args, args.quiet) as farm:
+        scene, settings = _render_settings(args, farm is not None)
+        result = _render(args, scene, settings, farm)
     from .tracer import image
-    from .tracer.integrator import kernels_compiled, render, warm_up
-
-    if not kernels_compiled() and args.cluster is None:
-        # Local workers load the kernels this compiles from the disk cache.
-        if not args.quiet:
-            print("snell: compiling kernels (first run only)", file=sys.stderr, flush=True)
-        warm_up()
-
-    bar = ProgressLine(sys.stderr) if not args.quiet and sys.stderr.isatty() else None
-    try:
-        if farm:
-            from .farm.render import render_on
-            result = render_on(args.cluster, args.workers, scene, settings, args.scene,
-                               progress=bar, quiet=args.quiet)
-        else:
-            result = render(scene, settings, progress=bar)
-    finally:
-        if bar:
-            bar.close()
     if result.cancelled:
         raise KeyboardInterrupt
     # The alpha (Film > Transparent, a Holdout) and each pixel's samples as extra channels.
@@ -334,6 +314,51 @@ def cmd_render(args) -> int:
     if not args.quiet:
         print(_summary(args, rgb, result, bad_pixels, denoised))
     return 0
+
+
+def _render_settings(args, farm: bool) -> tuple:
+    """`snell render`'s scene (scaled) and its settings (the options and the passes asked for);
+    checked for a cluster when `farm`."""
+    scene = load_scene(args.scene)
+    if args.scale is not None:
+        scene = scene.with_camera(resolution_percentage=args.scale)
+    settings = scene.settings(**setting_overrides(args))
+    if {"Denoising Albedo", "Denoising Normal"} & set(args.passes):
+        settings = settings.replace(denoising_passes=True)
+    if set(LIGHT_PASSES) & set(args.passes):
+        settings = settings.replace(light_passes=True)
+    if _light_groups_asked(args, scene):
+        settings = settings.replace(light_groups=True)
+    if farm:
+        from .farm.render import check_settings
+        check_settings(settings, args.scene)
+    return scene, settings
+
+
+def _render(args, scene, settings, farm):
+    """The render, on the cluster (farm: farm/render.py's Opening) or in this process, with the
+    progress line on a terminal."""
+    if farm is None:
+        _compile_kernels(args.quiet)
+    bar = ProgressLine(sys.stderr) if not args.quiet and sys.stderr.isatty() else None
+    try:
+        if farm is not None:
+            return farm.wait()(scene, settings, args.scene, progress=bar)
+        from .tracer.integrator import render
+        return render(scene, settings, progress=bar)
+    finally:
+        if bar:
+            bar.close()
+
+
+def _compile_kernels(quiet: bool) -> None:
+    """Compile the kernels on their first run, saying so unless quiet (local Dask workers load
+    what this compiles from the disk cache)."""
+    from .tracer.integrator import kernels_compiled, warm_up
+    if not kernels_compiled():
+        if not quiet:
+            print("snell: compiling kernels (first run only)", file=sys.stderr, flush=True)
+        warm_up()
 
 
 # Blender's names of the passes a denoised render writes beside its image (its EXR layers).
@@ -658,7 +683,7 @@ def cmd_batch(args) -> int:
         check_writable_directory(args.output, "-o")
     try:
         from .addon import batch
-        with _batch_farm(args) as remote_render:
+        with _farm_opening(args) as remote_render:
             return batch.run(args.scene, frames=args.frames, output=args.output,
                              settings=setting_overrides(args), scale=args.scale,
                              remote_render=remote_render)
@@ -671,20 +696,31 @@ def cmd_batch(args) -> int:
 
 
 @contextlib.contextmanager
-def _batch_farm(args):
-    """With --workers or --cluster: a Dask session the frames render on, one after the other,
-    each frame's windows or passes spread over the workers; otherwise None."""
+def _farm_opening(args, quiet: bool = False):
+    """With --workers or --cluster: the Dask session, opening in the background from now on
+    (farm/render.py's opening: wait() for it), its local workers' kernels compiled first;
+    otherwise None."""
     if args.workers is None and args.cluster is None:
         yield None
         return
-    from .farm.render import session
-    from .tracer.integrator import kernels_compiled, warm_up
-    if not kernels_compiled() and args.cluster is None:
-        # Local workers load the kernels this compiles from the disk cache.
-        print("snell: compiling kernels (first run only)", file=sys.stderr, flush=True)
-        warm_up()
-    with session(args.cluster, args.workers) as render:
-        yield render
+    from .farm.render import opening
+    if args.cluster is None:
+        _compile_kernels(quiet)
+    if _extension(args.scene) == ".blend":
+        _import_blender()
+    with opening(args.cluster, args.workers, quiet) as started:
+        yield started
+
+
+def _import_blender() -> None:
+    """Import bpy now, before a thread opens the cluster: Blender's start inside bpy's import,
+    beside that thread's imports of extension modules, hung the process (1 run in 5: both
+    threads in create_module). Without bpy, the scene's load says so later."""
+    try:
+        import bpy  # noqa: F401
+    except ModuleNotFoundError as exc:
+        if exc.name != "bpy":
+            raise
 
 
 # ---------------------------------------------------------------------------------------------

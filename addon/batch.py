@@ -179,6 +179,9 @@ def _render_frames(bpy, final, scene, blend_path, frame_list, interrupted, strea
     #), renamed from the numbered name Blender writes."""
     pattern = scene.render.filepath
     failed, seen_warnings, reasons = 0, set(), set()
+    opened = getattr(final.remote_render, "wait", None)
+    if opened is not None:      # a cluster opening meanwhile (farm/render.py): its error ends all
+        opened()
     prefetch = getattr(final.remote_render, "prefetch", None)
     if prefetch is not None:
         _prefetch(bpy, final, scene, frame_list[0], prefetch)

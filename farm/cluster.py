@@ -13,6 +13,18 @@ from . import aliases, worker
 PACKAGE = __name__.rsplit(".", 2)[0]   # snell, or bl_ext.<repository>.snell inside Blender
 CONNECT_TIMEOUT = 10.0   # seconds to reach a scheduler
 WORKERS_TIMEOUT = 60.0   # seconds for a scheduler's first worker to join
+# A LocalCluster worker's preload (Dask imports a text with spaces as a module and calls its
+# dask_setup as the worker starts, before it joins): worker.start, by the name the workers have
+# Snell under. Text, not that module's name: a worker without Snell still starts, and
+# check_workers says what it lacks.
+WORKER_START = f"""
+def dask_setup(dask_worker):
+    try:
+        from {aliases.INSTALLED}.farm.worker import start
+    except ImportError:
+        return
+    start(dask_worker)
+"""
 
 
 def _dask():
@@ -35,11 +47,12 @@ def connect(address: str | None = None, workers: int | None = None,
     if address is None:
         # Processes, not threads: the tracer releases the GIL but Python between its kernels does
         # not. Dashboard on a free port: other renders may run on this machine.
+        # Each worker imports the tracer and loads the kernels as it starts (WORKER_START).
         cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
                                            processes=True, dashboard_address=":0",
-                                           silence_logs=logging.ERROR)
+                                           silence_logs=logging.ERROR, preload=[WORKER_START])
         try:
-            with distributed.Client(cluster) as client:
+            with _closing(distributed.Client(cluster)) as client:
                 yield client
         finally:
             cluster.close()
@@ -51,8 +64,19 @@ def connect(address: str | None = None, workers: int | None = None,
         raise CliError(f"{origin}: cannot reach the scheduler ({_reason(exc)})") from None
     except ValueError as exc:     # not an address: no port, an unknown scheme
         raise CliError(f"{origin}: {_reason(exc)}") from None
-    with client:
+    with _closing(client):
         yield client
+
+
+@contextlib.contextmanager
+def _closing(client):
+    """The client, closed on exit: not `with client`, which makes it the current client of
+    the thread's context, and may only be left in that context (farm/render.py's Opening
+    connects in a thread of its own and closes in the caller's)."""
+    try:
+        yield client
+    finally:
+        client.close()
 
 
 def _reason(exc: BaseException) -> str:

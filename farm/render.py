@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import sys
+import threading
 import time
 from dataclasses import dataclass
 
@@ -41,19 +42,77 @@ def session(address: str | None, workers: int | None, quiet: bool = False,
     and stopped here: yields a Session (render(scene, settings, name, frame=0, progress=None,
     stop=None) -> RenderResult with .workers, and its prefetch); says where on stderr unless
     quiet. origin: what asked for the address, in errors (cluster.connect)."""
-    with cluster.connect(address, workers, origin=origin) as client:
-        threads = cluster.check_workers(client)
-        processes = len(client.nthreads())
-        if not quiet:
-            board = cluster.dashboard(client)
-            print(f"snell: rendering on {processes} Dask worker{'s' if processes != 1 else ''} "
-                  f"({threads} threads){', dashboard ' + board if board else ''}",
-                  file=sys.stderr, flush=True)
-        frames = Session(client, threads, processes)
+    with opening(address, workers, quiet, origin) as started:
+        yield started.wait()
+
+
+@contextlib.contextmanager
+def opening(address: str | None, workers: int | None, quiet: bool = False,
+            origin: str | None = None):
+    """session's, begun now in a thread and yielded at once as an Opening: its wait() returns
+    the Session, or raises what connecting raised. The command loads or exports its scene
+    meanwhile, while the LocalCluster starts and its workers import the tracer and load the
+    kernels. On exit (a render done, or a scene that failed to load) the opening is waited for
+    and whatever it opened closed."""
+    started = Opening(address, workers, quiet, origin)
+    try:
+        yield started
+    finally:
+        started.close()
+
+
+class Opening:
+    """A cluster session being opened in a thread (see opening): wait() for its Session; called
+    or prefetch()ed, it waits and renders as the Session (what `snell batch` hands the engine
+    before the cluster is up)."""
+
+    def __init__(self, address: str | None, workers: int | None, quiet: bool,
+                 origin: str | None):
+        self._stack = contextlib.ExitStack()
+        self._session = self._error = None
+        self._said = quiet
+        self._thread = threading.Thread(target=self._open, args=(address, workers, origin),
+                                        name="snell: opening the Dask session", daemon=True)
+        self._thread.start()
+
+    def _open(self, address, workers, origin) -> None:
         try:
-            yield frames
-        finally:
-            frames.drop()
+            client = self._stack.enter_context(cluster.connect(address, workers, origin=origin))
+            threads = cluster.check_workers(client)
+            frames = Session(client, threads, len(client.nthreads()))
+            self._stack.callback(frames.drop)
+            self._session = frames
+        except BaseException as exc:  # noqa: BLE001  (raised again by wait, in the caller)
+            self._error = exc
+
+    def wait(self) -> "Session":
+        """The Session once open (saying where on stderr the first time, unless quiet); what
+        opening it raised (a CliError: no Dask, an unreachable scheduler, a worker that cannot
+        render) otherwise."""
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        frames = self._session
+        if not self._said:
+            self._said = True
+            board = cluster.dashboard(frames.client)
+            print(f"snell: rendering on {frames.processes} Dask worker"
+                  f"{'s' if frames.processes != 1 else ''} ({frames.threads} threads)"
+                  f"{', dashboard ' + board if board else ''}", file=sys.stderr, flush=True)
+        return frames
+
+    def __call__(self, *args, **kwargs) -> RenderResult:
+        return self.wait()(*args, **kwargs)
+
+    def prefetch(self, *args) -> None:
+        """Session.prefetch, once open."""
+        self.wait().prefetch(*args)
+
+    def close(self) -> None:
+        """Wait for the opening, then close what it opened (the session's prefetched frames, the
+        client, the LocalCluster)."""
+        self._thread.join()
+        self._stack.close()
 
 
 class Session:
@@ -130,14 +189,6 @@ def _build_renderers(client, scene, settings, priority: int) -> Started:
                             allow_other_workers=False, priority=priority, pure=False)
               for address in client.nthreads()]
     return Started(key, scene_future, {}, 0, priority, builds)
-
-
-def render_on(address: str | None, workers: int | None, scene, settings, name: str,
-              progress=None, quiet: bool = False) -> RenderResult:
-    """Render a scene on the scheduler at `address`, or on a LocalCluster of `workers`
-    processes started and stopped here; says where on stderr unless quiet."""
-    with session(address, workers, quiet) as render:
-        return render(scene, settings, name, progress=progress)
 
 
 def render_frame(client, scene, settings, name: str, frame: int = 0, progress=None,

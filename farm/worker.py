@@ -2,7 +2,9 @@
 tables, loaded kernels) built once per render and kept for the tasks that follow."""
 from __future__ import annotations
 
+import atexit
 import os
+import sys
 import threading
 import time
 from collections import OrderedDict
@@ -256,6 +258,30 @@ def trace_light(scene, key: str, settings, pass_index: int, jobs: list) -> PassR
     splats = [renderer.trace_light_chunk(pass_index, start, n) for start, n in jobs]
     return PassReply(None, None, splats, 0, np.zeros(len(wavefront.STATS), np.int64),
                      geometry.ray_count - rays, geometry.embree_time - embree)
+
+
+def start(dask_worker=None) -> None:
+    """A LocalCluster worker's start (cluster.WORKER_START): the tracer imported and every
+    kernel loaded now, while the client exports its scene, rather than on the first task; and
+    the process's exit made quick."""
+    atexit.register(_exit_now)
+    try:
+        from ..tracer.integrator import kernels_compiled, warm_up
+        if kernels_compiled():       # else the client is compiling them: the first task loads
+            warm_up()
+    except Exception:  # noqa: BLE001  (describe and the first task report it, as without this)
+        pass
+
+
+def _exit_now() -> None:
+    """At exit, the other exit handlers run, then the process ends without the interpreter's
+    teardown of its modules: with Numba's and Dask's loaded that took 1-1.5 s, which the
+    command's close of its LocalCluster waited for, worker by worker."""
+    atexit.unregister(_exit_now)
+    atexit._run_exitfuncs()      # registered before this one: they run after it otherwise
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
 
 
 def describe() -> dict:

@@ -2,6 +2,9 @@
 started on the cluster before the one under way, at a lower Dask priority, so that its windows
 fill the workers the last frame's tail leaves idle; the images stay the local ones bit for bit.
 The batch runs in this process (cli.main), so that the farm's calls can be watched."""
+import os
+import sys
+
 import numpy as np
 import pytest
 
@@ -48,3 +51,21 @@ def test_batch_starts_each_frame_before_the_last_ends(blender_scenes, tmp_path, 
                                   image.read_channel(farm, channel)), (frame, channel)
     assert not np.array_equal(image.read_exr(str(tmp_path / "farm_0001.exr")),
                               image.read_exr(str(tmp_path / "farm_0002.exr")))
+
+
+def test_batch_without_dask_is_one_error_before_any_frame(blender_scenes, tmp_path,
+                                                          monkeypatch, capsys):
+    """`snell batch --workers 2` without Dask: the CliError raised in the opening's thread
+    (farm/render.py's Opening, opened while the file opens) ends the batch before its first
+    frame, as it did when the cluster opened first: one error line, no frame, nothing written.
+    Deliberate error caught: addon/batch.py not waiting for the opening: each frame's render
+    meets the error ("3 of 3 frames failed (Snell: --workers and --cluster need Dask ...)")."""
+    monkeypatch.setitem(sys.modules, "distributed", None)      # import distributed fails
+    blend = str(blender_scenes / "animated.blend")
+    status = cli.main(["batch", blend, *ARGS, "-o", str(tmp_path / "farm_####.exr"),
+                       "--workers", "2"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 1 and err[-1] == ("snell: error: --workers and --cluster need Dask "
+                                       "(pip install 'snell[distributed]')"), err
+    assert not any(line.startswith("snell: frame") for line in err), err
+    assert os.listdir(tmp_path) == []
