@@ -224,6 +224,9 @@ def same_light_passes(a, b) -> bool:
             and a.light_pass_nan_count == b.light_pass_nan_count)
 
 
+# Slow (67 s, mostly the light passes' variants of the stages compiled in the workers): the
+# default run keeps them bit for bit on a cluster in tests/blender/test_farm_f12.py.
+@pytest.mark.slow
 def test_the_light_passes_on_the_cluster_are_the_local_render(client, monkeypatch):
     """Fixed samples in windows of 3 (20 spp: window 5, samples 15-17, straddles the halves'
     boundary at 16): the workers send each sample's pass rows, the client adds them in sample
