@@ -5,7 +5,8 @@ and the inputs each renderer hands Open Image Denoise kept so that they can be s
 
     tools/measure_denoised_fewer.py reference SCENE [--batches 8 --spp 256]
     tools/measure_denoised_fewer.py ladder SCENE [--renderer snell|cycles] [--n 1,2,4,8,16,32]
-    tools/measure_denoised_fewer.py report SCENE [...]
+    tools/measure_denoised_fewer.py report SCENE [--n ...]
+    tools/measure_denoised_fewer.py figure SCENE [--renderer ...] [--n ...]
 
 `reference`: Snell's unbiased hybrid (caustics on, photon merging off, independent sampler),
 in batches kept apart, so that the reference's own noise can be read from them. `ladder`: at
@@ -14,7 +15,8 @@ prefilter, high quality) at n spp, and the noisy image at 10 n spp; Snell as `sn
 renders a point (bench.SNELL_SEED, caustics on), Cycles as the bench forces it with its own
 OIDN denoiser, its passes read back from a multilayer EXR. `report`: FLIP against the
 reference and the swaps (each renderer's noisy image denoised with the other's passes, and
-Cycles' inputs through Snell's OIDN call, held against Cycles' own denoised image).
+Cycles' inputs through Snell's OIDN call, held against Cycles' own denoised image). `figure`:
+the reference, the denoised image at n and the undenoised one at 10 n with their FLIP maps.
 Everything runs in this process with one thread (time does not enter target (b)); the files go
 to out/denoised_fewer/.
 """
@@ -178,9 +180,36 @@ def report(args):
               f"Cycles' own: max |diff| / max {same:.2e}")
 
 
+def figure(args):
+    """A PNG per n: the reference, Snell denoised at n and its per-pixel FLIP map, Snell
+    undenoised at FACTOR n and its map (the maps on the bench page's scale)."""
+    from snell.pages.images import png_bytes, upscale
+    from snell.tracer.denoise import denoise
+    from snell.tracer.image import to_srgb8
+    from snell.validation.bench_curves import flip_map
+    from snell.validation.bench_report import flip_map_rgb, labelled_strip
+    ref = np.load(os.path.join(OUT, f"ref_{args.scene}.npz"))["batches"].astype(np.float64)
+    ref = ref.mean(axis=0)
+    lad = dict(np.load(os.path.join(OUT, f"ladder_{args.scene}_{args.renderer}.npz")))
+    for n in args.n:
+        dn = (denoise(lad[f"dn{n}_noisy"], lad[f"dn{n}_albedo"], lad[f"dn{n}_normal"],
+                      "accurate", "high", 1).image if args.renderer == "snell"
+              else lad[f"dn{n}_denoised"])
+        noisy = lad[f"noisy{n * FACTOR}_noisy"]
+        maps = [flip_map(ref, dn), flip_map(ref, noisy)]
+        tiles = [("reference", to_srgb8(ref)), (f"denoised {n} spp", to_srgb8(dn)),
+                 (f"FLIP {maps[0].mean():.4f}", flip_map_rgb(maps[0])),
+                 (f"undenoised {n * FACTOR} spp", to_srgb8(noisy)),
+                 (f"FLIP {maps[1].mean():.4f}", flip_map_rgb(maps[1]))]
+        path = os.path.join(OUT, f"fewer_{args.scene}_{args.renderer}_{n}.png")
+        with open(path, "wb") as f:
+            f.write(png_bytes(labelled_strip([(c, upscale(t, 256)) for c, t in tiles])))
+        print(path)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("command", choices=("reference", "ladder", "report"))
+    parser.add_argument("command", choices=("reference", "ladder", "report", "figure"))
     parser.add_argument("scene")
     parser.add_argument("--renderer", choices=("snell", "cycles"), default="snell")
     parser.add_argument("--n", default="1,2,4,8,16,32")
@@ -189,7 +218,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     args.n = [int(v) for v in args.n.split(",")]
     os.makedirs(OUT, exist_ok=True)
-    {"reference": reference, "ladder": ladder, "report": report}[args.command](args)
+    {"reference": reference, "ladder": ladder, "report": report,
+     "figure": figure}[args.command](args)
 
 
 if __name__ == "__main__":
