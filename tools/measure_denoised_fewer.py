@@ -157,7 +157,8 @@ def report(args):
             (fd, hd), (fn, hn) = flips(ref, dn), flips(ref, noisy)
             own = metrics.flip(full, lad[f"dn{n}_noisy"])
             print(f"  {renderer:6s} n {n:3d}: denoised {fd:.4f} ({hd:.4f})  noisy at {n * FACTOR}"
-                  f" {fn:.4f} ({hn:.4f})  ratio {fd / fn:.3f} ({hd / hn:.3f})  noisy at n {own:.4f}")
+                  f" {fn:.4f} ({hn:.4f})  ratio {fd / fn:.3f} ({hd / hn:.3f})  "
+                  f"noisy at n {own:.4f}")
     if len(ladders) < 2:
         return
     s, c = ladders["snell"], ladders["cycles"]

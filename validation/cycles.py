@@ -425,7 +425,8 @@ DENOISING_OUTPUT = "OPEN_EXR_MULTILAYER 32-bit, Combined and the Denoising Data 
 
 def read_pass(path, name: str) -> np.ndarray:
     """A pass's three channels (R, G, B or X, Y, Z, in the file's order; an RGBA pass's first
-    three), float64 (H, W, 3), row 0 = top, from a multilayer EXR ("<view layer>.<pass>.<channel>")."""
+    three), float64 (H, W, 3), row 0 = top, from a multilayer EXR
+    ("<view layer>.<pass>.<channel>")."""
     import OpenImageIO as oiio
     inp = oiio.ImageInput.open(path)
     if inp is None:
