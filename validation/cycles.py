@@ -424,8 +424,9 @@ DENOISING_OUTPUT = "OPEN_EXR_MULTILAYER 32-bit, Combined and the Denoising Data 
 
 
 def read_pass(path, name: str) -> np.ndarray:
-    """A pass's three channels (R, G, B or X, Y, Z, in the file's order), float64 (H, W, 3),
-    row 0 = top, from a multilayer EXR ("<view layer>.<pass>.<channel>")."""
+    """A pass's three channels (R, G, B or X, Y, Z, in the file's order; an RGBA pass's first
+    three), float64 (H, W, 3), row 0 = top, from a multilayer EXR
+    ("<view layer>.<pass>.<channel>")."""
     import OpenImageIO as oiio
     inp = oiio.ImageInput.open(path)
     if inp is None:
@@ -436,9 +437,9 @@ def read_pass(path, name: str) -> np.ndarray:
             spec = inp.spec()
             found = [k for k, channel in enumerate(spec.channelnames)
                      if f".{name}." in f".{channel}"]
-            if len(found) == 3:
+            if len(found) in (3, 4):
                 pixels = [np.asarray(inp.read_image(part, 0, k, k + 1, "float"), np.float64)
-                          for k in found]
+                          for k in found[:3]]
                 return np.stack(pixels, axis=-1).reshape(spec.height, spec.width, 3)
             part += 1
     finally:

@@ -142,19 +142,9 @@ def cycles_passes(blend, names, combined=False) -> dict:
             for name in names:
                 images[name].append(cycles.read_pass(out, name))
             if combined:
-                images["Combined"].append(combined_rgb(out))
+                images["Combined"].append(cycles.read_pass(out, "Combined"))
             os.remove(out)
     return {name: np.stack(stack) for name, stack in images.items()}
-
-
-def combined_rgb(path):
-    """The Combined pass's R, G and B, float64 (H, W, 3), row 0 at the top (read_pass takes
-    passes of three channels; Combined has four)."""
-    import OpenImageIO as oiio
-    image = oiio.ImageBuf(path)
-    names = image.spec().channelnames
-    rgb = [names.index(f"ViewLayer.Combined.{c}") for c in "RGB"]
-    return np.asarray(image.get_pixels(oiio.FLOAT), np.float64)[..., rgb]
 
 
 def snell_renders(scene, **switches):
