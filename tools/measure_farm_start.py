@@ -6,8 +6,8 @@ Runs `snell render` with the given arguments in this process and prints, in seco
 interpreter started, when each step began and ended: the scene's load (a .blend's export), the
 LocalCluster's start (its workers' imports and kernel loads, with the preload), the workers'
 checks, the scene scattered, each worker's first window back (its Renderer's build and its
-task's own seconds), the first and last windows back, the cluster's close and the EXR's write. The steps
-are wrapped where the command calls them; nothing of the render changes.
+task's own seconds), the first and last windows back, the cluster's close and the EXR's write.
+The steps are wrapped where the command calls them; nothing of the render changes.
 """
 import os
 import sys

@@ -3,7 +3,8 @@
 of tests/support/sds_scenes.py with its shadow-caustics flags, once to compile and warm up and
 then --runs times in the same process, each of mnee's kernels and phases timed from Python in
 the rendering thread's CPU time (time.thread_time); prints each one's median over the runs, and
-the whole render's wall time (the render runs in a worker thread). Pin it to one core (taskset -c 0) on a shared machine.
+the whole render's wall time (the render runs in a worker thread). Pin it to one core
+(taskset -c 0) on a shared machine.
 
     taskset -c 0 .venv/bin/python tools/measure_mnee_stage.py [--scene pool] [--size 64]
         [--spp 16] [--runs 5] [--count]

@@ -8,9 +8,9 @@ sds_scenes.py): the path-traced references and the error of merged renders again
         [--passes 1,4,16,64] [--seeds 4] [--light-paths 1.0] [--alpha 0.6667] [--radius 0]
 
 Scenes: pool, tumbler, and the pool under a sun (pool_sun) or an area lamp (pool_area) instead of
-its round lamp. `reference` renders Snell's own hybrid (path tracer and light tracer, merging off: unbiased) at
-16x16 with 16 independent batches and writes the mean and the variance of the mean to
-tests/references/sds_<scene>.npz (--merge-with adds an earlier file's samples, weighted by
+its round lamp. `reference` renders Snell's own hybrid (path tracer and light tracer, merging
+off: unbiased) at 16x16 with 16 independent batches and writes the mean and the variance of the
+mean to tests/references/sds_<scene>.npz (--merge-with adds an earlier file's samples, weighted by
 their spp). `measure` renders K passes of --spp-per-pass samples each, merging on and off, over
 several seeds, and prints per K the relative RMSE against the reference (the reference's own
 variance taken out), over the image and over the caustic region (where light paths carry at

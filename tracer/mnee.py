@@ -127,9 +127,9 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
     oid = scene.object_ids.astype(np.int64) if len(scene.object_ids) else np.zeros(0, np.int64)
     tri_flags = flags[np.minimum(oid, len(objects))] if len(objects) else np.zeros(len(oid),
                                                                                   np.int64)
-    kinds = material_kind[of_triangle]
-    receivers = np.any((tri_flags & RECEIVER != 0) & (kinds == DIFFUSE))
-    casters = np.any((tri_flags & CASTER != 0) & np.isin(kinds, (GLASS, REFRACTION)))
+    materials = material_kind[of_triangle]
+    receivers = np.any((tri_flags & RECEIVER != 0) & (materials == DIFFUSE))
+    casters = np.any((tri_flags & CASTER != 0) & np.isin(materials, (GLASS, REFRACTION)))
     lamp, pmf, kinds, index = [], [], [], []
     for kind, names, pmfs in ((AREA, ("area",), lights.area_pmf),
                               (POINT, ("point", "spot"), lights.point_pmf),

@@ -414,12 +414,12 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
     features apply this hit to them (features.py), writing into the rows of feature_albedo and
     feature_normal (None: the render makes no features). In a scene with media, the shadow
     rays are attenuated in the media they cross and the next rays carry their path's stack of
-    media, entered or left where they pass through the surface (media.py). Hits on shader programs are left for
-    program_materials, their rows written into `programs` (as pbrt-v4 queues each material
-    type for a kernel of its own: this one stays the size it was without programs). When
-    pass_sums is not None, hits add to the light passes (record_passes). A lamp that casts no
-    shadow adds its light at once, clamped by `clamp` as emitters'; `limits` as emitters',
-    whose caustics switches drop lobes at the hits a diffuse ray reached (path_limits).
+    media, entered or left where they pass through the surface (media.py). Hits on shader
+    programs are left for program_materials, their rows written into `programs` (as pbrt-v4
+    queues each material type for a kernel of its own: this one stays the size it was without
+    programs). When pass_sums is not None, hits add to the light passes (record_passes). A lamp
+    that casts no shadow adds its light at once, clamped by `clamp` as emitters'; `limits` as
+    emitters', whose caustics switches drop lobes at the hits a diffuse ray reached (path_limits).
     `clear`: with Transparent Glass, which materials' transmissions keep a path see-through
     (go_on; empty: none). mnee_flags: the triangles' shadow-caustics flags (mnee.py; empty:
     none), from which each next ray's mnee state follows (mnee_after).

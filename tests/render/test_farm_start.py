@@ -107,8 +107,8 @@ def test_without_dask_workers_are_one_error(tiny, tmp_path, capsys, monkeypatch)
 def test_local_workers_load_the_kernels_as_they_start():
     """A LocalCluster of cluster.connect: before any task and before check_workers (whose
     describe imports the tracer), each worker has imported the tracer and loaded the kernels
-    (warm_up's: a kernel of the stages has its compiled signature). Deliberate error caught: no preload:
-    both False."""
+    (warm_up's: a kernel of the stages has its compiled signature). Deliberate error caught:
+    no preload: both False."""
     from snell.tracer.integrator import kernels_compiled, warm_up
     if not kernels_compiled():
         warm_up()
