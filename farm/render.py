@@ -329,15 +329,16 @@ def add_extra(result: RenderResult, extra: worker.WindowExtra, window) -> None:
     """Add a window's alpha, denoising, light-pass and light-group samples to the result's sums
     one sample at a time, with the tracer's own additions (wavefront.film_alpha, film_features,
     light_passes.film_light_passes, which adds rows of any width): the local render's sums bit
-    for bit, as each of its pixels gets its samples in sample order. The light passes and
-    groups go to the half of the sample indices of the window's first sample, where the local
-    render's one pass of the window adds them."""
+    for bit, as each of its pixels gets its samples in sample order. A sample's light passes
+    and groups go to the half of the sample indices of the first sample of the local render's
+    pass it is in (a window is whole passes of samples_per_pass), where that pass adds them."""
     rows = result.extra_rows()
     npix = result.width * result.height
-    half = adaptive.half_of(window.first)
-    light = None if extra.light is None else rows.light[half]
-    groups = None if extra.groups is None else rows.groups[half]
+    step = passes.samples_per_pass(npix)
     for k in range(extra.samples):
+        half = adaptive.half_of(window.first + k - k % step)
+        light = None if extra.light is None else rows.light[half]
+        groups = None if extra.groups is None else rows.groups[half]
         if extra.transparent is not None:
             wavefront.film_alpha(extra.transparent[k], npix, 0, 1, passes.ALL_PIXELS,
                                  rows.transparent, rows.transparent_sq)
@@ -353,7 +354,7 @@ def add_extra(result: RenderResult, extra: worker.WindowExtra, window) -> None:
         result.alpha_nans[0] += extra.alpha_nans
     if extra.albedo is not None:
         result.feature_nans[0] += extra.feature_nans
-    if light is not None:
+    if extra.light is not None:
         result.light_pass_nans[0] += extra.light_nans
-    if groups is not None:
+    if extra.groups is not None:
         result.light_group_nans[0] += extra.group_nans

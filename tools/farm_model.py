@@ -16,7 +16,7 @@ The inputs (defaults: docs/measurements.md, "Rendering on Dask workers"):
   --ahead-gib  the client's bound on window sums submitted and not yet added (farm/render.py's
                AHEAD_BYTES), which also bounds how many workers trace at once.
 
-A window of a fixed-sample render is samples_per_pass(pixels) samples of every pixel
+A window of a fixed-sample render is samples_per_window(pixels) samples of every pixel
 (tracer/passes.py: 2^17 paths, at least one sample), traced by one worker thread; it sends back
 72 bytes a pixel (float64 sums, squares and light sums, RGB). The client receives and adds the
 windows one at a time, in window order: it is a serial resource, as is the scheduler. The frame
@@ -42,7 +42,7 @@ import math
 import random
 
 from snell.farm.render import AHEAD_BYTES, AHEAD_PER_THREAD
-from snell.tracer.passes import samples_per_pass as samples_per_window
+from snell.tracer.passes import samples_per_window
 
 BYTES_PER_PIXEL = 72        # sums, sums of squares, light sums: 3 x float64 RGB
 

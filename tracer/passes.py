@@ -23,6 +23,12 @@ from .result import RenderResult, Window
 
 CHUNK = 1 << 13           # paths per chunk: measured best (8k-16k) for Python overhead vs cache
 PASS_PATHS = 1 << 17      # aim for about this many paths per progressive pass
+# A fixed-sample render's window holds up to this many passes' paths (one pass at least). On a
+# cluster each window is a task and a reply of 72 bytes a pixel whatever its samples, which the
+# client receives and adds one at a time: at 256x256 and 256 spp, 128 windows of one pass (4.5
+# MiB each) against 32 of four made `--workers 2` 12% slower (docs/measurements.md, "Rendering
+# on Dask workers").
+WINDOW_PASSES = 4
 # The light paths of one pool.map: a pass's light paths beyond this (a batch of a big render)
 # are traced in segments of it, so that no pass holds more than LIGHT_SEGMENT / CHUNK Futures.
 LIGHT_SEGMENT = CHUNK << 10
@@ -108,12 +114,12 @@ def add_splats(jobs: list, splats, n_a: int, film, film_a, counters, groups=None
 
 
 class FixedWindows(Sequence):
-    """The windows of a fixed-sample render of `pixels` pixels and `spp` samples: one progressive
-    pass each, made on demand (an 8192 x 8192 render of 2^24 spp has 2^24 windows of one sample:
-    a list of them would take gigabytes)."""
+    """The windows of a fixed-sample render of `pixels` pixels and `spp` samples, of
+    samples_per_window samples each, made on demand (an 8192 x 8192 render of 2^24 spp has 2^24
+    windows of one sample: a list of them would take gigabytes)."""
 
     def __init__(self, pixels: int, spp: int):
-        self.step = samples_per_pass(pixels)
+        self.step = samples_per_window(pixels)
         self.spp = spp
         self.count = -(-spp // self.step)
 
@@ -131,8 +137,15 @@ class FixedWindows(Sequence):
         return Window(k, first, min(first + self.step, self.spp))
 
 
+def samples_per_window(pixels: int) -> int:
+    """Samples per pixel in a window of a fixed-sample render of `pixels` pixels: whole passes
+    (samples_per_pass), as many as WINDOW_PASSES passes' paths hold, one at least."""
+    step = samples_per_pass(pixels)
+    return step * max(1, WINDOW_PASSES * PASS_PATHS // (pixels * step))
+
+
 def fixed_windows(pixels: int, spp: int) -> FixedWindows:
-    """The windows of a fixed-sample render of `pixels` pixels: one progressive pass each."""
+    """The windows of a fixed-sample render of `pixels` pixels, in the order they are added."""
     return FixedWindows(pixels, spp)
 
 
@@ -235,14 +248,25 @@ class FixedPasses(_Passes):
         self.windows = fixed_windows(self.npix, self.spp)
         self.film = (result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3))
         self.pass_light = self._light_film() if self.traces_light else None
+        # A window of several passes is summed from zero in a film of its own and added whole,
+        # as a cluster's client adds a worker's window: merged pass by pass, its sums would
+        # differ in the last bits. Only small images have such windows (a few MB each).
+        self.window_film = None
+        if self.windows.step > samples_per_pass(self.npix):
+            self.window_film = (np.empty((self.npix, 3)), np.empty((self.npix, 3)))
 
     def next(self) -> Window | None:
         return self.windows[self.k] if self.k < len(self.windows) else None
 
     def trace(self, pool, window: Window, stop) -> bool:
-        # Each window's camera sums are merged into the result chunk by chunk (a window is one
-        # pass), not kept whole: a render holds no third and fourth image of sums.
-        sums = self.renderer.trace_window(pool, window, self.bits, ALL_PIXELS, self.film, True,
+        # A window of one pass is merged into the result chunk by chunk, not kept whole: a big
+        # render holds no third and fourth image of sums.
+        merge = self.window_film is None
+        film = self.film if merge else self.window_film
+        if not merge:
+            for sums in film:
+                sums[:] = 0.0
+        sums = self.renderer.trace_window(pool, window, self.bits, ALL_PIXELS, film, merge,
                                           self.pass_light, stop, self.extra)
         if sums is None:
             return False

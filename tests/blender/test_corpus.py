@@ -428,9 +428,9 @@ INTERRUPTS = [
     pytest.param(*case, id="-".join(case)) for case in INTERRUPTS])
 def test_ctrl_c(corpus, out, command, name, stage):
     argv = COMMANDS[command](corpus[name], out)
-    if stage == "render" and command != "batch":  # 3 passes of 16x12 pixels: one to interrupt
+    if stage == "render" and command != "batch":  # 4 windows of 16x12 pixels: one to interrupt
         # (batch renders tiny.blend's own 2048 spp)
-        argv[argv.index("--spp") + 1] = "2048"
+        argv[argv.index("--spp") + 1] = "8192"
     if stage == "render" and command in ("render", "batch"):
         # Every pixel all 2048 samples: adaptive sampling would end the flat image before Ctrl-C
         # (compare renders in batches, which sample every pixel alike anyway).

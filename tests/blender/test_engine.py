@@ -70,6 +70,7 @@ def tracer_image(spp=None, passes=None):
 def small_passes(monkeypatch):
     """1 sample per pixel per pass at 32x32, so a render has several passes."""
     monkeypatch.setattr(passes, "PASS_PATHS", SIZE * SIZE)
+    monkeypatch.setattr(passes, "WINDOW_PASSES", 1)
 
 
 class Spy:

@@ -31,10 +31,12 @@ def test_fixed_windows_of_the_largest_render_are_made_on_demand():
     assert list(windows[2:4]) == [windows[2], windows[3]]
     with pytest.raises(IndexError):
         windows[SPP]
-    # At normal sizes the same windows as before: the image stays bit-identical.
-    small = passes.fixed_windows(64 * 64, 100)
-    assert list(small) == [passes.Window(k, f, min(f + 32, 100))
-                           for k, f in enumerate(range(0, 100, 32))]
+    # Smaller images: windows of WINDOW_PASSES passes (fewer, larger replies on a cluster); from
+    # 2^19 pixels one pass of one sample, as here.
+    assert passes.samples_per_window(64 * 64) == 4 * passes.samples_per_pass(64 * 64) == 128
+    assert list(passes.fixed_windows(64 * 64, 300)) == [
+        passes.Window(0, 0, 128), passes.Window(1, 128, 256), passes.Window(2, 256, 300)]
+    assert passes.samples_per_window(512 * 512) == 2 and passes.samples_per_window(1 << 19) == 1
 
 
 @pytest.mark.parametrize("rows, samples", [(NPIX, SPP // BATCHES), (128 * 128, 262144 // BATCHES),

@@ -32,9 +32,10 @@ from support.dask_cluster import client  # noqa: E402,F401  (the shared LocalClu
 
 SIZE = 16
 SPP = 12
-# Windows of 2 samples on a 16x16 image (the tracer sizes them from PASS_PATHS): 6 windows. Only
-# the client's windows change: a worker traces the window it is given, as one pass.
-PASS_PATHS = 2 * SIZE * SIZE
+# Windows of 2 samples on a 16x16 image, 6 windows (small_windows): passes of one sample, two to a
+# window (WINDOW_PASSES). Only the client's windows change: the local render sums each window's
+# two passes from zero and adds the window whole; a worker traces the window it is given, as one
+# pass of 2 samples.
 MATERIALS = [{"name": "White", "kind": "diffuse", "color": [0.8, 0.8, 0.8]},
              {"name": "Lamp", "kind": "emission", "color": [1.0, 1.0, 1.0], "strength": 20.0},
              {"name": "Glass", "kind": "glass", "color": [1.0, 1.0, 1.0], "ior": 1.5}]
@@ -51,9 +52,15 @@ def glass_room(**render):
     return make_scene([(*walls, 0), (*lamp, 1), (*sphere, 2)], MATERIALS, cam, **render)
 
 
+def windows_of(monkeypatch, samples: int, count: int) -> None:
+    """Windows of `samples` samples in `count` passes, on the client."""
+    monkeypatch.setattr(passes, "PASS_PATHS", samples // count * SIZE * SIZE)
+    monkeypatch.setattr(passes, "WINDOW_PASSES", count)
+
+
 @pytest.fixture
 def small_windows(monkeypatch):
-    monkeypatch.setattr(passes, "PASS_PATHS", PASS_PATHS)
+    windows_of(monkeypatch, 2, 2)
 
 
 def same_image(a, b) -> bool:
@@ -235,7 +242,7 @@ def test_the_light_passes_on_the_cluster_are_the_local_render(client, monkeypatc
     caught (measured): each sample's rows added to its own half (what the one-sample passes on
     the worker do): the halves differ in 256 of 256 pixels; each window's first sample left
     out on the client: 256 of 256 pixels."""
-    monkeypatch.setattr(passes, "PASS_PATHS", 3 * SIZE * SIZE)
+    windows_of(monkeypatch, 3, 1)
     scene = glass_room(spp=20)
     settings = scene.settings(light_passes=True, denoising_passes=True)
     local = Renderer(scene, settings).render()
@@ -313,16 +320,18 @@ def render_grouped(client, spp=20, **render):
 
 
 def test_the_light_groups_on_the_cluster_are_the_local_render(client, monkeypatch):
-    """Fixed samples in windows of 3 (20 spp: window 5, samples 15-17, straddles the halves'
-    boundary at 16): the workers send each sample's group columns and each window's group
-    splats summed from zero; the client adds the samples in sample order to the half of the
-    window's first sample, and the splats in window order: the local sums of both halves and
-    of the splats bit for bit, and the Combined_<group> passes read from them. Deliberate
-    errors caught (measured): each window's first group sample left out on the client
+    """Fixed samples in windows of 3, each three passes of one sample (20 spp: window 5,
+    samples 15-17, straddles the halves' boundary at 16): the workers send each sample's group
+    columns and each window's group splats summed from zero; the client adds the samples in
+    sample order to the half of their local pass's first sample, and the splats in window
+    order: the local sums of both halves and of the splats bit for bit, and the
+    Combined_<group> passes read from them. Deliberate errors caught (measured): each sample
+    added to the half of its window's first sample (right for windows of one pass only); each
+    window's first group sample left out on the client
     (add_extra): the group sums differ in 256 of 256 pixels (Combined_ceiling in 242,
     Combined_key in 256); window 2's group splats not added (its WindowSums.group_light
     dropped in _add): 11 pixels' splat sums (Combined_ceiling 1, Combined_key 10)."""
-    monkeypatch.setattr(passes, "PASS_PATHS", 3 * SIZE * SIZE)
+    windows_of(monkeypatch, 3, 3)
     local, merged = render_grouped(client)
     assert len(passes.fixed_windows(SIZE * SIZE, 20)) == 7
     assert local.light_group_sum[0].any() and local.light_group_sum[1].any()
@@ -336,7 +345,7 @@ def test_a_window_left_out_of_the_groups_merge_is_caught(client, monkeypatch, pa
     """The comparison above sees a wrong merge of the groups: window 2's group samples (or its
     group splats) left out on the client changes the groups' sums and passes, and nothing
     else."""
-    monkeypatch.setattr(passes, "PASS_PATHS", 3 * SIZE * SIZE)
+    windows_of(monkeypatch, 3, 3)
     real = render_module._add
 
     def dropping(result, reply):

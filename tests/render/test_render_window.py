@@ -47,11 +47,16 @@ def same_sums(a: RenderResult, b: RenderResult) -> bool:
 
 
 @pytest.mark.parametrize("caustics", [False, True])
-def test_a_fixed_render_is_the_merge_of_its_windows(monkeypatch, caustics):
-    """Windows traced separately in a shuffled order, added in window order: the render's sums,
-    light paths, NaN count and counters. Added in another order, or with a window left out, the
-    sums differ: the comparison can see a wrong merge."""
-    monkeypatch.setattr(passes, "PASS_PATHS", 3 * SIZE * SIZE)   # windows of 3 samples
+@pytest.mark.parametrize("window_passes", [1, 3])
+def test_a_fixed_render_is_the_merge_of_its_windows(monkeypatch, caustics, window_passes):
+    """Windows of 3 samples (one pass of 3, or three passes of 1) traced separately in a shuffled
+    order, added in window order: the render's sums, light paths, NaN count and counters. Added
+    in another order, or with a window left out, the sums differ: the comparison can see a wrong
+    merge. Deliberate error caught (measured): the render merging a window of three passes pass
+    by pass (each pass's sums added as it ends) rather than summed from zero and added whole:
+    the sums differ."""
+    monkeypatch.setattr(passes, "PASS_PATHS", 3 * SIZE * SIZE // window_passes)
+    monkeypatch.setattr(passes, "WINDOW_PASSES", window_passes)
     room = glass_room()
     renderer = Renderer(room, room.settings(caustics=caustics))
     assert (renderer.caustics is not None) == caustics
