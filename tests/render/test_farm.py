@@ -18,7 +18,7 @@ distributed = pytest.importorskip("distributed")
 cloudpickle = pytest.importorskip("cloudpickle")
 
 from snell import cli                                            # noqa: E402
-from snell.farm import cluster as cluster_module, keys    # noqa: E402
+from snell.farm import aliases, cluster as cluster_module, keys    # noqa: E402
 from snell.farm import render as render_module, worker    # noqa: E402
 from snell.errors import CliError                                 # noqa: E402
 from snell.tracer import image, passes                            # noqa: E402
@@ -623,6 +623,18 @@ print(type(result).__module__, "snell" in sys.modules, sys.modules["snell"].__na
 """
 
 
+def _drop_alias(alias: str) -> None:
+    """Undo farm/aliases.install(alias, ...) in this process: its finder, the names it gave
+    the real modules, and the empty parent packages it made (not Blender's own, if bpy came
+    first)."""
+    sys.meta_path[:] = [f for f in sys.meta_path
+                        if not (isinstance(f, aliases.Alias) and f.alias == alias)]
+    for name, module in list(sys.modules.items()):
+        made = alias.startswith(name + ".") and list(getattr(module, "__path__", [None])) == []
+        if name == alias or name.startswith(alias + ".") or made:
+            del sys.modules[name]
+
+
 def test_a_client_that_imports_snell_as_blenders_extension_renders_on_the_cluster(
         client, tmp_path):
     """Blender imports the extension as bl_ext.user_default.snell, the workers have `snell`:
@@ -638,9 +650,15 @@ def test_a_client_that_imports_snell_as_blenders_extension_renders_on_the_cluste
     os.symlink(os.path.dirname(cli.__file__), root / "bl_ext" / "user_default" / "snell")
     path, out = tmp_path / "room.snell", tmp_path / "sum.npy"
     save(glass_room(), str(path))
-    proc = subprocess.run([sys.executable, "-c", EXTENSION_CLIENT, str(root), str(path),
-                           client.scheduler.address, str(out)],
-                          capture_output=True, text=True, timeout=300)
+    try:
+        proc = subprocess.run([sys.executable, "-c", EXTENSION_CLIENT, str(root), str(path),
+                               client.scheduler.address, str(out)],
+                              capture_output=True, text=True, timeout=300)
+    finally:
+        # The LocalCluster's scheduler runs in this process and now answers imports of bl_ext
+        # with empty packages: a later `import bpy` here (the image regression's exports) would
+        # find them in place of Blender's own extension packages and export other scenes.
+        _drop_alias("bl_ext.user_default.snell")
     assert proc.returncode == 0, proc.stderr[-2000:]
     # The result's class is the extension's, and `snell` there is the extension's package.
     assert proc.stdout.split() == ["bl_ext.user_default.snell.tracer.result", "True",
