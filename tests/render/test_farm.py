@@ -326,10 +326,10 @@ def test_the_light_groups_on_the_cluster_are_the_local_render(client, monkeypatc
     sample order to the half of their local pass's first sample, and the splats in window
     order: the local sums of both halves and of the splats bit for bit, and the
     Combined_<group> passes read from them. Deliberate errors caught (measured): each sample
-    added to the half of its window's first sample (right for windows of one pass only); each
-    window's first group sample left out on the client
-    (add_extra): the group sums differ in 256 of 256 pixels (Combined_ceiling in 242,
-    Combined_key in 256); window 2's group splats not added (its WindowSums.group_light
+    added to the half of its window's first sample (right for windows of one pass only); and,
+    measured with windows of one pass of 3 samples, each window's first group sample left out
+    on the client (add_extra): the group sums differ in 256 of 256 pixels (Combined_ceiling in
+    242, Combined_key in 256); window 2's group splats not added (its WindowSums.group_light
     dropped in _add): 11 pixels' splat sums (Combined_ceiling 1, Combined_key 10)."""
     windows_of(monkeypatch, 3, 3)
     local, merged = render_grouped(client)
