@@ -262,7 +262,8 @@ class ViewSession:
                                    alpha=_alpha(result)))
             return not (over or self._superseded(generation))
 
-        renderer.render(progress=progress, stop=job.cancel)
+        # A frame after every pass, not every window of a few (small regions' windows).
+        renderer.render(progress=progress, stop=job.cancel, every_pass=True)
 
 
 def _alpha(result):

@@ -625,7 +625,8 @@ class Renderer:
 
     # -- passes ----------------------------------------------------------------------------
 
-    def render(self, progress=None, stop: threading.Event | None = None) -> RenderResult:
+    def render(self, progress=None, stop: threading.Event | None = None,
+               every_pass: bool = False) -> RenderResult:
         """Render progressively with the settings' spp, batches, noise_threshold and min_spp;
         `progress(result, pass_index, pass_count)` may return False to stop (with adaptive
         sampling pass_count is an estimate: result.spp / spp is the share of the budget done).
@@ -642,6 +643,10 @@ class Renderer:
         stop: once set, the chunks not yet started are skipped and the render ends cancelled
         without counting its unfinished pass: the result is then no image (the viewport drops
         it for the next one's). Waits one chunk at most.
+
+        every_pass: fixed samples in windows of one pass, so that progress comes after each
+        pass (the viewport) rather than each window of up to passes.WINDOW_PASSES; the sums then
+        differ in the last bits from the default's (and a cluster's).
         """
         threshold, _ = passes.adaptive_settings(self.settings)
         w, h = self.camera.width, self.camera.height
@@ -657,7 +662,7 @@ class Renderer:
             result.start_light_passes()
         if self.light_groups:
             result.start_light_groups(self.light_groups)
-        scheduler = passes.scheduler(self, result, self.settings)
+        scheduler = passes.scheduler(self, result, self.settings, every_pass)
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             return passes.drive(self, scheduler, pool, progress, stop, self.settings.time_limit)
 

@@ -118,8 +118,8 @@ class FixedWindows(Sequence):
     samples_per_window samples each, made on demand (an 8192 x 8192 render of 2^24 spp has 2^24
     windows of one sample: a list of them would take gigabytes)."""
 
-    def __init__(self, pixels: int, spp: int):
-        self.step = samples_per_window(pixels)
+    def __init__(self, pixels: int, spp: int, every_pass: bool = False):
+        self.step = samples_per_pass(pixels) if every_pass else samples_per_window(pixels)
         self.spp = spp
         self.count = -(-spp // self.step)
 
@@ -144,9 +144,10 @@ def samples_per_window(pixels: int) -> int:
     return step * max(1, WINDOW_PASSES * PASS_PATHS // (pixels * step))
 
 
-def fixed_windows(pixels: int, spp: int) -> FixedWindows:
-    """The windows of a fixed-sample render of `pixels` pixels, in the order they are added."""
-    return FixedWindows(pixels, spp)
+def fixed_windows(pixels: int, spp: int, every_pass: bool = False) -> FixedWindows:
+    """The windows of a fixed-sample render of `pixels` pixels, in the order they are added
+    (with every_pass, of one pass each)."""
+    return FixedWindows(pixels, spp, every_pass)
 
 
 def adaptive_settings(settings) -> tuple[float, int]:
@@ -161,16 +162,17 @@ def adaptive_settings(settings) -> tuple[float, int]:
     return threshold, least
 
 
-def scheduler(renderer, result: RenderResult, settings):
-    """The scheduler of a render's settings: batches, adaptive sampling or fixed samples.
-    renderer: a Renderer, or anything with its pass interface (camera_pass, light_pass,
-    light_count, trace_window, ray_count and the flags the schedulers read: farm/remote.py)."""
+def scheduler(renderer, result: RenderResult, settings, every_pass: bool = False):
+    """The scheduler of a render's settings: batches, adaptive sampling or fixed samples (with
+    every_pass, in windows of one pass). renderer: a Renderer, or anything with its pass
+    interface (camera_pass, light_pass, light_count, trace_window, ray_count and the flags the
+    schedulers read: farm/remote.py)."""
     threshold, least = adaptive_settings(settings)
     if settings.batches:
         return BatchPasses(renderer, result, settings.batches)
     if threshold > 0.0:
         return AdaptivePasses(renderer, result, threshold, least)
-    return FixedPasses(renderer, result)
+    return FixedPasses(renderer, result, every_pass)
 
 
 def drive(renderer, scheduler, pool, progress, stop, time_limit: float) -> RenderResult:
@@ -243,9 +245,9 @@ class FixedPasses(_Passes):
     """Fixed samples in every pixel: the render's windows (Renderer.windows), each added to the
     result in window order as a distributed render merges them (RenderResult.add)."""
 
-    def __init__(self, renderer, result):
+    def __init__(self, renderer, result, every_pass: bool = False):
         super().__init__(renderer, result)
-        self.windows = fixed_windows(self.npix, self.spp)
+        self.windows = fixed_windows(self.npix, self.spp, every_pass)
         self.film = (result.sum.reshape(-1, 3), result.sum_sq.reshape(-1, 3))
         self.pass_light = self._light_film() if self.traces_light else None
         # A window of several passes is summed from zero in a film of its own and added whole,

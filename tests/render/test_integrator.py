@@ -250,6 +250,18 @@ def test_cancel_keeps_completed_passes():
     assert np.all(np.isfinite(result.mean())) and result.mean().max() > 0
 
 
+def test_every_pass_gives_progress_after_each_pass():
+    """The viewport's render (every_pass): windows of one pass, a progress call after each of
+    the 8 one-sample passes at 512x512 rather than after each window of two."""
+    pos, tri, nrm = icosphere(2)
+    mats = [{"name": "Grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
+    scene = make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(512, 512)), world=WHITE, spp=8)
+    seen = []
+    result = Renderer(scene, scene.settings()).render(
+        progress=lambda r, k, n: seen.append((k, n, r.spp)) or k < 2, every_pass=True)
+    assert seen == [(1, 8, 1), (2, 8, 2)] and result.cancelled and result.spp == 2
+
+
 def test_stop_event_ends_a_pass_within_a_chunk(monkeypatch):
     """The viewport's cancel: chunks after the stop are skipped, the pass is not counted."""
     pos, tri, nrm = icosphere(2)
