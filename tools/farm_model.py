@@ -17,7 +17,8 @@ The inputs (defaults: docs/measurements.md, "Rendering on Dask workers"):
                AHEAD_BYTES), which also bounds how many workers trace at once.
 
 A window of a fixed-sample render is samples_per_window(pixels) samples of every pixel
-(tracer/passes.py: 2^17 paths, at least one sample), traced by one worker thread; it sends back
+(tracer/passes.py: up to four passes of 2^17 paths below 2^19 pixels, one pass of one sample
+from there up), traced by one worker thread; it sends back
 72 bytes a pixel (float64 sums, squares and light sums, RGB). The client receives and adds the
 windows one at a time, in window order: it is a serial resource, as is the scheduler. The frame
 time on W single-threaded workers is then

@@ -266,8 +266,8 @@ class FixedPasses(_Passes):
         merge = self.window_film is None
         film = self.film if merge else self.window_film
         if not merge:
-            for sums in film:
-                sums[:] = 0.0
+            for rows in film:
+                rows[:] = 0.0
         sums = self.renderer.trace_window(pool, window, self.bits, ALL_PIXELS, film, merge,
                                           self.pass_light, stop, self.extra)
         if sums is None:

@@ -47,8 +47,8 @@ def registered():
 
 @pytest.fixture
 def one_sample_windows(monkeypatch):
-    """Windows of one sample (the client's PASS_PATHS, one pass each: a worker traces the window it is
-    given): SPP windows a frame."""
+    """Windows of one sample (the client's PASS_PATHS, one pass each: a worker traces the
+    window it is given): SPP windows a frame."""
     monkeypatch.setattr(passes, "PASS_PATHS", SIZE[0] * SIZE[1])
     monkeypatch.setattr(passes, "WINDOW_PASSES", 1)
 

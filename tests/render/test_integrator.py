@@ -239,10 +239,17 @@ def test_deterministic_for_seed_and_independent_of_threads():
     assert not np.array_equal(a, c)
 
 
-def test_cancel_keeps_completed_passes():
+def grey_sphere_512():
+    """A grey sphere under a white world at 512x512 and 8 spp: passes of one sample, several
+    chunks each."""
     pos, tri, nrm = icosphere(2)
     mats = [{"name": "Grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
-    scene = make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(512, 512)), world=WHITE, spp=8)
+    return make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(512, 512)), world=WHITE,
+                      spp=8)
+
+
+def test_cancel_keeps_completed_passes():
+    scene = grey_sphere_512()
     seen = []
     result = render(scene, progress=lambda r, k, n: seen.append((k, n)) or False)
     # At 512x512, windows of two passes of one sample.
@@ -253,9 +260,7 @@ def test_cancel_keeps_completed_passes():
 def test_every_pass_gives_progress_after_each_pass():
     """The viewport's render (every_pass): windows of one pass, a progress call after each of
     the 8 one-sample passes at 512x512 rather than after each window of two."""
-    pos, tri, nrm = icosphere(2)
-    mats = [{"name": "Grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
-    scene = make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(512, 512)), world=WHITE, spp=8)
+    scene = grey_sphere_512()
     seen = []
     result = Renderer(scene, scene.settings()).render(
         progress=lambda r, k, n: seen.append((k, n, r.spp)) or k < 2, every_pass=True)
@@ -264,9 +269,7 @@ def test_every_pass_gives_progress_after_each_pass():
 
 def test_stop_event_ends_a_pass_within_a_chunk(monkeypatch):
     """The viewport's cancel: chunks after the stop are skipped, the pass is not counted."""
-    pos, tri, nrm = icosphere(2)
-    mats = [{"name": "Grey", "kind": "diffuse", "color": [0.5, 0.5, 0.5]}]
-    scene = make_scene([(pos, tri, 0, nrm)], mats, camera(resolution=(512, 512)), world=WHITE, spp=8)
+    scene = grey_sphere_512()
     renderer, stop, traced = Renderer(scene, scene.settings(threads=1)), threading.Event(), []
     trace = renderer.trace_chunk
 
