@@ -26,6 +26,19 @@ def dask_setup(dask_worker):
     start(dask_worker)
 """
 
+# Dask's periodic work, turned down for renders whose tasks take seconds: on an idle LocalCluster
+# of two workers, its sampling profiler (every 10 ms in each worker), the event loop's health
+# tick (20 ms in every process), the system monitor (0.5 s) and the worker memory monitor
+# (0.1 s) kept 5.2-5.9% of a processor busy, and 1.1% with these (docs/measurements.md,
+# "Dask's own work"). Set in the client, so in a LocalCluster's workers too (a Nanny hands its
+# worker the client's config); workers started by `dask worker` read their own.
+QUIET = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "2s",
+}
+
 
 def _dask():
     """dask.distributed, or a CliError saying how to install it."""
@@ -42,8 +55,18 @@ def connect(address: str | None = None, workers: int | None = None,
             timeout: float | None = None, origin: str | None = None):
     """A Dask Client: of the scheduler at `address`, or of a LocalCluster of `workers` processes
     (one thread each) closed on exit. Unreachable scheduler: CliError, starting with `origin`
-    (what asked for the address; default "--cluster ADDRESS")."""
+    (what asked for the address; default "--cluster ADDRESS"). Dask's periodic work is turned
+    down (QUIET) while it is open."""
     distributed = _dask()
+    import dask
+    with dask.config.set(QUIET), _client(distributed, address, workers, timeout,
+                                         origin) as client:
+        yield client
+
+
+@contextlib.contextmanager
+def _client(distributed, address, workers, timeout, origin):
+    """connect's client, under the config in force."""
     if address is None:
         # Processes, not threads: the tracer releases the GIL but Python between its kernels does
         # not. Dashboard on a free port: other renders may run on this machine.

@@ -1,8 +1,8 @@
 """The start of `snell render --workers/--cluster` (farm/render.py's opening, farm/worker.py's
 start): the cluster opens in a thread while the scene loads, a scene that fails to load or a
 cluster that cannot open ends with one clear error and nothing left running or written, local
-workers load the kernels as they start, and a worker's exit skips only the interpreter's
-teardown."""
+workers load the kernels as they start, Dask's periodic work is turned down while connected,
+and a worker's exit skips only the interpreter's teardown."""
 from __future__ import annotations
 
 import contextlib
@@ -120,6 +120,25 @@ def test_local_workers_load_the_kernels_as_they_start():
             for kernel in vars(wavefront).values())
     with cluster_module.connect(None, 2) as dask_client:
         assert list(dask_client.run(loaded).values()) == [True, True]
+
+
+def test_dask_runs_quietly_while_connected():
+    """While cluster.connect's session is open, the client and a LocalCluster's workers run
+    with Dask's periodic work turned down (cluster.QUIET: no task profiler, a health tick of 1 s
+    rather than 20 ms); the client's config is back as it was after. Deliberate error caught:
+    connect without the config: every check False."""
+    import dask
+
+    def quiet(dask_worker):
+        return ({key: dask.config.get(key) for key in cluster_module.QUIET} == cluster_module.QUIET
+                and "profile" not in dask_worker.periodic_callbacks
+                and dask_worker.periodic_callbacks["tick"].callback_time == 1000)
+    before = {key: dask.config.get(key) for key in cluster_module.QUIET}
+    with cluster_module.connect(None, 2) as dask_client:
+        assert dask.config.get("distributed.admin.tick.interval") == "1s"
+        assert list(dask_client.run(quiet).values()) == [True, True]
+    assert {key: dask.config.get(key) for key in cluster_module.QUIET} == before != \
+        cluster_module.QUIET
 
 
 EXITING = """
