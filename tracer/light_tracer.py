@@ -476,7 +476,8 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
     Principled parameters) for the hits' lobes (receivers.surface_response).
     A path that reaches a shadow-caustics receiver (mnee_flags, the triangles' mnee.py flags;
     empty: none) after refractions at casters only, from a lamp manifold next-event
-    estimation samples, is that stage's: neither connected nor stored.
+    estimation samples, is that stage's: neither stored nor continued, and connected to the
+    camera only from a delta sun (mnee.py: the stage leaves it the camera ray's own hits).
     Returns (paths in out, connections queued, photons stored)."""
     n_out, n_conn, n_photons = 0, 0, 0
     for i in range(m):
@@ -525,8 +526,12 @@ def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, p
     n_out, n_conn, n_photons = counts
     if paths.dropped[i] != 0:
         return counts             # the camera path's diffuse ray here drops that lobe there
-    if kind == DIFFUSE and paths.mnee[i] > FROM_RECEIVER and mnee_flags[surface[1]] & RECEIVER:
-        return counts             # manifold next-event estimation's path
+    # Manifold next-event estimation's path, but for its connection to the camera from a delta
+    # sun (mnee.seed_chains leaves a camera ray's own hit that light).
+    mnee_path = (kind == DIFFUSE and paths.mnee[i] > FROM_RECEIVER
+                 and mnee_flags[surface[1]] & RECEIVER != 0)
+    if mnee_path and not caustics.emitter_delta[paths.lamp[i]]:
+        return counts
     max_depth = limits[0]
     bounces = paths.bounces[i]
     key = paths.key[i]
@@ -534,7 +539,8 @@ def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, p
     beta = row(paths.beta, i)
     # A photon: every vertex so far specular, and room for one more after this one.
     if (kind == DIFFUSE and photons.bounces.shape[0] > 0 and bounces > 0 and not caustics.pure
-            and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) == 0 and bounces + 2 <= max_depth):
+            and not mnee_path and kind_count(paths.kinds[i], DIFFUSE_BOUNCE) == 0
+            and bounces + 2 <= max_depth):
         n_photons = record_photon(photons, n_photons, p, ng, d, beta, bounces, paths.kinds, i)
     # This vertex is bounce `bounces + 1` of the camera path that ends here.
     if (bounces == 0 and not caustics.pure) or bounces + 1 > max_depth:
@@ -554,7 +560,7 @@ def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, p
     whole = caustics.pure or caustics.emitter_delta[paths.lamp[i]]
     surf = (mats, tables, mesh.corner_normals.shape[0] > 0, kind, surface, colors, whole,
             scratch)
-    if whole and bounces + 2 <= max_depth:
+    if whole and not mnee_path and bounces + 2 <= max_depth:
         kept = receiver_bounce(paths, i, out, n_out, vertex, d, surf,
                                random_pair(key, 1 + bounces, 4))
         if kept > n_out and count_scattering(paths, i, out, n_out, DIFFUSE_BOUNCE, limits):

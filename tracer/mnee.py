@@ -30,9 +30,13 @@ escapes into a sun's disc (Cycles skips caustic lamps after a caster too, but al
 reflections, which MNEE does not render). A light path's state (light_tracer.LightPaths.mnee)
 counts the same from its lamp, and the light tracer neither connects nor stores a photon at a
 receiver after them. Delta lamps: a sun of angle 0 is the stage's where the file flags it, as in
-Cycles (no camera path finds it, and the light tracer, which then leaves the stage its paths,
-cannot render them seen through glass); point lamps of radius 0 and area lamps of spread 0 stay
-the light tracer's alone. What MNEE itself leaves out is its bias: one solution per lamp sample
+Cycles (no camera path finds it, and the light tracer cannot render its paths seen through
+glass), except where the camera ray itself hits the receiver: there the light tracer's
+connection from the receiver to the camera renders exactly those paths (sun, refractions at
+casters, receiver, camera; any surface between blocks both the connection and the camera ray's
+depth 0), unbiased, so the stage starts no chain to a delta sun at depth 0 and the light tracer
+connects, but neither stores a photon nor goes on, at a receiver after casters. Point lamps of
+radius 0 and area lamps of spread 0 stay the light tracer's alone. What MNEE itself leaves out is its bias: one solution per lamp sample
 (where waves fold the light, several paths join x0 and y, and the walk finds the one nearest its
 seed), and none where the seed segment misses the casters or neither walk converges. The second
 seed is Snell's: Cycles and Hanika et al. walk from the straight one only, and where that segment
@@ -340,8 +344,9 @@ def pick_lamp(cdf, u):
 def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, active, paths, prim,
                 u, v, chains):
     """A chain per kept hit (rows `active`) on a diffuse receiver: a caustics lamp picked, a
-    point y on it (a sun's direction) sampled (sample_lamp), and the seed ray towards it.
-    Returns the count."""
+    point y on it (a sun's direction) sampled (sample_lamp), and the seed ray towards it; none
+    for a sun of angle 0 at the camera ray's own hit (depth 0), whose light there the light
+    tracer's connection renders. Returns the count."""
     n = 0
     cdf = tables.pick_cdf
     for j in range(n_active):
@@ -368,6 +373,8 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
         j = pick_lamp(cdf, u_pick)
         pmf = cdf[j] - (cdf[j - 1] if j > 0 else 0.0)
         kind, lamp = tables.pick_kind[j], tables.pick_index[j]
+        if depth == 0 and kind == SUN and lights.sun_one_minus_cos[lamp] == 0.0:
+            continue      # a delta sun's light at the camera ray's hit: the light tracer's
         y, ta, tb, density = sample_lamp(lights, kind, lamp, p, u0, u1)
         if not density > 0.0:
             continue

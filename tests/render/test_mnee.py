@@ -178,6 +178,25 @@ def test_a_sun_of_angle_0_is_the_limit_of_narrow_suns():
     assert abs(delta.mean() - narrow.mean()) < error, (delta.mean(), narrow.mean())
 
 
+def test_a_delta_suns_caustic_seen_directly_is_the_light_tracers():
+    """A flagged sun of angle 0's light at the camera ray's own hit on a receiver is the light
+    tracer's connection, not a chain (mnee.seed_chains, light_tracer.receiving_vertex): the
+    pool seen from under the water, 12x12, at max depth 2, where every caustic path is sun,
+    water, floor, camera, renders bit for bit as without the flags (where the light tracer
+    renders it all), and a quarter of its pixels or more see caustic light.
+    Deliberate errors caught: the stage still starting those chains (the images differ:
+    MNEE's estimate), or the light tracer not connecting them (the flagged image darker)."""
+    images = []
+    for flagged in (True, False):
+        scene = shadow_caustics(pool(resolution=(12, 12), lamp=pool_sun(0.0)), on=flagged)
+        scene.camera = look_at((0.0, -0.15, 0.3), (0.1, 0.1, 0.0), (12, 12), lens=18.0)
+        assert Renderer(scene).stages()["shadow caustics"][0] == flagged
+        images.append(_render(scene, 16, 1, max_depth=2)[0])
+    flagged, plain = images
+    assert np.count_nonzero(plain) > plain.size // 4
+    assert np.array_equal(flagged, plain), np.abs(flagged - plain).max()
+
+
 LAMP_CENTRE = np.array([1.4, 0.3, 0.55])        # support.sds_scenes.tumbler's lamp
 
 
