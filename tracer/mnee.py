@@ -28,21 +28,24 @@ path "caustics lamp, one or more refractions at caster triangles, a diffuse rece
 wavefront.emitters gives it no light from a caustics lamp then, whether it crosses the lamp or
 escapes into a sun's disc (Cycles skips caustic lamps after a caster too, but also after
 reflections, which MNEE does not render). A light path's state (light_tracer.LightPaths.mnee)
-counts the same from its lamp, and the light tracer neither connects nor stores a photon at a
-receiver after them. Delta lamps: a sun of angle 0 is the stage's where the file flags it, as in
-Cycles (no camera path finds it, and the light tracer cannot render its paths seen through
-glass), except where the camera ray itself hits the receiver: there the light tracer's
-connection from the receiver to the camera renders exactly those paths (sun, refractions at
-casters, receiver, camera; any surface between blocks both the connection and the camera ray's
-depth 0), unbiased, so the stage starts no chain to a delta sun at depth 0 and the light tracer
-connects, but neither stores a photon nor goes on, at a receiver after casters. Point lamps of
-radius 0 and area lamps of spread 0 stay the light tracer's alone. What MNEE itself leaves out is its bias: one solution per lamp sample
-(where waves fold the light, several paths join x0 and y, and the walk finds the one nearest its
-seed), and none where the seed segment misses the casters or neither walk converges. The second
-seed is Snell's: Cycles and Hanika et al. walk from the straight one only, and where that segment
-crosses the edge of a thick wall (a tube's, twice its outer surface) no path with those vertices
-exists, so that walk can only fail; the refracted seed has the vertices a path through the wall
-has (docs/measurements.md, the tumbler).
+counts the same from its lamp, and the light tracer neither stores a photon nor goes on at a
+receiver after them, and connects to the camera only from a delta sun (below).
+
+Delta lamps: a sun of angle 0 is the stage's where the file flags it, as in Cycles (no camera
+path finds it, and the light tracer cannot render its paths seen through glass), except where
+the camera ray itself hits the receiver: there the light tracer's connection from the receiver
+to the camera renders exactly those paths (sun, refractions at casters, receiver, camera; any
+surface between blocks both the connection and the camera ray's depth 0), unbiased, so the
+stage starts no chain to a delta sun at depth 0. Point lamps of radius 0 and area lamps of
+spread 0 stay the light tracer's alone.
+
+What MNEE itself leaves out is its bias: one solution per lamp sample (where waves fold the
+light, several paths join x0 and y, and the walk finds the one nearest its seed), and none where
+the seed segment misses the casters or neither walk converges. The second seed is Snell's:
+Cycles and Hanika et al. walk from the straight one only, and where that segment crosses the
+edge of a thick wall (a tube's, twice its outer surface) no path with those vertices exists, so
+that walk can only fail; the refracted seed has the vertices a path through the wall has
+(docs/measurements.md, the tumbler).
 
 Runs only where the flags name a receiver, a caster and a lamp, light sampling is on, and the
 render has no absorbing media, light passes or light groups (its light is no one pass's).
