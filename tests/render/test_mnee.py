@@ -183,9 +183,10 @@ def test_a_delta_suns_caustic_seen_directly_is_the_light_tracers():
     tracer's connection, not a chain (mnee.seed_chains, light_tracer.receiving_vertex): the
     pool seen from under the water, 12x12, at max depth 2, where every caustic path is sun,
     water, floor, camera, renders bit for bit as without the flags (where the light tracer
-    renders it all), and a quarter of its pixels or more see caustic light.
-    Deliberate errors caught: the stage still starting those chains (the images differ:
-    MNEE's estimate), or the light tracer not connecting them (the flagged image darker)."""
+    renders it all), and a quarter of its pixels or more see caustic light. Deliberate errors
+    caught: the code before, chains at depth 0 and no connection (the images differ: MNEE's
+    estimate); chains at depth 0 as well as the connection (the light twice: they differ by up
+    to 1.09)."""
     images = []
     for flagged in (True, False):
         scene = shadow_caustics(pool(resolution=(12, 12), lamp=pool_sun(0.0)), on=flagged)
