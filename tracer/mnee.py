@@ -137,7 +137,7 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
     materials = material_kind[of_triangle]
     receivers = np.any((tri_flags & RECEIVER != 0) & (materials == DIFFUSE))
     casters = np.any((tri_flags & CASTER != 0) & np.isin(materials, (GLASS, REFRACTION)))
-    lamp, pmf, kinds, index = [], [], [], []
+    lamp, pmf, kinds, index, named = [], [], [], [], []
     for kind, names, pmfs in ((AREA, ("area",), lights.area_pmf),
                               (POINT, ("point", "spot"), lights.point_pmf),
                               (SUN, ("sun",), lights.sun_pmf)):
@@ -148,6 +148,10 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
                 pmf.append(pmfs[k])
                 kinds.append(kind)
                 index.append(k)
+                delta = kind == SUN and lights.sun_one_minus_cos[k] == 0.0
+                named.append(f"{light.get('name', '?')!r}" + (
+                    " (a sun of angle 0: the light tracer's where the camera sees the receiver)"
+                    if delta else ""))
     if not (receivers and casters and any(lamp)):
         return OFF, ("no shadow-caustics receiver, smooth glass caster and caustics light "
                      "(a point or spot lamp of radius > 0 with soft falloff on, an area lamp "
@@ -156,7 +160,7 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
     pmf = pmf / pmf.sum() if pmf.sum() > 0 else np.full(len(pmf), 1.0 / len(pmf))
     return (MneeTables(tri_flags, oid, np.array(lamp, bool), np.cumsum(pmf),
                        np.array(kinds, np.int64), np.array(index, np.int64)),
-            f"shadow caustics: {len(kinds)} caustics light(s)")
+            f"shadow caustics: {len(kinds)} caustics light(s): {', '.join(named)}")
 
 
 @jit_inline
