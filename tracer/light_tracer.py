@@ -60,7 +60,8 @@ from .jit import jit, jit_inline
 from .light_groups import light_group
 from .lights.codes import (AREA, EMISSIVE_TRIANGLE, POINT, SUN, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
                            VISIBLE_TRANSMISSION, WORLD, ZERO)
-from .lights.dispatch import emission_anchor, emit_along, light_seen, starts_light_paths
+from .lights.dispatch import (delta_lamp, emission_anchor, emit_along, light_seen,
+                              starts_light_paths)
 from .lights.sun import sun_emission
 from .lights.world import world_emission
 from .material_kinds import DIFFUSE, GLASS, MIRROR, REFRACTION
@@ -166,9 +167,7 @@ def caustics_tables(scene, lights, geometry, materials, pure=False) -> Caustics 
             kinds.append(kind)
             indices.append(i)
             power.append(t.pmf[k])
-            delta.append((kind == POINT and t.point_radius[i] == 0.0)
-                         or (kind == SUN and t.sun_one_minus_cos[i] == 0.0)
-                         or (kind == AREA and t.area_spread_tan[i] == 0.0))
+            delta.append(delta_lamp(t, kind, i))
     if not kinds:
         return None
     pmf = np.array(power) / np.sum(power)

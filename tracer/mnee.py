@@ -63,6 +63,7 @@ from .geometry import facing, hit_offset, hit_point, offset_origin
 from .jit import jit, jit_inline
 from .lights.area import area_lamp_emitted, area_lamp_point
 from .lights.codes import AREA, POINT, SUN, VISIBLE_TRANSMISSION, seen_by
+from .lights.dispatch import delta_lamp
 from .lights.point import point_lamp_radiance, spot_attenuation
 from .lights.sun import sample_sun
 from .manifold import (MAX_CASTERS, SYSTEM_COLUMNS, C, fill_system, geometry_term,
@@ -107,10 +108,11 @@ class MneeTables(NamedTuple):
     pick_cdf: np.ndarray         # (M,) the cdf of picking the stage's lamp j
     pick_kind: np.ndarray        # (M,) its codes kind (AREA, POINT, SUN)
     pick_index: np.ndarray       # (M,) its row in that kind's light tables
+    pick_delta: np.ndarray       # (M,) bool: a delta lamp (a sun of angle 0, of the stage's)
 
 
 OFF = MneeTables(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool), np.zeros(0),
-                 np.zeros(0, np.int64), np.zeros(0, np.int64))
+                 np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool))
 
 
 def mnee_lamp(light: dict, tables, kind: int, k: int) -> bool:
@@ -137,7 +139,7 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
     materials = material_kind[of_triangle]
     receivers = np.any((tri_flags & RECEIVER != 0) & (materials == DIFFUSE))
     casters = np.any((tri_flags & CASTER != 0) & np.isin(materials, (GLASS, REFRACTION)))
-    lamp, pmf, kinds, index, named = [], [], [], [], []
+    lamp, pmf, kinds, index, delta, named = [], [], [], [], [], []
     for kind, names, pmfs in ((AREA, ("area",), lights.area_pmf),
                               (POINT, ("point", "spot"), lights.point_pmf),
                               (SUN, ("sun",), lights.sun_pmf)):
@@ -148,10 +150,10 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
                 pmf.append(pmfs[k])
                 kinds.append(kind)
                 index.append(k)
-                delta = kind == SUN and lights.sun_one_minus_cos[k] == 0.0
+                delta.append(delta_lamp(lights, kind, k))
                 named.append(f"{light.get('name', '?')!r}" + (
                     " (a sun of angle 0: the light tracer's where the camera sees the receiver)"
-                    if delta else ""))
+                    if delta[-1] else ""))
     if not (receivers and casters and any(lamp)):
         return OFF, ("no shadow-caustics receiver, smooth glass caster and caustics light "
                      "(a point or spot lamp of radius > 0 with soft falloff on, an area lamp "
@@ -159,7 +161,8 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
     pmf = np.array(pmf)
     pmf = pmf / pmf.sum() if pmf.sum() > 0 else np.full(len(pmf), 1.0 / len(pmf))
     return (MneeTables(tri_flags, oid, np.array(lamp, bool), np.cumsum(pmf),
-                       np.array(kinds, np.int64), np.array(index, np.int64)),
+                       np.array(kinds, np.int64), np.array(index, np.int64),
+                       np.array(delta, bool)),
             f"shadow caustics: {len(kinds)} caustics light(s): {', '.join(named)}")
 
 
@@ -380,7 +383,7 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
         j = pick_lamp(cdf, u_pick)
         pmf = cdf[j] - (cdf[j - 1] if j > 0 else 0.0)
         kind, lamp = tables.pick_kind[j], tables.pick_index[j]
-        if depth == 0 and kind == SUN and lights.sun_one_minus_cos[lamp] == 0.0:
+        if depth == 0 and tables.pick_delta[j]:
             continue      # a delta sun's light at the camera ray's hit: the light tracer's
         y, ta, tb, density = sample_lamp(lights, kind, lamp, p, u0, u1)
         if not density > 0.0:

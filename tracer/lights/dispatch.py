@@ -216,6 +216,14 @@ def starts_light_paths(t, kind, i, centers, radii, pure) -> bool:
     return bool(ok and flags & USES_MIS)
 
 
+def delta_lamp(t, kind, i) -> bool:
+    """Whether light i of this kind (t: the Lights tables) is a delta lamp, which no ray finds:
+    a point or spot lamp of radius 0, a sun of angle 0, an area lamp of spread 0."""
+    return bool((kind == POINT and t.point_radius[i] == 0.0)
+                or (kind == SUN and t.sun_one_minus_cos[i] == 0.0)
+                or (kind == AREA and t.area_spread_tan[i] == 0.0))
+
+
 @jit_inline
 def light_seen(lights, kind, i, s1, w, ray_kind):
     """Whether the path tracer's ray of kind ray_kind from s1 back along a light path that left
