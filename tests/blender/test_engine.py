@@ -17,6 +17,7 @@ from snell.addon import final, registration, ui, window  # noqa: E402
 from snell.addon.export import export_depsgraph  # noqa: E402
 from snell.tracer import passes  # noqa: E402
 from snell.tracer.integrator import Renderer  # noqa: E402
+from support.windows import sample_windows  # noqa: E402
 
 SIZE = 32
 
@@ -69,8 +70,7 @@ def tracer_image(spp=None, passes=None):
 @pytest.fixture
 def small_passes(monkeypatch):
     """1 sample per pixel per pass at 32x32, so a render has several passes."""
-    monkeypatch.setattr(passes, "PASS_PATHS", SIZE * SIZE)
-    monkeypatch.setattr(passes, "WINDOW_PASSES", 1)
+    sample_windows(monkeypatch, SIZE * SIZE, 1)
 
 
 class Spy:

@@ -13,9 +13,10 @@ pytest.importorskip("distributed")
 
 from snell import cli  # noqa: E402
 from snell.farm import render as render_module  # noqa: E402
-from snell.tracer import image, passes  # noqa: E402
+from snell.tracer import image  # noqa: E402
+from support.windows import sample_windows  # noqa: E402
 
-# 32x32 at 8 spp in windows of 2 samples (the client's PASS_PATHS and WINDOW_PASSES, below: a
+# 32x32 at 8 spp in windows of 2 samples (the client's sample_windows, below: a
 # worker traces the window it is given), four per frame.
 ARGS = ("--frames", "1-3", "--spp", "8", "--noise-threshold", "0", "--film-transparent")
 
@@ -27,8 +28,7 @@ def test_batch_starts_each_frame_before_the_last_ends(blender_scenes, tmp_path, 
     bit. Deliberate error caught: the frame to come exported without moving to it (the
     current frame's camera): its started windows are another scene's, none of frames 2 and 3
     finds them ([True, False, False])."""
-    monkeypatch.setattr(passes, "PASS_PATHS", 2 * 32 * 32)
-    monkeypatch.setattr(passes, "WINDOW_PASSES", 1)
+    sample_windows(monkeypatch, 32 * 32, 2)
     seen = []
     real = render_module.render_frame
 

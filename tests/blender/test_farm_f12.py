@@ -26,9 +26,9 @@ cloudpickle = pytest.importorskip("cloudpickle")
 
 from snell.addon import final, registration  # noqa: E402
 from snell.farm import cluster as cluster_module, worker  # noqa: E402
-from snell.tracer import passes  # noqa: E402
 from support.dask_cluster import client  # noqa: E402,F401  (the shared LocalCluster fixture)
 from support.render_passes import exr_channels, saves_multilayer_exr  # noqa: E402
+from support.windows import sample_windows  # noqa: E402
 
 common = importlib.import_module("common")
 
@@ -49,8 +49,7 @@ def registered():
 def one_sample_windows(monkeypatch):
     """Windows of one sample (the client's PASS_PATHS, one pass each: a worker traces the
     window it is given): SPP windows a frame."""
-    monkeypatch.setattr(passes, "PASS_PATHS", SIZE[0] * SIZE[1])
-    monkeypatch.setattr(passes, "WINDOW_PASSES", 1)
+    sample_windows(monkeypatch, SIZE[0] * SIZE[1], 1)
 
 
 def build(tmp_path, name):

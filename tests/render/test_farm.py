@@ -29,6 +29,7 @@ from snell.tracer.shader.closures import EMISSION, HOLDOUT, MIX_CLOSURE   # noqa
 from snell.tracer.shader.inputs import LAYER_WEIGHT               # noqa: E402
 from support.builders import box, camera, icosphere, make_scene, quad, tiny_scene  # noqa: E402
 from support.dask_cluster import client  # noqa: E402,F401  (the shared LocalCluster fixture)
+from support.windows import sample_windows                        # noqa: E402
 
 SIZE = 16
 SPP = 12
@@ -54,8 +55,7 @@ def glass_room(**render):
 
 def windows_of(monkeypatch, samples: int, count: int) -> None:
     """Windows of `samples` samples in `count` passes, on the client."""
-    monkeypatch.setattr(passes, "PASS_PATHS", samples // count * SIZE * SIZE)
-    monkeypatch.setattr(passes, "WINDOW_PASSES", count)
+    sample_windows(monkeypatch, SIZE * SIZE, samples, count)
 
 
 @pytest.fixture

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from support.builders import box, camera, icosphere, make_scene, quad
-from snell.tracer import passes
+from support.windows import sample_windows
 from snell.tracer.integrator import Renderer, RenderResult
 
 SIZE = 24
@@ -55,8 +55,7 @@ def test_a_fixed_render_is_the_merge_of_its_windows(monkeypatch, caustics, windo
     merge. Deliberate error caught (measured): the render merging a window of three passes pass
     by pass (each pass's sums added as it ends) rather than summed from zero and added whole:
     the sums differ."""
-    monkeypatch.setattr(passes, "PASS_PATHS", 3 * SIZE * SIZE // window_passes)
-    monkeypatch.setattr(passes, "WINDOW_PASSES", window_passes)
+    sample_windows(monkeypatch, SIZE * SIZE, 3, window_passes)
     room = glass_room()
     renderer = Renderer(room, room.settings(caustics=caustics))
     assert (renderer.caustics is not None) == caustics
