@@ -24,7 +24,7 @@ from .jit import jit, jit_inline
 from .lobes import (DIFFUSE_EVENT, KIND, LAMBERT, P_METALLIC, P_ROUGHNESS, SAMPLE_WEIGHT,
                     SHADER_PRINCIPLED, WEIGHT, lobe_eval, setup_shader, vec_at)
 from .material_kinds import LAYERED
-from .shader.inputs import LP_CAMERA
+from .shader.inputs import DROP_SHIFT, LP_CAMERA
 from .shader.program import run
 from .textures import METALLIC_SLOT, ROUGHNESS_SLOT, material_number
 from .vec import add, dot, mul, vmul
@@ -89,23 +89,35 @@ def lambert_share(lobes, count, view, w):
 
 
 @jit_inline
+def hit_lobes(mats, tables, has_normals, kind, surface, colors, hit, view, ray, scratch):
+    """The lobes of a hit on a LAYERED or PROGRAM surface, in scratch's lobes; returns their
+    number. surface: (material, triangle, barycentrics); colors: its colour and transmission
+    colour there; hit: (point, geometric and shading normals facing view, entering); ray: the
+    ray that met it (its Light Path flags, shader.inputs.ray_flags; the caustics it drops,
+    path_limits.dropped_at; its bounce; its length); scratch: (lobes, program registers,
+    Principled parameters)."""
+    p, ng_f, ns_f, entering = hit
+    flags, drop, bounce, length = ray
+    lobes, regs, params = scratch
+    mat, tri, b1, b2 = surface
+    if kind == LAYERED:
+        return layered_lobes(mats, tables, has_normals, surface, colors[0], colors[1], ng_f,
+                             ns_f, view, entering, params, lobes, drop)
+    return run(mats, mat, regs, (p, ng_f, ns_f, view, entering, tri, b1, b2,
+                                 flags | drop << DROP_SHIFT, bounce, length),
+               lobes, tables, has_normals)
+
+
+@jit_inline
 def surface_response(mats, tables, has_normals, kind, surface, colors, hit, view, w, whole,
                      scratch):
     """f |cos(ns, w)| (RGB) of a LAYERED or PROGRAM surface that receives light paths, seen
     from view for light arriving from w, times the share the light tracer carries (the whole
-    BSDF if `whole`: a delta lamp's). surface: (material, triangle, barycentrics); colors: its
-    colour and transmission colour there; hit: (point, geometric and shading normals facing
-    view, entering, distance to the viewer); scratch: (lobes, program registers, Principled
-    parameters). The hit is met as a camera ray meets it, at bounce 0 (the Light Path node's
-    inputs)."""
+    BSDF if `whole`: a delta lamp's). surface, colors and scratch as hit_lobes'; hit: (point,
+    geometric and shading normals facing view, entering, distance to the viewer). The hit is
+    met as a camera ray meets it, at bounce 0 (the Light Path node's inputs)."""
     p, ng_f, ns_f, entering, length = hit
-    lobes, regs, params = scratch
-    mat, tri, b1, b2 = surface
-    if kind == LAYERED:
-        count = layered_lobes(mats, tables, has_normals, surface, colors[0], colors[1], ng_f,
-                              ns_f, view, entering, params, lobes, 0)  # seen by the camera
-    else:
-        count = run(mats, mat, regs, (p, ng_f, ns_f, view, entering, tri, b1, b2,
-                                      1 << LP_CAMERA, 0, length), lobes, tables, has_normals)
-    f, share = lambert_share(lobes, count, view, w)
+    count = hit_lobes(mats, tables, has_normals, kind, surface, colors,
+                      (p, ng_f, ns_f, entering), view, (1 << LP_CAMERA, 0, 0, length), scratch)
+    f, share = lambert_share(scratch[0], count, view, w)
     return f if whole else mul(f, share)

@@ -21,14 +21,13 @@ from .direct_light import VISIBLE_ANY_BSDF, connect_to_light_vertex, sample_dire
 from .jit import jit, jit_inline
 from .light_tracer import CAUSTIC, FIRST_DIFFUSE, NO_CAUSTIC
 from .light_vertices import camera_step_density
-from .lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
+from .lights.codes import VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
 from .lobes import DIFFUSE_EVENT, TRANSMIT_EVENT, TRANSPARENT_EVENT, bsdf_sample
 from .material_kinds import DIFFUSE, LAYERED, MIRROR
 from .path_limits import drops
 from .receivers import lambert_sampled, layered_lobes
 from .shader.closures import TOTAL_TRANSPARENCY
-from .shader.inputs import (DROP_SHIFT, LP_CAMERA, LP_DIFFUSE, LP_GLOSSY, LP_REFLECTION,
-                            LP_SINGULAR, LP_TRANSMISSION)
+from .shader.inputs import DROP_SHIFT, ray_flags
 from .shader.program import run, total
 from .sampling import sample_cosine_hemisphere
 from .vec import dot, neg, sub, vmul
@@ -155,22 +154,6 @@ def lobe_split(mats, mat, depth, event, wo, ng_f):
     if depth == 0 and mats.receives[mat] and lambert_sampled(event, wo, ng_f):
         return FIRST_DIFFUSE
     return NO_CAUSTIC
-
-
-@jit
-def ray_flags(ray_kind, pdf_bsdf):
-    """The Light Path node's flags (1 << shader.inputs.LP_*) of a ray of this kind (a
-    lights.codes VISIBLE_* flag) sampled with this density (0: singular). A transmitted ray is
-    glossy too, as Cycles flags glossy refraction; Snell's rays do not say whether a
-    transmission was diffuse (the Translucent BSDF's are diffuse rays)."""
-    if ray_kind == VISIBLE_CAMERA:
-        return 1 << LP_CAMERA
-    flags = 1 << LP_SINGULAR if pdf_bsdf == 0.0 else 0
-    if ray_kind == VISIBLE_DIFFUSE:
-        return flags | 1 << LP_DIFFUSE | 1 << LP_REFLECTION
-    if ray_kind == VISIBLE_GLOSSY:
-        return flags | 1 << LP_GLOSSY | 1 << LP_REFLECTION
-    return flags | 1 << LP_GLOSSY | 1 << LP_TRANSMISSION
 
 
 @jit_inline

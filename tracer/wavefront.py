@@ -50,9 +50,9 @@ from .path_limits import (DIFFUSE_BOUNCE, NO_BOUNCES, add_bounce, bounce_kind, c
 from .pixel_filter import position as filter_position
 from .sampler import pixel_key, sample_pair
 from .sampling import power_heuristic3
-from .scatter import ray_flags, scatter_lit, scatter_program, scatter_specular
+from .scatter import scatter_lit, scatter_program, scatter_specular
 from .shader.closures import TOTAL_EMISSION, TOTAL_HOLDOUT, TOTAL_TRANSPARENCY
-from .shader.inputs import LP_SHADOW
+from .shader.inputs import LP_SHADOW, ray_flags
 from .shader.program import (EMISSION_VARIES, HAS_HOLDOUT, MAX_REGISTERS, MAY_BE_TRANSPARENT,
                              run, total)
 from .textures import surface_colors

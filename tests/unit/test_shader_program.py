@@ -11,7 +11,7 @@ import pytest
 from snell.tracer import lobes, path_limits
 from snell.tracer.materials import material_tables
 from snell.tracer.microfacet_tables import shipped_tables
-from snell.tracer.scatter import ray_flags
+from snell.tracer.shader.inputs import ray_flags
 from snell.tracer.lights.codes import (VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY,
                                        VISIBLE_TRANSMISSION)
 from snell.tracer.shader import closures, inputs, program

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from ..fresnel import fresnel_dielectric
 from ..jit import jit
+from ..lights.codes import VISIBLE_CAMERA, VISIBLE_DIFFUSE, VISIBLE_GLOSSY
 from ..textures import sample_image, srgb_to_linear
 from .colorspace import RGB_TO_Y
 from ..vec import dot, madd, mul
@@ -47,6 +48,22 @@ SPECS = {
     COPY_FLOAT: ("a linked input of a block of inputs (the Principled BSDF's): a copy", "ff-----"),
     COPY_VECTOR: ("a linked colour input of a block of inputs: a copy", "vv-----"),
 }
+
+
+@jit
+def ray_flags(ray_kind, pdf_bsdf):
+    """The Light Path node's flags (1 << LP_*) of a ray of this kind (a lights.codes VISIBLE_*
+    flag) sampled with this density (0: singular). A transmitted ray is glossy too, as Cycles
+    flags glossy refraction; Snell's rays do not say whether a transmission was diffuse (the
+    Translucent BSDF's are diffuse rays)."""
+    if ray_kind == VISIBLE_CAMERA:
+        return 1 << LP_CAMERA
+    flags = 1 << LP_SINGULAR if pdf_bsdf == 0.0 else 0
+    if ray_kind == VISIBLE_DIFFUSE:
+        return flags | 1 << LP_DIFFUSE | 1 << LP_REFLECTION
+    if ray_kind == VISIBLE_GLOSSY:
+        return flags | 1 << LP_GLOSSY | 1 << LP_REFLECTION
+    return flags | 1 << LP_GLOSSY | 1 << LP_TRANSMISSION
 
 
 @jit
