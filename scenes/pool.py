@@ -5,8 +5,8 @@ Run: python scenes/pool.py OUT.blend
 A 2 m white floor 0.5 m under a wavy water surface (smooth Glass BSDF, IOR 1.33, 4 cm waves), a
 point lamp of radius 0.25 m 2 m above the water, the camera 1.4 m above the water looking down
 through it. Black world, 256x256, Standard view. Cycles' shadow caustics are on (the lamp a
-caustics light, the water a caster, the floor a receiver), as a user renders this with Cycles;
-Snell ignores those flags. The same scene as tests/support/sds_scenes.pool.
+caustics light, the water a caster, the floor a receiver), as a user renders this with Cycles,
+and Snell follows them (tracer/mnee.py). The same scene as tests/support/sds_scenes.pool.
 """
 import os
 import sys
@@ -25,11 +25,12 @@ SUN_DIRECTION, SUN_IRRADIANCE = (-0.12, -0.08, -1.0), 3.0
 AREA_SIZE, AREA_POWER = 0.5, 78.5          # W: radiance P / (pi A) = 100
 
 
-def build(path, light="point"):
-    """Build the scene and save it to path; light: "point", "sun" or "area"."""
+def build(path, light="point", floor=None):
+    """Build the scene and save it to path; light: "point", "sun" or "area"; floor: a function
+    making the floor's material (default: white diffuse)."""
     scene = common.new_scene((0.0, 0.0, 0.0))
-    floor = common.floor("Floor", POOL_HALF, common.material("Floor", "diffuse",
-                                                             (0.8, 0.8, 0.8)))
+    floor = common.floor("Floor", POOL_HALF, floor() if floor else
+                         common.material("Floor", "diffuse", (0.8, 0.8, 0.8)))
     water = common.material("Water", "glass", (1.0, 1.0, 1.0), IOR=1.33, Roughness=0.0)
     positions, triangles, _ = water_surface()
     water = common.mesh_object("Water", positions, triangles, water, smooth=True)

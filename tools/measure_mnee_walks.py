@@ -50,8 +50,8 @@ class Walks:
     def __init__(self):
         self.records = []
 
-    def stage(self, geometry, tables, lights, mats, fresnel_model, depth, limits, clamp, n_active,
-              active, paths, prim, u, v, radiance, without):
+    def stage(self, geometry, tables, lights, mats, albedo_tables, fresnel_model, depth, limits,
+              clamp, n_active, active, paths, prim, u, v, radiance, without, scratch):
         """mnee.stage's steps, with each chain's rejections and exit recorded."""
         from snell.tracer import mnee
         chains = mnee.chains_for(n_active)
@@ -177,7 +177,8 @@ class Walks:
         if m == 0:
             return 0
         blocked = geometry.occluded(chains.o32[:m], chains.d32[:m], chains.tmax[:m])
-        mnee.deliver(lights, fresnel_model, chains, m, blocked, radiance, without)
+        mnee.deliver(lights, mats, albedo_tables, mesh.corner_normals.shape[0] > 0,
+                     fresnel_model, chains, m, blocked, radiance, without, scratch)
         for j in range(m):
             recs[chains.owner[j]]["lit"] = bool(blocked[j])
         return int(np.count_nonzero(blocked[:m]))

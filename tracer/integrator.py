@@ -137,7 +137,6 @@ class Renderer:
         self.lights = LightSampler(scene, self.geometry, self.materials.radiance,
                                    env_sampling=settings.env_sampling)
         self.media = media_tables(scene, self.lights.tables)
-        self.mnee, self._why_mnee = self._choose_mnee()
         self.max_depth = settings.max_depth
         # Cycles' bounce limits and clamping, as the stages read them (path_limits.py).
         self.limits = path_limits.bounce_limits(
@@ -219,6 +218,8 @@ class Renderer:
         the light tracer connects to a pinhole or a thin lens, so an orthographic camera leaves
         every path to the path tracer (the same image, noisier caustics)."""
         self.caustics = None if self.camera.ortho else self._caustic_tables
+        # Which delta lamps' light at the camera's own hits MNEE leaves to the light tracer.
+        self.mnee, self._why_mnee = self._choose_mnee()
         # The path tracer leaves the light tracer's paths to it (not in the pure test mode),
         # those lit by the world too where the light tracer starts paths on it.
         self.split = self.caustics is not None and not self.caustics.pure
@@ -305,8 +306,12 @@ class Renderer:
                          (settings.light_groups, "light groups asked for")):
             if off:
                 return mnee.OFF, why
+        caustics = self.caustics
+        traced = frozenset() if caustics is None else frozenset(
+            (int(k), int(i)) for k, i, delta in zip(caustics.emitter_kind, caustics.emitter_index,
+                                                     caustics.emitter_delta) if delta)
         return mnee.mnee_tables(self.scene, self.lights.tables, self.materials.kind,
-                                self.materials.of_triangle)
+                                self.materials.of_triangle, traced)
 
     def _choose_light_vertices(self, wanted: bool) -> tuple[bool, str]:
         """(whether camera paths connect to light vertices, why or why not)."""
@@ -442,15 +447,16 @@ class Renderer:
                 self.mnee.tri_flags)
             if self.mnee.lamp.shape[0] > 0:
                 stats[MNEE_PATHS] += mnee.stage(
-                    geom, self.mnee, lights, mats, self.fresnel, depth, limits, clamp, kept,
-                    active, paths, prim, u, v, radiance, without)
+                    geom, self.mnee, lights, mats, self.tables, self.fresnel, depth, limits,
+                    clamp, kept, active, paths, prim, u, v, radiance, without,
+                    (scratch, regs, params))
             if n_programs:
                 m, n_shadow = wavefront.program_materials(
                     lights, mesh, mats, self.media, self.tables, self.next_event, bits,
                     stratified, depth, limits, clamp, self.clear, n_programs, programs, paths,
                     prim, u, v, out, m, shadows, n_shadow, radiance, without, scratch, regs,
                     stats, lv, last_connection, feature_albedo, feature_normal,
-                    transparent, pass_sums)
+                    transparent, pass_sums, self.mnee.tri_flags)
             if n_shadow:
                 blocked = geom.occluded(shadows.o32[:n_shadow], shadows.d32[:n_shadow],
                                         shadows.tmax[:n_shadow])

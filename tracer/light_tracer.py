@@ -527,8 +527,7 @@ def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, p
         return counts             # the camera path's diffuse ray here drops that lobe there
     # Manifold next-event estimation's path, but for its connection to the camera from a delta
     # sun (mnee.seed_chains leaves a camera ray's own hit that light).
-    mnee_path = (kind == DIFFUSE and paths.mnee[i] > FROM_RECEIVER
-                 and mnee_flags[surface[1]] & RECEIVER != 0)
+    mnee_path = paths.mnee[i] > FROM_RECEIVER and mnee_flags[surface[1]] & RECEIVER != 0
     if mnee_path and not caustics.emitter_delta[paths.lamp[i]]:
         return counts
     max_depth = limits[0]
@@ -609,7 +608,7 @@ def specular_vertex(caustics, lights, mats, media, fresnel_model, limits, paths,
     if paths.mnee[i] != NO_CHAIN:
         out.mnee[n_out] = mnee_after(mnee_flags, paths.mnee[i], tri, kind,
                                      VISIBLE_TRANSMISSION if event == specular.TRANSMITTED
-                                     else VISIBLE_GLOSSY)
+                                     else VISIBLE_GLOSSY, False)
     if not count_scattering(paths, i, out, n_out,
                             TRANSMISSION_BOUNCE if event == specular.TRANSMITTED
                             else GLOSSY_BOUNCE, limits):

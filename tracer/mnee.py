@@ -1,13 +1,14 @@
-"""Manifold next-event estimation (MNEE): light that reaches a diffuse surface through smooth
+"""Manifold next-event estimation (MNEE): light that reaches a rough surface through smooth
 refracting surfaces, sampled at the surface as a light sample (Hanika et al. 2015; Cycles'
 shadow caustics, kernel/integrator/mnee.h). The formulas are manifold.py's; this is the stage.
 
 Where it runs is the file's: Cycles' shadow-caustics flags (an object's caustics caster and
-receiver, a lamp's caustics light; docs/scene-format.md). At a diffuse vertex on a receiver the
-stage samples a caustics lamp and on it a point y (point and spot lamps of radius > 0: the disk
-that faces the vertex x0; area lamps of spread > 0: a point uniform on the lamp) or, for a sun,
-a direction (uniform in its cone; a sun of angle 0: its one direction, and y stands for that
-direction, manifold.py's fixed direction), follows the segment x0 y collecting the smooth
+receiver, a lamp's caustics light; docs/scene-format.md). At a vertex on a receiver (diffuse,
+layered or a shader program's: RECEIVING_KINDS) the stage samples a caustics lamp and on it a
+point y (point and spot lamps of radius > 0: the disk that faces the vertex x0; area lamps of
+spread > 0: a point uniform on the lamp) or, for a sun, a direction (uniform in its cone; a sun
+of angle 0: its one direction, and y stands for that direction, manifold.py's fixed
+direction), follows the segment x0 y collecting the smooth
 refracting triangles of casters it crosses (other objects are passed, as in Cycles; at most
 manifold.MAX_CASTERS), walks that seed chain onto the specular manifold by Newton's method (each
 step's points projected back onto their objects by a ray from the vertex before them, halving
@@ -15,15 +16,18 @@ the step where a projection misses or a vertex stops refracting), where that wal
 again from a seed refracted by Snell's law at each caster it meets (reseed), checks that each
 converged segment is free, and adds
 
-    beta (albedo / pi) cos(x0) prod(tint (1 - F)) L_e G / (pmf p_A(y))
+    beta f(x0) |cos(x0)| prod(tint (1 - F)) L_e G / (pmf p_A(y))
 
-with G = dw0/dA(y) (manifold.geometry_term), no clamp; for a sun dw0/dw(sun) over the cone's
+with f the receiver's BSDF from the viewer to the first vertex (albedo / pi on a diffuse one;
+as in Cycles, every lobe of a layered or program one: receiver_response), G = dw0/dA(y)
+(manifold.geometry_term), no clamp; for a sun dw0/dw(sun) over the cone's
 solid-angle density (a sun of angle 0: its irradiance over density 1, as the light tracer's
 sun_emission).
 
 The split with the other techniques is exact, as the light tracer's is: the stage owns every
-path "caustics lamp, one or more refractions at caster triangles, a diffuse receiver vertex"
-(the camera side anything), and the others skip exactly those. A camera path's `mnee` state
+path "caustics lamp, one or more refractions at caster triangles, a receiver vertex whose
+direction towards them is one a non-singular lobe samples above both its normals" (`reflected`;
+the camera side anything), and the others skip exactly those. A camera path's `mnee` state
 (wavefront.Paths.mnee, mnee_after) counts the caster refractions since its last receiver vertex;
 wavefront.emitters gives it no light from a caustics lamp then, whether it crosses the lamp or
 escapes into a sun's disc (Cycles skips caustic lamps after a caster too, but also after
@@ -36,8 +40,9 @@ path finds it, and the light tracer cannot render its paths seen through glass),
 the camera ray itself hits the receiver: there the light tracer's connection from the receiver
 to the camera renders exactly those paths (sun, refractions at casters, receiver, camera; any
 surface between blocks both the connection and the camera ray's depth 0), unbiased, so the
-stage starts no chain to a delta sun at depth 0. Point lamps of radius 0 and area lamps of
-spread 0 stay the light tracer's alone.
+stage starts no chain to a delta sun at depth 0 where the light tracer starts paths from it
+(with Snell's caustics off it does not, and the stage keeps that light too). Point lamps of
+radius 0 and area lamps of spread 0 stay the light tracer's alone.
 
 What MNEE itself leaves out is its bias: one solution per lamp sample (where waves fold the
 light, several paths join x0 and y, and the walk finds the one nearest its seed), and none where
@@ -66,19 +71,25 @@ from .lights.codes import AREA, POINT, SUN, VISIBLE_TRANSMISSION, seen_by
 from .lights.dispatch import delta_lamp
 from .lights.point import point_lamp_radiance, spot_attenuation
 from .lights.sun import sample_sun
+from .lobes import DIFFUSE_EVENT, REFLECT_EVENT, bsdf_eval
 from .manifold import (MAX_CASTERS, SYSTEM_COLUMNS, C, fill_system, geometry_term,
                        normal_derivatives, refraction_weight, relative_ior, solve_blocks,
                        toward_next, transfer_determinant, unit_towards, vertex_row)
-from .material_kinds import DIFFUSE, GLASS, REFRACTION
-from .path_limits import DIFFUSE_BOUNCE, TRANSMISSION_BOUNCE, add_bounce, clamp_light, \
-    clamp_limit, within_limits
+from .material_kinds import DIFFUSE, GLASS, LAYERED, PROGRAM, REFRACTION
+from .path_limits import DIFFUSE_BOUNCE, GLOSSY_BOUNCE, TRANSMISSION_BOUNCE, add_bounce, \
+    clamp_light, clamp_limit, dropped_at, within_limits
 from .sampler import mix, random_pair
 from .sampling import orthonormal_basis, sample_uniform_disk
+from .receivers import hit_lobes
+from .shader.inputs import ray_flags
 from .specular import refract
 from .textures import surface_colors
 from .vec import dot, length, madd, mul, neg, row, store, sub, vmul
 
 CASTER, RECEIVER = 1, 2          # MneeTables.tri_flags bits
+# The material kinds of a receiver vertex: diffuse, layered (rough, Principled) and shader
+# programs, whose BSDF the stage evaluates.
+RECEIVING_KINDS = (DIFFUSE, LAYERED, PROGRAM)
 # A path's state (Paths.mnee, LightPaths.mnee): NO_CHAIN, or FROM_RECEIVER + j after a receiver
 # (camera side) or a caustics lamp (light side) and j refractions at casters since.
 NO_CHAIN, FROM_RECEIVER = 0, 1
@@ -108,7 +119,8 @@ class MneeTables(NamedTuple):
     pick_cdf: np.ndarray         # (M,) the cdf of picking the stage's lamp j
     pick_kind: np.ndarray        # (M,) its codes kind (AREA, POINT, SUN)
     pick_index: np.ndarray       # (M,) its row in that kind's light tables
-    pick_delta: np.ndarray       # (M,) bool: a delta lamp (a sun of angle 0, of the stage's)
+    pick_delta: np.ndarray       # (M,) bool: a delta lamp (a sun of angle 0, of the stage's) the
+    #                              light tracer starts paths from
 
 
 OFF = MneeTables(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool), np.zeros(0),
@@ -127,8 +139,11 @@ def mnee_lamp(light: dict, tables, kind: int, k: int) -> bool:
     return kind == SUN or bool(tables.area_spread_tan[k] > 0.0)
 
 
-def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, str]:
-    """(the stage's tables, OFF where it does not run; why or why not)."""
+def mnee_tables(scene, lights, material_kind, of_triangle,
+                light_traced=frozenset()) -> tuple[MneeTables, str]:
+    """(the stage's tables, OFF where it does not run; why or why not). light_traced: the
+    (codes kind, row) of the delta lamps the light tracer starts paths from, whose light at
+    the camera ray's own hit the stage leaves it (MneeTables.pick_delta)."""
     objects = scene.objects
     flags = np.array([(CASTER if o.get("caustics_caster") else 0)
                       | (RECEIVER if o.get("caustics_receiver") else 0) for o in objects]
@@ -137,7 +152,7 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
     tri_flags = flags[np.minimum(oid, len(objects))] if len(objects) else np.zeros(len(oid),
                                                                                   np.int64)
     materials = material_kind[of_triangle]
-    receivers = np.any((tri_flags & RECEIVER != 0) & (materials == DIFFUSE))
+    receivers = np.any((tri_flags & RECEIVER != 0) & np.isin(materials, RECEIVING_KINDS))
     casters = np.any((tri_flags & CASTER != 0) & np.isin(materials, (GLASS, REFRACTION)))
     lamp, pmf, kinds, index, delta, named = [], [], [], [], [], []
     for kind, names, pmfs in ((AREA, ("area",), lights.area_pmf),
@@ -150,7 +165,7 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
                 pmf.append(pmfs[k])
                 kinds.append(kind)
                 index.append(k)
-                delta.append(delta_lamp(lights, kind, k))
+                delta.append(delta_lamp(lights, kind, k) and (kind, k) in light_traced)
                 named.append(f"{light.get('name', '?')!r}" + (
                     " (a sun of angle 0: the light tracer's where the camera sees the receiver)"
                     if delta[-1] else ""))
@@ -167,14 +182,29 @@ def mnee_tables(scene, lights, material_kind, of_triangle) -> tuple[MneeTables, 
 
 
 @jit_inline
-def mnee_after(tri_flags, state, tri, kind, ray_kind):
+def receiving_kind(kind):
+    """Whether a receiver's hit on a material of this kind is a receiver vertex
+    (RECEIVING_KINDS)."""
+    return kind in RECEIVING_KINDS
+
+
+@jit_inline
+def reflected(w, ng_f, ns_f, pdf):
+    """Whether a receiver's direction w (sampled with BSDF density pdf; 0: by a singular lobe)
+    is one the stage renders: a non-singular one above both normals (facing the viewer)."""
+    return pdf > 0.0 and dot(w, ng_f) > 0.0 and dot(w, ns_f) > 0.0
+
+
+@jit_inline
+def mnee_after(tri_flags, state, tri, kind, ray_kind, from_receiver):
     """A path's state (NO_CHAIN, FROM_RECEIVER + j) after scattering at triangle tri (material
-    kind `kind`) into a ray of ray_kind: a diffuse receiver starts a chain, a refraction at a
-    caster extends it (up to MAX_CASTERS), anything else ends it."""
+    kind `kind`) into a ray of ray_kind: a receiver starts a chain where its sample is one the
+    stage renders (from_receiver: `reflected`), a refraction at a caster extends it (up to
+    MAX_CASTERS), anything else ends it."""
     if tri_flags.shape[0] == 0:
         return NO_CHAIN
     flags = tri_flags[tri]
-    if kind == DIFFUSE and flags & RECEIVER:
+    if receiving_kind(kind) and flags & RECEIVER and from_receiver:
         return FROM_RECEIVER
     if ((kind == GLASS or kind == REFRACTION) and flags & CASTER
             and ray_kind == VISIBLE_TRANSMISSION
@@ -221,7 +251,15 @@ class Chains(NamedTuple):
     ng0: np.ndarray          # (n, 3) its geometric normal, facing the camera side
     ns0: np.ndarray          # (n, 3) its shading normal, likewise
     eps0: np.ndarray         # (n,) its offset (geometry.hit_offset)
-    weight: np.ndarray       # (n, 3) throughput x albedo
+    weight: np.ndarray       # (n, 3) throughput (x albedo on a DIFFUSE receiver)
+    kind0: np.ndarray        # (n,) the receiver's material kind (RECEIVING_KINDS); for the
+    #                          lobes of a LAYERED or PROGRAM one (receivers.hit_lobes' inputs):
+    surface0: np.ndarray     # (n, 2) its material and triangle
+    uv0: np.ndarray          # (n, 2) its barycentrics
+    view0: np.ndarray        # (n, 3) the direction to the viewer
+    entering0: np.ndarray    # (n,) 1: the ray met the front face
+    ray0: np.ndarray         # (n, 3) the ray's Light Path flags, caustics dropped, bounce
+    length0: np.ndarray      # (n,) and its length
     limit: np.ndarray        # (n,) the clamp of its light
     lamp: np.ndarray         # (n,) the lamp's row in its kind's tables
     lamp_kind: np.ndarray    # (n,) its codes kind
@@ -232,7 +270,9 @@ class Chains(NamedTuple):
     state: np.ndarray        # (n,) PROBING ... FAILED
     bent: np.ndarray         # (n,) 1: the seed refracts at each caster (reseed), 0: straight
     k: np.ndarray            # (n,) refracting vertices
-    room: np.ndarray         # (n,) how many refracting vertices the bounce limits allow
+    room: np.ndarray         # (n,) how many refracting vertices the bounce limits allow: the
+    room_diffuse: np.ndarray # (n,) most of these, after the receiver's diffuse reflection
+    room_glossy: np.ndarray  # (n,) and after its glossy one
     prim: np.ndarray         # (n, MAX_CASTERS) their triangles
     pos: np.ndarray          # (n, MAX_CASTERS, 3)
     n: np.ndarray            # (n, MAX_CASTERS, 3) shading normals
@@ -266,13 +306,18 @@ def new_chains(n: int) -> Chains:
     v, m = MAX_CASTERS, MAX_CASTERS * n
     f = lambda *shape: np.zeros(shape)                    # noqa: E731
     i = lambda *shape: np.zeros(shape, np.int64)          # noqa: E731
-    return Chains(i(n), f(n, 3), f(n, 3), f(n, 3), f(n), f(n, 3), f(n), i(n), i(n), i(n), f(n, 3),
-                  f(n, 2, 3), f(n), i(n), i(n), i(n), i(n), i(n, v), f(n, v, 3), f(n, v, 3),
-                  f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v, 3), f(n, v),
-                  f(n, v, 3), f(n), i(n), f(n, 2 * v), f(n), f(n, 3), f(n, 3), f(n), i(n),
-                  i(n, v), f(n, v), f(n, v), np.zeros((m, 3), np.float32),
-                  np.zeros((m, 3), np.float32), np.zeros(m, np.float32), i(m),
-                  f(2 * v, SYSTEM_COLUMNS))
+    f32 = lambda *shape: np.zeros(shape, np.float32)      # noqa: E731
+    return Chains(
+        path=i(n), x0=f(n, 3), ng0=f(n, 3), ns0=f(n, 3), eps0=f(n), weight=f(n, 3), kind0=i(n),
+        surface0=i(n, 2), uv0=f(n, 2), view0=f(n, 3), entering0=i(n), ray0=i(n, 3),
+        length0=f(n), limit=f(n), lamp=i(n), lamp_kind=i(n), fixed=i(n), y=f(n, 3),
+        y_ab=f(n, 2, 3), pdf=f(n), state=i(n), bent=i(n), k=i(n), room=i(n), room_diffuse=i(n),
+        room_glossy=i(n), prim=i(n, v), pos=f(n, v, 3), n=f(n, v, 3), dn_da=f(n, v, 3),
+        dn_db=f(n, v, 3), ta=f(n, v, 3), tb=f(n, v, 3), ng=f(n, v, 3), ior=f(n, v),
+        tint=f(n, v, 3), step=f(n), resolve=i(n), delta=f(n, 2 * v), transfer=f(n),
+        ray_o=f(n, 3), ray_d=f(n, 3), ray_t=f(n), first_ray=i(n), new_prim=i(n, v),
+        new_u=f(n, v), new_v=f(n, v), o32=f32(m, 3), d32=f32(m, 3), tmax=f32(m), owner=i(m),
+        scratch=f(2 * v, SYSTEM_COLUMNS))
 
 
 _local = threading.local()
@@ -353,30 +398,32 @@ def pick_lamp(cdf, u):
 @jit
 def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, active, paths, prim,
                 u, v, chains):
-    """A chain per kept hit (rows `active`) on a diffuse receiver: a caustics lamp picked, a
-    point y on it (a sun's direction) sampled (sample_lamp), and the seed ray towards it; none
-    for a sun of angle 0 at the camera ray's own hit (depth 0), whose light there the light
-    tracer's connection renders. Returns the count."""
+    """A chain per kept hit (rows `active`) on a receiver (RECEIVING_KINDS): a caustics lamp
+    picked, a point y on it (a sun's direction) sampled (sample_lamp), and the seed ray towards
+    it; none for a sun of angle 0 at the camera ray's own hit (depth 0) where the light tracer
+    starts paths from it (MneeTables.pick_delta): its connection renders that light. Returns
+    the count."""
     n = 0
     cdf = tables.pick_cdf
     for j in range(n_active):
         i = active[j]
         tri = prim[i]
         mat = mats.of_triangle[tri]
-        if mats.kind[mat] != DIFFUSE or not tables.tri_flags[tri] & RECEIVER:
+        surface_kind = mats.kind[mat]
+        if not (receiving_kind(surface_kind) and tables.tri_flags[tri] & RECEIVER):
             continue
-        # Room for the diffuse vertex and at least one refraction (joined as photon merging's
-        # gather joins a photon: photon_merging.joined_within_limits).
-        bounce, kinds = paths.bounce[i], add_bounce(paths.kinds[i], DIFFUSE_BOUNCE)
-        room = 0
-        while (room < MAX_CASTERS and bounce + 2 + room <= limits[0]
-               and within_limits(add_times(kinds, TRANSMISSION_BOUNCE, room), limits)):
-            room += 1
+        # Room for the receiver's reflection and at least one refraction.
+        bounce = paths.bounce[i]
+        room_diffuse = room_after(bounce, add_bounce(paths.kinds[i], DIFFUSE_BOUNCE), limits)
+        room_glossy = 0 if surface_kind == DIFFUSE else \
+            room_after(bounce, add_bounce(paths.kinds[i], GLOSSY_BOUNCE), limits)
+        room = max(room_diffuse, room_glossy)
         if room == 0:
             continue
         b1, b2 = np.float64(u[i]), np.float64(v[i])
         p, ng, ns, eps = hit_point(mesh, tri, b1, b2)
-        ng_f, ns_f, _ = facing(row(paths.d, i), ng, ns)
+        d = row(paths.d, i)
+        ng_f, ns_f, entering = facing(d, ng, ns)
         key = mix(paths.key[i], MNEE_DOMAIN)
         u_pick, _ = random_pair(key, paths.sample[i], 2 * depth)
         u0, u1 = random_pair(key, paths.sample[i], 2 * depth + 1)
@@ -388,13 +435,26 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
         y, ta, tb, density = sample_lamp(lights, kind, lamp, p, u0, u1)
         if not density > 0.0:
             continue
-        color, _ = surface_colors(mats, mat, tri, b1, b2)
         chains.path[n] = paths.path[i]
         store(chains.x0, n, p)
         store(chains.ng0, n, ng_f)
         store(chains.ns0, n, ns_f)
         chains.eps0[n] = eps
-        store(chains.weight, n, vmul(row(paths.beta, i), color))
+        beta = row(paths.beta, i)
+        if surface_kind == DIFFUSE:
+            color, _ = surface_colors(mats, mat, tri, b1, b2)
+            beta = vmul(beta, color)
+        store(chains.weight, n, beta)
+        chains.kind0[n] = surface_kind
+        chains.surface0[n, 0], chains.surface0[n, 1] = mat, tri
+        chains.uv0[n, 0], chains.uv0[n, 1] = b1, b2
+        store(chains.view0, n, neg(d))
+        chains.entering0[n] = entering
+        ray_kind = paths.ray_kind[i]
+        chains.ray0[n, 0] = ray_flags(ray_kind, paths.pdf_prev[i])
+        chains.ray0[n, 1] = dropped_at(limits, ray_kind)
+        chains.ray0[n, 2] = bounce
+        chains.length0[n] = length(sub(p, row(paths.o, i)))
         chains.limit[n] = clamp_limit(clamp, bounce == 0)
         chains.lamp[n] = lamp
         chains.lamp_kind[n] = kind
@@ -404,6 +464,8 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
         store(chains.y_ab[n], 1, tb)
         chains.pdf[n] = pmf * density
         chains.room[n] = room
+        chains.room_diffuse[n] = room_diffuse
+        chains.room_glossy[n] = room_glossy
         start_probe(chains, n, 0)
         n += 1
     return n
@@ -465,6 +527,19 @@ def reseed(chains, n):
             start_probe(chains, c, 1)
             m += 1
     return m
+
+
+@jit_inline
+def room_after(bounce, kinds, limits):
+    """How many refractions at casters (up to MAX_CASTERS) the bounce limits allow a path
+    after a receiver vertex at bounce `bounce`, kinds its packed counts with the receiver's
+    reflection (joined as photon merging's gather joins a photon:
+    photon_merging.joined_within_limits)."""
+    room = 0
+    while (room < MAX_CASTERS and bounce + 2 + room <= limits[0]
+           and within_limits(add_times(kinds, TRANSMISSION_BOUNCE, room), limits)):
+        room += 1
+    return room
 
 
 @jit_inline
@@ -710,14 +785,20 @@ def light_rays(mesh, chains, n):
 
 
 @jit
-def deliver(lights, fresnel_model, chains, m, blocked, radiance, without):
+def deliver(lights, mats, tables, has_normals, fresnel_model, chains, m, blocked, radiance,
+            without, scratch):
     """Add each unblocked converged chain's light (the module docstring's estimate) to its
-    path's radiance (and to `without` where it has rows: light vertices do not compete)."""
+    path's radiance (and to `without` where it has rows: light vertices do not compete).
+    tables: the albedo tables, scratch: (lobes, program registers, Principled parameters), for
+    the lobes of layered and program receivers (receivers.hit_lobes)."""
     for j in range(m):
         if blocked[j] == 0:
             continue
         c = chains.owner[j]
-        light = chain_light(lights, fresnel_model, chains, c)
+        response = receiver_response(mats, tables, has_normals, chains, c, scratch)
+        if not (response[0] > 0.0 or response[1] > 0.0 or response[2] > 0.0):
+            continue
+        light = chain_light(lights, fresnel_model, chains, c, response)
         if not (light[0] > 0.0 or light[1] > 0.0 or light[2] > 0.0):
             continue
         light = clamp_light(light, chains.limit[c])
@@ -727,18 +808,43 @@ def deliver(lights, fresnel_model, chains, m, blocked, radiance, without):
 
 
 @jit_inline
-def chain_light(lights, fresnel_model, chains, c):
-    """The light chain c carries to its receiver's path (before the clamp)."""
+def receiver_response(mats, tables, has_normals, chains, c, scratch):
+    """Chain c's throughput at its receiver times the receiver's f |cos| towards the chain's
+    first vertex (a DIFFUSE receiver's albedo / pi; a layered or program receiver's lobes of
+    each kind whose bounce limits leave room for the chain's refractions), 0 where the
+    direction is not one `reflected` takes (as the path tracer's samples the stage stands
+    for)."""
+    x0 = row(chains.x0, c)
+    w0, _ = unit_towards(x0, vertex_row(chains.pos[c], 0))
+    ng0, ns0 = row(chains.ng0, c), row(chains.ns0, c)
+    if not reflected(w0, ng0, ns0, 1.0):
+        return (0.0, 0.0, 0.0)
+    kind = chains.kind0[c]
+    if kind == DIFFUSE:
+        return mul(row(chains.weight, c), dot(w0, ns0) / math.pi)
+    k = chains.k[c]
+    events = (1 << DIFFUSE_EVENT if k <= chains.room_diffuse[c] else 0) \
+        | (1 << REFLECT_EVENT if k <= chains.room_glossy[c] else 0)
+    mat, tri = chains.surface0[c, 0], chains.surface0[c, 1]
+    b1, b2 = chains.uv0[c, 0], chains.uv0[c, 1]
+    view = row(chains.view0, c)
+    count = hit_lobes(mats, tables, has_normals, kind, (mat, tri, b1, b2),
+                      surface_colors(mats, mat, tri, b1, b2),
+                      (x0, ng0, ns0, chains.entering0[c] != 0), view,
+                      (chains.ray0[c, 0], chains.ray0[c, 1], chains.ray0[c, 2],
+                       chains.length0[c]), scratch)
+    f, _ = bsdf_eval(scratch[0], count, view, w0, events)
+    return vmul(row(chains.weight, c), f)
+
+
+@jit_inline
+def chain_light(lights, fresnel_model, chains, c, response):
+    """The light chain c carries to its receiver's path (before the clamp), `response` the
+    receiver's (receiver_response)."""
     k = chains.k[c]
     x0 = row(chains.x0, c)
     x1 = vertex_row(chains.pos[c], 0)
-    w0, _ = unit_towards(x0, x1)
-    ng0, ns0 = row(chains.ng0, c), row(chains.ns0, c)
-    cos0 = dot(w0, ns0)
-    # As the path tracer's diffuse BSDF sample: above both normals.
-    if not (cos0 > 0.0 and dot(w0, ng0) > 0.0):
-        return (0.0, 0.0, 0.0)
-    light = mul(row(chains.weight, c), cos0 / math.pi)
+    light = response
     for i in range(k):
         p = vertex_row(chains.pos[c], i)
         prev = x0 if i == 0 else vertex_row(chains.pos[c], i - 1)
@@ -803,11 +909,12 @@ def solve(geometry, tables: MneeTables, mats, chains: Chains, n: int) -> None:
         walk(geometry, tables, mats, chains, n)
 
 
-def stage(geometry, tables: MneeTables, lights, mats, fresnel_model: int, depth: int, limits,
-          clamp, n_active: int, active, paths, prim, u, v, radiance, without) -> int:
+def stage(geometry, tables: MneeTables, lights, mats, albedo_tables, fresnel_model: int,
+          depth: int, limits, clamp, n_active: int, active, paths, prim, u, v, radiance, without,
+          scratch) -> int:
     """Manifold next-event estimation at the kept hits (rows `active` of paths, hits prim, u,
-    v) of one bounce, its light added to `radiance` (and `without`). Returns the chains that
-    delivered light."""
+    v) of one bounce, its light added to `radiance` (and `without`); albedo_tables and scratch
+    as deliver's tables and scratch. Returns the chains that delivered light."""
     chains = chains_for(n_active)
     mesh = geometry.mesh
     n = seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, active, paths,
@@ -824,5 +931,6 @@ def stage(geometry, tables: MneeTables, lights, mats, fresnel_model: int, depth:
     if m == 0:
         return 0
     blocked = geometry.occluded(chains.o32[:m], chains.d32[:m], chains.tmax[:m])
-    deliver(lights, fresnel_model, chains, m, blocked, radiance, without)
+    deliver(lights, mats, albedo_tables, mesh.corner_normals.shape[0] > 0, fresnel_model,
+            chains, m, blocked, radiance, without, scratch)
     return int(np.count_nonzero(blocked[:m]))

@@ -139,8 +139,8 @@ SETTINGS = (
             "caustics; the caustics of point and spot lamps of radius 0 and suns of angle 0, "
             "which no camera path finds, only with it); runs only in scenes with mirrors or "
             "glass, a diffuse surface and a lamp that lights them"),
-    Setting("shadow_caustics", bool, True, "Render light through smooth glass onto diffuse "
-            "surfaces by manifold next-event estimation (mnee.py) where the file sets Cycles' "
+    Setting("shadow_caustics", bool, True, "Render light through smooth glass onto rough "
+            "surfaces (diffuse, Principled, node trees) by manifold next-event estimation (mnee.py) where the file sets Cycles' "
             "shadow caustics (a caustics light, casters and receivers): a pool's floor under its "
             "water; off: the light tracer and the path tracer render it"),
     Setting("light_vertices", bool, True, "Connect every diffuse vertex of a camera path to a "

@@ -43,7 +43,7 @@ from .lights.dispatch import (lamp_crossed, lamps_to_cross, light_at_escape, lig
                               triangle_hit)
 from .material_kinds import DIFFUSE, EMISSION, LAYERED, PROGRAM
 from .media import empty_stacks
-from .mnee import NO_CHAIN, escape_left_to_mnee, left_to_mnee, mnee_after
+from .mnee import NO_CHAIN, escape_left_to_mnee, left_to_mnee, mnee_after, reflected
 from . import media as medium
 from .path_limits import (DIFFUSE_BOUNCE, NO_BOUNCES, add_bounce, bounce_kind, clamp_light,
                           clamp_limit, dropped_at, kind_count, past_last_bounce)
@@ -494,7 +494,8 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
                      offset_origin(p, ng, eps, new_d), feature_albedo, stats, media,
                      (tri, mat, entering, ng_f), clear)
         if kept > n_out and mnee_flags.shape[0] > 0:
-            out.mnee[n_out] = mnee_after(mnee_flags, paths.mnee[i], tri, kind, ray_kind)
+            out.mnee[n_out] = mnee_after(mnee_flags, paths.mnee[i], tri, kind, ray_kind,
+                                         reflected(new_d, ng_f, ns_f, pdf_prev))
         if light_passes:
             carry_pass_weights(out, n_out, kept, weights)
         n_out = kept
@@ -537,15 +538,15 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
                       limits, clamp, clear, n_programs, programs, paths, prim, u, v, out, n_out,
                       shadows,
                       n_shadow, radiance, without, lobes, regs, stats, lv, last_connection,
-                      feature_albedo, feature_normal, transparent, pass_sums):
+                      feature_albedo, feature_normal, transparent, pass_sums, mnee_flags):
     """The materials stage for the hits on shader programs that `materials` left in
     `programs` (scatter.scatter_program), their next rays after out's first n_out and their
     shadow rays after the first n_shadow. Returns the new (n_out, n_shadow). A path past its
     last bounce (`limits`, as emitters') only passes through the surface's transparency. When `transparent`
     has rows (the film's alpha is rendered), a Holdout met before the first bounce adds its
     weight times the path's mean throughput to it, as Cycles' integrate_surface_holdout (a
-    path that is still see-through: Paths.see_through). `clear` as materials'.
-    pass_sums as materials'."""
+    path that is still see-through: Paths.see_through). `clear`, pass_sums and mnee_flags as
+    materials'."""
     light_passes = pass_sums is not None
     has_normals = mesh.corner_normals.shape[0] > 0
     can_sample_lights = next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0
@@ -594,6 +595,10 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
                                                        caustic, connect, mis_t),
                      offset_origin(p, ng, eps, new_d), feature_albedo, stats, media,
                      (tri, mat, entering, ng_f), clear)
+        # Passing a transparent surface (mis_t > 0) scatters nowhere: NO_CHAIN, as go_on left it.
+        if kept > n_out and mnee_flags.shape[0] > 0 and mis_t == 0.0:
+            out.mnee[n_out] = mnee_after(mnee_flags, paths.mnee[i], tri, PROGRAM, ray_kind,
+                                         reflected(new_d, ng_f, ns_f, pdf_prev))
         if light_passes:
             carry_pass_weights(out, n_out, kept, weights)
         n_out = kept

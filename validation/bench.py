@@ -373,9 +373,10 @@ SNELL_REFERENCE_SEED = 424242   # Snell's reference (never a ladder point's seed
 
 
 def snell_reference(blend, opts: Options):
-    """(mean, variance of the mean, seconds) of Snell's unbiased hybrid (caustics on, photon
-    merging off) in opts.ref_seeds independent batches of opts.ref_spp samples, in this
-    process: the reference of a caustic no Cycles path tracer renders."""
+    """(mean, variance of the mean, seconds) of Snell's hybrid (caustics on, photon merging
+    off, the file's shadow caustics: unbiased but for manifold next-event estimation's own
+    bias) in opts.ref_seeds independent batches of opts.ref_spp samples, in this process: the
+    reference of a caustic no Cycles path tracer renders."""
     from ..addon.export import export_blend
     from ..tracer.integrator import Renderer
     with stdout_silenced():

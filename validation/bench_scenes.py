@@ -6,9 +6,10 @@ bench cache (not by scenes/build_all.py: the image regression renders every buil
 Cycles as users would set it up: the files switch on its shadow caustics (manifold next-event
 estimation: a caustics light, casters and receivers, scenes/common.py shadow_caustics) where a
 lamp lights the glass; path guiding (Cycles' CPU path guiding, scene.cycles.use_guiding) where
-it helps (GUIDING_MEASURED). The references are unbiased: Cycles' plain path tracer (shadow
-caustics and guiding off), or Snell's hybrid where Cycles' path tracer cannot render the
-caustic at all (a delta lamp's light through glass).
+it helps (GUIDING_MEASURED). The references are Cycles' plain path tracer (shadow caustics
+and guiding off: unbiased), or Snell's hybrid where Cycles' path tracer cannot render the
+caustic at all (a delta lamp's light through glass: unbiased but where the file's shadow
+caustics render that light seen through glass, which only they render).
 """
 from __future__ import annotations
 
@@ -64,14 +65,17 @@ PLAIN_REFERENCE = [(cycles.SHADOW_CAUSTICS, False, "the reference converges: Cyc
                    ("cycles.use_guiding", False, "plain path tracing")]
 
 _LIGHT_PATHS = "Snell, caustics off (the path tracer alone)"
+_LIGHT_PATHS_MNEE = "Snell, caustics off (the path tracer, and the file's shadow caustics)"
 _MNEE_OFF = "Snell, shadow caustics off (path tracer and light tracer)"
 
 CAUSTIC_SCENES = (
     BenchScene("sun_caustic", "light paths from a delta lamp (a sun of angle 0)",
-               {"caustics": True}, {"caustics": False}, _LIGHT_PATHS, "snell",
-               "Snell's hybrid (caustics on): no camera path reaches a sun of angle 0, so "
-               "Cycles' path tracer renders no caustic from it, and its shadow caustics are "
-               "biased (docs/measurements.md, delta lamps)"),
+               {"caustics": True}, {"caustics": False}, _LIGHT_PATHS_MNEE, "snell",
+               "Snell's hybrid (caustics on, and the file's shadow caustics for the sun's light "
+               "onto the floor seen through glass, which no camera or light path renders): no "
+               "camera path reaches a sun of angle 0, so Cycles' path tracer renders no "
+               "caustic from it, and its shadow caustics clamp their geometry term "
+               "(docs/measurements.md, delta lamps)"),
     BenchScene("hdri_caustic", "light paths from the world (an HDRI with a sun)",
                {"caustics": True}, {"caustics": False}, _LIGHT_PATHS, "cycles",
                "Cycles' plain path tracer (unbiased; shadow caustics do not apply to the world)"),
