@@ -2,17 +2,17 @@
 estimation (Hanika, Droske and Fascione 2015, "Manifold Next Event Estimation"; the stage that
 uses them is mnee.py).
 
-A chain x0 (a diffuse receiver, fixed), x1 .. xk (points on smooth refracting triangles), y (a
-point on a lamp, fixed) obeys Snell's law at every xi exactly when each vertex's generalized
-half vector wi + eta wo (wi towards x(i-1), wo towards x(i+1), eta the ratio of the indices on
-wo's side and wi's) is parallel to its shading normal: its two components along a tangent
-frame (s, t) of the shading normal vanish (the constraint). Each vertex moves in the plane of
-its triangle, by two coordinates along unit tangents (a, b) of that plane; the shading normal
-is the interpolated vertex normal, whose derivatives along a and b the constraint's
-derivatives need. Newton's method on the constraint walks a seed chain (the straight segment
-x0 y) onto the manifold; the implicit function theorem then gives how x1 moves with y, whose
-determinant is the generalized geometry term that turns the lamp's area density into x0's
-solid angle.
+A chain x0 (a point on a rough receiver, fixed), x1 .. xk (points on smooth refracting
+triangles), y (a point on a lamp, fixed) obeys Snell's law at every xi exactly when each
+vertex's generalized half vector wi + eta wo (wi towards x(i-1), wo towards x(i+1), eta the
+ratio of the indices on wo's side and wi's) is parallel to its shading normal: its two
+components along a tangent frame (s, t) of the shading normal vanish (the constraint). Each
+vertex moves in the plane of its triangle, by two coordinates along unit tangents (a, b) of that
+plane; the shading normal is the interpolated vertex normal, whose derivatives along a and b the
+constraint's derivatives need. Newton's method on the constraint walks a seed chain (the
+straight segment x0 y) onto the manifold; the implicit function theorem then gives how x1 moves
+with y, whose determinant is the generalized geometry term that turns the lamp's area density
+into x0's solid angle.
 
 A sun's chain ends in a fixed direction instead of a point y (Cycles' light_fixed_direction):
 the last vertex's wo is that direction whatever the vertex does, and the lamp's two coordinates
