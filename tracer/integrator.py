@@ -308,8 +308,7 @@ class Renderer:
                 return mnee.OFF, why
         caustics = self.caustics
         traced = frozenset() if caustics is None else frozenset(
-            (int(k), int(i)) for k, i, delta in zip(caustics.emitter_kind, caustics.emitter_index,
-                                                     caustics.emitter_delta) if delta)
+            zip(caustics.emitter_kind.tolist(), caustics.emitter_index.tolist()))
         return mnee.mnee_tables(self.scene, self.lights.tables, self.materials.kind,
                                 self.materials.of_triangle, traced)
 

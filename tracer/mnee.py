@@ -7,14 +7,13 @@ receiver, a lamp's caustics light; docs/scene-format.md). At a vertex on a recei
 layered or a shader program's: RECEIVING_KINDS) the stage samples a caustics lamp and on it a
 point y (point and spot lamps of radius > 0: the disk that faces the vertex x0; area lamps of
 spread > 0: a point uniform on the lamp) or, for a sun, a direction (uniform in its cone; a sun
-of angle 0: its one direction, and y stands for that direction, manifold.py's fixed
-direction), follows the segment x0 y collecting the smooth
-refracting triangles of casters it crosses (other objects are passed, as in Cycles; at most
-manifold.MAX_CASTERS), walks that seed chain onto the specular manifold by Newton's method (each
-step's points projected back onto their objects by a ray from the vertex before them, halving
-the step where a projection misses or a vertex stops refracting), where that walk fails walks
-again from a seed refracted by Snell's law at each caster it meets (reseed), checks that each
-converged segment is free, and adds
+of angle 0: its one direction, and y stands for that direction, manifold.py's fixed direction),
+follows the segment x0 y collecting the smooth refracting triangles of casters it crosses (other
+objects are passed, as in Cycles; at most manifold.MAX_CASTERS), walks that seed chain onto the
+specular manifold by Newton's method (each step's points projected back onto their objects by a
+ray from the vertex before them, halving the step where a projection misses or a vertex stops
+refracting), where that walk fails walks again from a seed refracted by Snell's law at each
+caster it meets (reseed), checks that each converged segment is free, and adds
 
     beta f(x0) |cos(x0)| prod(tint (1 - F)) L_e G / (pmf p_A(y))
 
@@ -142,7 +141,7 @@ def mnee_lamp(light: dict, tables, kind: int, k: int) -> bool:
 def mnee_tables(scene, lights, material_kind, of_triangle,
                 light_traced=frozenset()) -> tuple[MneeTables, str]:
     """(the stage's tables, OFF where it does not run; why or why not). light_traced: the
-    (codes kind, row) of the delta lamps the light tracer starts paths from, whose light at
+    (codes kind, row) of the lamps the light tracer starts paths from; a delta one's light at
     the camera ray's own hit the stage leaves it (MneeTables.pick_delta)."""
     objects = scene.objects
     flags = np.array([(CASTER if o.get("caustics_caster") else 0)
@@ -252,9 +251,8 @@ class Chains(NamedTuple):
     ns0: np.ndarray          # (n, 3) its shading normal, likewise
     eps0: np.ndarray         # (n,) its offset (geometry.hit_offset)
     weight: np.ndarray       # (n, 3) throughput (x albedo on a DIFFUSE receiver)
-    kind0: np.ndarray        # (n,) the receiver's material kind (RECEIVING_KINDS); for the
-    #                          lobes of a LAYERED or PROGRAM one (receivers.hit_lobes' inputs):
-    surface0: np.ndarray     # (n, 2) its material and triangle
+    tri0: np.ndarray         # (n,) the receiver's triangle; for the lobes of a LAYERED or
+    #                          PROGRAM one (receivers.hit_lobes' inputs):
     uv0: np.ndarray          # (n, 2) its barycentrics
     view0: np.ndarray        # (n, 3) the direction to the viewer
     entering0: np.ndarray    # (n,) 1: the ray met the front face
@@ -270,9 +268,8 @@ class Chains(NamedTuple):
     state: np.ndarray        # (n,) PROBING ... FAILED
     bent: np.ndarray         # (n,) 1: the seed refracts at each caster (reseed), 0: straight
     k: np.ndarray            # (n,) refracting vertices
-    room: np.ndarray         # (n,) how many refracting vertices the bounce limits allow: the
-    room_diffuse: np.ndarray # (n,) most of these, after the receiver's diffuse reflection
-    room_glossy: np.ndarray  # (n,) and after its glossy one
+    room_diffuse: np.ndarray # (n,) how many refracting vertices the bounce limits allow after
+    room_glossy: np.ndarray  # (n,) the receiver's diffuse and its glossy reflection (chain_room)
     prim: np.ndarray         # (n, MAX_CASTERS) their triangles
     pos: np.ndarray          # (n, MAX_CASTERS, 3)
     n: np.ndarray            # (n, MAX_CASTERS, 3) shading normals
@@ -308,10 +305,10 @@ def new_chains(n: int) -> Chains:
     i = lambda *shape: np.zeros(shape, np.int64)          # noqa: E731
     f32 = lambda *shape: np.zeros(shape, np.float32)      # noqa: E731
     return Chains(
-        path=i(n), x0=f(n, 3), ng0=f(n, 3), ns0=f(n, 3), eps0=f(n), weight=f(n, 3), kind0=i(n),
-        surface0=i(n, 2), uv0=f(n, 2), view0=f(n, 3), entering0=i(n), ray0=i(n, 3),
+        path=i(n), x0=f(n, 3), ng0=f(n, 3), ns0=f(n, 3), eps0=f(n), weight=f(n, 3), tri0=i(n),
+        uv0=f(n, 2), view0=f(n, 3), entering0=i(n), ray0=i(n, 3),
         length0=f(n), limit=f(n), lamp=i(n), lamp_kind=i(n), fixed=i(n), y=f(n, 3),
-        y_ab=f(n, 2, 3), pdf=f(n), state=i(n), bent=i(n), k=i(n), room=i(n), room_diffuse=i(n),
+        y_ab=f(n, 2, 3), pdf=f(n), state=i(n), bent=i(n), k=i(n), room_diffuse=i(n),
         room_glossy=i(n), prim=i(n, v), pos=f(n, v, 3), n=f(n, v, 3), dn_da=f(n, v, 3),
         dn_db=f(n, v, 3), ta=f(n, v, 3), tb=f(n, v, 3), ng=f(n, v, 3), ior=f(n, v),
         tint=f(n, v, 3), step=f(n), resolve=i(n), delta=f(n, 2 * v), transfer=f(n),
@@ -417,8 +414,7 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
         room_diffuse = room_after(bounce, add_bounce(paths.kinds[i], DIFFUSE_BOUNCE), limits)
         room_glossy = 0 if surface_kind == DIFFUSE else \
             room_after(bounce, add_bounce(paths.kinds[i], GLOSSY_BOUNCE), limits)
-        room = max(room_diffuse, room_glossy)
-        if room == 0:
+        if max(room_diffuse, room_glossy) == 0:
             continue
         b1, b2 = np.float64(u[i]), np.float64(v[i])
         p, ng, ns, eps = hit_point(mesh, tri, b1, b2)
@@ -445,8 +441,7 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
             color, _ = surface_colors(mats, mat, tri, b1, b2)
             beta = vmul(beta, color)
         store(chains.weight, n, beta)
-        chains.kind0[n] = surface_kind
-        chains.surface0[n, 0], chains.surface0[n, 1] = mat, tri
+        chains.tri0[n] = tri
         chains.uv0[n, 0], chains.uv0[n, 1] = b1, b2
         store(chains.view0, n, neg(d))
         chains.entering0[n] = entering
@@ -463,7 +458,6 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
         store(chains.y_ab[n], 0, ta)
         store(chains.y_ab[n], 1, tb)
         chains.pdf[n] = pmf * density
-        chains.room[n] = room
         chains.room_diffuse[n] = room_diffuse
         chains.room_glossy[n] = room_glossy
         start_probe(chains, n, 0)
@@ -543,6 +537,13 @@ def room_after(bounce, kinds, limits):
 
 
 @jit_inline
+def chain_room(chains, c):
+    """How many refracting vertices the bounce limits allow chain c: the most after either
+    kind of reflection at its receiver."""
+    return max(chains.room_diffuse[c], chains.room_glossy[c])
+
+
+@jit_inline
 def add_times(kinds, kind, times):
     """Packed counts with `times` more bounces of this kind."""
     for _ in range(times):
@@ -582,7 +583,7 @@ def probe_hits(tables, mesh, mats, chains, m, prim, u, v, t):
         d = row(chains.ray_d, c)
         if tables.tri_flags[tri] & CASTER:
             kind = mats.kind[mats.of_triangle[tri]]
-            if not (kind == GLASS or kind == REFRACTION) or chains.k[c] >= chains.room[c]:
+            if not (kind == GLASS or kind == REFRACTION) or chains.k[c] >= chain_room(chains, c):
                 chains.state[c] = FAILED
                 continue
             i = chains.k[c]
@@ -819,13 +820,14 @@ def receiver_response(mats, tables, has_normals, chains, c, scratch):
     ng0, ns0 = row(chains.ng0, c), row(chains.ns0, c)
     if not reflected(w0, ng0, ns0, 1.0):
         return (0.0, 0.0, 0.0)
-    kind = chains.kind0[c]
+    tri = chains.tri0[c]
+    mat = mats.of_triangle[tri]
+    kind = mats.kind[mat]
     if kind == DIFFUSE:
         return mul(row(chains.weight, c), dot(w0, ns0) / math.pi)
     k = chains.k[c]
     events = (1 << DIFFUSE_EVENT if k <= chains.room_diffuse[c] else 0) \
         | (1 << REFLECT_EVENT if k <= chains.room_glossy[c] else 0)
-    mat, tri = chains.surface0[c, 0], chains.surface0[c, 1]
     b1, b2 = chains.uv0[c, 0], chains.uv0[c, 1]
     view = row(chains.view0, c)
     count = hit_lobes(mats, tables, has_normals, kind, (mat, tri, b1, b2),

@@ -140,9 +140,10 @@ SETTINGS = (
             "which no camera path finds, only with it); runs only in scenes with mirrors or "
             "glass, a diffuse surface and a lamp that lights them"),
     Setting("shadow_caustics", bool, True, "Render light through smooth glass onto rough "
-            "surfaces (diffuse, Principled, node trees) by manifold next-event estimation (mnee.py) where the file sets Cycles' "
-            "shadow caustics (a caustics light, casters and receivers): a pool's floor under its "
-            "water; off: the light tracer and the path tracer render it"),
+            "surfaces (diffuse, Principled, node trees) by manifold next-event estimation "
+            "(mnee.py) where the file sets Cycles' shadow caustics (a caustics light, casters and "
+            "receivers): a pool's floor under its water; off: the light tracer and the path "
+            "tracer render it"),
     Setting("light_vertices", bool, True, "Connect every diffuse vertex of a camera path to a "
             "point that light from a lamp reaches first (the same image, with far less noise "
             "where surfaces next to lamps light the scene); runs only with mesh lights or area "

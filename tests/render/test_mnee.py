@@ -291,7 +291,7 @@ def _tumbler_chains(renderer):
         chains.y_ab[c] = a, b
     chains.ng0[:n] = chains.ns0[:n] = (0.0, 0.0, 1.0)
     chains.eps0[:n] = 1e-5
-    chains.room[:n] = manifold.MAX_CASTERS
+    chains.room_diffuse[:n] = manifold.MAX_CASTERS
     chains.state[:n], chains.k[:n], chains.bent[:n] = mnee.PROBING, 0, 0
     chains.ray_o[:n] = chains.x0[:n] + 1e-5 * chains.ng0[:n]
     rest = chains.y[:n] - chains.ray_o[:n]
