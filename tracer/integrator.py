@@ -446,8 +446,8 @@ class Renderer:
                 self.mnee.tri_flags)
             if self.mnee.lamp.shape[0] > 0:
                 stats[MNEE_PATHS] += mnee.stage(
-                    geom, self.mnee, lights, mats, self.tables, self.fresnel, depth, limits,
-                    clamp, kept, active, paths, prim, u, v, radiance, without,
+                    geom, self.mnee, lights, mats, self.tables, self.fresnel, depth, bits,
+                    stratified and depth < wavefront.STRATIFIED_BOUNCES, limits, clamp, kept, active, paths, prim, u, v, radiance, without,
                     (scratch, regs, params))
             if n_programs:
                 m, n_shadow = wavefront.program_materials(

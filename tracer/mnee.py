@@ -77,7 +77,7 @@ from .manifold import (MAX_CASTERS, SYSTEM_COLUMNS, C, fill_system, geometry_ter
 from .material_kinds import DIFFUSE, GLASS, LAYERED, PROGRAM, REFRACTION
 from .path_limits import DIFFUSE_BOUNCE, GLOSSY_BOUNCE, TRANSMISSION_BOUNCE, add_bounce, \
     clamp_light, clamp_limit, dropped_at, within_limits
-from .sampler import mix, random_pair
+from .sampler import mix, sample_pair
 from .sampling import orthonormal_basis, sample_uniform_disk
 from .receivers import hit_lobes
 from .shader.inputs import ray_flags
@@ -393,11 +393,11 @@ def pick_lamp(cdf, u):
 
 
 @jit
-def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, active, paths, prim,
-                u, v, chains):
+def seed_chains(tables, lights, mesh, mats, depth, bits, strat, limits, clamp, n_active, active,
+                paths, prim, u, v, chains):
     """A chain per kept hit (rows `active`) on a receiver (RECEIVING_KINDS): a caustics lamp
-    picked, a point y on it (a sun's direction) sampled (sample_lamp), and the seed ray towards
-    it; none for a sun of angle 0 at the camera ray's own hit (depth 0) where the light tracer
+    picked, a point y on it (a sun's direction) sampled (sample_lamp; the sampler's pairs,
+    stratified if strat), and the seed ray towards it; none for a sun of angle 0 at the camera ray's own hit (depth 0) where the light tracer
     starts paths from it (MneeTables.pick_delta): its connection renders that light. Returns
     the count."""
     n = 0
@@ -421,8 +421,10 @@ def seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, acti
         d = row(paths.d, i)
         ng_f, ns_f, entering = facing(d, ng, ns)
         key = mix(paths.key[i], MNEE_DOMAIN)
-        u_pick, _ = random_pair(key, paths.sample[i], 2 * depth)
-        u0, u1 = random_pair(key, paths.sample[i], 2 * depth + 1)
+        # The stage's own pairs (its key apart from the path's), stratified over the pixel's
+        # samples as direct light's are: the lamp point is most of a chain's variance.
+        u_pick, _ = sample_pair(key, paths.sample[i], 2 * depth, bits, strat)
+        u0, u1 = sample_pair(key, paths.sample[i], 2 * depth + 1, bits, strat)
         j = pick_lamp(cdf, u_pick)
         pmf = cdf[j] - (cdf[j - 1] if j > 0 else 0.0)
         kind, lamp = tables.pick_kind[j], tables.pick_index[j]
@@ -912,15 +914,16 @@ def solve(geometry, tables: MneeTables, mats, chains: Chains, n: int) -> None:
 
 
 def stage(geometry, tables: MneeTables, lights, mats, albedo_tables, fresnel_model: int,
-          depth: int, limits, clamp, n_active: int, active, paths, prim, u, v, radiance, without,
-          scratch) -> int:
+          depth: int, bits: int, strat: bool, limits, clamp, n_active: int, active, paths, prim,
+          u, v, radiance, without, scratch) -> int:
     """Manifold next-event estimation at the kept hits (rows `active` of paths, hits prim, u,
-    v) of one bounce, its light added to `radiance` (and `without`); albedo_tables and scratch
-    as deliver's tables and scratch. Returns the chains that delivered light."""
+    v) of one bounce, its light added to `radiance` (and `without`); bits and strat the
+    sampler's (seed_chains), albedo_tables and scratch as deliver's tables and scratch. Returns
+    the chains that delivered light."""
     chains = chains_for(n_active)
     mesh = geometry.mesh
-    n = seed_chains(tables, lights, mesh, mats, depth, limits, clamp, n_active, active, paths,
-                    prim, u, v, chains)
+    n = seed_chains(tables, lights, mesh, mats, depth, bits, strat, limits, clamp, n_active,
+                    active, paths, prim, u, v, chains)
     if n == 0:
         return 0
     solve(geometry, tables, mats, chains, n)

@@ -143,6 +143,32 @@ def test_the_pool_agrees_with_the_path_traced_reference():
     _assert_consistent(*_render(scene, 512, 4), reference, reference_var)
 
 
+
+def test_the_stratified_sampler_stratifies_the_stages_lamp_samples():
+    """A flat water surface over the floor, under a 1 m area lamp (16x16, max depth 3): the
+    stage's light varies with the lamp point and hardly across a pixel, so where the sampler
+    stratifies the lamp points over a pixel's samples, as it does direct light's, the image's
+    noise falls well below the independent sampler's. 8 seeds x 64 spp each: the median over
+    pixels of the ratio of the seeds' variances is at most 0.25 (measured 0.137; a median of
+    256 ratios of two 8-seed variances is within a factor 1.15 of the true one at 2 standard
+    errors), and the two samplers agree on the mean (3 standard errors). Deliberate error
+    caught: the stage's pairs independent under either sampler (the old code): ratio 0.468."""
+    floor, water = quad((0.0, 0.0, 0.0), 1.0, 1.0), quad((0.0, 0.0, 0.5), 1.0, 1.0)
+    cam = look_at((0.0, -0.25, 1.9), (0.0, 0.0, 0.0), (16, 16), lens=50.0)
+    scene = shadow_caustics(make_scene([(*floor, 0), (*water, 1)], POOL_MATERIALS, cam,
+                                       lights=[pool_area(1.0)], max_depth=3))
+    images = {}
+    for sampler in "stratified", "independent":
+        images[sampler] = np.array([Renderer(scene, scene.settings(
+            spp=64, threads=2, seed=100 + seed, noise_threshold=0.0, sampler=sampler)).render()
+            .mean()[..., 0] for seed in range(8)], np.float64)
+    stratified, independent = images["stratified"], images["independent"]
+    ratio = stratified.var(0, ddof=1) / independent.var(0, ddof=1)
+    assert np.median(ratio) < 0.25, np.median(ratio)
+    means = [im.mean((1, 2)) for im in (stratified, independent)]
+    error = 3.0 * np.sqrt(sum(m.var(ddof=1) / len(m) for m in means))
+    assert abs(means[0].mean() - means[1].mean()) < error, [m.mean() for m in means]
+
 @pytest.mark.parametrize("under", [False, True], ids=["through the water", "under the water"])
 def test_a_principled_receiver_of_a_lambert_lobe_alone_renders_as_the_diffuse_one(under):
     """The pool's floor a Principled BSDF without specular (Specular IOR Level 0: its Lambert
