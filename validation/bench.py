@@ -399,15 +399,17 @@ def snell_reference(blend, opts: Options):
 
 def _point(kind, blend, spp, ref, opts, baseline_mb, log, caustics=True, threshold=None,
            denoise=False, variant=None):
-    """(point, image, light tracer's image or None, per-pixel samples) of one measured point."""
+    """(point, image, light tracer's image or None, per-pixel samples) of one measured point;
+    ref the reference (metrics.Estimate)."""
     # Repeats of a point render the same image (same seed); only the timings differ.
     runs = [run_point(kind, blend, spp, opts, caustics, threshold, denoise, variant)
             for _ in range(opts.repeat)]
     image, light, counts, _, noisy = runs[0]
     stats = median_run([r[3] for r in runs])
-    if image.shape != ref.shape:
-        raise PointError(f"{kind} image {image.shape} differs from the reference {ref.shape}")
-    h, w = ref.shape[:2]
+    if image.shape != ref.mean.shape:
+        raise PointError(f"{kind} image {image.shape} differs from the reference "
+                         f"{ref.mean.shape}")
+    h, w = ref.mean.shape[:2]
     if counts is None:  # a ladder point: spp in every pixel
         counts = np.full((h, w), spp, np.int32)
     # The child's stats last: Snell's saved_share is its own (RenderResult.saved_share).
@@ -508,18 +510,23 @@ def definitions(opts: Options) -> dict:
     """What each figure of the bench's JSON means (its "definitions")."""
     return {**_error_definitions(), **_run_definitions(opts), **_caustic_definitions(),
             **_adaptive_definitions(opts), **_denoised_definitions(opts),
-            "reference_noise": "the reference's own expected contribution to a point's relMSE "
-                               "and RMSE: mean of var / (R^2 + eps) and sqrt(mean var), var = "
-                               "its across-seed variance of the mean; measured errors include it "
-                               "(not subtracted)"}
+            "reference_noise": "the reference's own expected contribution to a plain relMSE "
+                               "and to RMSE: mean of var / (R^2 + eps) and sqrt(mean var), var = "
+                               "its across-seed variance of the mean; the bench's relMSE takes "
+                               "it out, its RMSE includes it"}
 
 
 def _error_definitions() -> dict:
     """What the error figures and the time to equal error mean."""
     return {
-        "relmse": f"mean over pixels and channels of (I - R)^2 / (R^2 + eps), eps = {metrics.RELMSE_EPS:g}, "
-                  f"after dropping the largest {metrics.RELMSE_DROP:.1%} of the per-value terms "
-                  "(fireflies); R = the scene's Cycles reference",
+        "relmse": f"mean over pixels and channels of ((I - R)^2 - var) / (N^2 + eps), eps = "
+                  f"{metrics.RELMSE_EPS:g}, after dropping the largest "
+                  f"{metrics.RELMSE_DROP:.1%} of the per-value terms (fireflies), and at least "
+                  "the standard error of that mean; R = the scene's reference, var its "
+                  "variance of the mean (so R's noise is not counted as the image's error), N "
+                  "the Gaussian (sigma 1 px) mean of the pixel's neighbours in R, itself left "
+                  "out (dividing by R^2 would weight each pixel by its own reference noise and "
+                  "favour images darker than the reference: metrics.relmse_against_estimate)",
         "rmse": "sqrt(mean over pixels and channels of (I - R)^2), nothing dropped",
         "flip": "mean HDR-FLIP of I against R (flip-evaluator, linear values clamped at 0)",
         "efficiency": "relMSE x wall time (constant for an unbiased renderer; lower wins)",
@@ -705,7 +712,9 @@ def _bench_scene(blend, setup, opts, cache_dir, baseline_mb, log):
     name = os.path.splitext(os.path.basename(blend))[0]
     ref, ref_info, ref_var = reference(blend, opts, cache_dir, log, setup)
     variants = _variants(setup)
-    ladders = _ladders(name, blend, ref, opts, baseline_mb, log, variants)
+    # The points' errors take the reference's own noise out (bench_curves.errors).
+    estimate = metrics.Estimate(ref, ref_var, ref_info["seeds"] - 1)
+    ladders = _ladders(name, blend, estimate, opts, baseline_mb, log, variants)
     # The light tracer's image at the largest point of the Snell ladder (None if it did not
     # run): it defines the caustic region and the share map.
     light = ladders["snell"][1][-1][1]
@@ -715,7 +724,8 @@ def _bench_scene(blend, setup, opts, cache_dir, baseline_mb, log):
         region["reference_noise_relmse"] = reference_noise(ref[mask], ref_var[mask])["relmse"]
         for points, images in ladders.values():
             for p, (image, _) in zip(points, images):
-                p["caustic_relmse"] = metrics.relmse(image[mask], ref[mask])
+                p["caustic_relmse"] = metrics.relmse_against_estimate(image, ref, ref_var,
+                                                                      mask)
     scene = {"name": name, "blend": os.path.abspath(blend),
              "height": int(ref.shape[0]), "width": int(ref.shape[1]),
              "reference": ref_info, "caustic_region": region}
@@ -739,7 +749,7 @@ def _bench_scene(blend, setup, opts, cache_dir, baseline_mb, log):
     if opts.thresholds:
         log(f"{name}: as users render (adaptive)")
         scene["adaptive"], figures["sample_maps"] = _adaptive_comparison(
-            blend, ref, opts, baseline_mb, log, variants)
+            blend, estimate, opts, baseline_mb, log, variants)
     return scene, figures
 
 

@@ -3,9 +3,12 @@ the error-against-time curves and their fits, time to equal error, the caustic r
 (the renders run in bench.py, the JSON, plot and page are bench_report.py's).
 
 Definitions (stated again in bench.json under "definitions"):
-- relMSE = mean over pixels and channels of (I - R)^2 / (R^2 + eps), eps = metrics.RELMSE_EPS,
-  after dropping the largest metrics.RELMSE_DROP fraction of the per-value terms (fireflies); the
-  same rule as `snell compare` (metrics.py).
+- relMSE = mean over pixels and channels of ((I - R)^2 - var) / (N^2 + eps), eps =
+  metrics.RELMSE_EPS, after dropping the largest metrics.RELMSE_DROP fraction of the per-value
+  terms (fireflies) as `snell compare` does; var is the reference's variance of the mean and N
+  the mean of the pixel's neighbours in R (metrics.relmse_against_estimate): the reference is a
+  Monte Carlo estimate too, and the plain (I - R)^2 / (R^2 + eps) both counts its noise as the
+  image's error and favours images darker than it.
 - RMSE = sqrt(mean((I - R)^2)), no values dropped. FLIP = mean HDR-FLIP (metrics.flip).
 - efficiency figure = relMSE x wall time (constant for an unbiased renderer; lower wins).
 - time to equal error: per renderer, log(time) is interpolated piecewise-linearly in log(relMSE)
@@ -30,14 +33,18 @@ from . import metrics
 # Error metrics against the converged reference
 
 
-def errors(image, reference) -> dict:
-    flip = metrics.flip(reference, image)
-    return {"relmse": metrics.relmse(image, reference), "rmse": metrics.rmse(image, reference),
+def errors(image, reference: metrics.Estimate) -> dict:
+    """relMSE (its reference noise taken out: metrics.relmse_against_estimate), RMSE and FLIP
+    of image against the reference."""
+    flip = metrics.flip(reference.mean, image)
+    return {"relmse": metrics.relmse_against_estimate(image, reference.mean, reference.var),
+            "rmse": metrics.rmse(image, reference.mean),
             "flip": float("nan") if flip is None else flip}
 
 
 def reference_noise(reference, variance_of_mean) -> dict:
-    """The reference's own error: the expected relMSE and RMSE its noise alone adds to a point."""
+    """The reference's own error: the expected relMSE (R^2 the weight) and RMSE its noise alone
+    adds to a point (the bench's relMSE takes it out; its RMSE keeps it)."""
     r = np.asarray(reference, np.float64)
     v = np.asarray(variance_of_mean, np.float64)
     return {"relmse": float(np.mean(v / (r * r + metrics.RELMSE_EPS))),

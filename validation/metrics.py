@@ -124,6 +124,46 @@ def relmse(image, reference, eps=RELMSE_EPS, drop=RELMSE_DROP) -> float:
     return float(rel[:keep].mean())
 
 
+def relmse_against_estimate(image, reference, reference_var, mask=None, eps=RELMSE_EPS,
+                            drop=RELMSE_DROP) -> float:
+    """relMSE of image against a reference that is itself a Monte Carlo estimate (its variance
+    of the mean reference_var), over the pixels of `mask` (all if None): unbiased by the
+    reference's noise, and never below the estimate's own standard error."""
+    image, reference = np.asarray(image, np.float64), np.asarray(reference, np.float64)
+    # (I - R)^2 overstates (I - mu)^2 by var(R) on average: subtract it. Dividing by R^2 itself
+    # would weight each pixel by its own noise, rewarding images darker than the reference
+    # (a pixel whose reference sample came out low counts more): the weight comes from the
+    # pixel's neighbours instead, whose noise is independent of its own.
+    around = neighbour_mean(reference)
+    terms = ((image - reference) ** 2 - np.asarray(reference_var, np.float64)) / (
+        around * around + eps)
+    if mask is not None:
+        terms = terms[mask]
+    terms = np.sort(terms.ravel())
+    keep = terms[:len(terms) - int(math.floor(drop * len(terms)))]
+    standard_error = float(keep.std() / math.sqrt(len(keep))) if len(keep) > 1 else 0.0
+    return max(float(keep.mean()), standard_error)
+
+
+def neighbour_mean(image, sigma=1.0):
+    """Each pixel's Gaussian-weighted (sigma px) mean of the pixels around it, itself left out."""
+    x = np.asarray(image, np.float64)
+    r = int(math.ceil(3 * sigma))
+    k = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
+
+    def blur(values):          # zero outside the image: no pixel is counted twice
+        p = np.pad(values, ((r, r), (0, 0), (0, 0)))
+        y = sum(k[i] * p[i:i + x.shape[0]] for i in range(2 * r + 1))
+        p = np.pad(y, ((0, 0), (r, r), (0, 0)))
+        return sum(k[i] * p[:, i:i + x.shape[1]] for i in range(2 * r + 1))
+
+    own = k[r] * k[r]
+    weight = blur(np.ones_like(x)) - own
+    if not np.all(weight > 1e-12):
+        return x                    # a single pixel: no neighbours
+    return (blur(x) - own * x) / weight
+
+
 def rmse(image, reference) -> float:
     """Root mean square difference over pixels and channels."""
     d = np.asarray(image, np.float64) - np.asarray(reference, np.float64)
