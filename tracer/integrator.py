@@ -447,8 +447,8 @@ class Renderer:
             if self.mnee.lamp.shape[0] > 0:
                 stats[MNEE_PATHS] += mnee.stage(
                     geom, self.mnee, lights, mats, self.tables, self.fresnel, depth, bits,
-                    stratified and depth < wavefront.STRATIFIED_BOUNCES, limits, clamp, kept, active, paths, prim, u, v, radiance, without,
-                    (scratch, regs, params))
+                    stratified and depth < wavefront.STRATIFIED_BOUNCES, limits, clamp, kept,
+                    active, paths, prim, u, v, radiance, without, (scratch, regs, params))
             if n_programs:
                 m, n_shadow = wavefront.program_materials(
                     lights, mesh, mats, self.media, self.tables, self.next_event, bits,

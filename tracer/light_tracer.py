@@ -22,8 +22,9 @@ vertex (receiver_bounce) and connects to the camera at each diffuse vertex (L S+
 since the path tracer renders none of them. On a Principled or node-tree surface it carries
 the whole BSDF there, but for its singular lobes and its transmission, which it does not
 follow (their light is lost), and a program's Light Path inputs are a camera ray's. It is
-aimed at the specular objects: from a lamp, its direction is drawn in the cone that bounds one of them, seen from the
-light point (a mixture over objects; the density of a direction sums every cone that holds it);
+aimed at the specular objects: from a lamp, its direction is drawn in the cone that bounds one
+of them, seen from the light point (a mixture over objects; the density of a direction sums
+every cone that holds it);
 from a sun or the world, the direction is the sun's or drawn from the world's distribution, and
 the line crosses a disk across one of them (aimed_line). The world starts light paths where its
 light is concentrated (an HDRI with a sun: lights.dispatch.WORLD_PEAK), and the path tracer then

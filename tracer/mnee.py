@@ -397,9 +397,9 @@ def seed_chains(tables, lights, mesh, mats, depth, bits, strat, limits, clamp, n
                 paths, prim, u, v, chains):
     """A chain per kept hit (rows `active`) on a receiver (RECEIVING_KINDS): a caustics lamp
     picked, a point y on it (a sun's direction) sampled (sample_lamp; the sampler's pairs,
-    stratified if strat), and the seed ray towards it; none for a sun of angle 0 at the camera ray's own hit (depth 0) where the light tracer
-    starts paths from it (MneeTables.pick_delta): its connection renders that light. Returns
-    the count."""
+    stratified if strat), and the seed ray towards it; none for a sun of angle 0 at the camera
+    ray's own hit (depth 0) where the light tracer starts paths from it
+    (MneeTables.pick_delta): its connection renders that light. Returns the count."""
     n = 0
     cdf = tables.pick_cdf
     for j in range(n_active):
