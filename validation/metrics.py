@@ -99,13 +99,18 @@ LOG_SIGMA = 1.0
 TEMPLATE_CLIP_PERCENTILE = 95.0
 
 
-def _blur(x, sigma):
+def _gaussian(sigma):
     r = max(1, int(math.ceil(3 * sigma)))
     k = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
-    k /= k.sum()
-    p = np.pad(x, ((r, r), (0, 0), (0, 0)), mode="edge")
+    return k / k.sum()
+
+
+def _blur(x, sigma, mode="edge"):
+    k = _gaussian(sigma)
+    r = len(k) // 2
+    p = np.pad(x, ((r, r), (0, 0), (0, 0)), mode=mode)
     x = sum(k[i] * p[i:i + x.shape[0]] for i in range(2 * r + 1))
-    p = np.pad(x, ((0, 0), (r, r), (0, 0)), mode="edge")
+    p = np.pad(x, ((0, 0), (r, r), (0, 0)), mode=mode)
     return sum(k[i] * p[:, i:i + x.shape[1]] for i in range(2 * r + 1))
 
 
@@ -119,9 +124,14 @@ def relmse(image, reference, eps=RELMSE_EPS, drop=RELMSE_DROP) -> float:
     """Mean of (I - R)^2 / (R^2 + eps) over pixels and channels, the largest `drop` fraction of
     the terms (fireflies) left out."""
     image, reference = np.asarray(image, np.float64), np.asarray(reference, np.float64)
-    rel = np.sort(((image - reference) ** 2 / (reference * reference + eps)).ravel())
-    keep = len(rel) - int(math.floor(drop * len(rel)))
-    return float(rel[:keep].mean())
+    return float(_without_fireflies((image - reference) ** 2 / (reference * reference + eps),
+                                    drop).mean())
+
+
+def _without_fireflies(terms, drop):
+    """The terms, sorted, the largest `drop` fraction of them left out."""
+    terms = np.sort(np.ravel(terms))
+    return terms[:len(terms) - int(math.floor(drop * len(terms)))]
 
 
 def relmse_against_estimate(image, reference, reference_var, mask=None, eps=RELMSE_EPS,
@@ -137,10 +147,7 @@ def relmse_against_estimate(image, reference, reference_var, mask=None, eps=RELM
     around = neighbour_mean(reference)
     terms = ((image - reference) ** 2 - np.asarray(reference_var, np.float64)) / (
         around * around + eps)
-    if mask is not None:
-        terms = terms[mask]
-    terms = np.sort(terms.ravel())
-    keep = terms[:len(terms) - int(math.floor(drop * len(terms)))]
+    keep = _without_fireflies(terms if mask is None else terms[mask], drop)
     standard_error = float(keep.std() / math.sqrt(len(keep))) if len(keep) > 1 else 0.0
     return max(float(keep.mean()), standard_error)
 
@@ -148,20 +155,13 @@ def relmse_against_estimate(image, reference, reference_var, mask=None, eps=RELM
 def neighbour_mean(image, sigma=1.0):
     """Each pixel's Gaussian-weighted (sigma px) mean of the pixels around it, itself left out."""
     x = np.asarray(image, np.float64)
-    r = int(math.ceil(3 * sigma))
-    k = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
-
-    def blur(values):          # zero outside the image: no pixel is counted twice
-        p = np.pad(values, ((r, r), (0, 0), (0, 0)))
-        y = sum(k[i] * p[i:i + x.shape[0]] for i in range(2 * r + 1))
-        p = np.pad(y, ((0, 0), (r, r), (0, 0)))
-        return sum(k[i] * p[:, i:i + x.shape[1]] for i in range(2 * r + 1))
-
-    own = k[r] * k[r]
-    weight = blur(np.ones_like(x)) - own
+    k = _gaussian(sigma)
+    own = k[len(k) // 2] ** 2
+    # Zero outside the image: no pixel is counted twice, none counts in its own padding.
+    weight = _blur(np.ones_like(x), sigma, "constant") - own
     if not np.all(weight > 1e-12):
         return x                    # a single pixel: no neighbours
-    return (blur(x) - own * x) / weight
+    return (_blur(x, sigma, "constant") - own * x) / weight
 
 
 def rmse(image, reference) -> float:
