@@ -21,7 +21,7 @@ Cycles' strategies (light vertices left out): add_feature_light.
 """
 from __future__ import annotations
 
-from .jit import jit
+from .jit import jit_inline
 from .lobes import (ALPHA, DIST_GGX, KIND, LAMBERT, NORMAL, SAMPLE_WEIGHT, TRANSLUCENT,
                     lobe_albedo, new_lobe, setup_glass, setup_glossy, setup_refraction, vec_at)
 from .material_kinds import DIFFUSE, GLASS, MIRROR
@@ -31,7 +31,7 @@ ROUGH_ALPHA = 0.075       # Cycles: a closure is rough when alpha_x alpha_y > 0.
 ROUGH_SHARE = 0.25        # ... and a surface writes when its rough closures' share exceeds this
 
 
-@jit
+@jit_inline
 def smooth_lobes(kind, lobes, tables, wi, n, entering, color, trans_color, ior):
     """The lobe Cycles sees at a diffuse or smooth (mirror, glass, refraction) hit, in `lobes`;
     returns 1 (their count)."""
@@ -46,7 +46,7 @@ def smooth_lobes(kind, lobes, tables, wi, n, entering, color, trans_color, ior):
     return 1
 
 
-@jit
+@jit_inline
 def surface_features(lobes, count, tables, wi):
     """(writes, rough lobes' albedo, normal averaged by sample weight, specular lobes' albedo)
     of a hit's lobes seen from wi: Cycles' rule (module docstring)."""
@@ -72,7 +72,7 @@ def surface_features(lobes, count, tables, wi):
     return False, rough_albedo, normal, specular_albedo
 
 
-@jit
+@jit_inline
 def add_feature_light(albedo, paths, i, beta, light, w):
     """Add light found by path i (throughput beta, emission `light`, MIS weight w) times its
     features' weight to row paths.path[i] of the albedo."""
@@ -81,7 +81,7 @@ def add_feature_light(albedo, paths, i, beta, light, w):
         albedo[row, k] += paths.feature[i, k] * beta[k] * light[k] * w
 
 
-@jit
+@jit_inline
 def record_features(lobes, count, tables, wi, paths, i, albedo, normal):
     """Apply a hit's lobes to path i's features: add them to row paths.path[i] of `albedo`
     (which may hold light it found on the way) and `normal` and stop, or carry the weight on
