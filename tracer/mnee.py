@@ -250,9 +250,9 @@ class Chains(NamedTuple):
     ng0: np.ndarray          # (n, 3) its geometric normal, facing the camera side
     ns0: np.ndarray          # (n, 3) its shading normal, likewise
     eps0: np.ndarray         # (n,) its offset (geometry.hit_offset)
-    weight: np.ndarray       # (n, 3) throughput (x albedo on a DIFFUSE receiver)
-    tri0: np.ndarray         # (n,) the receiver's triangle; for the lobes of a LAYERED or
-    #                          PROGRAM one (receivers.hit_lobes' inputs):
+    weight: np.ndarray       # (n, 3) throughput
+    tri0: np.ndarray         # (n,) the receiver's triangle; for its colours and the lobes of a
+    #                          LAYERED or PROGRAM one (receivers.hit_lobes' inputs):
     uv0: np.ndarray          # (n, 2) its barycentrics
     view0: np.ndarray        # (n, 3) the direction to the viewer
     entering0: np.ndarray    # (n,) 1: the ray met the front face
@@ -438,11 +438,7 @@ def seed_chains(tables, lights, mesh, mats, depth, bits, strat, limits, clamp, n
         store(chains.ng0, n, ng_f)
         store(chains.ns0, n, ns_f)
         chains.eps0[n] = eps
-        beta = row(paths.beta, i)
-        if surface_kind == DIFFUSE:
-            color, _ = surface_colors(mats, mat, tri, b1, b2)
-            beta = vmul(beta, color)
-        store(chains.weight, n, beta)
+        store(chains.weight, n, row(paths.beta, i))
         chains.tri0[n] = tri
         chains.uv0[n, 0], chains.uv0[n, 1] = b1, b2
         store(chains.view0, n, neg(d))
@@ -825,15 +821,15 @@ def receiver_response(mats, tables, has_normals, chains, c, scratch):
     tri = chains.tri0[c]
     mat = mats.of_triangle[tri]
     kind = mats.kind[mat]
+    b1, b2 = chains.uv0[c, 0], chains.uv0[c, 1]
+    colors = surface_colors(mats, mat, tri, b1, b2)
     if kind == DIFFUSE:
-        return mul(row(chains.weight, c), dot(w0, ns0) / math.pi)
+        return mul(vmul(row(chains.weight, c), colors[0]), dot(w0, ns0) / math.pi)
     k = chains.k[c]
     events = (1 << DIFFUSE_EVENT if k <= chains.room_diffuse[c] else 0) \
         | (1 << REFLECT_EVENT if k <= chains.room_glossy[c] else 0)
-    b1, b2 = chains.uv0[c, 0], chains.uv0[c, 1]
     view = row(chains.view0, c)
-    count = hit_lobes(mats, tables, has_normals, kind, (mat, tri, b1, b2),
-                      surface_colors(mats, mat, tri, b1, b2),
+    count = hit_lobes(mats, tables, has_normals, kind, (mat, tri, b1, b2), colors,
                       (x0, ng0, ns0, chains.entering0[c] != 0), view,
                       (chains.ray0[c, 0], chains.ray0[c, 1], chains.ray0[c, 2],
                        chains.length0[c]), scratch)
