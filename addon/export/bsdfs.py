@@ -3,6 +3,9 @@ node, taking the material's name, the node, its Inputs and the issues to add to)
 """
 from __future__ import annotations
 
+import math
+
+from ...tracer import microfacet
 from ...tracer import scene as scene_mod
 
 # The nodes' microfacet distributions as the scene file names them. Ashikhmin-Shirley (Glossy
@@ -92,18 +95,22 @@ def _principled(name, node, inp, issues):
 def _as_smooth_glass(mat):
     """The glass material a principled one renders exactly as, or None.
 
-    Full transmission with nothing on top, smooth, untinted and without emission is exactly
-    Cycles' smooth glass: it keeps the kind it had before rough surfaces, so that a scene's
-    glass renders as the validator has always held it.
+    Full transmission with nothing on top, smooth (a roughness Cycles treats as a perfect
+    dielectric), an untinted specular layer and without emission is exactly Cycles' smooth glass
+    with its reflection untinted and its transmission tinted by the square root of the base
+    colour clamped to [0, 1] (Cycles 5.0's Principled BSDF: the light passes the surface twice).
+    As glass it is a caster for the light tracer and for manifold next-event estimation, which
+    end light paths on a Principled surface.
     """
     exact = (mat["transmission"] == 1.0 and mat["metallic"] == 0.0 and mat["coat_weight"] == 0.0
-             and mat["roughness"] == 0.0 and mat["color"] == WHITE
+             and microfacet.is_almost_specular(mat["roughness"] ** 2)
              and mat["specular_tint"] == WHITE and mat["specular_ior_level"] == 0.5
              and not scene_mod.emits(mat))
     if not exact:
         return None
+    tint = [math.sqrt(min(max(c, 0.0), 1.0)) for c in mat["color"]]
     return {"name": mat["name"], "kind": "glass", "color": list(WHITE),
-            "transmission_color": list(WHITE), "ior": mat["ior"]}
+            "transmission_color": tint, "ior": mat["ior"]}
 
 
 CONVERTERS = {

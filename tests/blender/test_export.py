@@ -445,13 +445,29 @@ def test_principled_smooth_glass_is_glass(bl):
                  "transmission_color": [1.0, 1.0, 1.0], "ior": pytest.approx(1.45)}
 
 
+@pytest.mark.parametrize("base, roughness, tint", [
+    ((0.8, 0.8, 0.8), 0.0, [0.8 ** 0.5] * 3),                 # the node's default base colour
+    ((0.25, 0.64, 0.04), 0.0, [0.5, 0.8, 0.2]),
+    ((2.0, 0.25, -1.0), 0.0, [1.0, 0.5, 0.0]),                # clamped to [0, 1] first
+    ((0.25, 0.64, 0.04), 0.003, [0.5, 0.8, 0.2]),             # Cycles' perfect dielectric
+])
+def test_principled_tinted_smooth_glass_is_glass_tinted_in_transmission(bl, base, roughness, tint):
+    """A base colour tints Cycles' Principled glass in transmission only, by its square root:
+    glass with that transmission colour, a caster for the light tracer."""
+    m, warnings = exported_material(bl, common.material(
+        "Tinted", "principled", base, **{**SMOOTH_GLASS, "Roughness": roughness}))
+    assert warnings == [] and m["kind"] == "glass", m
+    assert m["color"] == [1.0, 1.0, 1.0]
+    assert m["transmission_color"] == pytest.approx(tint, abs=1e-6)
+
+
 @pytest.mark.parametrize("change", [
-    {"Transmission Weight": 0.99}, {"Metallic": 0.01}, {"Coat Weight": 0.01}, {"Roughness": 0.01},
-    {"Base Color": (0.9, 1.0, 1.0, 1.0)}, {"Specular Tint": (1.0, 1.0, 0.9, 1.0)},
-    {"Specular IOR Level": 0.6}, {"Emission Strength": 1.0},
+    {"Transmission Weight": 0.99}, {"Metallic": 0.01}, {"Coat Weight": 0.01}, {"Roughness": 0.05},
+    {"Specular Tint": (1.0, 1.0, 0.9, 1.0)}, {"Specular IOR Level": 0.6},
+    {"Emission Strength": 1.0},
 ])
 def test_principled_glass_with_anything_more_is_principled(bl, change):
-    m, _ = exported_material(bl, common.material("P", "principled", (1.0, 1.0, 1.0),
+    m, _ = exported_material(bl, common.material("P", "principled", (0.9, 1.0, 1.0),
                                                  **{**SMOOTH_GLASS, **change}))
     assert m["kind"] == "principled"
 

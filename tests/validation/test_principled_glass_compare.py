@@ -1,0 +1,84 @@
+"""Tinted smooth Principled glass (issue 34) against Cycles.
+
+The Principled BSDF with full transmission, roughness 0 and nothing on top is how most Blender
+users make glass, usually with a base colour: the node's default 0.8 grey, or a tint. Cycles
+renders it as smooth glass whose transmission is tinted by the square root of the base colour
+(the light passes the surface twice) and whose reflection is not. The exporter writes it as that
+glass (addon/export/bsdfs.py), so that the light tracer carries its caustic instead of leaving it
+to the path tracer's fireflies, which a Principled surface would (light paths end on one).
+
+Scene: a tinted Principled glass sphere over a white floor under a small sphere lamp, seen from
+above; the caustic on the floor is rendered by light paths through the sphere.
+"""
+from __future__ import annotations
+
+import copy
+import importlib
+
+import pytest
+
+from support.cycles_reference import Reference
+from support.cycles_reference import verdict as _verdict
+
+bpy = pytest.importorskip("bpy")
+
+common = importlib.import_module("common")
+
+SPP = 256
+BASE = (0.3, 0.8, 0.5)
+
+
+def build(path):
+    """The tinted Principled glass sphere over the floor, lit by a point lamp of radius 5 cm."""
+    scene = common.reset()
+    common.setup_render(scene, (48, 48), max_bounces=5)
+    white = common.material("White", "diffuse", (0.8, 0.8, 0.8))
+    h = 1.5
+    common.quad("Floor", [(-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0)], white)
+    glass = common.material("TintedGlass", "principled", BASE, **{
+        "Transmission Weight": 1.0, "Roughness": 0.0, "IOR": 1.5})
+    common.uv_sphere("GlassSphere", (0.0, 0.0, 0.6), 0.3, glass)
+    common.camera(scene, (0.0, -1.0, 1.6), (0.05, 0.1, 0.1), lens=35.0)
+    data = bpy.data.lights.new("Point", "POINT")
+    data.energy = 60.0
+    data.shadow_soft_size = 0.05
+    lamp = bpy.data.objects.new("Point", data)
+    lamp.location = (0.1, 0.05, 1.6)
+    scene.collection.objects.link(lamp)
+    return common.save(path)
+
+
+@pytest.fixture(scope="module")
+def tinted(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("principled_glass")
+    return Reference(build(str(tmp / "tinted_glass.blend")), framing={"resolution_percentage": 100},
+                     spp=SPP)
+
+
+def _transmission_scaled(factor):
+    """The Snell scene with the glass's transmission colour times factor."""
+    def modify(scene):
+        other = copy.copy(scene)
+        other.materials = [dict(m, transmission_color=[c * factor for c in m["transmission_color"]])
+                           if m["name"] == "TintedGlass" else m for m in scene.materials]
+        return other
+    return modify
+
+
+def test_tinted_principled_glass_casts_a_caustic_consistent_with_cycles(tinted):
+    """Exported as glass tinted in transmission by sqrt(base colour), its caustic by light
+    paths: consistent with Cycles' Principled BSDF."""
+    from snell.validation import compare
+    assert not tinted.warnings
+    glass = next(m for m in tinted.scene.materials if m["name"] == "TintedGlass")
+    assert glass["kind"] == "glass", glass
+    runs, why = compare.snell_render(tinted.scene, 16).stages["light tracing"]
+    assert runs and "Point" in why, why
+    verdict, detail = _verdict(tinted.compare())
+    assert verdict == "consistent", detail
+
+
+@pytest.mark.parametrize("factor", [0.95, 1.05])
+def test_transmission_tint_off_by_5_percent_is_caught(tinted, factor):
+    verdict, detail = _verdict(tinted.compare(_transmission_scaled(factor)))
+    assert verdict == "inconsistent", detail
