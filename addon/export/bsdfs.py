@@ -99,13 +99,13 @@ def _as_smooth_glass(mat):
     dielectric), an untinted specular layer and without emission is exactly Cycles' smooth glass
     with its reflection untinted and its transmission tinted by the square root of the base
     colour clamped to [0, 1] (Cycles 5.0's Principled BSDF: the light passes the surface twice).
-    As glass it is a caster for the light tracer and for manifold next-event estimation, which
-    end light paths on a Principled surface.
+    Specular IOR Level does not enter: Cycles applies it to the dielectric specular layer alone,
+    which full transmission leaves no weight. As glass it is a caster for the light tracer and
+    for manifold next-event estimation, which end light paths on a Principled surface.
     """
     exact = (mat["transmission"] == 1.0 and mat["metallic"] == 0.0 and mat["coat_weight"] == 0.0
              and microfacet.is_almost_specular(mat["roughness"] ** 2)
-             and mat["specular_tint"] == WHITE and mat["specular_ior_level"] == 0.5
-             and not scene_mod.emits(mat))
+             and mat["specular_tint"] == WHITE and not scene_mod.emits(mat))
     if not exact:
         return None
     tint = [math.sqrt(min(max(c, 0.0), 1.0)) for c in mat["color"]]

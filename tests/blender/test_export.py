@@ -451,20 +451,22 @@ def test_principled_smooth_glass_is_glass(bl):
     ((2.0, 0.25, -1.0), 0.0, [1.0, 0.5, 0.0]),                # clamped to [0, 1] first
     ((0.25, 0.64, 0.04), 0.003, [0.5, 0.8, 0.2]),             # Cycles' perfect dielectric
 ])
-def test_principled_tinted_smooth_glass_is_glass_tinted_in_transmission(bl, base, roughness, tint):
+@pytest.mark.parametrize("level", [0.5, 0.2])      # the level weighs a layer of no weight here
+def test_principled_tinted_smooth_glass_is_glass_tinted_in_transmission(bl, base, roughness, tint,
+                                                                       level):
     """A base colour tints Cycles' Principled glass in transmission only, by its square root:
     glass with that transmission colour, a caster for the light tracer."""
     m, warnings = exported_material(bl, common.material(
-        "Tinted", "principled", base, **{**SMOOTH_GLASS, "Roughness": roughness}))
+        "Tinted", "principled", base,
+        **{**SMOOTH_GLASS, "Roughness": roughness, "Specular IOR Level": level}))
     assert warnings == [] and m["kind"] == "glass", m
-    assert m["color"] == [1.0, 1.0, 1.0]
+    assert m["color"] == [1.0, 1.0, 1.0] and m["ior"] == pytest.approx(1.45)
     assert m["transmission_color"] == pytest.approx(tint, abs=1e-6)
 
 
 @pytest.mark.parametrize("change", [
     {"Transmission Weight": 0.99}, {"Metallic": 0.01}, {"Coat Weight": 0.01}, {"Roughness": 0.05},
-    {"Specular Tint": (1.0, 1.0, 0.9, 1.0)}, {"Specular IOR Level": 0.6},
-    {"Emission Strength": 1.0},
+    {"Specular Tint": (1.0, 1.0, 0.9, 1.0)}, {"Emission Strength": 1.0},
 ])
 def test_principled_glass_with_anything_more_is_principled(bl, change):
     m, _ = exported_material(bl, common.material("P", "principled", (0.9, 1.0, 1.0),

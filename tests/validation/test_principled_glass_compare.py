@@ -28,15 +28,16 @@ SPP = 256
 BASE = (0.3, 0.8, 0.5)
 
 
-def build(path):
-    """The tinted Principled glass sphere over the floor, lit by a point lamp of radius 5 cm."""
+def build(path, level=0.5):
+    """The tinted Principled glass sphere over the floor, lit by a point lamp of radius 5 cm
+    (level: the glass's Specular IOR Level)."""
     scene = common.reset()
     common.setup_render(scene, (48, 48), max_bounces=5)
     white = common.material("White", "diffuse", (0.8, 0.8, 0.8))
     h = 1.5
     common.quad("Floor", [(-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0)], white)
     glass = common.material("TintedGlass", "principled", BASE, **{
-        "Transmission Weight": 1.0, "Roughness": 0.0, "IOR": 1.5})
+        "Transmission Weight": 1.0, "Roughness": 0.0, "IOR": 1.5, "Specular IOR Level": level})
     common.uv_sphere("GlassSphere", (0.0, 0.0, 0.6), 0.3, glass)
     common.camera(scene, (0.0, -1.0, 1.6), (0.05, 0.1, 0.1), lens=35.0)
     data = bpy.data.lights.new("Point", "POINT")
@@ -82,3 +83,17 @@ def test_tinted_principled_glass_casts_a_caustic_consistent_with_cycles(tinted):
 def test_transmission_tint_off_by_5_percent_is_caught(tinted, factor):
     verdict, detail = _verdict(tinted.compare(_transmission_scaled(factor)))
     assert verdict == "inconsistent", detail
+
+
+def test_specular_ior_level_leaves_full_transmission_alone(tmp_path, monkeypatch):
+    """Cycles applies Specular IOR Level to the dielectric specular layer only, which full
+    transmission leaves no weight: at level 0.2 (an index of about 1.29 had it entered) the
+    same glass, IOR 1.5, is consistent with Cycles. Its Cycles render is made here: the stored
+    references are keyed by the exported scene, which is the level 0.5 file's."""
+    monkeypatch.setenv("SNELL_CYCLES_REFERENCES", "off")
+    reference = Reference(build(str(tmp_path / "tinted_level.blend"), level=0.2),
+                          framing={"resolution_percentage": 100}, spp=SPP)
+    glass = next(m for m in reference.scene.materials if m["name"] == "TintedGlass")
+    assert glass["kind"] == "glass" and glass["ior"] == 1.5, glass
+    verdict, detail = _verdict(reference.compare())
+    assert verdict == "consistent", detail
