@@ -20,7 +20,7 @@ from .specular import refract
 from .fresnel import (dielectric_fss, f0_from_ior, f82_fss, f82_tint_b, fresnel_dielectric,
                       fresnel_f82, fresnel_remapped, ior_from_f0, mix_to_one, mix_to_one3,
                       remap_factor)
-from .jit import jit
+from .jit import jit, jit_inline
 from .microfacet import BECKMANN, GGX, is_almost_specular, ndf, smith_lambda
 from .microfacet_tables import ggx_albedo, glass_albedo, remap_albedo
 from .path_limits import drops
@@ -345,7 +345,7 @@ def bsdf_sample(lobes, count, ng, wi, u_pick, u0, u1):
 
 
 
-@jit
+@jit_inline
 def lobe_albedo(lobe, tables, wi):
     """A lobe's albedo seen from wi, weight included, as Cycles estimates it for the Denoising
     Albedo pass (bsdf_albedo with reflection and transmission): lobe_albedo_parts' sum."""
@@ -353,7 +353,7 @@ def lobe_albedo(lobe, tables, wi):
     return add(reflected, transmitted)
 
 
-@jit
+@jit_inline
 def lobe_albedo_parts(lobe, tables, wi):
     """A lobe's albedo seen from wi, weight included, split into (reflected, transmitted), as
     Cycles 5.0's bsdf_albedo (kernel/closure/bsdf.h, bsdf_microfacet_estimate_albedo) estimates
