@@ -7,8 +7,8 @@ renders it as smooth glass whose transmission is tinted by the square root of th
 glass (addon/export/bsdfs.py), so that the light tracer carries its caustic instead of leaving it
 to the path tracer's fireflies, which a Principled surface would (light paths end on one).
 
-Scene: a tinted Principled glass sphere over a white floor under a small sphere lamp, seen from
-above; the caustic on the floor is rendered by light paths through the sphere.
+Scene: a tinted Principled glass sphere over a white floor under a point lamp of radius 5 cm,
+seen from above; the caustic on the floor is rendered by light paths through the sphere.
 """
 from __future__ import annotations
 
