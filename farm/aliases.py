@@ -58,6 +58,16 @@ def install(alias: str, real: str) -> None:
     sys.meta_path.insert(0, Alias(alias, real))
 
 
+def uninstall(alias: str) -> None:
+    """Undo install(alias, ...) in this process: its finder, the names it gave the real
+    modules, and the empty parent packages it made (a parent another importer made stays)."""
+    sys.meta_path[:] = [f for f in sys.meta_path if not (isinstance(f, Alias) and f.alias == alias)]
+    for name, module in list(sys.modules.items()):
+        made = alias.startswith(name + ".") and list(getattr(module, "__path__", [None])) == []
+        if name == alias or name.startswith(alias + ".") or made:
+            del sys.modules[name]
+
+
 def share(client, package: str) -> None:
     """Let a cluster's scheduler and workers (those that join later too) read this process's
     tasks, pickled under `package`'s name, and this process their replies, pickled under

@@ -623,16 +623,24 @@ print(type(result).__module__, "snell" in sys.modules, sys.modules["snell"].__na
 """
 
 
-def _drop_alias(alias: str) -> None:
-    """Undo farm/aliases.install(alias, ...) in this process: its finder, the names it gave
-    the real modules, and the empty parent packages it made (not Blender's own, if bpy came
-    first)."""
-    sys.meta_path[:] = [f for f in sys.meta_path
-                        if not (isinstance(f, aliases.Alias) and f.alias == alias)]
-    for name, module in list(sys.modules.items()):
-        made = alias.startswith(name + ".") and list(getattr(module, "__path__", [None])) == []
-        if name == alias or name.startswith(alias + ".") or made:
-            del sys.modules[name]
+def test_an_alias_answers_imports_with_the_real_modules_until_uninstalled():
+    """install(alias, real) answers imports of alias and its submodules with real's module
+    objects (no second copy) and of its parents with empty packages; uninstall takes all of
+    it back, so the names no longer import. Deliberate errors caught: uninstall leaving the
+    finder (the import still succeeds) or the parents (they stay in sys.modules)."""
+    import importlib
+    alias = "snell_test_ext.repo.snell"
+    aliases.install(alias, "snell")
+    try:
+        tracer = importlib.import_module(alias + ".tracer.image")
+        assert tracer is image and sys.modules["snell_test_ext"].__path__ == []
+    finally:
+        aliases.uninstall(alias)
+    assert not [name for name in sys.modules if name.startswith("snell_test_ext")]
+    assert not [f for f in sys.meta_path if isinstance(f, aliases.Alias)]
+    with pytest.raises(ModuleNotFoundError):
+        importlib.import_module(alias + ".tracer.image")
+    assert sys.modules["snell.tracer.image"] is image        # the real names are untouched
 
 
 def test_a_client_that_imports_snell_as_blenders_extension_renders_on_the_cluster(
@@ -658,7 +666,7 @@ def test_a_client_that_imports_snell_as_blenders_extension_renders_on_the_cluste
         # The LocalCluster's scheduler runs in this process and now answers imports of bl_ext
         # with empty packages: a later `import bpy` here (the image regression's exports) would
         # find them in place of Blender's own extension packages and export other scenes.
-        _drop_alias("bl_ext.user_default.snell")
+        aliases.uninstall("bl_ext.user_default.snell")
     assert proc.returncode == 0, proc.stderr[-2000:]
     # The result's class is the extension's, and `snell` there is the extension's package.
     assert proc.stdout.split() == ["bl_ext.user_default.snell.tracer.result", "True",
