@@ -12,13 +12,13 @@ seen from above; the caustic on the floor is rendered by light paths through the
 """
 from __future__ import annotations
 
-import copy
 import importlib
 
 import pytest
 
 from support.cycles_reference import Reference
 from support.cycles_reference import verdict as _verdict
+from support.programs import material_copy
 
 bpy = pytest.importorskip("bpy")
 
@@ -59,10 +59,9 @@ def tinted(tmp_path_factory):
 def _transmission_scaled(factor):
     """The Snell scene with the glass's transmission colour times factor."""
     def modify(scene):
-        other = copy.copy(scene)
-        other.materials = [dict(m, transmission_color=[c * factor for c in m["transmission_color"]])
-                           if m["name"] == "TintedGlass" else m for m in scene.materials]
-        return other
+        scene, glass = material_copy(scene, "TintedGlass")
+        glass["transmission_color"] = [c * factor for c in glass["transmission_color"]]
+        return scene
     return modify
 
 
