@@ -66,14 +66,19 @@ def brick_wall():
     return mat
 
 
-def fresnel_glass(ior=1.5):
-    """Mix(Fresnel, Refraction, Glossy): the glass of a file issue 29 lists."""
-    mat, tree, out = node_tree("FresnelGlass")
+def fresnel_glass(ior=1.5, refraction_ior=None, name="FresnelGlass", transmission=(1, 1, 1),
+                  reflection=(1, 1, 1)):
+    """Mix(Fresnel, Refraction, Glossy): the glass of a file issue 29 lists, both BSDFs smooth
+    (the Fresnel node's IOR ior, the Refraction's refraction_ior, default the same; the
+    Refraction's colour transmission, the Glossy's reflection)."""
+    mat, tree, out = node_tree(name)
     mix = tree.nodes.new("ShaderNodeMixShader")
     tree.links.new(node(tree, "ShaderNodeFresnel", IOR=ior).outputs[0], mix.inputs["Fac"])
-    tree.links.new(node(tree, "ShaderNodeBsdfRefraction", IOR=ior, Roughness=0.0).outputs[0],
-                   mix.inputs[1])
-    tree.links.new(node(tree, "ShaderNodeBsdfGlossy", Roughness=0.0).outputs[0], mix.inputs[2])
+    refraction = node(tree, "ShaderNodeBsdfRefraction", IOR=refraction_ior or ior, Roughness=0.0,
+                      Color=(*transmission, 1.0))
+    tree.links.new(refraction.outputs[0], mix.inputs[1])
+    tree.links.new(node(tree, "ShaderNodeBsdfGlossy", Roughness=0.0,
+                        Color=(*reflection, 1.0)).outputs[0], mix.inputs[2])
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
     return mat
 

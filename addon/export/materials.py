@@ -16,7 +16,7 @@ from ...tracer import scene as scene_mod
 from ...tracer.shader import closures
 from .bsdfs import BLENDER_DISTRIBUTIONS, CONVERTERS, PRINCIPLED_INPUTS  # noqa: F401
 from .coverage import Coverage, node_text
-from .mixes import NotFolded, fold, mix_factor
+from .mixes import NotFolded, fold, fold_fresnel, fresnel_ior, mix_factor
 from .nodes import Inputs, active_output, follow, linked_socket, source_in  # noqa: F401
 from .shader import compile_material
 from .shader.compiler import CompileError
@@ -172,15 +172,20 @@ def convert_surface(name, surface, coverage):
         # Its factor's and sides' entries count only if the mix folds: else the mix is the one
         # warning.
         sides = Coverage()
-        fac = mix_factor(node, Inputs(node, sides, groups))
+        ior = fresnel_ior(node, groups, sides)
+        fac = mix_factor(node, Inputs(node, sides, groups)) if ior is None else None
         try:
             first = convert_surface(name, source_in(node.inputs[1], groups), sides)
             second = convert_surface(name, source_in(node.inputs[2], groups), sides)
         except NotFolded as exc:
             raise NotFolded(f"{node_text(node)} of {exc}") from None
-        mixed = fold(node, fac, first, second)
-        coverage.evaluate(node, f"constant factor {fac:g}, folded into one {mixed['kind']} "
-                                f"surface")
+        if ior is None:
+            mixed = fold(node, fac, first, second)
+            how = f"constant factor {fac:g}"
+        else:
+            mixed = fold_fresnel(node, ior, first, second)
+            how = f"factor a Fresnel node of IOR {ior:g}"
+        coverage.evaluate(node, f"{how}, folded into one {mixed['kind']} surface")
         coverage.evaluated += sides.evaluated
         for issue in sides.issues:
             coverage.append(issue)

@@ -618,6 +618,69 @@ def test_constant_mix_shaders_fold_where_exact(bl):
     assert m["color"] == pytest.approx([2.5, 2.5, 2.5])
 
 
+def fresnel_glass(name, ior=1.45, fresnel_ior=None, roughness=0.0, group=False):
+    """Mix(Fresnel, Refraction, Glossy) of smooth BSDFs: the node glass of older files, its
+    refraction (0.4, 0.7, 0.9) and its reflection (0.9, 0.8, 0.7); group: the Fresnel node
+    inside a node group whose IOR input is left at its value."""
+    mat, mix, (refraction, glossy) = mix_shader_material(
+        name, 0.5, ("ShaderNodeBsdfRefraction", {"IOR": ior, "Roughness": 0.0,
+                                                 "Color": (0.4, 0.7, 0.9, 1.0)}),
+        ("ShaderNodeBsdfGlossy", {"Roughness": roughness, "Color": (0.9, 0.8, 0.7, 1.0)}))
+    tree = mat.node_tree
+    fresnel_ior = ior if fresnel_ior is None else fresnel_ior
+    if group:
+        inner = bpy.data.node_groups.new("FresnelFac", "ShaderNodeTree")
+        inner.interface.new_socket("IOR", in_out="INPUT", socket_type="NodeSocketFloat")
+        inner.interface.new_socket("Fac", in_out="OUTPUT", socket_type="NodeSocketFloat")
+        fresnel = inner.nodes.new("ShaderNodeFresnel")
+        inner.links.new(inner.nodes.new("NodeGroupInput").outputs["IOR"],
+                        fresnel.inputs["IOR"])
+        inner.links.new(fresnel.outputs[0], inner.nodes.new("NodeGroupOutput").inputs["Fac"])
+        source = tree.nodes.new("ShaderNodeGroup")
+        source.node_tree = inner
+        source.inputs["IOR"].default_value = fresnel_ior
+    else:
+        source = tree.nodes.new("ShaderNodeFresnel")
+        source.inputs["IOR"].default_value = fresnel_ior
+    tree.links.new(source.outputs[0], mix.inputs["Fac"])
+    return mat, mix, source
+
+
+@pytest.mark.parametrize("group", [False, True])
+def test_node_glass_of_a_fresnel_mix_is_glass(bl, group):
+    """Mix(Fresnel of IOR n, smooth Refraction of IOR n, smooth Glossy) is Cycles' glass of
+    index n: the reflection tinted by the Glossy colour, the transmission by the Refraction's
+    (its Fresnel node inside a group too)."""
+    mat, _, _ = fresnel_glass("NodeGlass", group=group)
+    m, warnings = exported_material(bl, mat)
+    assert warnings == []
+    assert m == {"name": "NodeGlass", "kind": "glass", "color": pytest.approx([0.9, 0.8, 0.7]),
+                 "transmission_color": pytest.approx([0.4, 0.7, 0.9]),
+                 "ior": pytest.approx(1.45)}
+
+
+@pytest.mark.parametrize("change", ["fresnel ior", "rough glossy", "swapped", "fresnel normal"])
+def test_fresnel_mixes_that_are_not_glass_stay_programs(bl, change):
+    """The Fresnel node's IOR not the refraction's, a rough Glossy, the sides swapped (F of
+    the refraction), a bumped Fresnel normal: not glass, programs as before."""
+    from snell.tracer.shader import closures, inputs
+    mat, mix, fresnel = fresnel_glass(
+        "NotGlass", fresnel_ior=1.5 if change == "fresnel ior" else None,
+        roughness=0.2 if change == "rough glossy" else 0.0)
+    tree = mat.node_tree
+    if change == "swapped":
+        first, second = (link.from_socket for link in (mix.inputs[1].links[0],
+                                                       mix.inputs[2].links[0]))
+        tree.links.new(second, mix.inputs[1])
+        tree.links.new(first, mix.inputs[2])
+    if change == "fresnel normal":
+        tree.links.new(tree.nodes.new("ShaderNodeBump").outputs[0], fresnel.inputs["Normal"])
+    m, warnings = exported_material(bl, mat)
+    assert warnings == [] and m["kind"] == "program"
+    assert inputs.FRESNEL in [row[0] for row in m["program"]["code"]]
+    assert closures.REFRACTION in [row[0] for row in m["program"]["code"]]
+
+
 @pytest.mark.parametrize("first, second", [
     ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfGlossy"),
     ("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfPrincipled"),
