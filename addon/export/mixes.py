@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from ...tracer import microfacet
 from .coverage import node_text
-from .nodes import Inputs, source_in
+from .nodes import Inputs, is_constant, source_in
 
 # Kinds whose BSDF is its colour times a BSDF of the other fields, so that a mix of two with the
 # same other fields is one with the colours mixed. Multiscatter GGX is left out: its energy
@@ -31,14 +31,14 @@ def mix_factor(node, inputs):
 
 
 def fresnel_ior(node, groups, coverage):
-    """The IOR of the Fresnel node that the Mix Shader's Fac is (unlinked IOR, no Normal), or
+    """The IOR of the Fresnel node that the Mix Shader's Fac is (a constant IOR, no Normal), or
     None."""
     found = source_in(node.inputs["Fac"], groups)
     fresnel = found.node
     if fresnel is None or fresnel.bl_idname != "ShaderNodeFresnel":
         return None
-    if any(source_in(fresnel.inputs[name], found.groups).node is not None
-           for name in ("IOR", "Normal")):
+    if (not is_constant(fresnel.inputs["IOR"], found.groups)
+            or source_in(fresnel.inputs["Normal"], found.groups).node is not None):
         return None
     ior = max(Inputs(fresnel, coverage, found.groups).value("IOR"), 1e-5)
     coverage.evaluate(fresnel, f"Fresnel factor of IOR {ior:g}")

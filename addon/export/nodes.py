@@ -1,7 +1,8 @@
 """The node-tree readers the material, lamp and world conversions share: a link followed back to
 the node that feeds it (source_in, source, follow, linked_socket: through reroutes, muted nodes
-and node groups, as Cycles follows them), the active output node (active_output), and a node's input values
-(Inputs), which records in a Coverage what it reads and what it replaces.
+and node groups, as Cycles follows them), the active output node (active_output), and a node's
+input values (Inputs: a Value or RGB node linked to an input is its constant, as Cycles folds
+it), which records in a Coverage what it reads and what it replaces.
 """
 from __future__ import annotations
 
@@ -69,6 +70,16 @@ def source_in(socket, groups=()):
         else:
             return Source(node, link.from_socket, groups, value)
     return Source(None, None, groups, value if value is not None else socket)
+
+
+# Nodes whose output is a constant of their own (Cycles folds them into the inputs they feed).
+CONSTANT_NODES = ("ShaderNodeValue", "ShaderNodeRGB")
+
+
+def is_constant(socket, groups=()):
+    """Whether an input takes a constant: nothing linked, or a Value or RGB node."""
+    node = source_in(socket, groups).node
+    return node is None or node.bl_idname in CONSTANT_NODES
 
 
 def source(socket):
@@ -160,6 +171,10 @@ class Inputs:
         found = source_in(sock, self.groups)
         value = _as_type(found.value or sock, sock)
         node = found.node
+        if node is not None and node.bl_idname in CONSTANT_NODES:
+            if hasattr(self.coverage, "evaluate"):
+                self.coverage.evaluate(node, f"a constant, into {self.node.name!r} input {name!r}")
+            return _as_type(found.output, sock)
         if node is not None:
             if (field in scene_mod.TEXTURE_SLOTS and node.bl_idname == "ShaderNodeTexImage"
                     and found.output.name == "Color"):
@@ -172,13 +187,16 @@ class Inputs:
         return value
 
     def _refuse_nan(self, name, value):
-        """A scene field's unlinked value that is NaN is an error naming the node and input
-        (Inf is clamped to the field's range, as Cycles clamps it)."""
+        """A scene field's constant value that is NaN is an error naming the node and input,
+        and the Value or RGB node it came from (Inf is clamped to the field's range, as Cycles
+        clamps it)."""
         values = value if isinstance(value, list) else [value]
-        unlinked = source_in(self.node.inputs[name], self.groups).node is None
-        if unlinked and any(math.isnan(v) for v in values):
-            raise scene_mod.SceneError(f"node {self.node.name!r}: input {name!r} is {value} "
-                                       "(not a number)")
+        node = source_in(self.node.inputs[name], self.groups).node
+        constant = node is None or node.bl_idname in CONSTANT_NODES
+        if constant and any(math.isnan(v) for v in values):
+            origin = f" from node {node.name!r}" if node is not None else ""
+            raise scene_mod.SceneError(f"node {self.node.name!r}: input {name!r} is {value}"
+                                       f"{origin} (not a number)")
 
     def color(self, name, field=None):
         """The input's RGB colour (an Image Texture on it is noted in self.textures when field

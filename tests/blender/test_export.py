@@ -535,6 +535,37 @@ def test_a_linked_input_uses_its_unlinked_value(bl, kind, socket, field, shown):
     assert exported_material(bl, mat)[1] == []
 
 
+def constant_node(mat, socket, value):
+    """Feed the shader's input from a new Value node (a number) or RGB node (a colour)."""
+    idname = "ShaderNodeRGB" if isinstance(value, tuple) else "ShaderNodeValue"
+    node = link(mat, socket, idname)
+    node.outputs[0].default_value = value
+    return node
+
+
+def test_value_and_rgb_nodes_are_their_constants(bl):
+    """A Value or RGB node linked to an input is its constant, as Cycles folds it: a Glass
+    BSDF whose Color is an RGB node, IOR a Value node and Roughness an RGB node (its
+    luminance) stays glass, without a warning, where it used to be a shader program."""
+    mat = common.material("Constants", "glass", (1.0, 1.0, 1.0), IOR=9.0, Roughness=0.9)
+    constant_node(mat, "Color", (0.2, 0.5, 0.9, 1.0))
+    constant_node(mat, "IOR", 1.33)
+    constant_node(mat, "Roughness", (0.1, 0.1, 0.1, 1.0))
+    m, warnings = exported_material(bl, mat)
+    assert warnings == [] and m["kind"] == "glass"
+    assert m["color"] == pytest.approx([0.2, 0.5, 0.9])
+    assert m["ior"] == pytest.approx(1.33) and m["roughness"] == pytest.approx(0.1, rel=1e-5)
+
+
+def test_a_nan_value_node_names_the_node_it_comes_from(bl):
+    mat = common.material("NanIor", "glass", IOR=1.5)
+    constant_node(mat, "IOR", float("nan")).name = "IOR Value"
+    with pytest.raises(SceneError) as caught:
+        exported_material(bl, mat)
+    assert str(caught.value).endswith(f"material 'NanIor': node {bsdf(mat).name!r}: input 'IOR' "
+                                      "is nan from node 'IOR Value' (not a number)")
+
+
 @pytest.mark.parametrize("kind", ["principled", "glossy", "glass", "refraction", "diffuse"])
 def test_a_bump_with_a_height_on_a_normal_is_a_program(bl, kind):
     """A Bump node of linked Height on a BSDF's Normal: the material is a program that

@@ -44,9 +44,21 @@ def principled_glass(level=0.5):
 
 
 def node_glass():
-    """Mix(Fresnel 1.45, Refraction 1.45, Glossy), tinted differently in each."""
-    return graphs.fresnel_glass(1.45, name="NodeGlass", transmission=TRANSMISSION,
-                                reflection=REFLECTION)
+    """Mix(Fresnel 1.45, Refraction 1.45, Glossy), tinted differently in each, as tutorials
+    build it: one Value node gives both IORs, an RGB node the Glossy colour (constants that
+    Cycles folds, and so does the exporter)."""
+    mat = graphs.fresnel_glass(0.0, name="NodeGlass", transmission=TRANSMISSION)
+    tree = mat.node_tree
+    mix = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeMixShader")
+    fresnel, refraction, glossy = (mix.inputs[i].links[0].from_node for i in range(3))
+    ior = tree.nodes.new("ShaderNodeValue")
+    ior.outputs[0].default_value = 1.45
+    for node in (fresnel, refraction):
+        tree.links.new(ior.outputs[0], node.inputs["IOR"])
+    rgb = tree.nodes.new("ShaderNodeRGB")
+    rgb.outputs[0].default_value = (*REFLECTION, 1.0)
+    tree.links.new(rgb.outputs[0], glossy.inputs["Color"])
+    return mat
 
 
 def build(path, glass=principled_glass):
