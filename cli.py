@@ -4,7 +4,8 @@ Each subcommand is two functions, `_setup_<name>(parser)` adding its arguments a
 `cmd_<name>(args) -> int` running it, plus one line in COMMANDS. A user error (missing file, bad
 scene, wrong extension) is raised as CliError, SceneError or OSError and reported by main() as one
 `snell: error: ...` line with exit status 1; anything else is a bug and keeps its traceback.
-Ctrl-C exits with 130 and writes nothing partial (image writes are atomic and happen after the render).
+Ctrl-C exits with 130 and writes nothing partial (image writes are atomic and happen after the
+render).
 
 This module is the top of the command tree: it imports the command modules to dispatch to them,
 and nothing in the package imports it; the helpers they share live in errors.py.
@@ -84,7 +85,8 @@ def check_scene_path(path: str) -> str:
     otherwise."""
     ext = _extension(path)
     if ext not in SCENE_EXTENSIONS:
-        raise CliError(f"{path}: unknown scene extension {ext or '(none)'!r} (expected .blend or .snell)")
+        raise CliError(f"{path}: unknown scene extension {ext or '(none)'!r} "
+                       "(expected .blend or .snell)")
     check_input_file(path, SCENE_EXTENSIONS)
     return ext
 
@@ -145,7 +147,8 @@ class ProgressLine:
         # Samples over the budget, not passes: with adaptive sampling the pass count is a guess.
         elapsed = time.monotonic() - self.start
         sampling = pixels_sampling(result)
-        line = (f"snell: {result.spp}/{result.spp_budget} spp{', ' + sampling if sampling else ''}, "
+        line = (f"snell: {result.spp}/{result.spp_budget} spp"
+                f"{', ' + sampling if sampling else ''}, "
                 f"elapsed {_duration(elapsed)}, ETA {_duration(time_left(result, elapsed))}")
         self.stream.write("\r" + line.ljust(self.width))
         self.stream.flush()
@@ -164,7 +167,8 @@ class ProgressLine:
 
 def _setup_render(p):
     p.add_argument("scene", help="a .blend (exported on the fly) or a .snell scene file")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="linear float EXR to write")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.exr",
+                   help="linear float EXR to write")
     p.add_argument("--png", metavar="OUT.png",
                    help="also write an 8-bit PNG through the .blend's view transform, look, "
                         "exposure and gamma (a .snell file's: Standard)")
@@ -472,7 +476,8 @@ def _summary(args, rgb, result, bad_pixels, denoised=None) -> str:
 
 def _setup_export(p):
     p.add_argument("scene", metavar="SCENE.blend", help="the Blender file to export")
-    p.add_argument("-o", "--output", required=True, metavar="FILE.snell", help="scene file to write")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.snell",
+                   help="scene file to write")
 
 
 def cmd_export(args) -> int:
@@ -481,8 +486,8 @@ def cmd_export(args) -> int:
     _check_output(args.output, ".snell", "-o")
     scene = load_scene(args.scene)
     save(scene, args.output)
-    print(f"snell: {args.output}: {len(scene.triangles)} triangles, {len(scene.materials)} materials, "
-          f"{len(scene.lights)} lights")
+    print(f"snell: {args.output}: {len(scene.triangles)} triangles, "
+          f"{len(scene.materials)} materials, {len(scene.lights)} lights")
     return 0
 
 
@@ -540,7 +545,8 @@ def describe(scene) -> list[str]:
     cam, dof = scene.camera, scene.camera["dof"]
     pct = cam.get("resolution_percentage", 100)
     width, height = (int(r * pct / 100) for r in cam["resolution"])
-    resolution = f"{width}x{height}" + (f" ({pct}% of {cam['resolution'][0]}x{cam['resolution'][1]})"
+    resolution = f"{width}x{height}" + (f" ({pct}% of "
+                                        f"{cam['resolution'][0]}x{cam['resolution'][1]})"
                                         if pct != 100 else "")
     radius = aperture_radius(cam)
     focus = (f"aperture radius {radius * 1000:.3g} mm, focus {dof['focus_distance']:.4g} m"
@@ -557,7 +563,8 @@ def describe(scene) -> list[str]:
         f"camera     {cam.get('name', '?')!r}: {resolution}, "
         + (f"orthographic, scale {cam['ortho_scale']:g} m" if cam.get("type") == "ORTHO" else
            f"lens {cam['lens']:g} mm") + ", "
-        f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm {cam.get('sensor_fit', 'AUTO')}, {focus}",
+        f"sensor {cam['sensor_width']:g}x{cam['sensor_height']:g} mm "
+        f"{cam.get('sensor_fit', 'AUTO')}, {focus}",
         f"render     {settings.spp} spp, max depth {settings.max_depth}, seed {settings.seed}, "
         f"fresnel {settings.fresnel}, pixel filter {settings.pixel_filter.replace('_', '-')} "
         f"{settings.filter_width:g} px",
@@ -690,7 +697,8 @@ def cmd_batch(args) -> int:
     except ModuleNotFoundError as exc:
         if exc.name != "bpy":
             raise
-        raise CliError("snell batch needs Blender's bpy module (pip install 'snell[blender]')") from None
+        raise CliError("snell batch needs Blender's bpy module "
+                       "(pip install 'snell[blender]')") from None
     except batch.BatchError as exc:
         raise CliError(str(exc)) from None
 
@@ -728,8 +736,10 @@ def _import_blender() -> None:
 
 
 def _setup_stress(p):
-    p.add_argument("--report", metavar="DIR", help="write DIR/stress.json and DIR/stress.html (created)")
-    p.add_argument("--quick", action="store_true", help="the CI subset (under 2 minutes on 2 cores)")
+    p.add_argument("--report", metavar="DIR",
+                   help="write DIR/stress.json and DIR/stress.html (created)")
+    p.add_argument("--quick", action="store_true",
+                   help="the CI subset (under 2 minutes on 2 cores)")
     p.add_argument("--threads", type=int_at_least(1), default=DEFAULT_THREADS,
                    help=f"render threads (default: the machine's {DEFAULT_THREADS} cores)")
 
@@ -739,7 +749,8 @@ def cmd_stress(args) -> int:
     if args.report:
         check_writable_directory(args.report, "--report", report=True)
     from .stress import runner
-    log = (lambda s: print(f"snell stress: {s}", file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
+    log = (lambda s: print(f"snell stress: {s}", file=sys.stderr,
+                           flush=True)) if sys.stderr.isatty() else None
     data = runner.run(quick=args.quick, threads=args.threads, log=log)
     print(runner.terminal_table(data))
     if args.report:
@@ -756,8 +767,10 @@ COMMANDS = [
     # (name, one-line help, add arguments, run)
     ("render", "render a scene to a linear EXR (and an sRGB PNG)", _setup_render, cmd_render),
     ("export", "export a .blend to a .snell scene file", _setup_export, cmd_export),
-    ("info", "summarise a scene: geometry, materials, lights, camera, features", _setup_info, cmd_info),
-    ("batch", "render frames of a .blend through the Snell engine, one image per frame", _setup_batch, cmd_batch),
+    ("info", "summarise a scene: geometry, materials, lights, camera, features",
+     _setup_info, cmd_info),
+    ("batch", "render frames of a .blend through the Snell engine, one image per frame",
+     _setup_batch, cmd_batch),
     ("stress", "render scenes with exact answers; table, JSON and HTML; exit 1 if a case fails",
      _setup_stress, cmd_stress),
 ]

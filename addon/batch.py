@@ -1,4 +1,5 @@
-"""`snell batch`: headless renders of .blend frames through the bpy module and the registered engine.
+"""`snell batch`: headless renders of .blend frames through the bpy module and the registered
+engine.
 
 The same path as `blender --background scene.blend --engine SNELL --render-frame N`: the file is
 opened, its render engine set to SNELL, and each frame rendered by bpy.ops.render.render with

@@ -35,7 +35,8 @@ def open_blend(path):
         with ctrl_c_held():
             bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
     except RuntimeError as exc:
-        raise BlendFileError(f"{path}: cannot open as a .blend file ({blender_reason(exc)})") from None
+        raise BlendFileError(f"{path}: cannot open as a .blend file "
+                             f"({blender_reason(exc)})") from None
 
 
 def render_still(path, renderer="Cycles"):
@@ -47,4 +48,5 @@ def render_still(path, renderer="Cycles"):
         with ctrl_c_held():
             bpy.ops.render.render(write_still=True)
     except RuntimeError as exc:
-        raise BlendFileError(f"{path}: {renderer} cannot render it ({blender_reason(exc)})") from None
+        raise BlendFileError(f"{path}: {renderer} cannot render it "
+                             f"({blender_reason(exc)})") from None

@@ -6,7 +6,8 @@ what is left (wait).
 The process imports this copy of Snell and runs integrator.warm_up into the same kernel cache
 (jit.SourcesLocator keys a cached kernel by its module's name: the same package name, the same
 entries), then writes the warm marker that integrator.kernels_compiled reads. An extension built
-with its kernels (tools/build_kernel_cache.py) has them from the first use, and starts none. Not in background mode (`blender
+with its kernels (tools/build_kernel_cache.py) has them from the first use, and starts none.
+Not in background mode (`blender
 --background`, `snell batch`): there the render compiles what it needs in its own process.
 """
 from __future__ import annotations

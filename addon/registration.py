@@ -2,7 +2,8 @@
 
 Order: the property group and `scene.snell`, the render engine, the panels, SNELL in the
 COMPAT_ENGINES of Blender's own panels, then the watch that compiles the kernels in the
-background once Snell is the engine (kernel_warmup). unregister() undoes it in reverse, so enable, disable,
+background once Snell is the engine (kernel_warmup). unregister() undoes it in reverse,
+so enable, disable,
 enable again leaves Blender as it was.
 """
 import os

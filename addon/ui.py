@@ -56,7 +56,8 @@ class SnellPanel:
 
 
 def _cycles(context):
-    """The scene's Cycles settings when Snell follows them (Follow Cycles' Settings on), else None."""
+    """The scene's Cycles settings when Snell follows them (Follow Cycles' Settings on), else
+    None."""
     props, cycles = context.scene.snell, getattr(context.scene, "cycles", None)
     return cycles if props.use_cycles_settings and hasattr(cycles, "samples") else None
 

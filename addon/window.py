@@ -1,7 +1,8 @@
 """Render border (region) support: the camera that renders only a window of the full frame.
 
 A window of a perspective image is itself a perspective image with a narrower field of view and
-an off-centre shift (of an orthographic one, an orthographic image of a smaller scale). The window camera uses sensor fit HORIZONTAL with the sensor width that gives
+an off-centre shift (of an orthographic one, an orthographic image of a smaller scale). The window
+camera uses sensor fit HORIZONTAL with the sensor width that gives
 the window's horizontal extent, and the shift that puts it where it was, so every window pixel
 sees exactly the rays of the same pixel of the full frame (depth of field too: the lens does not
 depend on the sensor). Only the random sample streams differ from a full-frame render. No bpy here.

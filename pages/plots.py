@@ -49,16 +49,20 @@ def loglog_svg(panels, x_label, y_label, panel_w=360, panel_h=280) -> str:
         def Y(e):
             return m["t"] + (1 - (math.log10(e) - y0) / (y1 - y0)) * h
 
-        g = [f'<rect x="{ox + m["l"]}" y="{m["t"]}" width="{w}" height="{h}" fill="white" stroke="#888"/>',
+        g = [f'<rect x="{ox + m["l"]}" y="{m["t"]}" width="{w}" height="{h}" '
+             'fill="white" stroke="#888"/>',
              f'<text x="{ox + m["l"] + w / 2}" y="16" text-anchor="middle" font-weight="bold">'
              f'{html.escape(title)}</text>']
         for d in range(x0, x1 + 1):
             x = X(10.0 ** d)
-            g.append(f'<line x1="{x:.1f}" y1="{m["t"]}" x2="{x:.1f}" y2="{m["t"] + h}" stroke="#ddd"/>')
-            g.append(f'<text x="{x:.1f}" y="{m["t"] + h + 14}" text-anchor="middle">{10.0 ** d:g}</text>')
+            g.append(f'<line x1="{x:.1f}" y1="{m["t"]}" x2="{x:.1f}" '
+                     f'y2="{m["t"] + h}" stroke="#ddd"/>')
+            g.append(f'<text x="{x:.1f}" y="{m["t"] + h + 14}" '
+                     f'text-anchor="middle">{10.0 ** d:g}</text>')
         for d in range(y0, y1 + 1):
             y = Y(10.0 ** d)
-            g.append(f'<line x1="{ox + m["l"]}" y1="{y:.1f}" x2="{ox + m["l"] + w}" y2="{y:.1f}" stroke="#ddd"/>')
+            g.append(f'<line x1="{ox + m["l"]}" y1="{y:.1f}" '
+                     f'x2="{ox + m["l"] + w}" y2="{y:.1f}" stroke="#ddd"/>')
             g.append(f'<text x="{ox + m["l"] - 4}" y="{y + 4:.1f}" text-anchor="end">1e{d}</text>')
         g.append(f'<text x="{ox + m["l"] + w / 2}" y="{panel_h - 6}" text-anchor="middle">'
                  f'{html.escape(x_label)}</text>')
@@ -69,7 +73,8 @@ def loglog_svg(panels, x_label, y_label, panel_w=360, panel_h=280) -> str:
             g.append(f'<polyline points="{line}" fill="none" stroke="{c}" stroke-width="2"/>')
             g += [f'<circle cx="{X(t):.1f}" cy="{Y(e):.1f}" r="3" fill="{c}"/>' for t, e in p]
             ly = m["t"] + 14 + 16 * k
-            g.append(f'<line x1="{ox + m["l"] + w - 150}" y1="{ly - 4}" x2="{ox + m["l"] + w - 132}" '
+            g.append(f'<line x1="{ox + m["l"] + w - 150}" y1="{ly - 4}" '
+                     f'x2="{ox + m["l"] + w - 132}" '
                      f'y2="{ly - 4}" stroke="{c}" stroke-width="2"/>')
             g.append(f'<text x="{ox + m["l"] + w - 128}" y="{ly}">{html.escape(label)}</text>')
         parts.append("\n".join(g))
@@ -101,9 +106,11 @@ def rate_svg(panels, x_label, panel_w=300, panel_h=240) -> str:
         for r in (0.0, 0.5, 0.9, 1.0):
             g.append(f'<line x1="{ox + m["l"]}" y1="{Y(r):.1f}" x2="{ox + m["l"] + w}" '
                      f'y2="{Y(r):.1f}" stroke="{"#f4a" if r == 0.9 else "#ddd"}"/>')
-            g.append(f'<text x="{ox + m["l"] - 4}" y="{Y(r) + 4:.1f}" text-anchor="end">{r:g}</text>')
+            g.append(f'<text x="{ox + m["l"] - 4}" y="{Y(r) + 4:.1f}" '
+                     f'text-anchor="end">{r:g}</text>')
         for v in sizes:
-            g.append(f'<text x="{X(v):.1f}" y="{m["t"] + h + 14}" text-anchor="middle">{v:g}</text>')
+            g.append(f'<text x="{X(v):.1f}" y="{m["t"] + h + 14}" '
+                     f'text-anchor="middle">{v:g}</text>')
         g.append(f'<text x="{ox + m["l"] + w / 2}" y="{panel_h - 6}" text-anchor="middle">'
                  f'{html.escape(x_label)}</text>')
         for k, (label, pts) in enumerate(series):

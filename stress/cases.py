@@ -70,7 +70,8 @@ class Case:
 
 
 def fresnel_unpolarised(cos_i: float, n: float) -> float:
-    """Reflectance of a smooth dielectric for unpolarised light from the outside (textbook s/p form)."""
+    """Reflectance of a smooth dielectric for unpolarised light from the outside
+    (textbook s/p form)."""
     sin2_t = (1.0 - cos_i * cos_i) / (n * n)
     if sin2_t >= 1.0:
         return 1.0
@@ -102,7 +103,8 @@ def render(scn, threads, seed):
 def settings_of(scn):
     """The render settings a table row shows."""
     w, h = scn.camera["resolution"]
-    return {"resolution": f"{w}x{h}", "spp": scn.render["spp"], "max_depth": scn.render["max_depth"]}
+    return {"resolution": f"{w}x{h}", "spp": scn.render["spp"],
+            "max_depth": scn.render["max_depth"]}
 
 
 def image_mean(result):

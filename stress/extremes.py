@@ -113,8 +113,10 @@ def _big_cases(quick):
         return Outcome(float(above), allowance=float(working_set_bytes(threads, size * size)),
                        nan_count=one["nan"] + two["nan"],
                        settings={"resolution": f"{size}x{size}", "spp": "1 and 2", "max_depth": 8},
-                       note=(f"peak above a 1x1 render: {(one['peak_bytes'] - base['peak_bytes']) / 2**20:.1f} MiB "
-                             f"at 1 spp, {(two['peak_bytes'] - base['peak_bytes']) / 2**20:.1f} MiB at "
+                       note=("peak above a 1x1 render: "
+                             f"{(one['peak_bytes'] - base['peak_bytes']) / 2**20:.1f} MiB "
+                             "at 1 spp, "
+                             f"{(two['peak_bytes'] - base['peak_bytes']) / 2**20:.1f} MiB at "
                              f"2 spp; sums {sums / 2**20:.1f} MiB, image {image / 2**20:.1f} MiB"))
     return [
         Case(f"{size}x{size} furnace (glass quad)", "image extremes",

@@ -15,7 +15,8 @@ WHITE = [1.0, 1.0, 1.0]
 
 
 def icosphere(subdivisions: int = 4, radius: float = 1.0, center=(0.0, 0.0, 0.0)):
-    """A closed, outward-wound sphere mesh: (positions float32, triangles int32, normals float32)."""
+    """A closed, outward-wound sphere mesh: (positions float32, triangles int32, normals
+    float32)."""
     t = (1.0 + 5 ** 0.5) / 2.0
     verts = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t),
              (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
@@ -118,8 +119,10 @@ def scene(meshes, materials, cam, world=(0.0, 0.0, 0.0), lights=(), spp=16, max_
         out_nrm.append(n)
         offset += len(p)
     result = Scene(
-        positions=np.concatenate(out_pos).astype(np.float32) if out_pos else np.zeros((0, 3), np.float32),
-        triangles=np.concatenate(out_tri).astype(np.int32) if out_tri else np.zeros((0, 3), np.int32),
+        positions=(np.concatenate(out_pos).astype(np.float32) if out_pos
+                   else np.zeros((0, 3), np.float32)),
+        triangles=(np.concatenate(out_tri).astype(np.int32) if out_tri
+                   else np.zeros((0, 3), np.int32)),
         material_ids=np.concatenate(mid).astype(np.int32) if mid else np.zeros(0, np.int32),
         object_ids=np.concatenate(oid).astype(np.int32) if oid else np.zeros(0, np.int32),
         materials=list(materials), lights=list(lights), camera=cam, world={"color": list(world)},

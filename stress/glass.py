@@ -1,4 +1,5 @@
-"""Stress cases of glass and mirrors: white furnaces, slabs, nested, coincident and degenerate surfaces."""
+"""Stress cases of glass and mirrors: white furnaces, slabs, nested, coincident and degenerate
+surfaces."""
 from __future__ import annotations
 
 import math
@@ -152,7 +153,8 @@ def _slab_case(thickness, angle, max_depth=100, faces="closed", quick=False, nam
         result = render(scn, threads, seed)
         mean, se = image_mean(result)
         return Outcome(mean, se=se, nan_count=result.nan_count, image=result.mean(),
-                       error_map=z_map(result, expected), error_label=Z_LABEL, settings=settings_of(scn),
+                       error_map=z_map(result, expected), error_label=Z_LABEL,
+                       settings=settings_of(scn),
                        note=(note + "; " if note else "")
                        + f"F = {fresnel_unpolarised(math.cos(math.radians(angle)), SLAB_IOR):.6f}")
     return Case(name, group, measures,
@@ -198,7 +200,8 @@ def _far_slab_case():
         1e-5, 0.0, distance=1000.0, quick=True, name="slab 1e-5 thick seen from 1000 units away",
         failure="(known limit) the first hit of a ray is not resolved along its length",
         expected_failure="Embree intersects in float32: at t = 1000 one ulp is 6.1e-5, more than "
-                         "the slab's thickness, so a ray may report the far face first and the slab "
+                         "the slab's thickness, so a ray may report the far face first "
+                         "and the slab "
                          "acts as one interface (1-F = 0.96); Cycles' float32 rays share the limit")
 
 
@@ -231,8 +234,9 @@ def _ball_case(inner_radius, quick):
     if inner_radius:
         four = (1.0 - f) / (1.0 + 3.0 * f)
         name, reason = ("glass ball inside a glass ball, same IOR",
-                        "Snell, like Cycles, has no medium stack: every surface is glass against air, "
-                        f"so the inner ball adds two interfaces and transmits (1-F)/(1+3F) = {four:.4f}")
+                        "Snell, like Cycles, has no medium stack: every surface is glass against "
+                        "air, so the inner ball adds two interfaces and transmits (1-F)/(1+3F) = "
+                        f"{four:.4f}")
         measures = "share of near-axis samples through both balls: as one ball, (1-F)/(1+F)"
     else:
         name, reason, measures = ("glass ball alone (control)", "",
@@ -243,7 +247,8 @@ def _ball_case(inner_radius, quick):
         result = render(scn, threads, seed)
         mean, se = image_mean(result)
         return Outcome(mean, se=se, nan_count=result.nan_count, image=result.mean(),
-                       error_map=z_map(result, expected), error_label=Z_LABEL, settings=settings_of(scn))
+                       error_map=z_map(result, expected), error_label=Z_LABEL,
+                       settings=settings_of(scn))
     return Case(name, "nested and coincident", measures,
                 "a surface inside glass is not the interface it should be" if inner_radius else
                 "the near-axis ball model itself is off (the nested case would mean nothing)",

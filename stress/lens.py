@@ -1,4 +1,5 @@
-"""Stress cases of the thin-lens camera: circles of confusion, polygonal apertures, the pinhole limit."""
+"""Stress cases of the thin-lens camera: circles of confusion, polygonal apertures, the pinhole
+limit."""
 from __future__ import annotations
 
 import math
@@ -75,7 +76,8 @@ def _coc_case(focus, fstop, blades=0, quick=False):
     lens_mm, aperture, coc_px = lens_setup(focus, fstop)
     # A regular polygon inscribed in radius a has E[r^2] = a^2 (2 + cos(2 pi / B)) / 6 (its B
     # triangles from the centre); a disk a^2 / 2. Measured as sqrt(2 E[r^2]).
-    expected = coc_px * (math.sqrt((2.0 + math.cos(2.0 * math.pi / blades)) / 3.0) if blades else 1.0)
+    expected = coc_px * (math.sqrt((2.0 + math.cos(2.0 * math.pi / blades)) / 3.0)
+                         if blades else 1.0)
     shape = f"{blades}-blade polygon" if blades else "disk"
 
     def run(threads, seed):
@@ -117,7 +119,8 @@ def _pinhole_limit_case(quick):
                        note=f"CoC {coc:.2g} px; expected differing samples {expected_flips:.2g}")
     return Case("pinhole limit f/1e6", "thin lens",
                 "samples that differ from the pinhole render (same seed)",
-                "a vanishing aperture still moves rays: the lens sampling or focus math is unstable",
+                "a vanishing aperture still moves rays: "
+                "the lens sampling or focus math is unstable",
                 AT_MOST, 0.0, run, quick)
 
 
@@ -165,7 +168,8 @@ def _point_light_case(focus, fstop, quick):
         return Outcome(area, se=se, nan_count=result.nan_count, image=result.mean(),
                        error_map=result.mean()[..., 0] - result.mean()[..., 0].mean(),
                        error_label="image - its mean (the blur's shape)",
-                       settings=settings_of(scn), note=f"CoC {coc:.2f} px, lamp radius {radius_px:.2f} px")
+                       settings=settings_of(scn),
+                       note=f"CoC {coc:.2f} px, lamp radius {radius_px:.2f} px")
     return Case(f"point lamp out of focus, focus {focus:g} f/{fstop:g}", "thin lens",
                 "area (px^2) of the lamp's blurred image: total / plateau = pi R^2",
                 "an out-of-focus lamp spreads over the wrong area (lens sampling or lamp hits)",

@@ -23,8 +23,8 @@ def lit_floor_scene(strength=1.0, spp=16):
     panel = quad((2.0, 0, 1.0), 0.5, 0.5, normal_sign=-1)
     m = np.eye(4)
     m[:3, 3] = (-1.0, 0.0, 2.0)
-    area = {"name": "area", "kind": "area", "shape": "disk", "matrix": m.tolist(), "size": [1.0, 1.0],
-            "radiance": [4.0 * strength] * 3, "visible_camera": True}
+    area = {"name": "area", "kind": "area", "shape": "disk", "matrix": m.tolist(),
+            "size": [1.0, 1.0], "radiance": [4.0 * strength] * 3, "visible_camera": True}
     point = {"name": "point", "kind": "point", "position": [0.0, 1.0, 1.5],
              "intensity": [2.0 * strength] * 3, "radius": 0.2}
     mats = [{"name": "floor", "kind": "diffuse", "color": [0.8, 0.6, 0.4]},
@@ -130,7 +130,8 @@ def _lamp_in_glass_case(quick):
                 "light leaving the ball towards the camera / the same lamp without the ball",
                 "glass creates or destroys light", STATISTICAL, 1.0, run, quick,
                 expected_failure="Snell, like Cycles, refracts radiance unscaled (no 1/IOR^2, "
-                                 "tracer/specular.py): light leaving glass keeps its radiance over a "
+                                 "tracer/specular.py): light leaving glass keeps its "
+                                 "radiance over a "
                                  "solid angle IOR^2 larger, so about IOR^2 (1-F) comes out; "
                                  "Cycles 5.0 gave 2.23 on the same scene")
 

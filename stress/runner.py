@@ -73,7 +73,8 @@ def judge(case, outcome, z: float) -> dict:
         row["bound"] = outcome.tolerance + outcome.allowance
         miss = abs(err + outcome.allowance)
         ok = miss <= outcome.tolerance
-        severity = miss / outcome.tolerance if outcome.tolerance > 0 else (0.0 if miss == 0 else math.inf)
+        severity = (miss / outcome.tolerance if outcome.tolerance > 0
+                    else (0.0 if miss == 0 else math.inf))
     elif case.check == STATISTICAL:
         se = outcome.se or 0.0
         row["bound"] = z * se
@@ -171,8 +172,8 @@ def table_rows(data) -> list[list[str]]:
     for c in data["cases"]:
         se = f" ± {_num(c['standard_error'], 2)}" if c["standard_error"] is not None else ""
         if c["check"] == EXACT and c["bound"] is not None:
-            bound = f"−{_num(c['allowance'], 3)} ± {_num(c['tolerance'], 2)}" if c["allowance"] else \
-                f"± {_num(c['tolerance'], 2)}"
+            bound = f"−{_num(c['allowance'], 3)} ± {_num(c['tolerance'], 2)}" \
+                if c["allowance"] else f"± {_num(c['tolerance'], 2)}"
         elif c["check"] == AT_MOST and c["bound"] is not None:
             bound = f"≤ {_num(c['bound'])}"
         else:
@@ -232,7 +233,8 @@ def write_json(path, data):
         return v
     tmp = path + ".tmp"
     with open(tmp, "w") as f:
-        json.dump(plain({**data, "provenance": provenance()}), f, indent=2, sort_keys=True, allow_nan=False)
+        json.dump(plain({**data, "provenance": provenance()}), f,
+                  indent=2, sort_keys=True, allow_nan=False)
     os.replace(tmp, path)
 
 
@@ -244,8 +246,10 @@ def write_html(path, data):
     for c, r in zip(data["cases"], rows):
         cls = {"pass": "consistent", "FAIL": "inconsistent"}.get(c["status"], "not-comparable")
         cells = r + [c["failure_means"], (c["note"] or "") +
-                     (f"; expected failure: {c['expected_failure']}" if c["expected_failure"] else "")]
-        out.append(f"<tr class='{cls}'>" + "".join(f"<td>{html.escape(str(x))}</td>" for x in cells) + "</tr>")
+                     (f"; expected failure: {c['expected_failure']}"
+                      if c["expected_failure"] else "")]
+        out.append(f"<tr class='{cls}'>" + "".join(f"<td>{html.escape(str(x))}</td>" for x in cells)
+                   + "</tr>")
     out.append("</table>")
     verdict = "all cases pass" if data["passed"] else f"{len(data['failed'])} case(s) FAIL"
     body = (f"<h1>snell stress{' --quick' if data['quick'] else ''}</h1>\n"
@@ -267,7 +271,8 @@ def _worst_figures(data):
     if error is not None:
         lim = float(np.nanmax(np.abs(error))) if np.size(error) else 0.0
         lim = lim if lim > 0 and math.isfinite(lim) else 1e-6
-        parts.append(f"<figure><img alt='error' src='{data_uri(png_bytes(upscale(diverging(error, lim), 256)))}'>"
+        parts.append("<figure><img alt='error' src='"
+                     f"{data_uri(png_bytes(upscale(diverging(error, lim), 256)))}'>"
                      f"<figcaption>{html.escape(label)}<br><img class='bar' alt='scale' "
                      f"src='{data_uri(png_bytes(colour_bar(lim)))}'><br>"
                      f"<span class='small'>blue {-lim:.3g} · white 0 · red +{lim:.3g}</span>"

@@ -10,7 +10,8 @@ runs in its own child process (`python -m snell.validation.bench point SPEC OUT`
 memory is its own: the child's VmHWM (peak RSS of its own address space; ru_maxrss is not used
 because Linux carries the parent's high-water mark into it over fork and exec), which includes
 Python, numpy and the bpy module (reported too, as the baseline of a child that only imports them)
-and native memory (Embree's BVH, Cycles' scene). The times are measured inside the child, as the user waits in an
+and native memory (Embree's BVH, Cycles' scene). The times are measured inside the child, as the
+user waits in an
 open Blender: Snell = export of the .blend + scene build (Embree BVH) + render; Cycles = loading
 the .blend + render (including its EXR write). Interpreter start-up and `import bpy` are excluded.
 """
@@ -130,7 +131,8 @@ def _snell_point(spec):
     wall = time.perf_counter() - start
     light = result.light_image().astype(np.float32) if result.light_in_image else None
     return image, (noisy if denoise else None), light, result.samples(), {**extra,
-        "saved_share": result.saved_share, "export_s": export_s, "build_s": build_s, "render_s": result.time_s, "wall_s": wall,
+        "saved_share": result.saved_share, "export_s": export_s, "build_s": build_s,
+        "render_s": result.time_s, "wall_s": wall,
         "rays_per_second": result.rays_per_second, "rays": result.rays,
         "embree_share": result.embree_share,
         "embree_share_of_wall": result.embree_time_s / (wall * result.threads),
@@ -182,7 +184,8 @@ def _cycles_point(spec):
         rgb = read_exr(out).astype(np.float32)
         counts = (cycles.read_sample_count(out, cycles.samples_rendered(stats, spec["spp"]))
                   if spec["threshold"] else None)
-    return rgb, counts, {"load_s": load_s, "render_s": render_s, "wall_s": wall, "threads": spec["threads"]}
+    return rgb, counts, {"load_s": load_s, "render_s": render_s, "wall_s": wall,
+                         "threads": spec["threads"]}
 
 
 def _child(spec_path, out_path):
@@ -247,7 +250,8 @@ def run_point(kind, blend, spp, opts: Options, caustics=True, threshold=None, de
         spec_path, out = os.path.join(tmp, "spec.json"), os.path.join(tmp, "out")
         with open(spec_path, "w") as f:
             json.dump(spec, f)
-        proc = subprocess.run([sys.executable, "-m", "snell.validation.bench", "point", spec_path, out],
+        proc = subprocess.run([sys.executable, "-m", "snell.validation.bench", "point",
+                               spec_path, out],
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         err = proc.stderr
         if proc.returncode != 0 or not os.path.exists(out + ".json"):
@@ -533,20 +537,23 @@ def _error_definitions() -> dict:
         "time_to_equal_error": "target = the larger of the two renderers' smallest relMSE on the "
                                "ladder; each renderer's time at the target by piecewise-linear "
                                "interpolation of log time against log relMSE between the ladder "
-                               "points around its first crossing; ratio = Snell / Cycles. fit_ratio: "
+                               "points around its first crossing; ratio = Snell / Cycles. "
+                               "fit_ratio: "
                                "the same from least-squares lines of slope -1 (log relMSE = a - "
                                "log time), i.e. the ratio of the geometric means of relMSE x time; "
                                "snell_slope, cycles_slope: free least-squares slopes (-1 for an "
-                               "unbiased renderer once fixed costs such as export no longer dominate)",
+                               "unbiased renderer once fixed costs such as export no longer "
+                               "dominate)",
     }
 
 
 def _run_definitions(opts: Options) -> dict:
     """What a point's run figures (time, rays, memory, stages) mean."""
     return {
-        "wall_s": "Snell: export of the .blend + scene build (Embree BVH) + render; Cycles: loading "
-                  "the .blend + render (EXR write included); both with the same threads, each point "
-                  "in a fresh child process, timed inside it (interpreter start and import bpy excluded); "
+        "wall_s": "Snell: export of the .blend + scene build (Embree BVH) + render; Cycles: "
+                  "loading the .blend + render (EXR write included); both with the same threads, "
+                  "each point in a fresh child process, timed inside it (interpreter start and "
+                  "import bpy excluded); "
                   f"each point run {opts.repeat} time(s), keeping the run of median wall time "
                   "(wall_s_runs lists them all; peak_rss_mb is the largest)",
         "embree_share": "Snell only: Embree query time / (render time x threads); "
@@ -558,7 +565,8 @@ def _run_definitions(opts: Options) -> dict:
                        "elsewhere): "
                        "Python, numpy, the bpy module and native memory (Embree, Cycles); "
                        "peak_rss_above_baseline_mb subtracts a child that only imports them",
-        "skipped_stages": "Snell only: the optional stages the scene does not need and Snell does not "
+        "skipped_stages": "Snell only: the optional stages the scene does not need "
+                          "and Snell does not "
                           "run (lens sampling without depth of field, dielectric sampling without "
                           "glass, next-event estimation without lamps or world light, the world "
                           "when it is black, light tracing without mirror or glass and a lamp, "

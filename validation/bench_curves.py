@@ -159,7 +159,8 @@ def equal_threshold(snell_points, cycles_points) -> list:
     The target is Cycles' relMSE at the threshold; Snell's time to it is interpolated along
     Snell's threshold curve (time_at_error, loosest threshold first). Where Snell's curve never
     gets that low, the roles swap: Snell's relMSE at the threshold, Cycles' time to it along
-    Cycles' curve (which reaches it, having gone lower), so the ratio is always one of equal error."""
+    Cycles' curve (which reaches it, having gone lower), so the ratio is always one of equal
+    error."""
     def curve(points):
         ordered = sorted(points, key=lambda p: -p["threshold"])
         return [p["wall_s"] for p in ordered], [p["relmse"] for p in ordered]
@@ -309,7 +310,8 @@ def denoised_time_target(snell_points, cycles_points) -> dict:
         each = []
         for c in cycles_points:
             t = time_at_error(ts, es, c[key])
-            row = {"spp": c["spp"], "cycles_s": c["wall_s"], "error": c[key], "reached": t is not None}
+            row = {"spp": c["spp"], "cycles_s": c["wall_s"], "error": c[key],
+                   "reached": t is not None}
             if t is not None:
                 row.update(snell_s=t, ratio=t / c["wall_s"])
             each.append(row)

@@ -112,7 +112,8 @@ def table_rows(data):
         for r in renderers(sc):
             snell = is_snell(r)
             for p in sc[r]["points"]:
-                parts = (f"export {p['export_s']:.2f} + build {p['build_s']:.2f} + render {p['render_s']:.2f}"
+                parts = (f"export {p['export_s']:.2f} + build {p['build_s']:.2f} "
+                         f"+ render {p['render_s']:.2f}"
                          if snell else f"load {p['load_s']:.2f} + render {p['render_s']:.2f}")
                 if "denoise_s" in p:
                     parts += f" + denoise {p['denoise_s']:.2f}"
@@ -150,8 +151,9 @@ def summary_rows(data):
     return rows
 
 
-SUMMARY_HEADER = ["scene", "Snell", "size", "target relMSE", "Snell s", "Cycles s", "Snell / Cycles",
-                  "ratio (slope -1 fits)", "Snell LSQ slope", "Cycles LSQ slope", "Snell relMSE x s (median)",
+SUMMARY_HEADER = ["scene", "Snell", "size", "target relMSE", "Snell s", "Cycles s",
+                  "Snell / Cycles", "ratio (slope -1 fits)", "Snell LSQ slope", "Cycles LSQ slope",
+                  "Snell relMSE x s (median)",
                   "Cycles relMSE x s (median)", "reference noise relMSE", "caustic region",
                   "caustic relMSE gain at equal time"]
 
@@ -171,7 +173,8 @@ def adaptive_rows(data):
                          fmt(s["relmse"]), fmt(c["relmse"]), fmt(s["flip"]), fmt(c["flip"]),
                          f"{s['mean_spp']:.1f}", f"{c['mean_spp']:.1f}",
                          f"{100 * s['saved_share']:.0f}%",
-                         "n/a" if c.get("saved_share") is None else f"{100 * c['saved_share']:.0f}%",
+                         ("n/a" if c.get("saved_share") is None
+                          else f"{100 * c['saved_share']:.0f}%"),
                          fmt(eq["ratio"]), fmt(eq["time_ratio"]), fmt(eq["relmse_ratio"])])
     return rows
 
@@ -271,7 +274,8 @@ def _caustic_section(data, figures):
 
 def _table(rows, header):
     out = ["<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>"]
-    out += ["<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows]
+    out += ["<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>"
+            for row in rows]
     return "\n".join(out + ["</table>"])
 
 
@@ -427,13 +431,16 @@ def write_html(path, data, svg, maps=None, sample_maps=None, denoised_figures=No
         f"<li>{html.escape(sc['name'])}: {sc['reference']['seeds']} "
         f"{'Snell batches' if sc['reference'].get('renderer') == 'snell' else 'Cycles seeds'} x "
         f"{sc['reference']['spp_per_seed']} spp = {sc['reference']['spp']} spp, "
-        f"{sc['reference']['render_s']:.1f} s ({'cached' if sc['reference']['cached'] else 'rendered now'}); "
-        f"own noise: relMSE {fmt(sc['reference']['noise_relmse'])}, RMSE {fmt(sc['reference']['noise_rmse'])}</li>"
+        f"{sc['reference']['render_s']:.1f} s "
+        f"({'cached' if sc['reference']['cached'] else 'rendered now'}); "
+        f"own noise: relMSE {fmt(sc['reference']['noise_relmse'])}, "
+        f"RMSE {fmt(sc['reference']['noise_rmse'])}</li>"
         for sc in data["scenes"])
     body = (
         f"<h1>Snell vs Cycles: time against error{' (quick)' if data['quick'] else ''}</h1>\n"
         f"<p class='small'>{s['threads']} threads each, max depth {s['max_depth']}, resolution "
-        f"{s['resolution_percentage']}% of the file's, ladder {s['min_spp']}, {2 * s['min_spp']}, ... spp up to {s['max_spp']} "
+        f"{s['resolution_percentage']}% of the file's, ladder {s['min_spp']}, {2 * s['min_spp']}, "
+        f"... spp up to {s['max_spp']} "
         f"spp or a predicted {s['time_cap_s']:g} s per point.</p>\n"
         f"<h2>Error against wall time</h2>\n{svg}\n"
         f"<h2>Time to equal error</h2>\n{_table(summary_rows(data), SUMMARY_HEADER)}\n"

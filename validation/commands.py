@@ -25,26 +25,30 @@ MOST_THREADS = BY_NAME["threads"].greatest
 
 
 def _common(p):
-    p.add_argument("scene", metavar="SCENE.blend", help="the Blender file to render in both renderers")
+    p.add_argument("scene", metavar="SCENE.blend",
+                   help="the Blender file to render in both renderers")
     p.add_argument("--report", required=True, metavar="DIR",
                    help="directory for report.html, metrics.json and the images (created)")
     p.add_argument("--spp", type=int_at_least(2, MOST_SPP),
-                   help="samples per pixel for each renderer (default: the scene's); Cycles renders "
-                        "--cycles-seeds seeds of spp / seeds samples")
-    p.add_argument("--seed", type=int_at_least(0, MOST_SEED), help="Snell seed; Cycles seeds derive from it")
+                   help="samples per pixel for each renderer (default: the scene's); "
+                        "Cycles renders --cycles-seeds seeds of spp / seeds samples")
+    p.add_argument("--seed", type=int_at_least(0, MOST_SEED),
+                   help="Snell seed; Cycles seeds derive from it")
     p.add_argument("--scale", type=int_at_least(1, 32767), metavar="PCT",
                    help="resolution percentage for both renderers (default: the file's)")
     p.add_argument("--cycles-seeds", type=int_at_least(2, 4096), default=8, metavar="K",
                    help="independent Cycles renders for the per-pixel variance (default 8)")
     p.add_argument("--threads", type=int_at_least(1, MOST_THREADS), default=DEFAULT_THREADS,
-                   help=f"threads for each renderer (default: the machine's {DEFAULT_THREADS} cores)")
+                   help="threads for each renderer "
+                        f"(default: the machine's {DEFAULT_THREADS} cores)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def setup_compare(p):
     _common(p)
     p.add_argument("--max-depth", type=int_at_least(0, MOST_DEPTH), metavar="M",
-                   help="emission plus up to M bounces = Cycles max_bounces M - 1 (default: the scene's)")
+                   help="emission plus up to M bounces = Cycles max_bounces M - 1 "
+                        "(default: the scene's)")
     p.add_argument("--noise-threshold", type=number_at_least(0.0), default=0.0, metavar="T",
                    help="Snell samples adaptively at this threshold, --spp at most per pixel "
                         "(default 0: the same samples in every pixel); Cycles does not")
@@ -65,7 +69,8 @@ def _needs_bpy():
     try:
         import bpy  # noqa: F401
     except ModuleNotFoundError:
-        raise CliError("snell compare/study need Blender's bpy module (pip install 'snell[blender]')") from None
+        raise CliError("snell compare/study need Blender's bpy module "
+                       "(pip install 'snell[blender]')") from None
 
 
 def cmd_compare(args) -> int:
@@ -73,9 +78,10 @@ def cmd_compare(args) -> int:
     _needs_bpy()
     from . import compare, report
     progress = compare.Progress(sys.stderr, enabled=not args.quiet)
-    result = compare.compare_blend(args.scene, spp=args.spp, max_depth=args.max_depth, seed=args.seed,
-                                   scale=args.scale, n_seeds=args.cycles_seeds, threads=args.threads,
-                                   progress=progress, noise_threshold=args.noise_threshold)
+    result = compare.compare_blend(args.scene, spp=args.spp, max_depth=args.max_depth,
+                                   seed=args.seed, scale=args.scale, n_seeds=args.cycles_seeds,
+                                   threads=args.threads, progress=progress,
+                                   noise_threshold=args.noise_threshold)
     figures = []
     if "samples" in result["snell"]:
         from ..pages.sample_map import sample_map_png
@@ -88,9 +94,11 @@ def cmd_compare(args) -> int:
         alpha = data.get("alpha_channel")
         alpha = (f", alpha {alpha['verdict']} (mean {alpha['mean_snell']:.4f} vs "
                  f"{alpha['mean_cycles']:.4f})" if alpha else "")
-        print(f"snell compare: {data['verdict']}{' (' + ', '.join(failed) + ')' if failed else ''}: z-pass {data['z_pass_fraction']:.4f}, "
-              f"relMSE {data['relmse']:.4g}, FLIP {data['flip'] if data['flip'] is None else round(data['flip'], 4)}{alpha}, "
-              f"Snell {data['snell']['time_s']:.1f}s, Cycles {data['cycles']['time_s']:.1f}s -> {html}")
+        print(f"snell compare: {data['verdict']}{' (' + ', '.join(failed) + ')' if failed else ''}"
+              f": z-pass {data['z_pass_fraction']:.4f}, relMSE {data['relmse']:.4g}, "
+              f"FLIP {data['flip'] if data['flip'] is None else round(data['flip'], 4)}{alpha}, "
+              f"Snell {data['snell']['time_s']:.1f}s, "
+              f"Cycles {data['cycles']['time_s']:.1f}s -> {html}")
     else:
         print(f"snell compare: {data['verdict']} ({'; '.join(data['not_comparable'])}) -> {html}")
     return 0
@@ -108,7 +116,8 @@ def cmd_study(args) -> int:
         failed = row.get("failed_tests") or []
         print(f"snell study {args.study}: {row['label']}: {row['verdict']}"
               + (f" ({', '.join(failed)})" if failed else ""))
-    print(f"snell study {args.study}: {data['verdict']} -> {os.path.join(args.report, 'report.html')}")
+    print(f"snell study {args.study}: {data['verdict']} -> "
+          f"{os.path.join(args.report, 'report.html')}")
     return 0
 
 
@@ -137,7 +146,8 @@ def setup_false_alarms(p):
     p.add_argument("--cached", action="store_true",
                    help="render nothing: evaluate the runs already in the cache (up to --runs)")
     p.add_argument("--threads", type=int_at_least(1, MOST_THREADS), default=DEFAULT_THREADS,
-                   help=f"threads for each renderer (default: the machine's {DEFAULT_THREADS} cores)")
+                   help="threads for each renderer "
+                        f"(default: the machine's {DEFAULT_THREADS} cores)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
@@ -192,16 +202,20 @@ def setup_bench(p):
     p.add_argument("--report", required=True, metavar="DIR",
                    help="directory for bench.json, bench.html and bench.svg (created)")
     p.add_argument("--quick", action="store_true",
-                   help="smoke test: 25%% resolution, ladder 4, 8, 16 spp, reference 4 seeds x 64 spp, "
-                        "thresholds 0.1 and 0.03 with at most 256 spp")
-    p.add_argument("--threads", type=int_at_least(1, MOST_THREADS), help="threads for each renderer (default 2)")
+                   help="smoke test: 25%% resolution, ladder 4, 8, 16 spp, "
+                        "reference 4 seeds x 64 spp, thresholds 0.1 and 0.03 with at most 256 spp")
+    p.add_argument("--threads", type=int_at_least(1, MOST_THREADS),
+                   help="threads for each renderer (default 2)")
     p.add_argument("--max-depth", type=int_at_least(1, MOST_DEPTH), metavar="M", help="default 8")
     p.add_argument("--scale", type=int_at_least(1), metavar="PCT",
                    help="resolution percentage (default 100, --quick 25)")
-    p.add_argument("--min-spp", type=int_at_least(1, MOST_SPP), help="bottom of the ladder (default 1, --quick 4)")
-    p.add_argument("--max-spp", type=int_at_least(1, MOST_SPP), help="top of the ladder (default 1024, --quick 16)")
+    p.add_argument("--min-spp", type=int_at_least(1, MOST_SPP),
+                   help="bottom of the ladder (default 1, --quick 4)")
+    p.add_argument("--max-spp", type=int_at_least(1, MOST_SPP),
+                   help="top of the ladder (default 1024, --quick 16)")
     p.add_argument("--time-cap", type=float, metavar="S",
-                   help="stop a ladder before a point predicted to take longer (default 60, --quick 20)")
+                   help="stop a ladder before a point predicted to take longer "
+                        "(default 60, --quick 20)")
     p.add_argument("--ref-seeds", type=int_at_least(2), metavar="K",
                    help="Cycles seeds of the reference (default 16, --quick 4)")
     p.add_argument("--ref-spp", type=int_at_least(1, MOST_SPP), metavar="N",
@@ -276,13 +290,16 @@ def cmd_bench(args) -> int:
     except ModuleNotFoundError as exc:
         if exc.name != "bpy":
             raise
-        raise CliError("snell bench needs Blender's bpy module (pip install 'snell[blender]')") from None
-    log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr, flush=True))
+        raise CliError("snell bench needs Blender's bpy module "
+                       "(pip install 'snell[blender]')") from None
+    log = (lambda s: None) if args.quiet else (lambda s: print(f"snell bench: {s}", file=sys.stderr,
+                                                               flush=True))
     check_writable_directory(args.report, "--report", report=True)
     scenes, setups = bench_scene_list(args, bench, log)
     opts = bench.Options(**(bench.QUICK if args.quick else {}))
     for name, attr in (("threads", "threads"), ("max_depth", "max_depth"), ("scale", "scale"),
-                       ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"), ("ref_seeds", "ref_seeds"),
+                       ("min_spp", "min_spp"), ("max_spp", "max_spp"), ("time_cap", "time_cap_s"),
+                       ("ref_seeds", "ref_seeds"),
                        ("ref_spp", "ref_spp"), ("repeat", "repeat"), ("caustics", "caustics"),
                        ("thresholds", "thresholds"), ("adaptive_max_spp", "adaptive_max_spp"),
                        ("denoise_prefilter", "denoise_prefilter"),
@@ -297,8 +314,8 @@ def cmd_bench(args) -> int:
     print(markdown_table(data))
     for sc in data["scenes"]:
         eq = sc["time_to_equal_error"]
-        print(f"snell bench: {sc['name']}: time to relMSE {eq['target_relmse']:.3g}: Snell / Cycles = "
-              f"{fmt(eq['ratio'])} (fits {fmt(eq['fit_ratio'])})")
+        print(f"snell bench: {sc['name']}: time to relMSE {eq['target_relmse']:.3g}: "
+              f"Snell / Cycles = {fmt(eq['ratio'])} (fits {fmt(eq['fit_ratio'])})")
         if "path_tracer_time_to_equal_error" in sc:
             pt = sc["path_tracer_time_to_equal_error"]
             print(f"snell bench: {sc['name']}: path tracer only: time to relMSE "

@@ -223,7 +223,8 @@ def compare_blend(blend_path, *, spp=None, max_depth=None, seed=None, scale=None
     """Render blend_path with both renderers and compare.
 
     scale: resolution percentage for both. noise_threshold > 0: Snell samples adaptively
-    (spp its most per pixel), Cycles renders its usual fixed samples. camera: {"focus_distance", "aperture_radius"}
+    (spp its most per pixel), Cycles renders its usual fixed samples.
+    camera: {"focus_distance", "aperture_radius"}
     overrides for both. snell_scene: optional function Scene -> Scene applied to Snell only (to
     inject a deliberate error).
     """
@@ -273,5 +274,6 @@ def snell_only(snell_result, scene, reason):
             "snell": {"time_s": snell_result.time_s, "spp": snell_result.spp,
                       "nan_samples": snell_result.nan_count,
                       "image": snell_result.mean().astype(np.float64)},
-            "cycles": None, "cycles_settings": [], "snell_settings": [list(s) for s in snell_settings(scene)],
+            "cycles": None, "cycles_settings": [],
+            "snell_settings": [list(s) for s in snell_settings(scene)],
             "maps": None}

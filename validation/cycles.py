@@ -283,7 +283,8 @@ def _apply(scene, settings):
             continue
         if key.startswith("objects."):
             for obj in scene.objects:
-                for attr in ("shadow_terminator_geometry_offset", "shadow_terminator_shading_offset",
+                for attr in ("shadow_terminator_geometry_offset",
+                             "shadow_terminator_shading_offset",
                              "shadow_terminator_normal_offset"):
                     if hasattr(obj, attr):
                         setattr(obj, attr, value)
@@ -484,6 +485,7 @@ def seeds_for(k: int, base: int = 0):
     return [base * 1000 + i + 1 for i in range(k)]
 
 
-__all__ = ["forced_settings", "scene_film", "adaptive_settings", "read_sample_count", "render_seeds", "CyclesResult", "NoCyclesEquivalent",
+__all__ = ["forced_settings", "scene_film", "adaptive_settings", "read_sample_count",
+           "render_seeds", "CyclesResult", "NoCyclesEquivalent",
            "read_pass", "render_denoising_passes", "DENOISING_PASSES",
            "fstop_for_radius", "seeds_for"]

@@ -78,9 +78,11 @@ def apply_error(scene, error):
     if kind == "max_depth":
         return scene.with_render(max_depth=scene.render["max_depth"] + value)
     if kind == "focus":
-        return scene.with_camera(dof={"focus_distance": scene.camera["dof"]["focus_distance"] * value})
+        return scene.with_camera(dof={"focus_distance":
+                                      scene.camera["dof"]["focus_distance"] * value})
     if kind == "aperture":
-        return scene.with_camera(dof={"aperture_radius": scene.camera["dof"]["aperture_radius"] * value})
+        return scene.with_camera(dof={"aperture_radius":
+                                      scene.camera["dof"]["aperture_radius"] * value})
     raise ValueError(f"unknown error kind {kind!r}")
 
 

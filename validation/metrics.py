@@ -387,7 +387,8 @@ def compare_estimates(a: Estimate, b: Estimate, *, error_metrics=True):
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(mb != 0, ma / mb, np.nan)
         ratio_se = np.where(mb != 0, np.abs(ratio) * np.sqrt(sva / np.maximum(ma, 1e-300) ** 2
-                                                             + svb / np.maximum(mb, 1e-300) ** 2), np.nan)
+                                                             + svb / np.maximum(mb, 1e-300) ** 2),
+                            np.nan)
 
     tests = {
         "pixels": bool(pass_fraction >= PIXEL_PASS_FRACTION),

@@ -130,15 +130,19 @@ def _numbers_table(result):
         t = result["tests"]
         rows += [
             ["failed tests", ", ".join(result.get("failed_tests") or []) or "none"],
-            ["level of each test (whole verdict 1%)", f"{result.get('alpha_test', result['alpha']):.4g}"],
+            ["level of each test (whole verdict 1%)",
+             f"{result.get('alpha_test', result['alpha']):.4g}"],
             ["test 1: pixels passing (z-pass fraction)",
-             f"{result['z_pass_fraction']:.5f} ({result['pixels_failed']} of {result['pixels']} fail"
+             f"{result['z_pass_fraction']:.5f} ({result['pixels_failed']} of "
+             f"{result['pixels']} fail"
              f"{'; ' + str(result['pixels_exact_failed']) + ' zero-variance mismatches' if result['pixels_exact_failed'] else ''})"
              f" -> {'pass' if t['pixels'] else 'FAIL'}"],
-            ["per-pixel alpha (Sidak)", f"{result['alpha_pixel']:.3g} (|z| > {result['z_critical_normal']:.2f} for a normal)"],
+            ["per-pixel alpha (Sidak)",
+             f"{result['alpha_pixel']:.3g} (|z| > {result['z_critical_normal']:.2f} for a normal)"],
             ["max |z| over pixels", result["max_abs_z"]],
             [f"test 2: {result['tile_size']}x{result['tile_size']} tiles failing",
-             f"{result['tiles_failed']} of {result['tiles']} (max |z| {result['tile_max_abs_z']:.2f}) -> "
+             f"{result['tiles_failed']} of {result['tiles']} "
+             f"(max |z| {result['tile_max_abs_z']:.2f}) -> "
              f"{'pass' if t['tiles'] else 'FAIL'}"],
             ["test 3: image means", "pass" if t["image_mean"] else "FAIL"],
         ]
@@ -152,13 +156,18 @@ def _numbers_table(result):
             rows.append([f"mean {c}: Snell / Cycles",
                          f"{result['mean_a'][c]:.5g} ± {result['mean_a_se'][c]:.2g} / "
                          f"{result['mean_b'][c]:.5g} ± {result['mean_b_se'][c]:.2g}; ratio "
-                         f"{result['mean_ratio'][c]:.5f} ± {result['mean_ratio_se'][c]:.2g}; z {result['mean_z'][c]:.2f}"])
+                         f"{result['mean_ratio'][c]:.5f} ± {result['mean_ratio_se'][c]:.2g}; "
+                         f"z {result['mean_z'][c]:.2f}"])
         rows += [
-            [f"relMSE (eps {result['relmse_eps']:g}, top {result['relmse_dropped_fraction']:.1%} of terms dropped)", result["relmse"]],
+            [f"relMSE (eps {result['relmse_eps']:g}, "
+             f"top {result['relmse_dropped_fraction']:.1%} of terms dropped)",
+             result["relmse"]],
             ["RMSE", result["rmse"]],
-            ["RMSE explained by noise / excess (bias estimate)", f"{result['noise_rmse']:.4g} / {result['bias_rmse']:.4g}"],
+            ["RMSE explained by noise / excess (bias estimate)",
+             f"{result['noise_rmse']:.4g} / {result['bias_rmse']:.4g}"],
             ["FLIP (HDR, Cycles as reference)", result["flip"]],
-            ["Cycles time", f"{result['cycles']['time_s']:.2f} s ({len(result['cycles']['seeds'])} seeds x "
+            ["Cycles time", f"{result['cycles']['time_s']:.2f} s "
+                            f"({len(result['cycles']['seeds'])} seeds x "
                             f"{result['cycles']['spp_per_seed']} spp)"],
         ]
     snell = result["snell"]
@@ -179,7 +188,8 @@ def _settings_tables(result, forced=True):
         parts.append("<h3>Settings forced on Cycles</h3>" +
                      table(result["cycles_settings"], ["setting", "value", "why"]))
     if result.get("snell_settings"):
-        parts.append("<h3>Snell settings</h3>" + table(result["snell_settings"], ["setting", "value", "note"]))
+        parts.append("<h3>Snell settings</h3>" +
+                     table(result["snell_settings"], ["setting", "value", "note"]))
     return "\n".join(parts)
 
 
@@ -239,7 +249,8 @@ def _differences(result):
     for t in sorted(tiles, key=lambda t: -abs(t["z"]))[:20]:
         objects = t.get("objects") or []
         named.update(name for name, _ in objects)
-        rows.append([f"rows {t['y0']}-{t['y0'] + t['size'] - 1}, columns {t['x0']}-{t['x0'] + t['size'] - 1}",
+        rows.append([f"rows {t['y0']}-{t['y0'] + t['size'] - 1}, "
+                     f"columns {t['x0']}-{t['x0'] + t['size'] - 1}",
                      f"{t['z']:+.2f}",
                      ", ".join(f"{name} ({share:.0%})" for name, share in objects) or "n/a"])
     more = f"<p class='small'>and {len(tiles) - 20} more tiles</p>" if len(tiles) > 20 else ""
@@ -278,7 +289,8 @@ def _write_comparison(directory, result, title, figures):
             + "".join(f"<figure>{img(png, name)}<figcaption>{html.escape(caption)}</figcaption>"
                       f"</figure>" for name, png, caption in figures)
             + "</div>\n"
-            f"<p class='small'>Both images: linear result through Blender's Standard view transform, "
+            "<p class='small'>Both images: linear result through "
+            "Blender's Standard view transform, "
             f"exposure 0, shown at {DISPLAY_WIDTH} px wide (nearest neighbour).</p>\n"
             f"<h2>Numbers</h2>\n{_numbers_table(result)}\n{_settings_tables(result)}")
     body += _differences(result)
@@ -287,7 +299,8 @@ def _write_comparison(directory, result, title, figures):
             f"<li>{html.escape(w)}</li>" for w in result["exporter_warnings"]) + "</ul>"
     if result.get("exporter_notes"):
         body += ("<p class='small'>Of these, the verdict does not count (Cycles renders their "
-                 "cause the same way): " + "; ".join(html.escape(w) for w in result["exporter_notes"])
+                 "cause the same way): " + "; ".join(html.escape(w)
+                                                     for w in result["exporter_notes"])
                  + "</p>")
     with open(os.path.join(directory, "report.html"), "w") as f:
         f.write(page(title, body))
@@ -315,7 +328,8 @@ def contact_sheet(rows, cell=192):
         sep = np.full((h, 4, 3), 255, np.uint8)
         images = np.concatenate([snell, sep, cyc], axis=1)
         label = text_label(f"{row['label']}: {row['verdict']}", images.shape[1], 22, 14)
-        strips.append(np.concatenate([label, images, np.full((6, images.shape[1], 3), 255, np.uint8)]))
+        strips.append(np.concatenate([label, images,
+                                      np.full((6, images.shape[1], 3), 255, np.uint8)]))
     width = max(s.shape[1] for s in strips)
     head = text_label("Snell | Cycles", width, 22, 14)
     return np.concatenate([head] + [_pad_to(s, s.shape[0], width) for s in strips])
@@ -343,7 +357,8 @@ def _write_study(directory, name, rows, notes):
         v = row["verdict"]
         sections.append(
             f"<h2>{html.escape(row['label'])} <span class='verdict {_verdict_class(v)}' "
-            f"style='font-size:0.7em'>{html.escape(v)}</span></h2>\n<div>{_figures(pngs, limits)}</div>\n"
+            f"style='font-size:0.7em'>{html.escape(v)}</span></h2>\n"
+            f"<div>{_figures(pngs, limits)}</div>\n"
             f"<details><summary>numbers and settings</summary>{_numbers_table(row)}"
             f"{_settings_tables(row, forced=False)}{_own_forced(row, varying)}"
             f"{_differences(row)}</details>")
@@ -351,7 +366,8 @@ def _write_study(directory, name, rows, notes):
         failed = ", ".join(row.get("failed_tests") or []) if cyc else "n/a"
         summary.append([row["label"], v, failed or "none", row.get("z_pass_fraction"),
                       row.get("relmse"), row.get("flip"),
-                      f"{row['snell']['time_s']:.2f} s", f"{cyc['time_s']:.2f} s" if cyc else "n/a"])
+                      f"{row['snell']['time_s']:.2f} s",
+                      f"{cyc['time_s']:.2f} s" if cyc else "n/a"])
         entry = metrics_json(row)
         entry["setting"] = row.get("setting")
         data["settings"].append(entry)
@@ -362,7 +378,8 @@ def _write_study(directory, name, rows, notes):
     data["verdict"] = overall
     body = (f"<h1>Snell vs Cycles: {html.escape(name)} study</h1>\n"
             f"<div class='verdict {_verdict_class(overall)}'>{html.escape(overall)} "
-            f"({sum(v == 'consistent' for v in verdicts)} of {len(verdicts)} settings consistent)</div>\n"
+            f"({sum(v == 'consistent' for v in verdicts)} of {len(verdicts)} "
+            "settings consistent)</div>\n"
             + "".join(f"<p class='small'>{html.escape(n)}</p>" for n in notes) +
             f"<p class='small'>Rule per setting: {html.escape(metrics.RULE)}.</p>\n"
             + table(summary, ["setting", "verdict", "failed tests", "z-pass fraction", "relMSE",

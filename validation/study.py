@@ -27,7 +27,8 @@ NOTES = {
               "centre): the seed's lens radius and focal distance are used unchanged. Cycles: "
               "aperture_fstop = lens_mm * 1e-3 / (2 radius)."],
     "aperture": ["Scene in metres with the seed's proportions: the seed's lens radius and focal "
-                 "distance are used unchanged. Cycles: aperture_fstop = lens_mm * 1e-3 / (2 radius)."],
+                 "distance are used unchanged. "
+                 "Cycles: aperture_fstop = lens_mm * 1e-3 / (2 radius)."],
 }
 
 
