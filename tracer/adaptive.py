@@ -23,7 +23,8 @@ neighbours' are below the threshold. A pixel's own error is low while its sample
 met a rare bright path, so that rule stops pixels preferentially while their mean is low: on
 cornell_spheres at threshold 0.01 it darkens the image by 0.2-0.4%, ten standard errors of the
 validator's image-mean test (README, Adaptive sampling). Here each half of a pixel stops on
-evidence other than its own samples: it goes on while the other half's noise level (error x sqrt(samples) at
+evidence other than its own samples: it goes on while the other half's noise level (error x
+sqrt(samples) at
 its last estimate), at the pixel or any of its 8 neighbours, predicts an error above the
 threshold at this half's count, or the same half's level at any of the 8 neighbours does (their
 samples are not this pixel's). A half's stopping time then depends on its own samples only
@@ -47,7 +48,8 @@ import numpy as np
 
 from .jit import jit
 
-STEP = 16                 # samples per window, and between estimates of a half (Cycles' adaptive_step)
+STEP = 16                 # samples per window, and between estimates of a half (Cycles'
+#                           adaptive_step)
 CYCLES_SCALE = 5.0        # Cycles multiplies the user's threshold by this before comparing
 EPSILON = 1e-4            # Cycles' guard in the error's denominator
 CLASS_A_MASK = 0xAAAAAAAA
@@ -223,8 +225,8 @@ class Halves:
         """After `done` samples (a window's end from the first check on): estimate the error of
         the half (both, at the first check) that just sampled, then keep in each half the pixels
         where the other half's level at or around the pixel, or this half's at its neighbours,
-        predicts an error of at least CYCLES_SCALE x threshold at this half's count. `light`: the light tracer's (sums, class-A sums, paths,
-        class-A paths) for errors()."""
+        predicts an error of at least CYCLES_SCALE x threshold at this half's count. `light`: the
+        light tracer's (sums, class-A sums, paths, class-A paths) for errors()."""
         if done < self.first or done % STEP:
             return
         for h in ((0, 1) if done == self.first else (half_of(done - 1),)):

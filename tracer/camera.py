@@ -97,7 +97,8 @@ class Camera:
                             self.blade_rotation, self.inv_ratio, self.ortho)
 
     def raster_to_camera(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Points (3, n) on the plane z = -1 (camera space) for raster coordinates (y = 0 at the bottom)."""
+        """Points (3, n) on the plane z = -1 (camera space) for raster coordinates (y = 0 at the
+        bottom)."""
         cx = -self.half_x + (2.0 * self.half_x / self.width) * x + self.shift_x
         cy = -self.half_y + (2.0 * self.half_y / self.height) * y + self.shift_y
         return np.stack([cx, cy, np.full_like(cx, -1.0)])
@@ -239,7 +240,8 @@ def camera_connection(cam, x, lens0, lens1, margin):
 @jit
 def _camera_rays(cam, pixel, u_pixel, u_lens, o, d, far):
     for i in range(pixel.shape[0]):
-        ro, rd, f = camera_ray(cam, pixel[i], u_pixel[0, i], u_pixel[1, i], u_lens[0, i], u_lens[1, i])
+        ro, rd, f = camera_ray(cam, pixel[i], u_pixel[0, i], u_pixel[1, i], u_lens[0, i],
+                               u_lens[1, i])
         for k in range(3):
             o[i, k] = ro[k]
             d[i, k] = rd[k]

@@ -82,7 +82,8 @@ class Geometry:
         overwritten with the hit distances (embreex's output), and is the returned t."""
         n = len(o32)
         if self._scene is None or n == 0:
-            return np.full(n, -1, np.int32), np.zeros(n, np.float32), np.zeros(n, np.float32), tmax32
+            return (np.full(n, -1, np.int32), np.zeros(n, np.float32), np.zeros(n, np.float32),
+                    tmax32)
         res = self._timed(n, lambda: self._scene.run(o32, d32, dists=tmax32, output=1))
         return res["primID"], res["u"], res["v"], res["tfar"]
 

@@ -41,7 +41,8 @@ def as_float32(values) -> np.ndarray:
 
 
 def sanitize(rgb) -> tuple[np.ndarray, int]:
-    """Return (a float32 copy with every NaN/Inf channel set to 0, the number of pixels affected)."""
+    """Return (a float32 copy with every NaN/Inf channel set to 0,
+    the number of pixels affected)."""
     arr = np.array(as_float32(_as_rgb(rgb)), dtype=np.float32, copy=True)
     bad = ~np.isfinite(arr)
     bad_pixels = int(np.count_nonzero(bad.any(axis=2)))
@@ -53,7 +54,8 @@ def sanitize(rgb) -> tuple[np.ndarray, int]:
 def srgb_oetf(linear) -> np.ndarray:
     """The exact piecewise sRGB transfer function (IEC 61966-2-1), float64, no clamping."""
     v = np.asarray(linear, dtype=np.float64)
-    return np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(np.maximum(v, 0.0031308), 1.0 / 2.4) - 0.055)
+    return np.where(v <= 0.0031308, 12.92 * v,
+                    1.055 * np.power(np.maximum(v, 0.0031308), 1.0 / 2.4) - 0.055)
 
 
 def to_srgb8(rgb) -> np.ndarray:
@@ -108,7 +110,8 @@ def write_exr(path, rgb, channels=None) -> int:
     for name, values in (channels or {}).items():
         values = _channel_values(name, values)
         if values.shape != clean.shape[:2]:
-            raise ValueError(f"channel {name!r}: expected shape {clean.shape[:2]}, got {values.shape}")
+            raise ValueError(f"channel {name!r}: expected shape {clean.shape[:2]}, "
+                             f"got {values.shape}")
         names.append(name)
         layers.append(values)
     _write_exr_atomic(path, dict(zip(names, layers)))
@@ -172,8 +175,8 @@ def write_png(path, rgb, alpha=None) -> int:
 
 
 def read_exr(path) -> np.ndarray:
-    """Read an image's first three channels as an (H, W, 3) float32 array, top row first (OpenImageIO
-    puts R, G, B first whatever other channels an EXR holds)."""
+    """Read an image's first three channels as an (H, W, 3) float32 array, top row first
+    (OpenImageIO puts R, G, B first whatever other channels an EXR holds)."""
     with _opened(path) as (inp, path):
         if inp.spec().nchannels < 3:
             raise OSError(f"{path}: expected RGB, the image has {inp.spec().nchannels} channel(s)")

@@ -1,8 +1,8 @@
 """The wavefront path tracer: whole arrays of paths advance one bounce at a time.
 
 A render is a sequence of passes, which a scheduler per mode hands out (tracer/passes.py: fixed
-samples, batches, adaptive sampling); each pass is cut into fixed-size chunks of paths, and chunks run
-on a thread pool (the compiled stages and Embree release the GIL). A chunk runs the stages of
+samples, batches, adaptive sampling); each pass is cut into fixed-size chunks of paths, and chunks
+run on a thread pool (the compiled stages and Embree release the GIL). A chunk runs the stages of
 tracer/wavefront.py bounce by bounce: generate, then per bounce one Embree call for every live
 ray, emitters, materials, one Embree call for every shadow ray, shadow_rays; film adds the
 finished chunk to the image. Every random number is keyed by seed, pixel, sample index and
@@ -550,7 +550,8 @@ class Renderer:
         photons: where photon merging gets the chunk's photons (photons[start])."""
         if not 0 < n <= CHUNK:
             raise ValueError(f"trace_light_chunk: {n} paths do not fit a chunk of {CHUNK}")
-        geom, lights, mats, caustics = self.geometry, self.lights.tables, self.materials, self.caustics
+        geom, lights, mats, caustics = (self.geometry, self.lights.tables, self.materials,
+                                        self.caustics)
         mesh, cam = geom.mesh, self.camera.params()
         paths, out, connections, raster = self._buffers.light()
         chunk = self._buffers.get()           # the hits' lobes: scratch shared with camera paths
@@ -851,7 +852,8 @@ def clear_glass(materials, kind, settings) -> np.ndarray:
     for m, mat in enumerate(materials):
         if kind[m] == LAYERED and mat["kind"] in ("glass", "refraction", "principled") \
                 and "roughness" not in (mat.get("textures") or {}):
-            clear[m] = float(material_field(mat, "roughness")) <= settings.film_transparent_roughness
+            clear[m] = (float(material_field(mat, "roughness"))
+                        <= settings.film_transparent_roughness)
     return clear
 
 
@@ -886,7 +888,8 @@ def warm_up() -> float:
                              _warm_up_program()],
                   lights=[lamp], camera=camera, world={"color": [0.1, 0.1, 0.1]},
                   render={"spp": 1, "max_depth": 2, "seed": 0, "fresnel": "exact"},
-                  objects=[{"name": "triangle", "closed": False}, {"name": "mirror", "closed": False},
+                  objects=[{"name": "triangle", "closed": False},
+                           {"name": "mirror", "closed": False},
                            {"name": "light", "closed": False}, {"name": "veil", "closed": False}],
                   normals=np.array([[0, 0, 1]] * 6 + [[0, 0, -1]] * 3 + [[0, 0, 1]] * 3,
                                    np.float32))

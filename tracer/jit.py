@@ -13,7 +13,8 @@ compile makes them for every signature, and unboxing a table of arrays from Pyth
 half a second's compile per function.
 
 The machine code is cached on disk, under a directory named after a hash of the tracer's
-sources, the Python version and the CPU compiled for (cache_key): Numba checks only the timestamp of the file that defines a kernel, so an edit to a
+sources, the Python version and the CPU compiled for (cache_key): Numba checks only the timestamp of
+the file that defines a kernel, so an edit to a
 function it calls in another file would otherwise leave a stale kernel in the cache. Inside that
 directory a kernel's entry is found by its module's name (SourcesLocator), not by the path and
 timestamp of its file as Numba's own locators do: the hash already says the sources are the

@@ -168,8 +168,9 @@ def lobe_eval(lobe, wi, wo):
     cos_ni = dot(n, wi)
     alpha, eta = lobe[ALPHA], lobe[ETA]
     transmission = cos_no < 0.0
-    if cos_ni <= 0.0 or is_almost_specular(alpha) or \
-            (transmission and lobe[TRANSMITS] == 0.0) or (not transmission and lobe[REFLECTS] == 0.0):
+    if (cos_ni <= 0.0 or is_almost_specular(alpha)
+            or (transmission and lobe[TRANSMITS] == 0.0)
+            or (not transmission and lobe[REFLECTS] == 0.0)):
         return (0.0, 0.0, 0.0), 0.0
     h = mul(add(mul(wo, eta), wi), -1.0) if transmission else add(wi, wo)
     length = math.sqrt(dot(h, h))

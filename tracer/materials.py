@@ -1,7 +1,8 @@
 """The per-material tables the kernels read, built from the scene file's material list.
 
 Smooth materials keep their exact code paths (material_kinds: DIFFUSE, MIRROR, GLASS,
-REFRACTION); a Glossy BSDF of roughness 0 is a mirror. Everything with a rough lobe, and every Principled BSDF, is
+REFRACTION); a Glossy BSDF of roughness 0 is a mirror. Everything with a rough lobe, and every
+Principled BSDF, is
 LAYERED: its lobes are built per hit by lobes.setup_shader from the `shader` code and the
 parameters here.
 """

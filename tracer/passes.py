@@ -230,7 +230,8 @@ class _Passes:
         return self.result.spp < self.spp and not self.converged
 
     def _light_film(self):
-        """The light tracer's image sums in the result and one pass's buffer (rows of (pixels, 3))."""
+        """The light tracer's image sums in the result and one pass's buffer
+        (rows of (pixels, 3))."""
         r = self.result
         r.light_sum = np.zeros((r.height, r.width, 3))
         return np.zeros((self.npix, 3))
@@ -305,7 +306,8 @@ class BatchPasses(_Passes):
         h, w = result.height, result.width
         self.pass_sum[:] = 0.0
         result.nan_count += renderer.camera_pass(
-            pool, step, ALL_PIXELS, self.bits, (self.pass_sum, result.sum_sq.reshape(-1, 3), NO_ROWS),
+            pool, step, ALL_PIXELS, self.bits,
+            (self.pass_sum, result.sum_sq.reshape(-1, 3), NO_ROWS),
             self.counters, stop, extra=self.extra)
         if stop is not None and stop.is_set():
             return False
@@ -314,7 +316,8 @@ class BatchPasses(_Passes):
             n_light = renderer.light_count(self.npix, step.samples)
             result.nan_count += renderer.light_pass(pool, self.k, n_light, n_light,
                                                      self.pass_light, None, self.counters,
-                                                     None if self.extra is None else self.extra.group_light)
+                                                     (None if self.extra is None
+                                                      else self.extra.group_light))
             result.light_sum.reshape(-1, 3)[:] += self.pass_light
             result.light_paths += n_light
             light_image = self.pass_light / n_light
@@ -411,7 +414,8 @@ class AdaptivePasses(_Passes):
         n_a = n_light // 2
         result.nan_count += renderer.light_pass(pool, self.k, n_light, n_a, self.pass_light,
                                                  self.pass_light_a, self.counters,
-                                                 None if self.extra is None else self.extra.group_light)
+                                                 (None if self.extra is None
+                                                  else self.extra.group_light))
         result.light_sum.reshape(-1, 3)[:] += self.pass_light
         result.light_paths += n_light
         self.light_half += self.pass_light_a

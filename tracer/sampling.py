@@ -56,7 +56,8 @@ def sample_uniform_disk(u0, u1):
 
 @jit
 def sample_regular_polygon(u0, u1, blades, rotation):
-    """A uniform point (x, y) in a regular polygon inscribed in the unit circle, as Cycles' aperture."""
+    """A uniform point (x, y) in a regular polygon inscribed in the unit circle,
+    as Cycles' aperture."""
     corner = math.floor(u0 * blades)
     s = math.sqrt(u0 * blades - corner)
     v = u1 * s

@@ -105,7 +105,8 @@ def scatter_program(lights, mesh, mats, tables, can_sample_lights, has_normals, 
     path go on unbent as the same ray: its kind and density stay, and the distance grows.
     bounces: (the path's bounces, whether they are spent, the clamp of the vertex's light
     samples, the caustics its closures drop: path_limits.dropped_at, passed to them in the
-    hit's flags from bit inputs.DROP_SHIFT): a path past its last bounce only passes through the surface's transparency, as
+    hit's flags from bit inputs.DROP_SHIFT): a path past its last bounce only passes through the
+    surface's transparency, as
     Cycles' PATH_RAY_TERMINATE_AFTER_TRANSPARENT paths do (their shader keeps no closure but
     Transparent).
     Returns scatter_lit's results, then the new distance since the last scattering vertex."""

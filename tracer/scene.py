@@ -156,7 +156,8 @@ class Scene:
         return RenderSettings.from_render(self.render, **overrides)
 
     def with_camera(self, **overrides) -> "Scene":
-        """A copy sharing the arrays, with camera fields (or dof fields via dof={...}) overridden."""
+        """A copy sharing the arrays, with camera fields (or dof fields via dof={...})
+        overridden."""
         other = copy.copy(self)
         other.camera = copy.deepcopy(self.camera)
         dof = overrides.pop("dof", None)
@@ -169,7 +170,8 @@ class Scene:
     def features(self) -> dict:
         """Which costly features the scene needs: glass, mirrors, rough surfaces, depth of field,
         world light, an environment map, emissive meshes, image textures."""
-        used = set(int(m) for m in np.unique(self.material_ids)) if len(self.material_ids) else set()
+        used = (set(int(m) for m in np.unique(self.material_ids)) if len(self.material_ids)
+                else set())
         mats = [self.materials[i] for i in sorted(used)]
         return {
             "glass": any(refracts(m) for m in mats),
@@ -302,7 +304,8 @@ def _check_array(arrays, key, dtype, ncols):
     if not isinstance(arr, np.ndarray):
         raise SceneError(f"{key}: expected an array, got {type(arr).__name__}")
     if arr.dtype != dtype:
-        raise SceneError(f"{key}: expected dtype {_dtype_name(dtype)}, got {_dtype_name(arr.dtype)}")
+        raise SceneError(f"{key}: expected dtype {_dtype_name(dtype)}, "
+                         f"got {_dtype_name(arr.dtype)}")
     want_ndim = 1 if ncols is None else 2
     if arr.ndim != want_ndim or (ncols is not None and arr.shape[1] != ncols):
         want = "(n,)" if ncols is None else f"(n, {ncols})"
@@ -320,13 +323,15 @@ def _dtype_name(dtype) -> str:
 
 def _entry_kind(section, i, entry, kinds):
     """The name to report an entry of a header list by, and its checked kind."""
-    where = f"{section}[{i}]" + (f" ({_short(entry.get('name'), 40)})" if isinstance(entry, dict) else "")
+    where = f"{section}[{i}]" + (f" ({_short(entry.get('name'), 40)})"
+                                 if isinstance(entry, dict) else "")
     if not isinstance(entry, dict):
         raise SceneError(f"{where}: expected an object")
     kind = entry.get("kind")
     if kind not in kinds:
         what = section[:-1]
-        raise SceneError(f"{where}.kind: unknown {what} kind {_short(kind)} (known: {', '.join(kinds)})")
+        raise SceneError(f"{where}.kind: unknown {what} kind {_short(kind)} "
+                         f"(known: {', '.join(kinds)})")
     return where, kind
 
 
@@ -523,7 +528,8 @@ def _check_objects(objects):
         if not isinstance(obj, dict):
             raise SceneError(f"objects[{i}]: expected an object, got {_short(obj)}")
         if "closed" in obj and not isinstance(obj["closed"], bool):
-            raise SceneError(f"objects[{i}].closed: expected true or false, got {_short(obj['closed'])}")
+            raise SceneError(f"objects[{i}].closed: expected true or false, "
+                             f"got {_short(obj['closed'])}")
         # What shader programs read of the object (Object Info, Texture Coordinate Normal);
         # each optional: a file written before them reads Blender's defaults.
         if "matrix" in obj:
@@ -702,8 +708,8 @@ def _check_emitter_areas(scene):
     for i in emissive:
         sel = scene.material_ids == i
         if sel.any() and triangle_areas(scene.positions, scene.triangles[sel]).sum() <= 0:
-            raise SceneError(f"materials[{i}] ({_short(scene.materials[i].get('name'), 40)}): zero-area emitter "
-                             "(all its triangles are degenerate)")
+            raise SceneError(f"materials[{i}] ({_short(scene.materials[i].get('name'), 40)}): "
+                             "zero-area emitter (all its triangles are degenerate)")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -758,7 +764,8 @@ def _read_members(path: str) -> dict:
             try:
                 arrays[key] = npz[key]
             except Exception as exc:  # noqa: BLE001  (as above, for one member)
-                raise SceneError(f"{key}: cannot read the array ({type(exc).__name__}: {exc})") from None
+                raise SceneError(f"{key}: cannot read the array "
+                                 f"({type(exc).__name__}: {exc})") from None
     return arrays
 
 
@@ -805,7 +812,8 @@ def load(path: str) -> Scene:
         raise SceneError(f"{path}: not a Snell scene file (no header)")
     try:
         header = json.loads(arrays["header"].tobytes().decode("utf-8"))
-    except (UnicodeDecodeError, ValueError, RecursionError) as exc:  # ValueError: JSONDecodeError, huge ints
+    except (UnicodeDecodeError, ValueError,
+            RecursionError) as exc:  # ValueError: JSONDecodeError, huge ints
         raise SceneError(f"header: not valid JSON ({_short(str(exc), 100)})") from None
     if not isinstance(header, dict):
         raise SceneError(f"header: expected a JSON object, got {_short(header)}")

@@ -542,7 +542,8 @@ def program_materials(lights, mesh, mats, media, tables, next_event, bits, strat
     """The materials stage for the hits on shader programs that `materials` left in
     `programs` (scatter.scatter_program), their next rays after out's first n_out and their
     shadow rays after the first n_shadow. Returns the new (n_out, n_shadow). A path past its
-    last bounce (`limits`, as emitters') only passes through the surface's transparency. When `transparent`
+    last bounce (`limits`, as emitters') only passes through the surface's transparency. When
+    `transparent`
     has rows (the film's alpha is rendered), a Holdout met before the first bounce adds its
     weight times the path's mean throughput to it, as Cycles' integrate_surface_holdout (a
     path that is still see-through: Paths.see_through). `clear`, pass_sums and mnee_flags as

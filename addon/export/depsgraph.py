@@ -211,7 +211,8 @@ class Exporter:
             for i in used:
                 mat = self.materials[i]
                 if scene_mod.refracts(mat):
-                    self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} {OPEN_MESH}")
+                    self.warn(f"object {name!r}: {mat['kind']} material {mat['name']!r} "
+                              f"{OPEN_MESH}")
         self.parts.append((mesh, matrix, mat_ids, object_id))
 
     def held_out(self, obj) -> bool:
@@ -252,7 +253,8 @@ class Exporter:
             if getattr(library, "is_missing", False):
                 lost = sorted(o.name for o in data.objects
                               if o.library == library and getattr(o, "is_missing", False))
-                what = f" ({len(lost)} object(s): {', '.join(lost[:3])}{', ...' if len(lost) > 3 else ''})" if lost else ""
+                what = (f" ({len(lost)} object(s): {', '.join(lost[:3])}"
+                        f"{', ...' if len(lost) > 3 else ''})" if lost else "")
                 self.warn(f"library {library.filepath!r} is missing: what it links is not "
                           f"rendered{what}")
 

@@ -143,7 +143,8 @@ def convert_light(obj, matrix, warn):
         d = matrix[:3, :3] @ np.array([0.0, 0.0, -1.0])
         angle = float(light.angle)
         # Unnormalised, the disc's radiance is the strength itself: irradiance pi sin^2(a/2) L.
-        irradiance = strength if normalize or angle == 0 else strength * math.pi * math.sin(0.5 * angle) ** 2
+        irradiance = (strength if normalize or angle == 0
+                      else strength * math.pi * math.sin(0.5 * angle) ** 2)
         return {**common, "kind": "sun", "direction": (d / np.linalg.norm(d)).tolist(),
                 "irradiance": irradiance.tolist(), "angle": angle}
     warn(f"light {obj.name!r}: {light.type.lower()} lights are not supported, skipped")
