@@ -30,7 +30,8 @@ class RemoteTracer:
                  threads: int | None = None):
         # The workers' light passes splat only: photon merging (tracer/photon_merging.py) needs
         # every photon of a pass in one place, so here the path tracer keeps the merged paths.
-        settings = settings.replace(photon_merging=False)
+        if settings.merges_photons:
+            settings = settings.replace(photon_merging="off")
         self.client, self.settings, self.name, self.frame = client, settings, name, frame
         self.key = keys.render_key(scene, settings)
         camera = Camera(scene.camera)

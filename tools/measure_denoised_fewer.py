@@ -49,7 +49,7 @@ def reference(args):
     with stdout_silenced():
         scene, _ = export_blend(blend_of(args.scene))
     scene = scene.with_render(spp=args.batches * args.spp, max_depth=8, seed=SNELL_REFERENCE_SEED)
-    settings = scene.settings(threads=1, caustics=True, photon_merging=False,
+    settings = scene.settings(threads=1, caustics=True, photon_merging="off",
                               sampler="independent", batches=args.batches, **cycles.AS_FORCED,
                               noise_threshold=0.0, min_spp=0, time_limit=0.0, denoise=False)
     result = Renderer(scene, settings).render()

@@ -81,11 +81,11 @@ def measure(args):
     # The caustic region: where light paths (the light tracer's splats and the merged photons)
     # carry at least 10% of a long merged render, as `snell bench` picks its caustic region.
     probe = Renderer(scene, scene.settings(spp=1024, threads=args.threads, noise_threshold=0.0,
-                                           seed=99, photon_merging=True,
+                                           seed=99, photon_merging="on",
                                            light_paths_per_camera_path=args.light_paths)).render()
     region = probe.light_image()[..., 0] >= 0.1 * probe.mean()[..., 0]
     print(f"caustic region: {int(region.sum())} of {region.size} pixels")
-    for merging in (True, False):
+    for merging in ("on", "off"):
         for k in (int(x) for x in args.passes.split(",")):
             errors, region_errors, ratios, start = [], [], [], time.perf_counter()
             for seed in range(args.seeds):
@@ -98,7 +98,7 @@ def measure(args):
                 region_errors.append(np.mean((image - reference)[region] ** 2)
                                      - ref_var[region].mean())
                 ratios.append(image.mean() / reference.mean())
-            print(f"merging {'on ' if merging else 'off'} passes {k:4d}: relative RMSE "
+            print(f"merging {merging:3} passes {k:4d}: relative RMSE "
                   f"{np.sqrt(max(np.mean(errors), 0.0)) / reference.mean():.4f}, in the caustic "
                   f"region "
                   f"{np.sqrt(max(np.mean(region_errors), 0.0)) / reference[region].mean():.4f}"

@@ -230,8 +230,10 @@ class Renderer:
 
     def _choose_merging(self) -> tuple[float | None, str]:
         """(photon merging's first radius, or None where it does not run; why or why not)."""
-        if not self.settings.photon_merging:
-            return None, "photon merging off"
+        mode = self.settings.photon_merging
+        if not self.settings.merges_photons:
+            return None, ("photon merging off" if mode == "off" else "the image is not denoised "
+                          "(photon merging is consistent, not unbiased)")
         if not self.split:
             return None, "no light tracer"
         if self.media.on:
@@ -242,7 +244,8 @@ class Renderer:
             return None, "light groups asked for"     # merged light goes to no group
         r1 = self.settings.merge_radius or photon_merging.first_radius(
             self.camera, self.caustics.aim_center, self.caustics.aim_radius)
-        return r1, f"caustics seen through mirrors and glass, first radius {r1:.3g}"
+        denoised = ", the image denoised" if mode == "denoised" else ""
+        return r1, f"caustics seen through mirrors and glass{denoised}, first radius {r1:.3g}"
 
     def stages(self) -> dict:
         """Which optional stages this scene runs: {stage: (runs, why)}."""

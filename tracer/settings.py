@@ -253,11 +253,14 @@ SETTINGS = (
             "the light of each group's lamps, emissive objects and world) beside the image; "
             "Blender's View Layer > Light Groups and `snell render --passes` ask for them",
             scope=ESTIMATOR),
-    Setting("photon_merging", bool, False, "Render caustics seen through mirrors and glass "
-            "(light through glass onto a diffuse surface, seen through glass: a pool's floor "
-            "under its water) by photon merging with a radius that shrinks pass by pass "
-            "(photon_merging.py): consistent, not unbiased, so off by default and off in the "
-            "validator", scope=ESTIMATOR),
+    Setting("photon_merging", str, "denoised", "Render caustics seen through mirrors and "
+            "glass (light through glass onto a diffuse surface, seen through glass: a pool's "
+            "floor under its water) by photon merging with a radius that shrinks pass by pass "
+            "(photon_merging.py): consistent, not unbiased, so only where the image is biased "
+            "anyway (denoised) unless asked, and never in the validator",
+            choices=(("off", "The path tracer renders those paths (unbiased)"),
+                     ("denoised", "Merged when the image is denoised, else as off"),
+                     ("on", "Merged")), scope=ESTIMATOR),
     Setting("merge_radius", float, 0.0, "Photon merging's first radius in scene units; 0: "
             "a pixel footprint at the far side of the mirrors and glass", scope=ESTIMATOR,
             least=0.0),
@@ -280,6 +283,12 @@ class _Settings:
     def __post_init__(self):
         for s in SETTINGS:     # numbers as their type: 0 given for a threshold is 0.0
             object.__setattr__(self, s.name, s.check(getattr(self, s.name)))
+
+    @property
+    def merges_photons(self) -> bool:
+        """Whether photon merging is asked for: on, or on denoised images and this one is."""
+        return self.photon_merging == "on" or (self.photon_merging == "denoised"
+                                               and self.denoise)
 
     def replace(self, **overrides) -> "RenderSettings":
         """A copy with some settings changed, checked (an unknown name is a SceneError too)."""

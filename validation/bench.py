@@ -389,7 +389,7 @@ def snell_reference(blend, opts: Options):
                               seed=SNELL_REFERENCE_SEED)
     if opts.scale != 100:
         scene = scene.with_camera(resolution_percentage=opts.scale)
-    settings = scene.settings(threads=opts.threads, caustics=True, photon_merging=False,
+    settings = scene.settings(threads=opts.threads, caustics=True, photon_merging="off",
                               sampler="independent", batches=opts.ref_seeds, **cycles.AS_FORCED,
                               noise_threshold=0.0, min_spp=0, time_limit=0.0, denoise=False)
     result = Renderer(scene, settings).render()

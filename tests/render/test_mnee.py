@@ -209,7 +209,7 @@ def test_photon_merging_leaves_mnee_its_paths(lamp):
     merged images differ)."""
     scene = shadow_caustics(pool(resolution=(8, 8), lamp=lamp))
     alone, _, _ = _render(scene, 64, 1)
-    merged, _, _ = _render(scene, 64, 1, photon_merging=True)
+    merged, _, _ = _render(scene, 64, 1, photon_merging="on")
     assert np.allclose(merged, alone, rtol=1e-9, atol=0.0), np.abs(merged / alone - 1).max()
 
 

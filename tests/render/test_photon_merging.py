@@ -122,17 +122,29 @@ def test_the_path_tracer_leaves_exactly_the_merged_paths():
         assert not skipped(kinds, SPLIT_MERGE), kinds
 
 
-def test_merging_is_off_by_default_and_says_why_not():
-    """Off unless asked for; on, it runs where the light tracer does, and says why not where it
-    cannot (light passes asked for)."""
+def test_merging_runs_on_denoised_images_or_when_asked_and_says_why_not():
+    """By default it runs only where the image is denoised (biased anyway): not in a plain
+    render, nor in the validator's; asked for, it runs where the light tracer does, and says
+    why not where it cannot (light passes asked for)."""
+    from snell.validation import compare
     scene = flat_plane()
     assert Renderer(scene, scene.settings()).stages()["photon merging"] == (
-        False, "photon merging off")
-    on = Renderer(scene, scene.settings(photon_merging=True))
+        False, "the image is not denoised (photon merging is consistent, not unbiased)")
+    assert Renderer(scene, scene.settings(photon_merging="off", denoise=True)).stages()[
+        "photon merging"] == (False, "photon merging off")
+    denoised = Renderer(scene, scene.settings(denoise=True))
+    assert denoised.split_mode == SPLIT_MERGE
+    assert denoised.stages()["photon merging"][1].startswith(
+        "caustics seen through mirrors and glass, the image denoised")
+    # The validator's renders are never denoised, so never merged, whatever the file says.
+    file_denoised = scene.with_render(spp=1, denoise=True)
+    assert Renderer(file_denoised, file_denoised.settings()).split_mode == SPLIT_MERGE
+    assert compare.snell_render(file_denoised, 1).stages["photon merging"][0] is False
+    on = Renderer(scene, scene.settings(photon_merging="on"))
     assert on.stages()["photon merging"][0] and on.split_mode == SPLIT_MERGE
     assert on.merging == pytest.approx(photon_merging.first_radius(
         on.camera, on.caustics.aim_center, on.caustics.aim_radius))
-    passes = Renderer(scene, scene.settings(photon_merging=True, light_passes=True))
+    passes = Renderer(scene, scene.settings(photon_merging="on", light_passes=True))
     assert passes.stages()["photon merging"] == (False, "light passes asked for")
     assert passes.split_mode == SPLIT_LIGHT
 
@@ -141,7 +153,7 @@ def _plane_ratio(tilt=0.0):
     """flat_plane's merged image: (its sum / the analytic sum, the standard error of that)."""
     scene = flat_plane(tilt=tilt)
     settings = scene.settings(spp=64, batches=8, threads=2, noise_threshold=0.0,
-                              photon_merging=True, merge_radius=0.03,
+                              photon_merging="on", merge_radius=0.03,
                               light_paths_per_camera_path=8.0)
     result = Renderer(scene, settings).render()
     image = result.mean()[..., 0].astype(np.float64)
@@ -194,7 +206,7 @@ def test_merged_paths_keep_the_path_tracers_bounce_limits():
     Diffuse 0 is the whole caustic (measured 0.986), caught."""
     scene = flat_plane()
     for bounces in (0, 1):
-        settings = scene.settings(spp=16, threads=2, noise_threshold=0.0, photon_merging=True,
+        settings = scene.settings(spp=16, threads=2, noise_threshold=0.0, photon_merging="on",
                                   merge_radius=0.03, light_paths_per_camera_path=8.0,
                                   diffuse_bounces=bounces)
         image = Renderer(scene, settings).render().mean()[..., 0].astype(np.float64)
@@ -225,7 +237,7 @@ def test_adaptive_samplings_halves_merge_apart():
     adaptive sampling then stopped the pool at 313 spp on average against 972 without merging
     (docs/measurements.md)."""
     scene = flat_plane()
-    renderer = Renderer(scene, scene.settings(threads=2, photon_merging=True, merge_radius=0.03,
+    renderer = Renderer(scene, scene.settings(threads=2, photon_merging="on", merge_radius=0.03,
                                               light_paths_per_camera_path=8.0))
     npix = 16 * 16
     n_light, n_a = 8 * npix * 64, 4 * npix * 64
@@ -274,7 +286,7 @@ def test_the_pools_error_falls_as_the_radius_schedule_says():
         errors, means = [], []
         for seed in range(SEEDS):
             settings = scene.settings(spp=k * SPP_PER_PASS, batches=k, threads=2, seed=seed,
-                                      noise_threshold=0.0, photon_merging=True,
+                                      noise_threshold=0.0, photon_merging="on",
                                       merge_radius=FIRST_RADIUS,
                                       light_paths_per_camera_path=1.0)
             image = Renderer(scene, settings).render().mean()[..., 0].astype(np.float64)

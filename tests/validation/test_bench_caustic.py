@@ -80,7 +80,7 @@ def test_the_flag_selects_the_caustic_scenes(monkeypatch, tmp_path):
     # others; merging (biased) on none
     assert [setups[p].without.get("shadow_caustics", True) for p in scenes] == [True, True,
                                                                                 False, False]
-    assert not any(setups[p].snell.get("photon_merging", False) for p in scenes)
+    assert not any(setups[p].snell.get("photon_merging", "off") == "on" for p in scenes)
     assert [setups[p].biased for p in scenes] == [False, False, False, False]
     assert [setups[p].reference for p in scenes] == ["snell", "cycles", "cycles", "cycles"]
     scenes, setups = bench_scene_list(_args("--caustic-scenes", "pool,sun_caustic"), bench,
