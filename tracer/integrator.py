@@ -232,8 +232,8 @@ class Renderer:
         """(photon merging's first radius, or None where it does not run; why or why not)."""
         mode = self.settings.photon_merging
         if not self.settings.merges_photons:
-            return None, ("photon merging off" if mode == "off" else "the image is not denoised "
-                          "(photon merging is consistent, not unbiased)")
+            return None, ("photon merging off" if mode == "off" else
+                          "not a denoised image: merging is consistent, not unbiased")
         if not self.split:
             return None, "no light tracer"
         if self.media.on:

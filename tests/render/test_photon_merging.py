@@ -129,7 +129,7 @@ def test_merging_runs_on_denoised_images_or_when_asked_and_says_why_not():
     from snell.validation import compare
     scene = flat_plane()
     assert Renderer(scene, scene.settings()).stages()["photon merging"] == (
-        False, "the image is not denoised (photon merging is consistent, not unbiased)")
+        False, "not a denoised image: merging is consistent, not unbiased")
     assert Renderer(scene, scene.settings(photon_merging="off", denoise=True)).stages()[
         "photon merging"] == (False, "photon merging off")
     denoised = Renderer(scene, scene.settings(denoise=True))
