@@ -1,4 +1,5 @@
-"""The Mix Shader with a constant factor, folded into one material where that is exact.
+"""The Mix Shader folded into one material where that is exact: of a constant factor, or glass
+built from nodes.
 
 Cycles weights the two closures by 1 - Fac and Fac (Fac clamped to [0, 1]). Snell has no mixed
 closures yet, so a mix renders only when it is one material already: Fac 0 or 1 picks one side,
