@@ -128,6 +128,8 @@ def _numbers_table(result):
             ["statistical verdict", result.get("statistical_verdict")]]
     if result.get("cycles"):
         t = result["tests"]
+        exact = result["pixels_exact_failed"]
+        mismatches = f"; {exact} zero-variance mismatches" if exact else ""
         rows += [
             ["failed tests", ", ".join(result.get("failed_tests") or []) or "none"],
             ["level of each test (whole verdict 1%)",
@@ -135,7 +137,7 @@ def _numbers_table(result):
             ["test 1: pixels passing (z-pass fraction)",
              f"{result['z_pass_fraction']:.5f} ({result['pixels_failed']} of "
              f"{result['pixels']} fail"
-             f"{'; ' + str(result['pixels_exact_failed']) + ' zero-variance mismatches' if result['pixels_exact_failed'] else ''})"
+             f"{mismatches})"
              f" -> {'pass' if t['pixels'] else 'FAIL'}"],
             ["per-pixel alpha (Sidak)",
              f"{result['alpha_pixel']:.3g} (|z| > {result['z_critical_normal']:.2f} for a normal)"],
