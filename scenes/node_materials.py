@@ -66,19 +66,21 @@ def brick_wall():
     return mat
 
 
-def fresnel_glass(ior=1.5, refraction_ior=None, name="FresnelGlass", transmission=(1, 1, 1),
-                  reflection=(1, 1, 1)):
+def fresnel_glass(ior=1.5, refraction_ior=None, name="FresnelGlass", transmission=None,
+                  reflection=None):
     """Mix(Fresnel, Refraction, Glossy): the glass of a file issue 29 lists, both BSDFs smooth
     (the Fresnel node's IOR ior, the Refraction's refraction_ior, default the same; the
-    Refraction's colour transmission, the Glossy's reflection)."""
+    Refraction's colour transmission, the Glossy's reflection, default the nodes' own: white
+    and grey 0.8)."""
     mat, tree, out = node_tree(name)
     mix = tree.nodes.new("ShaderNodeMixShader")
     tree.links.new(node(tree, "ShaderNodeFresnel", IOR=ior).outputs[0], mix.inputs["Fac"])
     refraction = node(tree, "ShaderNodeBsdfRefraction", IOR=refraction_ior or ior, Roughness=0.0,
-                      Color=(*transmission, 1.0))
+                      **({"Color": (*transmission, 1.0)} if transmission else {}))
     tree.links.new(refraction.outputs[0], mix.inputs[1])
     tree.links.new(node(tree, "ShaderNodeBsdfGlossy", Roughness=0.0,
-                        Color=(*reflection, 1.0)).outputs[0], mix.inputs[2])
+                        **({"Color": (*reflection, 1.0)} if reflection else {})).outputs[0],
+                   mix.inputs[2])
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
     return mat
 
