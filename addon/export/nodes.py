@@ -78,7 +78,11 @@ CONSTANT_NODES = ("ShaderNodeValue", "ShaderNodeRGB")
 
 def is_constant(socket, groups=()):
     """Whether an input takes a constant: nothing linked, or a Value or RGB node."""
-    node = source_in(socket, groups).node
+    return _gives_constant(source_in(socket, groups).node)
+
+
+def _gives_constant(node):
+    """Whether an input fed by `node` (None: nothing) takes a constant."""
     return node is None or node.bl_idname in CONSTANT_NODES
 
 
@@ -192,8 +196,7 @@ class Inputs:
         clamps it)."""
         values = value if isinstance(value, list) else [value]
         node = source_in(self.node.inputs[name], self.groups).node
-        constant = node is None or node.bl_idname in CONSTANT_NODES
-        if constant and any(math.isnan(v) for v in values):
+        if _gives_constant(node) and any(math.isnan(v) for v in values):
             origin = f" from node {node.name!r}" if node is not None else ""
             raise scene_mod.SceneError(f"node {self.node.name!r}: input {name!r} is {value}"
                                        f"{origin} (not a number)")

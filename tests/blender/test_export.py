@@ -12,9 +12,10 @@ from snell.addon import export  # noqa: E402
 from snell.addon.export import depsgraph, materials, meshes  # noqa: E402
 from snell.tracer import scene as scene_mod  # noqa: E402
 from snell.tracer.scene import SceneError  # noqa: E402
-from support.shader_trees import mix_shader_material  # noqa: E402
+from support.shader_trees import mix_nodes, mix_shader_material  # noqa: E402
 
 common = importlib.import_module("common")
+graphs = importlib.import_module("node_materials")
 
 
 @pytest.fixture
@@ -650,29 +651,28 @@ def test_constant_mix_shaders_fold_where_exact(bl):
 
 
 def fresnel_glass(name, ior=1.45, fresnel_ior=None, roughness=0.0, group=False):
-    """Mix(Fresnel, Refraction, Glossy) of smooth BSDFs: the node glass of older files, its
-    refraction (0.4, 0.7, 0.9) and its reflection (0.9, 0.8, 0.7); group: the Fresnel node
-    inside a node group whose IOR input is left at its value."""
-    mat, mix, (refraction, glossy) = mix_shader_material(
-        name, 0.5, ("ShaderNodeBsdfRefraction", {"IOR": ior, "Roughness": 0.0,
-                                                 "Color": (0.4, 0.7, 0.9, 1.0)}),
-        ("ShaderNodeBsdfGlossy", {"Roughness": roughness, "Color": (0.9, 0.8, 0.7, 1.0)}))
+    """The node glass of older files (scenes/node_materials.fresnel_glass: Mix(Fresnel,
+    Refraction, Glossy)), its refraction (0.4, 0.7, 0.9) of IOR ior, its reflection (0.9, 0.8,
+    0.7) of this roughness; group: the Fresnel node inside a node group whose IOR input is left
+    at its value. Returns (material, mix, the node on its Fac)."""
+    mat = graphs.fresnel_glass(ior if fresnel_ior is None else fresnel_ior, refraction_ior=ior,
+                               name=name, transmission=(0.4, 0.7, 0.9),
+                               reflection=(0.9, 0.8, 0.7))
     tree = mat.node_tree
-    fresnel_ior = ior if fresnel_ior is None else fresnel_ior
-    if group:
-        inner = bpy.data.node_groups.new("FresnelFac", "ShaderNodeTree")
-        inner.interface.new_socket("IOR", in_out="INPUT", socket_type="NodeSocketFloat")
-        inner.interface.new_socket("Fac", in_out="OUTPUT", socket_type="NodeSocketFloat")
-        fresnel = inner.nodes.new("ShaderNodeFresnel")
-        inner.links.new(inner.nodes.new("NodeGroupInput").outputs["IOR"],
-                        fresnel.inputs["IOR"])
-        inner.links.new(fresnel.outputs[0], inner.nodes.new("NodeGroupOutput").inputs["Fac"])
-        source = tree.nodes.new("ShaderNodeGroup")
-        source.node_tree = inner
-        source.inputs["IOR"].default_value = fresnel_ior
-    else:
-        source = tree.nodes.new("ShaderNodeFresnel")
-        source.inputs["IOR"].default_value = fresnel_ior
+    mix, fresnel, _, glossy = mix_nodes(mat)
+    glossy.inputs["Roughness"].default_value = roughness
+    if not group:
+        return mat, mix, fresnel
+    inner = bpy.data.node_groups.new("FresnelFac", "ShaderNodeTree")
+    inner.interface.new_socket("IOR", in_out="INPUT", socket_type="NodeSocketFloat")
+    inner.interface.new_socket("Fac", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    grouped = inner.nodes.new("ShaderNodeFresnel")
+    inner.links.new(inner.nodes.new("NodeGroupInput").outputs["IOR"], grouped.inputs["IOR"])
+    inner.links.new(grouped.outputs[0], inner.nodes.new("NodeGroupOutput").inputs["Fac"])
+    source = tree.nodes.new("ShaderNodeGroup")
+    source.node_tree = inner
+    source.inputs["IOR"].default_value = fresnel.inputs["IOR"].default_value
+    tree.nodes.remove(fresnel)
     tree.links.new(source.outputs[0], mix.inputs["Fac"])
     return mat, mix, source
 

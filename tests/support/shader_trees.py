@@ -1,6 +1,12 @@
 """Shader node trees the exporter and validation tests build with bpy."""
 
 
+def mix_nodes(mat):
+    """The material's Mix Shader and the nodes linked to its Fac and its two Shader inputs."""
+    mix = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeMixShader")
+    return (mix, *(mix.inputs[i].links[0].from_node for i in range(3)))
+
+
 def mix_shader_material(name, fac, first, second):
     """A material whose Surface is a Mix Shader (Fac `fac`) of two new shader nodes, and
     (material, mix node, [first node, second node]). Each side is a node idname, (idname,

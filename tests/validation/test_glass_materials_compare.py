@@ -25,6 +25,7 @@ import pytest
 from support.cycles_reference import Reference
 from support.cycles_reference import verdict as _verdict
 from support.programs import material_copy
+from support.shader_trees import mix_nodes
 
 bpy = pytest.importorskip("bpy")
 
@@ -49,8 +50,7 @@ def node_glass():
     Cycles folds, and so does the exporter)."""
     mat = graphs.fresnel_glass(0.0, name="NodeGlass", transmission=TRANSMISSION)
     tree = mat.node_tree
-    mix = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeMixShader")
-    fresnel, refraction, glossy = (mix.inputs[i].links[0].from_node for i in range(3))
+    _, fresnel, refraction, glossy = mix_nodes(mat)
     ior = tree.nodes.new("ShaderNodeValue")
     ior.outputs[0].default_value = 1.45
     for node in (fresnel, refraction):
