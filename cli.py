@@ -444,8 +444,10 @@ def _summary(args, rgb, result, bad_pixels, denoised=None) -> str:
     written = args.output + (f" + {args.png}" if args.png else "")
     stages = getattr(result, "stages", None) or {}
     source = f" {stages['light tracing'][1]}" if stages.get("light tracing", (False,))[0] else ""
+    budget = getattr(result, "light_budget", None)
+    share = f"; {budget.ratio:.3g} per camera path, by the pilot" if budget is not None else ""
     light = (f", {result.light_paths} light paths{source} ({result.stats.get('caustic_splats', 0)} "
-             f"reached the camera)" if result.light_paths else ", no light tracing")
+             f"reached the camera{share})" if result.light_paths else ", no light tracing")
     skipped = ""
     if getattr(result, "stages", None):
         from .tracer.integrator import describe_stages

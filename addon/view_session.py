@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..tracer.scene import SceneError, validate
+from ..tracer.settings import LIGHT_PATHS_PER_CAMERA_PATH
 from . import kernel_warmup
 from .view_camera import scaled
 
@@ -225,10 +226,12 @@ class ViewSession:
         # The final render's time limit is not the viewport's (viewport_time_limit, per session).
         # Denoising, when on, is the viewport's own (each displayed image, from its start
         # sample on), with the passes it asks for: never the final render's.
+        # The light tracer's share is fixed: the first image must not wait for its pilot.
         guided = job.denoise is not None and job.denoise.input_passes != "color"
         settings = job.scene.settings(spp=job.spp, noise_threshold=0.0, time_limit=0.0,
                                       threads=self.threads, denoise=False,
-                                      denoising_passes=guided)
+                                      denoising_passes=guided,
+                                      light_paths_per_camera_path=LIGHT_PATHS_PER_CAMERA_PATH)
         renderer = integrator.Renderer(job.scene, settings,
                                        geometry=self._geometry if reuse else None)
         self._geometry, self._geometry_version = renderer.geometry, job.geometry_version

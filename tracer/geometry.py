@@ -41,6 +41,7 @@ class Geometry:
         self.embree_time = 0.0
         self.ray_count = 0
         self._lock = threading.Lock()
+        self._thread_rays = threading.local()
         tri = triangles.astype(np.int64)
         # (T, 3 corners, xyz): a hit reads its triangle's 72 contiguous bytes, one or two lines.
         corners = positions.astype(np.float64)[tri]
@@ -75,7 +76,14 @@ class Geometry:
         with self._lock:
             self.embree_time += elapsed
             self.ray_count += n
+        self._thread_rays.n = getattr(self._thread_rays, "n", 0) + n
         return out
+
+    def thread_rays(self) -> int:
+        """Rays the calling thread has traced on this geometry."""
+        # A chunk runs on one thread from start to end, so the difference around it is its own
+        # rays whatever else shares the geometry (ray_count is every thread's).
+        return getattr(self._thread_rays, "n", 0)
 
     def intersect(self, o32: np.ndarray, d32: np.ndarray, tmax32: np.ndarray):
         """Closest hits of (n, 3) float32 rays: (primID, -1 = miss; u; v; t). tmax32 is

@@ -18,8 +18,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import (adaptive, jit, light_groups, light_passes, light_tracer, lobes, mnee, passes,
-               path_limits, photon_merging, wavefront)
+from . import (adaptive, jit, light_budget, light_groups, light_passes, light_tracer, lobes,
+               mnee, passes, path_limits, photon_merging, wavefront)
 from . import light_vertices as light_vertices_module
 from .camera import Camera
 from .counters import MNEE_PATHS
@@ -34,13 +34,22 @@ from .passes import CHUNK
 from .pixel_filter import make_filter, spread_splats
 from .result import ExtraRows, RenderResult, Window, WindowSums
 from .scene import Scene, material_field
-from .settings import FRESNEL_MODELS, SAMPLERS, SAMPLING, RenderSettings
+from .settings import (FRESNEL_MODELS, LIGHT_PATHS_PER_CAMERA_PATH, SAMPLERS, SAMPLING,
+                       RenderSettings)
 from .shader import closures, program
 from .shader.bump import with_view
 from .shader.object_inputs import camera_table
 
 
 NO_PHOTONS = photon_merging.new_photons(0)   # light_bounce records none
+
+
+class _BudgetSlot:
+    """The light-budget pilot's choice, once measured, shared by a renderer and its copies."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.budget = None
 
 
 class _Buffers(threading.local):
@@ -165,7 +174,10 @@ class Renderer:
         self.film_transparent = settings.film_transparent
         self.clear = clear_glass(scene.materials, self.materials.kind, settings)
         self.alpha = self.film_transparent or bool(np.any(flags & program.HAS_HOLDOUT))
-        self.light_paths_per_camera_path = settings.light_paths_per_camera_path
+        # The setting's light paths per camera path, or 0: the light-budget pilot's, measured
+        # on first use and shared with this renderer's copies (light_budget.py).
+        self._light_paths = settings.light_paths_per_camera_path
+        self._budget = _BudgetSlot()
         self.light_vertices, self._why_vertices = self._choose_light_vertices(
             settings.light_vertices)
         self.light_vertex_pilot = settings.light_vertex_pilot
@@ -180,6 +192,7 @@ class Renderer:
     def with_camera(self, camera: dict) -> "Renderer":
         """This renderer with another camera (scene format), sharing geometry and tables."""
         other = self._copy()
+        other._budget = _BudgetSlot()       # the pilot measures through the camera
         other.scene = copy.copy(self.scene)
         other.scene.camera = camera
         other.camera = Camera(camera)
@@ -190,6 +203,31 @@ class Renderer:
         other._use_camera_for_caustics()
         return other
 
+    def with_seed(self, seed: int) -> "Renderer":
+        """This renderer with another seed, sharing everything it built."""
+        other = self._copy()
+        other.seed = seed
+        return other
+
+    @property
+    def light_paths_per_camera_path(self) -> float:
+        """Light paths the light tracer traces per camera path: the setting's, or where it is 0
+        and the light tracer splits the paths with the camera, the light-budget pilot's."""
+        if self._light_paths > 0.0 or not self.split:
+            return self._light_paths or LIGHT_PATHS_PER_CAMERA_PATH
+        return self.light_budget().ratio
+
+    def light_budget(self) -> "light_budget.Budget | None":
+        """The light-budget pilot's choice (measured on first call), or None where the setting
+        fixes the ratio or the light tracer does not split the paths."""
+        if self._light_paths > 0.0 or not self.split:
+            return None
+        slot = self._budget
+        with slot.lock:
+            if slot.budget is None:
+                slot.budget = light_budget.measure(self)
+            return slot.budget
+
     def with_sampling(self, **overrides) -> "Renderer":
         """This renderer with other settings of the ones a render reads pass by pass (spp,
         batches, noise_threshold, min_spp, time_limit), sharing everything it built."""
@@ -198,6 +236,7 @@ class Renderer:
                 raise ValueError(f"with_sampling: {key} is fixed when a Renderer is built "
                                  f"(only {', '.join(SAMPLING)} may change)")
         other = self._copy()
+        other._budget = _BudgetSlot()       # the pilot's size follows the samples
         other.settings = self.settings.replace(**overrides)
         return other
 
@@ -658,6 +697,11 @@ class Renderer:
         differ in the last bits from the default's (and a cluster's).
         """
         threshold, _ = passes.adaptive_settings(self.settings)
+        # The light-budget pilot first, so that the result carries its choice; its time is the
+        # render's.
+        pilot_start = time.perf_counter()
+        budget = self.light_budget()
+        pilot_s = time.perf_counter() - pilot_start
         w, h = self.camera.width, self.camera.height
         result = RenderResult(w, h, np.zeros((h, w, 3)), np.zeros((h, w, 3)), threads=self.threads,
                               build_s=self.build_s, light_in_image=self.split,
@@ -673,7 +717,11 @@ class Renderer:
             result.start_light_groups(self.light_groups)
         scheduler = passes.scheduler(self, result, self.settings, every_pass)
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
-            return passes.drive(self, scheduler, pool, progress, stop, self.settings.time_limit)
+            result = passes.drive(self, scheduler, pool, progress, stop,
+                                  self.settings.time_limit)
+        result.time_s += pilot_s
+        result.light_budget = budget
+        return result
 
     @property
     def ray_count(self) -> int:

@@ -77,6 +77,7 @@ class RenderResult:
     light_batch_images: list = field(default_factory=list)
     spp: int = 0
     light_paths: int = 0
+    light_budget: object = None      # the light-budget pilot's choice (light_budget.Budget)
     light_in_image: bool = False     # the hybrid: the light tracer's splats are part of the image
     batches: int = 0
     nan_count: int = 0

@@ -24,10 +24,10 @@ SCENE, RUN, VIEWPORT, ESTIMATOR = "scene", "run", "viewport", "estimator"
 # Integers that size arrays or loops stop here: one past would end the render with an overflow
 # or an allocation failure instead of a named field.
 MAX_INT = 2 ** 31 - 1
-# Light paths traced per camera path when the light tracer runs (light_tracer.py): the value of
-# least relMSE x time on cornell_spheres at 32 spp (tools/measure_caustics_split.py; README,
-# Caustics). From 1/64 to 1/8 the product is flat within the timing noise; more light paths only
-# cost time, since the camera paths' own noise then dominates even in the caustics.
+# Light paths traced per camera path where no pilot measures it (the viewport, whose first
+# image must not wait for one; the light tracer's test mode beside a full path tracer): the value
+# of least relMSE x time on cornell_spheres at 32 spp (tools/measure_caustics_split.py). Where
+# the setting is 0, a pilot measures each scene's (light_budget.py).
 LIGHT_PATHS_PER_CAMERA_PATH = 0.125
 # What threads 0 means outside Blender: every logical core, as Cycles' automatic detection.
 DEFAULT_THREADS = os.cpu_count() or 1
@@ -242,9 +242,9 @@ SETTINGS = (
     Setting("pure_light_tracing", bool, False, "Run the light tracer beside a full path tracer "
             "(not splitting the paths): its light image is a second estimate of the image but "
             "for emitters seen directly or through specular vertices only", scope=ESTIMATOR),
-    Setting("light_paths_per_camera_path", float, LIGHT_PATHS_PER_CAMERA_PATH, "Light paths "
-            "the light tracer traces per camera path", scope=ESTIMATOR, least=0.0,
-            least_excluded=True),
+    Setting("light_paths_per_camera_path", float, 0.0, "Light paths the light tracer traces "
+            "per camera path; 0: measured before the render by a pilot of each kind "
+            "(tracer/light_budget.py)", scope=ESTIMATOR, least=0.0),
     Setting("light_passes", bool, False, "Render the light passes (Emission, Environment, "
             "Diffuse, Glossy and Transmission Direct, Indirect and Color) beside the image; "
             "Blender's View Layer switches and `snell render --passes` ask for them",

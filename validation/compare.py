@@ -13,6 +13,7 @@ import time
 import numpy as np
 
 from ..addon.console import stdout_silenced
+from ..tracer.settings import LIGHT_PATHS_PER_CAMERA_PATH
 from . import cycles, metrics
 
 DEFAULT_CYCLES_SEEDS = 8
@@ -94,6 +95,7 @@ def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_thre
                               denoising_passes=False, film_exposure=1.0,
                               sample_clamp_direct=0.0, sample_clamp_indirect=0.0,
                               transparent_max_bounces=cycles.TRANSPARENT_BOUNCES,
+                              light_paths_per_camera_path=LIGHT_PATHS_PER_CAMERA_PATH,
                               **({} if caustics is None else {"caustics": caustics}))
     if noise_threshold <= 0.0:
         settings = settings.replace(light_vertices=False, spp=batch_spp(spp), batches=BATCHES)
@@ -209,6 +211,9 @@ def snell_settings(scene):
          "from the batches' spread (spp rounded up to a multiple of 16)"),
         ("light vertices", "off", "they find light a path tracer finds only on rare paths; "
          "tests/render/test_light_vertices.py holds them to the image without them"),
+        ("light paths per camera path", LIGHT_PATHS_PER_CAMERA_PATH, "fixed, not the pilot's: "
+         "the per-pixel test needs the light tracer's splats in every batch that the fixed share "
+         "gives; tests/render/test_light_budget.py holds the pilot's image to a fixed share's"),
         ("fresnel", r["fresnel"], "exact is Cycles' rule"),
         ("aperture_radius_m", round(aperture_radius(cam), 6), "lens / (2 fstop) unless overridden"),
         ("focus_distance_m", cam["dof"]["focus_distance"], ""),

@@ -22,6 +22,7 @@ from snell.addon.view_camera import ViewUnsupported, camera_from_view  # noqa: E
 from snell.addon.view_export import LiveExport  # noqa: E402
 from snell.addon.view_updates import classify, full, snapshot  # noqa: E402
 from snell.tracer.camera import Camera  # noqa: E402
+from snell.tracer.settings import LIGHT_PATHS_PER_CAMERA_PATH  # noqa: E402
 from snell.tracer.integrator import Renderer  # noqa: E402
 
 from support.paths import ROOT  # noqa: E402
@@ -288,7 +289,9 @@ def test_session_restarts_on_an_edit_and_renders_what_a_fresh_render_does(captur
         assert done is not None and done.samples == 6 and done.stats["bvh_reused"]
         fresh, _ = export_depsgraph(evaluated())
         fresh = fresh.with_camera(**scene.camera).with_render(spp=6, noise_threshold=0.0)
-        expected = Renderer(fresh, fresh.settings(threads=2)).render().mean()
+        # The viewport's fixed light share, not a final render's pilot (view_session).
+        expected = Renderer(fresh, fresh.settings(
+            threads=2, light_paths_per_camera_path=LIGHT_PATHS_PER_CAMERA_PATH)).render().mean()
         assert np.array_equal(done.image, expected)
         # The first generation stopped within a pass: it never finished its 4096 samples.
         assert session.done_generation == second and not session.refining
@@ -299,7 +302,9 @@ def test_session_restarts_on_an_edit_and_renders_what_a_fresh_render_does(captur
         assert not done.stats["bvh_reused"]
         fresh, _ = export_depsgraph(evaluated())
         fresh = fresh.with_camera(**scene.camera).with_render(spp=2, noise_threshold=0.0)
-        expected = Renderer(fresh, fresh.settings(threads=2)).render().mean()
+        # The viewport's fixed light share, not a final render's pilot (view_session).
+        expected = Renderer(fresh, fresh.settings(
+            threads=2, light_paths_per_camera_path=LIGHT_PATHS_PER_CAMERA_PATH)).render().mean()
         assert np.array_equal(done.image, expected)
     finally:
         assert session.stop(timeout=60)

@@ -11,6 +11,7 @@ import pytest
 from support.caustic_scenes import BATCHES, caustic_room, hybrid_agrees
 from snell.validation import metrics
 from snell.tracer.integrator import Renderer
+from snell.tracer.settings import LIGHT_PATHS_PER_CAMERA_PATH as FIXED_SHARE
 
 SWITCHES = {"reflective off": {"caustics_reflective": False},
             "refractive off": {"caustics_refractive": False}}
@@ -23,8 +24,10 @@ def test_the_switches_partition_the_light_tracers_paths():
     scene = caustic_room(8).with_render(spp=64)
     splats = {}
     for name, switches in {"on": {}, **SWITCHES}.items():
+        # The same light paths in each: a fixed share (the pilot's follows the switches).
         result = Renderer(scene, scene.settings(threads=1, batches=1, light_vertices=False,
                                                 noise_threshold=0.0,
+                                                light_paths_per_camera_path=FIXED_SHARE,
                                                 **switches)).render()
         splats[name] = result.stats["caustic_splats"]
     assert splats["reflective off"] > 0 and splats["refractive off"] > 0, splats

@@ -629,7 +629,7 @@ SNELL_SETTINGS = {
     "denoising_passes": [False, True], "batches": [0, 1, 3],
     "sampler": ["stratified", "independent"],
     "next_event": [False, True], "env_sampling": [False, True], "pure_light_tracing": [False, True],
-    "light_paths_per_camera_path": [1e-6, 1.0, 16.0], "light_vertex_pilot": [False, True],
+    "light_paths_per_camera_path": [0.0, 1e-6, 1.0, 16.0], "light_vertex_pilot": [False, True],
 }
 
 
