@@ -6,16 +6,17 @@ path, is (Vc + Vl / r) / n, for n (cc + r cl) rays: Vc and cc a camera path's va
 over the pixels, each divided by its squared mean, as relMSE weighs it) and rays, Vl and cl a
 light path's. The product of the two is least at r = sqrt(Vl cc / (Vc cl)): the optimal
 allocation of a budget between two estimators that are summed. On a lamp-lit room the light
-paths carry little (Vl small: about 1/16 is best), on a caustic seen through a tumbler's wall
-they carry most of the noise and cost a tenth of a camera path (about 1 is best).
+paths carry little (Vl small), on a caustic seen through a tumbler's wall they carry most of the
+noise and cost a seventh of a camera path's rays (r about 1).
 
-The camera's variance comes from two replicas of the pixels' samples with seeds of their own:
-the stratified sampler's samples of one pixel are not independent, and on a smooth image their
-own variance overstates the error of their mean several times, which would starve the light
-tracer. The pilot's paths have seeds of their own and none of them enters the image, so the ratio does
-not depend on the image's samples: the render stays unbiased. Its cost is rays, not seconds, so
-the ratio, and the image, depend on the scene, settings and seed alone: a cluster's workers each
-choose the ratio the local render does.
+A camera path's variance comes from two replicas of one sample in each pilot pixel, with seeds
+of their own: independent, where the stratified sampler's samples of one pixel are not. The
+render's stratified samples converge faster than 1/n on a smooth image, so there Vc is an upper
+bound and the ratio errs towards fewer light paths. The light paths' variance comes from the
+difference of two halves. No pilot path enters the image, so the ratio does not depend on the
+image's samples: the render stays unbiased. Its cost is rays, not seconds, so the ratio, and the
+image, depend on the scene, settings and seed alone: a cluster's workers each choose the ratio
+the local render does.
 """
 from __future__ import annotations
 
@@ -36,8 +37,8 @@ from .settings import LIGHT_PATHS_PER_CAMERA_PATH
 LEAST, MOST = LIGHT_PATHS_PER_CAMERA_PATH, 4.0
 PILOT_SHARE = 0.01       # the pilot's camera paths, as a share of the render's
 PILOT_LEAST = 4096       # ... and at least this many, for the variance sums
-PILOT_SAMPLES = 2        # camera samples per pilot pixel in each of two replicas
 SEED_KEYS = (0x5EED_B0D6E7, 0x5EED_C1A55)   # the replicas' seeds: the render's xor these
+MEAN_WIDTH = 9           # pilot pixels averaged for a pixel's mean
 # The relative variance's floor under a pixel's squared mean, as the bench's relMSE has it
 # (validation/metrics.py RELMSE_EPS): black pixels do not decide the ratio.
 EPS = 1e-2
@@ -50,14 +51,12 @@ class Budget(NamedTuple):
     light_variance: float     # Vl: one light path a pixel, likewise
     camera_rays: float        # cc: rays per camera path
     light_rays: float         # cl: rays per light path
-    alpha: float              # the camera's stratification: its variance falls as n^-(1+alpha)
 
     def describe(self) -> str:
-        """The choice in words, for the render's stages."""
+        """The choice in words."""
         return (f"{self.ratio:.3g} light paths per camera path (pilot: relative variance "
                 f"{self.camera_variance:.3g} a camera path, {self.light_variance:.3g} a light "
-                f"path; rays {self.camera_rays:.3g} and {self.light_rays:.3g}; camera "
-                f"stratification {self.alpha:.2f})")
+                f"path; rays {self.camera_rays:.3g} and {self.light_rays:.3g})")
 
 
 def best_ratio(camera_variance: float, camera_rays: float, light_variance: float,
@@ -73,50 +72,34 @@ def best_ratio(camera_variance: float, camera_rays: float, light_variance: float
 
 def pilot_pixels(npix: int, spp: int) -> np.ndarray:
     """The image indices the camera pilot samples: every k-th pixel, k from the render's size."""
-    per_pixel = len(SEED_KEYS) * PILOT_SAMPLES
-    paths = min(npix * per_pixel, max(PILOT_LEAST, int(PILOT_SHARE * npix * spp)))
-    step = max(1, npix * per_pixel // paths)
+    replicas = len(SEED_KEYS)
+    paths = min(npix * replicas, max(PILOT_LEAST, int(PILOT_SHARE * npix * spp)))
+    step = max(1, npix * replicas // paths)
     return np.arange(0, npix, step, dtype=np.int64)
 
 
-def relative_variances(replicas, pixels, light_a, light_b, half: int, npix: int,
-                       spp: int) -> tuple[float, float, float]:
-    """(Vc at spp samples a pixel, Vl, the camera's stratification exponent) from the camera
-    pilot's two replicas (each PILOT_SAMPLES sums of one sample, (npix, 3), in `pixels`: every
-    k-th pixel from 0) and the light pilot's two halves' films ((npix, 3), `half` light paths
-    each)."""
-    first, second = ([r[pixels] for r in replica] for replica in replicas)
+def relative_variances(first, second, pixels, light_a, light_b, half: int,
+                       npix: int) -> tuple[float, float]:
+    """(Vc, Vl) from the camera pilot's two replicas ((npix, 3) images of one sample in each of
+    `pixels`, every k-th pixel from 0) and the light pilot's two halves' films ((npix, 3),
+    `half` light paths each)."""
+    a, b = first[pixels], second[pixels]
     # Each pilot pixel stands for the k pixels from it on; its mean (the weights' denominator)
     # is its camera mean and their light, averaged over MEAN_WIDTH neighbours: a pixel's own
-    # samples would weigh a firefly by itself and cancel it.
+    # samples would weigh a firefly by itself and cancel it. (Their median counts every
+    # firefly in a dark pixel in full, 10 to 10^5 times the render's error, which leaves out
+    # its largest terms; the mean counts a little less than the render's error.)
     step = int(pixels[1] - pixels[0]) if pixels.shape[0] > 1 else npix
     light = np.add.reduceat((light_a + light_b) / (2 * half), pixels, axis=0) / step
-    m = _box(sum(first + second) / (2 * PILOT_SAMPLES) + light)
+    m = _box((a + b) / 2 + light)
     weight = 1.0 / (m * m + EPS)
-    scale = npix / pixels.shape[0]
-    # Independent replicas a, b: a sample's variance is E[(a_k - b_k)^2] / 2; the variance of a
-    # mean of the PILOT_SAMPLES, E[(mean a - mean b)^2] / 2.
-    one = float((sum((a - b) ** 2 for a, b in zip(first, second)) / 2 * weight).sum()) \
-        * scale / PILOT_SAMPLES
-    mean = float(((sum(first) - sum(second)) ** 2 / (2 * PILOT_SAMPLES ** 2) * weight).sum()) \
-        * scale
-    # Stratified samples' mean of n has a sample's variance / n^(1 + alpha): alpha from the two,
-    # kept in [0, ALPHA_MOST] (its gain grows more slowly past the first bounces' dimensions).
-    alpha = 0.0
-    if one > 0.0:
-        gain = one / (PILOT_SAMPLES * mean) if mean > 0.0 else math.inf
-        alpha = min(ALPHA_MOST, max(0.0, math.log(gain) / math.log(PILOT_SAMPLES)))
-    camera = one * spp ** -alpha
-    # A light path's variance in pixel p is E[(a - b)^2] half / 2 with a, b the halves' images
+    # Independent samples a, b: a sample's variance is E[(a - b)^2] / 2.
+    camera = float(((a - b) ** 2 / 2 * weight).sum()) * npix / pixels.shape[0]
+    # A light path's variance in pixel p is E[(x - y)^2] half / 2 with x, y the halves' images
     # (films / half): (A - B)^2 / (2 half) in the films.
     per_path = (light_a - light_b) ** 2 / (2 * half)
     nearest = np.minimum(np.arange(npix) // step, pixels.shape[0] - 1)
-    light_variance = float((per_path * weight[nearest]).sum()) / npix
-    return camera, light_variance, alpha
-
-
-ALPHA_MOST = 0.5         # a pixel's edges: the stratified mean's variance falls as n^-1.5
-MEAN_WIDTH = 9           # pilot pixels averaged for a pixel's mean
+    return camera, float((per_path * weight[nearest]).sum()) / npix
 
 
 def _box(x: np.ndarray) -> np.ndarray:
@@ -130,10 +113,9 @@ def _box(x: np.ndarray) -> np.ndarray:
 
 def measure(renderer) -> Budget:
     """Run the pilot of a Renderer whose light tracer splits the paths with its camera."""
-    first, second = (renderer.with_seed(renderer.seed ^ key) for key in SEED_KEYS)
+    replicas = [renderer.with_seed(renderer.seed ^ key) for key in SEED_KEYS]
     npix = renderer.camera.width * renderer.camera.height
-    spp = max(1, renderer.settings.spp)
-    pixels = pilot_pixels(npix, spp)
+    pixels = pilot_pixels(npix, max(1, renderer.settings.spp))
     geometry = renderer.geometry
 
     def counted(fn):
@@ -141,30 +123,28 @@ def measure(renderer) -> Budget:
         out = fn()
         return out, geometry.thread_rays() - before
 
-    replicas = [[np.zeros((npix, 3)) for _ in range(PILOT_SAMPLES)] for _ in SEED_KEYS]
+    images = [np.zeros((npix, 3)) for _ in replicas]
     squares = np.zeros((npix, 3))            # trace_chunk's; the replicas give the variance
     rows = pixels.shape[0]
-    half = max(1, rows * PILOT_SAMPLES)      # light paths in each half: one per camera path
+    half = rows                              # light paths in each half: one per camera path
     light_a, light_b = np.zeros((npix, 3)), np.zeros((npix, 3))
-    bits = max(1, (PILOT_SAMPLES - 1).bit_length())
     camera_rays = light_rays = 0
     with ThreadPoolExecutor(max_workers=renderer.threads) as pool:
-        for replica, samples in zip((first, second), replicas):
-            for k, sums in enumerate(samples):     # sample k of the replica's sequence
-                for _, rays in pool.map(
-                        lambda job, r=replica, k=k, s=sums: counted(lambda: r.trace_chunk(
-                            job[0], job[1], 1, k, pixels, bits, s, squares, passes.NO_ROWS)),
-                        passes.jobs(0, rows, 1)):
-                    camera_rays += rays
+        for replica, image in zip(replicas, images):      # sample 0 of a one-sample sequence
+            for _, rays in pool.map(
+                    lambda job, r=replica, im=image: counted(lambda: r.trace_chunk(
+                        job[0], job[1], 1, 0, pixels, 1, im, squares, passes.NO_ROWS)),
+                    passes.jobs(0, rows, 1)):
+                camera_rays += rays
         for film, (begin, end) in ((light_a, (0, half)), (light_b, (half, 2 * half))):
             jobs = passes.jobs(begin, end, 1)
             splats = []
             for splat, rays in pool.map(
-                    lambda job: counted(lambda: first.trace_light_chunk(0, job[0], job[1])),
+                    lambda job: counted(lambda: replicas[0].trace_light_chunk(0, job[0], job[1])),
                     jobs):
                 splats.append(splat)
                 light_rays += rays
             passes.add_splats(jobs, splats, 0, film, None, np.zeros(len(STATS), np.int64))
-    vc, vl, alpha = relative_variances(replicas, pixels, light_a, light_b, half, npix, spp)
-    cc, cl = camera_rays / (len(SEED_KEYS) * rows * PILOT_SAMPLES), light_rays / (2 * half)
-    return Budget(best_ratio(vc, cc, vl, cl), vc, vl, cc, cl, alpha)
+    vc, vl = relative_variances(*images, pixels, light_a, light_b, half, npix)
+    cc, cl = camera_rays / (len(replicas) * rows), light_rays / (2 * half)
+    return Budget(best_ratio(vc, cc, vl, cl), vc, vl, cc, cl)
