@@ -35,7 +35,7 @@ from .settings import LIGHT_PATHS_PER_CAMERA_PATH
 # is low where its few samples miss the fireflies a render meets, so a lower ratio would starve
 # the caustics.
 LEAST, MOST = LIGHT_PATHS_PER_CAMERA_PATH, 4.0
-PILOT_SHARE = 0.01       # the pilot's camera paths, as a share of the render's
+PILOT_SHARE = 0.005      # the pilot's camera paths, as a share of the render's
 PILOT_LEAST = 4096       # ... and at least this many, for the variance sums
 SEED_KEYS = (0x5EED_B0D6E7, 0x5EED_C1A55)   # the replicas' seeds: the render's xor these
 MEAN_WIDTH = 9           # pilot pixels averaged for a pixel's mean
@@ -126,7 +126,9 @@ def measure(renderer) -> Budget:
     images = [np.zeros((npix, 3)) for _ in replicas]
     squares = np.zeros((npix, 3))            # trace_chunk's; the replicas give the variance
     rows = pixels.shape[0]
-    half = rows                              # light paths in each half: one per camera path
+    # Light paths in each half: half a camera path's, as the light variance is summed over
+    # every pixel and the camera's over the pilot's (a light path often costs more rays).
+    half = max(1, rows // 2)
     light_a, light_b = np.zeros((npix, 3)), np.zeros((npix, 3))
     camera_rays = light_rays = 0
     with ThreadPoolExecutor(max_workers=renderer.threads) as pool:
