@@ -7,7 +7,7 @@ over the pixels, each divided by its squared mean, as relMSE weighs it) and rays
 light path's. The product of the two is least at r = sqrt(Vl cc / (Vc cl)): the optimal
 allocation of a budget between two estimators that are summed. On a lamp-lit room the light
 paths carry little (Vl small), on a caustic seen through a tumbler's wall they carry most of the
-noise and cost a seventh of a camera path's rays (r about 1).
+noise and cost a seventh of a camera path's rays (r 0.5-0.9).
 
 A camera path's variance comes from two replicas of one sample in each pilot pixel, with seeds
 of their own: independent, where the stratified sampler's samples of one pixel are not. The
