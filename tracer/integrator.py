@@ -213,9 +213,10 @@ class Renderer:
     def light_paths_per_camera_path(self) -> float:
         """Light paths the light tracer traces per camera path: the setting's, or where it is 0
         and the light tracer splits the paths with the camera, the light-budget pilot's."""
-        if self._light_paths > 0.0 or not self.split:
-            return self._light_paths or LIGHT_PATHS_PER_CAMERA_PATH
-        return self.light_budget().ratio
+        budget = self.light_budget()
+        if budget is not None:
+            return budget.ratio
+        return self._light_paths or LIGHT_PATHS_PER_CAMERA_PATH
 
     def light_budget(self) -> "light_budget.Budget | None":
         """The light-budget pilot's choice (measured on first call), or None where the setting

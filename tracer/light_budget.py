@@ -52,12 +52,6 @@ class Budget(NamedTuple):
     camera_rays: float        # cc: rays per camera path
     light_rays: float         # cl: rays per light path
 
-    def describe(self) -> str:
-        """The choice in words."""
-        return (f"{self.ratio:.3g} light paths per camera path (pilot: relative variance "
-                f"{self.camera_variance:.3g} a camera path, {self.light_variance:.3g} a light "
-                f"path; rays {self.camera_rays:.3g} and {self.light_rays:.3g})")
-
 
 def best_ratio(camera_variance: float, camera_rays: float, light_variance: float,
                light_rays: float) -> float:
