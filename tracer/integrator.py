@@ -87,6 +87,15 @@ class _Buffers(threading.local):
                                   np.empty((CHUNK, 2)))
         return self.light_buffers
 
+    def split(self, lamps_only: bool):
+        """The Fresnel split's mirror rays for CHUNK paths, its scratch counters (its rays'
+        Russian roulette and depth limits are not the paths' events) and lamps_only
+        (wavefront.split_fresnel)."""
+        if not hasattr(self, "split_buffers"):
+            self.split_buffers = (wavefront.new_paths(CHUNK),
+                                  np.zeros(len(wavefront.STATS), np.int64))
+        return (*self.split_buffers, lamps_only)
+
     def photons(self):
         """A photon buffer for CHUNK light paths (photon merging)."""
         if not hasattr(self, "photon_buffer"):
@@ -173,6 +182,14 @@ class Renderer:
         # The film's alpha: Film > Transparent, or a Holdout, which Cycles renders either way.
         self.film_transparent = settings.film_transparent
         self.clear = clear_glass(scene.materials, self.materials.kind, settings)
+        # The Fresnel split runs where glass chooses between reflection and refraction; where
+        # lamps are the only light it shares (the world's it does not), its mirror rays that
+        # cross none are not traced.
+        self.fresnel_split = settings.fresnel_split and bool(np.any(self.materials.kind[used]
+                                                                    == GLASS))
+        self._lamps_only = not (self.lights.tables.sun_one_minus_cos.shape[0] > 0
+                                or self.programs_emit
+                                or np.any(self.materials.radiance[used] > 0.0))
         self.alpha = self.film_transparent or bool(np.any(flags & program.HAS_HOLDOUT))
         # The setting's light paths per camera path, or 0: the light-budget pilot's, measured
         # on first use and shared with this renderer's copies (light_budget.py).
@@ -291,6 +308,7 @@ class Renderer:
         """Which optional stages this scene runs: {stage: (runs, why)}."""
         used = self.materials.kind[self.materials.of_triangle]
         dielectric = bool(np.isin(used, (GLASS, REFRACTION)).any())
+        glass = bool((used == GLASS).any())
         layered = bool(np.isin(used, (LAYERED, PROGRAM)).any())
         lights = self.lights.tables
         next_event = bool(self.next_event and lights.cdf.shape[0] > 0 and lights.cdf[-1] > 0.0)
@@ -308,6 +326,10 @@ class Renderer:
             "lens sampling": (self.camera.has_lens, "depth of field" if self.camera.has_lens
                               else "no depth of field"),
             "dielectric sampling": (dielectric, "glass" if dielectric else "no smooth glass"),
+            "Fresnel split": (self.fresnel_split, "smooth glass: the light its reflections meet "
+                              "counted whichever way a path goes" if self.fresnel_split else
+                              "off" if glass and not self.settings.fresnel_split else
+                              "no Glass BSDF"),
             "microfacet sampling": (layered, "rough, Principled or node-tree surfaces" if layered
                                     else "no rough, Principled or node-tree surfaces"),
             "transparent shadows": (self.transparent_shadows,
@@ -447,6 +469,7 @@ class Renderer:
         without = without[:n] if pilot else without[:0]
         stats[:] = 0
         stratified = self.sampler == "stratified"
+        split = self._buffers.split(self._lamps_only) if self.fresnel_split else None
         wavefront.clear(radiance, n)
         radiance[:n, 3:] = 0.0         # the light groups' columns, where the render has them
         wavefront.clear(without, without.shape[0])
@@ -481,12 +504,12 @@ class Renderer:
                                            pass_sums, clamp)
             if kept == 0:
                 break
-            m, n_shadow, n_programs = wavefront.materials(
+            m, n_shadow, n_programs, n_split = wavefront.materials(
                 lights, mesh, mats, self.media, self.tables, self.fresnel, self.next_event, bits,
                 stratified, depth, limits, clamp, self.clear, kept, active, paths, prim, u, v, out,
                 shadows, radiance, without, scratch, params, stats, lv, last_connection,
                 feature_albedo, feature_normal, programs, pass_sums,
-                self.mnee.tri_flags)
+                self.mnee.tri_flags, split)
             if self.mnee.lamp.shape[0] > 0:
                 stats[MNEE_PATHS] += mnee.stage(
                     geom, self.mnee, lights, mats, self.tables, self.fresnel, depth, bits,
@@ -506,6 +529,9 @@ class Renderer:
                     self._through_transparency(n_shadow, blocked, shadows, scratch, regs)
                 wavefront.shadow_rays(n_shadow, blocked, shadows, radiance, without, pass_sums,
                                       clamp)
+            if n_split and depth < deepest:     # else the reflections would not be traced
+                self._split_light(split, n_split, depth + 1, radiance, without, active,
+                                  feature_albedo, transparent, pass_sums, (scratch, regs))
             paths, out = out, paths
             if m == 0:
                 break
@@ -513,6 +539,23 @@ class Renderer:
             self._film_extra(extra, n, start, in_pass, first_sample, pixels, radiance,
                              (feature_albedo, feature_normal), pass_sums, transparent)
         return radiance, without, stats
+
+    def _split_light(self, split, n, depth, radiance, without, active, feature_albedo,
+                     transparent, pass_sums, program_scratch) -> None:
+        """The light the Fresnel split's n mirror rays find at their hits
+        (wavefront.split_fresnel), as the emitters of bounce `depth` add it; the rays then
+        end. `active` and program_scratch: scratch."""
+        geom, lights, mats = self.geometry, self.lights.tables, self.materials
+        rays, counters, _ = split
+        prim, u, v, t = geom.intersect(rays.o32[:n], rays.d32[:n], rays.tmax[:n])
+        wavefront.emitters(lights, mats, self.media, self.next_event, self.split_mode,
+                           self.world_split, depth, self.limits, self.clamp, n, rays, prim, t,
+                           radiance, without, active, counters, feature_albedo,
+                           self.film_transparent, transparent, pass_sums, self.mnee.lamp)
+        if self.programs_emit:
+            wavefront.program_emitters(lights, geom.mesh, mats, self.tables, self.split_mode,
+                                       depth, n, rays, prim, u, v, t, radiance, without,
+                                       feature_albedo, *program_scratch, pass_sums, self.clamp)
 
     def _light_vertices(self, n, bits, stratified, paths, lv, stats) -> int:
         """Every camera path's light vertex, before its first bounce (light_vertices.py);

@@ -588,7 +588,7 @@ def specular_vertex(caustics, lights, mats, media, fresnel_model, limits, paths,
     ng_f, ns_f, entering = facing(d, ng, ns)
     key = paths.key[i]
     u_choice, _ = random_pair(key, 1 + bounces, 5)
-    new_d, weight, event, valid = specular.sample_at_hit(
+    new_d, weight, event, valid, _ = specular.sample_at_hit(
         kind, d, ng_f, ns_f, entering, has_normals, colors[0], colors[1], mats.ior[mat],
         fresnel_model, u_choice)
     if not valid or event == specular.TIR_ABSORBED:

@@ -334,7 +334,7 @@ def walk_bounce(mesh, mats, fresnel_model, limits, grid, m, walks, prim, u, v, o
         if bounces + 3 > limits[0]:
             continue              # no room for this vertex, a diffuse one and a specular one
         u_choice, _ = random_pair(walks.key[i], 1 + bounces, 0)
-        new_d, weight, event, valid = specular.sample_at_hit(
+        new_d, weight, event, valid, _ = specular.sample_at_hit(
             kind, d, ng_f, ns_f, entering, has_normals, color, trans_color, mats.ior[mat],
             fresnel_model, u_choice)
         if not valid or event == specular.TIR_ABSORBED:

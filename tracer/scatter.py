@@ -23,7 +23,7 @@ from .light_tracer import CAUSTIC, FIRST_DIFFUSE, NO_CAUSTIC
 from .light_vertices import camera_step_density
 from .lights.codes import VISIBLE_DIFFUSE, VISIBLE_GLOSSY, VISIBLE_TRANSMISSION
 from .lobes import DIFFUSE_EVENT, TRANSMIT_EVENT, TRANSPARENT_EVENT, bsdf_sample
-from .material_kinds import DIFFUSE, LAYERED, MIRROR
+from .material_kinds import DIFFUSE, GLASS, LAYERED, MIRROR
 from .path_limits import drops
 from .receivers import lambert_sampled, layered_lobes
 from .shader.closures import TOTAL_TRANSPARENCY
@@ -163,8 +163,9 @@ def scatter_specular(kind, has_normals, fresnel_model, u0, beta, caustic_in, d, 
     """A mirror, smooth glass or refraction-only vertex (specular.sample_specular): no light
     sample can compete, so the next ray has BSDF density 0. A sample of a kind of caustics the
     hit drops (path_limits.dropped_at) carries nothing: glass keeps the other kind's share, as
-    Cycles' glass with that tint 0."""
-    new_d, weight, event, valid = specular.sample_at_hit(
+    Cycles' glass with that tint 0. Last, glass's reflectance F where it chose between
+    reflection and refraction by it, else 0 (the Fresnel split: wavefront.split_fresnel)."""
+    new_d, weight, event, valid, f = specular.sample_at_hit(
         kind, d, ng_f, ns_f, entering, has_normals, color, trans_color, ior, fresnel_model, u0)
     count_specular(stats, event, valid)
     if drop != 0 and drops(drop, event == specular.TRANSMITTED):
@@ -174,7 +175,20 @@ def scatter_specular(kind, has_normals, fresnel_model, u0, beta, caustic_in, d, 
     beta = vmul(beta, weight) if valid else (0.0, 0.0, 0.0)
     ray_kind = VISIBLE_TRANSMISSION if event == specular.TRANSMITTED else VISIBLE_GLOSSY
     caustic = CAUSTIC if caustic_in != NO_CAUSTIC else NO_CAUSTIC
-    return new_d, beta, ray_kind, 0.0, caustic, 0.0
+    chose = kind == GLASS and (event == specular.REFLECTED or event == specular.TRANSMITTED)
+    return new_d, beta, ray_kind, 0.0, caustic, 0.0, f if chose else 0.0
+
+
+@jit_inline
+def glass_mirror(has_normals, fresnel_model, beta, d, ng_f, ns_f, entering, color, ior, drop):
+    """The mirror reflection a smooth glass hit did not take (it refracted): its direction and
+    throughput beta x colour, zero where Cycles rejects the reflection or the hit drops
+    reflective caustics (the Fresnel split: wavefront.split_fresnel)."""
+    new_d, weight, _, valid, _ = specular.sample_at_hit(
+        GLASS, d, ng_f, ns_f, entering, has_normals, color, color, ior, fresnel_model, 0.0)
+    if not valid or drop != 0 and drops(drop, False):
+        return new_d, (0.0, 0.0, 0.0)
+    return new_d, vmul(beta, weight)
 
 
 @jit

@@ -242,6 +242,10 @@ SETTINGS = (
     Setting("pure_light_tracing", bool, False, "Run the light tracer beside a full path tracer "
             "(not splitting the paths): its light image is a second estimate of the image but "
             "for emitters seen directly or through specular vertices only", scope=ESTIMATOR),
+    Setting("fresnel_split", bool, True, "At smooth glass, count the light the mirror "
+            "reflection finds at its next hit whichever way the path goes (wavefront."
+            "split_fresnel); off: only when the path reflects, as Cycles (the same image, "
+            "noisier in glints)", scope=ESTIMATOR),
     Setting("light_paths_per_camera_path", float, 0.0, "Light paths the light tracer traces "
             "per camera path; 0: measured before the render by a pilot of each kind "
             "(tracer/light_budget.py)", scope=ESTIMATOR, least=0.0),

@@ -64,13 +64,14 @@ def sample_specular(kind, d, ng, n, entering, color, trans_color, ior, fresnel_m
 
     ng and n face the incoming ray (n already bent by valid_reflection_normal where Cycles bends
     it); u in [0, 1) chooses reflection with probability F on glass. Returns (new direction,
-    weight, event, valid): the weight is colour for reflections and transmission colour for
+    weight, event, valid, F): the weight is colour for reflections and transmission colour for
     refractions. valid is False where Cycles rejects the sample: the shading normal faces away
     from the viewer, or the new direction is not on the side its event implies for both normals.
     A refraction-only surface has nothing to give under total internal reflection (event
-    TIR_ABSORBED, weight 0).
+    TIR_ABSORBED, weight 0). Last, the Fresnel reflectance F it chose by (1 for a mirror).
     """
     cos_i = -dot(d, n)
+    f = 1.0
     if kind == MIRROR:
         out, event, weight = reflect(d, n), REFLECTED, color
     else:
@@ -78,7 +79,7 @@ def sample_specular(kind, d, ng, n, entering, color, trans_color, ior, fresnel_m
         f, cos_t = fresnel(fresnel_model, cos_i, eta)
         if f >= 1.0:
             if kind == REFRACTION:
-                return d, (0.0, 0.0, 0.0), TIR_ABSORBED, True
+                return d, (0.0, 0.0, 0.0), TIR_ABSORBED, True, f
             out, event, weight = reflect(d, n), TIR, color
         elif kind == GLASS and u < f:
             out, event, weight = reflect(d, n), REFLECTED, color
@@ -86,7 +87,7 @@ def sample_specular(kind, d, ng, n, entering, color, trans_color, ior, fresnel_m
             out, event, weight = refract(d, n, eta, cos_i, cos_t), TRANSMITTED, trans_color
     refracts = event == TRANSMITTED
     valid = cos_i > 0.0 and (dot(ng, out) < 0.0) == refracts and (dot(n, out) < 0.0) == refracts
-    return out, weight, event, valid
+    return out, weight, event, valid, f
 
 
 @jit_inline

@@ -74,7 +74,8 @@ def batch_spp(spp: int) -> int:
     return max(BATCHES, -(-int(spp) // BATCHES) * BATCHES)
 
 
-def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_threshold=0.0):
+def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_threshold=0.0,
+                 fresnel_split=False):
     """Snell with independent samples: the tests need honest per-pixel variances, which the
     default stratified sampler's correlated samples would over-estimate. In BATCHES equal
     batches (spp rounded up by batch_spp), or with noise_threshold > 0 adaptively (each pixel's
@@ -85,7 +86,11 @@ def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_thre
     below it) that a path tracer, Cycles' included, finds only on rare paths, so Cycles' mean
     there is low in most runs at the sample counts compared, and correct renders failed
     (docs/validation.md). tests/render/test_light_vertices.py holds the image with light vertices to
-    the image without them."""
+    the image without them. The Fresnel split is off unless asked for, for the same reason: it
+    counts the glints (a lamp mirrored in glass or water) that Cycles' samples meet rarely,
+    so in a pixel where Cycles' batches met none its variance is near 0 and correct renders
+    failed; tests/render/test_fresnel_split.py holds the split's image to the image without it,
+    and tests/validation/test_fresnel_split_compare.py to Cycles at 32 times the samples."""
     from ..tracer.integrator import Renderer
     # No time limit (a file's Cycles Time Limit): the comparison is at matched sample counts.
     # Never denoised: a denoised image is biased and its pixels are not independent, so the
@@ -96,6 +101,7 @@ def snell_render(scene, spp, progress=None, threads=2, caustics=None, noise_thre
                               sample_clamp_direct=0.0, sample_clamp_indirect=0.0,
                               transparent_max_bounces=cycles.TRANSPARENT_BOUNCES,
                               light_paths_per_camera_path=LIGHT_PATHS_PER_CAMERA_PATH,
+                              fresnel_split=fresnel_split,
                               **({} if caustics is None else {"caustics": caustics}))
     if noise_threshold <= 0.0:
         settings = settings.replace(light_vertices=False, spp=batch_spp(spp), batches=BATCHES)
@@ -214,6 +220,9 @@ def snell_settings(scene):
         ("light paths per camera path", LIGHT_PATHS_PER_CAMERA_PATH, "fixed, not the pilot's: "
          "the per-pixel test needs the light tracer's splats in every batch that the fixed share "
          "gives; tests/render/test_light_budget.py holds the pilot's image to a fixed share's"),
+        ("Fresnel split", "off", "it counts glints Cycles' samples meet rarely, so a pixel "
+         "where Cycles' batches met none failed; tests/render/test_fresnel_split.py holds the "
+         "split's image to the image without it"),
         ("fresnel", r["fresnel"], "exact is Cycles' rule"),
         ("aperture_radius_m", round(aperture_radius(cam), 6), "lens / (2 fstop) unless overridden"),
         ("focus_distance_m", cam["dof"]["focus_distance"], ""),

@@ -84,11 +84,13 @@ class Reference:
             if mode in ("write", "update"):
                 save_cycles(self.path, self.cycles, self.normals)
 
-    def compare(self, modify=lambda s: s, noise_threshold=0.0, spp=None):
-        """The validator's report dict for Snell (modify: a deliberate change) against Cycles."""
+    def compare(self, modify=lambda s: s, noise_threshold=0.0, spp=None, **snell):
+        """The validator's report dict for Snell (modify: a deliberate change; snell: options of
+        compare.snell_render) against Cycles."""
         from snell.validation import compare
         scene = modify(self.scene)
-        result = compare.snell_render(scene, spp or self.spp, noise_threshold=noise_threshold)
+        result = compare.snell_render(scene, spp or self.spp, noise_threshold=noise_threshold,
+                                      **snell)
         return compare.compare_renders(result, self.cycles, settings=compare.snell_settings(scene),
                                        scene=scene)
 

@@ -32,18 +32,21 @@ def shadow_caustics(scene, on=True):
     return scene
 
 
-def pool(resolution=(32, 32), max_depth=8, lamp_radius=LAMP_RADIUS, lamp=None, **render):
+def pool(resolution=(32, 32), max_depth=8, lamp_radius=LAMP_RADIUS, lamp=None,
+         world=(0.0, 0.0, 0.0), **render):
     """The pool: a 2 m diffuse floor 0.5 m under a wavy water surface (glass, IOR 1.33), a small
     round lamp 2 m above the water (or `lamp`: pool_sun's, pool_area's), the camera 1.4 m above
     the water looking down at the floor through it (every pixel sees the floor through the
-    water). No shadow-caustics flags (shadow_caustics sets them)."""
+    water), a black world (or `world`'s colour). No shadow-caustics flags (shadow_caustics sets
+    them)."""
     floor = quad((0.0, 0.0, 0.0), POOL_HALF, POOL_HALF)
     water = water_surface()
     lamp = lamp or {"name": "Lamp", "kind": "point", "position": [0.3, 0.2, 2.5],
                     "intensity": [20.0, 20.0, 20.0], "radius": lamp_radius}
     cam = look_at((0.0, -0.25, 1.9), (0.0, 0.0, 0.0), resolution, lens=50.0)
     return make_scene([(*floor, 0, _up(len(floor[0]))), (*water[:2], 1, water[2])],
-                      POOL_MATERIALS, cam, lights=[lamp], max_depth=max_depth, **render)
+                      POOL_MATERIALS, cam, world=world, lights=[lamp], max_depth=max_depth,
+                      **render)
 
 
 def pool_sun(angle, irradiance=3.0):

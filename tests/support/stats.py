@@ -6,8 +6,9 @@
   count below 5 pooled (Mitsuba's rule), as the p-value.
 - SphereGrid, integrate_bins: the bins over the sphere a sampled direction falls in, and the
   probability of each bin integrated from a density (adaptive Gauss-Legendre), for chi2_pvalue.
-- estimators_agree(scene, ...): per-pixel and whole-image z-tests between two unbiased
-  estimators of one image (NEE+MIS against BSDF sampling).
+- renders_agree(scene, a, b), estimators_agree(scene, ...): per-pixel and whole-image z-tests
+  between two unbiased estimators of one image (two renders' settings; NEE+MIS against BSDF
+  sampling).
 - region_z(image, variance, reference, ref_variance, region): z of two independent images'
   means over a region (the caustic region of the delta-lamp tests).
 
@@ -137,10 +138,17 @@ def integrate_bins(pdf, grid, tolerance=1e-7, max_depth=6):
 
 def estimators_agree(scene, spp_mis, spp_bsdf, region=None, light_vertices=None):
     """Per-pixel and whole-image z-tests between NEE+MIS and BSDF-only renders of one scene."""
-    from snell.tracer.integrator import Renderer
     vertices = {} if light_vertices is None else {"light_vertices": light_vertices}
-    a = Renderer(scene, scene.settings(spp=spp_mis, **vertices)).render()
-    b = Renderer(scene, scene.settings(next_event=False, spp=spp_bsdf)).render()
+    renders_agree(scene, {"spp": spp_mis, **vertices}, {"next_event": False, "spp": spp_bsdf},
+                  region)
+
+
+def renders_agree(scene, settings_a, settings_b, region=None):
+    """Per-pixel and whole-image z-tests between two renders of one scene by unbiased
+    estimators (settings_a, settings_b: each one's render settings over the scene's)."""
+    from snell.tracer.integrator import Renderer
+    a = Renderer(scene, scene.settings(**settings_a)).render()
+    b = Renderer(scene, scene.settings(**settings_b)).render()
     ma, mb = a.mean().astype(np.float64), b.mean().astype(np.float64)
     va, vb = a.variance_of_mean(), b.variance_of_mean()
     if region is not None:

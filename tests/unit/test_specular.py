@@ -75,23 +75,24 @@ def test_specular_sampling_events_and_cycles_rejections():
     d = (math.sin(math.radians(60)), 0.0, -c)
     f, _ = fresnel.fresnel_dielectric(c, 1.5)
     white, tint = (1.0, 1.0, 1.0), (0.5, 0.6, 0.7)
-    out, w, event, valid = specular.sample_specular(GLASS, d, up, up, True, white, tint, 1.5,
-                                                fresnel.EXACT, 0.999 * f)
+    out, w, event, valid, chose_by = specular.sample_specular(GLASS, d, up, up, True, white,
+                                                              tint, 1.5, fresnel.EXACT, 0.999 * f)
     assert event == specular.REFLECTED and valid and w == white and out[2] > 0
-    out, w, event, valid = specular.sample_specular(GLASS, d, up, up, True, white, tint, 1.5,
-                                                fresnel.EXACT, 1.001 * f)
+    assert chose_by == f          # the probability it reflected with (the Fresnel split's F)
+    out, w, event, valid, _ = specular.sample_specular(GLASS, d, up, up, True, white, tint, 1.5,
+                                                       fresnel.EXACT, 1.001 * f)
     assert event == specular.TRANSMITTED and valid and w == tint and out[2] < 0
     inside = (math.sin(math.radians(60)), 0.0, -c)    # leaving the glass beyond the critical angle
-    _, w, event, _ = specular.sample_specular(REFRACTION, inside, up, up, False, white, white,
-                                          1.5, fresnel.EXACT, 0.5)
+    _, w, event, _, _ = specular.sample_specular(REFRACTION, inside, up, up, False, white, white,
+                                                 1.5, fresnel.EXACT, 0.5)
     assert event == specular.TIR_ABSORBED and w == (0.0, 0.0, 0.0)
-    _, _, event, valid = specular.sample_specular(GLASS, inside, up, up, False, white, white,
-                                              1.5, fresnel.EXACT, 0.5)
+    _, _, event, valid, _ = specular.sample_specular(GLASS, inside, up, up, False, white, white,
+                                                     1.5, fresnel.EXACT, 0.5)
     assert event == specular.TIR and valid
     away = (0.0, 0.0, -1.0)                           # shading normal facing away from the viewer
-    _, _, _, valid = specular.sample_specular(MIRROR, d, up, away, True, white, white, 1.0,
-                                          fresnel.EXACT, 0.5)
-    assert not valid
+    _, _, _, valid, chose_by = specular.sample_specular(MIRROR, d, up, away, True, white, white,
+                                                        1.0, fresnel.EXACT, 0.5)
+    assert not valid and chose_by == 1.0
 
 
 def _projected_solid_angle(direction, theta, phi, h=1e-5):

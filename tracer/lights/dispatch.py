@@ -132,6 +132,15 @@ def lamp_crossed(lights, lamp, o, d, t_surface, ray_kind, pdf_bsdf, connect, mis
 
 
 @jit_inline
+def crosses_a_lamp(lights, o, d, ray_kind):
+    """Whether the ray o + t d of kind ray_kind crosses any lamp (lamp_crossed's, however far)."""
+    for lamp in range(lamps_to_cross(lights)):
+        if lamp_crossed(lights, lamp, o, d, np.inf, ray_kind, 0.0, 0.0, 0.0)[0]:
+            return True
+    return False
+
+
+@jit_inline
 def lights_at_escape(lights, world, lamps):
     """The lights a ray that escapes may see, as light_at_escape's range (first, end): the world
     (if it gives light) if `world`, then the suns if `lamps` (the light tracer's paths get
