@@ -491,21 +491,10 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
         if media.on:
             medium.attenuate_shadows(media, paths.medium, i, tri, mat, entering, ns_f, shadows,
                                      first_shadow, n_shadow)
-        with_features = feature_albedo is not None and paths.feature_on[i] != 0
-        weights = (ONE, ZERO)
-        if light_passes:
-            # Before smooth_lobes: a diffuse hit's shadow rays need no lobes, a layered one's
-            # are still in `lobes` from its scatter.
-            weights = pass_weights_of(kind, paths, i, shadows, first_shadow, n_shadow, lobes,
-                                      count, neg(d), ray_kind, pdf_prev, new_d)
-        if kind != LAYERED and (with_features or light_passes and paths.bounce[i] == 0):
-            count = smooth_lobes(kind, lobes, tables, neg(d), ns_f, entering, color,
-                                 trans_color, mats.ior[mat])
-        if with_features:
-            record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
-                            feature_normal)
-        if light_passes and paths.bounce[i] == 0:
-            add_colors(pass_sums, path, lobes, count, tables, neg(d), beta_in)
+        weights = features_and_passes(kind, paths, i, shadows, first_shadow, n_shadow, lobes,
+                                      count, tables, d, (ns_f, entering), (color, trans_color),
+                                      mats.ior[mat], (ray_kind, pdf_prev, new_d), beta_in,
+                                      feature_albedo, feature_normal, pass_sums)
         kept = go_on(out, n_out, paths, i, u_roulette, (new_d, beta, ray_kind, pdf_prev,
                                                        caustic, connect, 0.0),
                      offset_origin(p, ng, eps, new_d), feature_albedo, stats, media,
@@ -515,36 +504,58 @@ def materials(lights, mesh, mats, media, tables, fresnel_model, next_event, bits
                                          reflected(new_d, ng_f, ns_f, pdf_prev))
         if light_passes:
             carry_pass_weights(out, n_out, kept, weights)
-        # Only before the path's first diffuse bounce: glints are seen through mirrors and
-        # glass, and after a diffuse bounce a mirror ray seldom meets a lamp the light tracer
-        # does not carry (split at every bounce, cornell_spheres took 6-8% longer for 2-7%
-        # less error).
-        if split is not None and share > 0.0 and kind_count(paths.kinds[i],
-                                                             DIFFUSE_BOUNCE) == 0:
-            if ray_kind == VISIBLE_GLOSSY:
-                if kept > n_out:
-                    out.light_scale[n_out] = share
-            else:
-                mirror_d, mirror_beta = glass_mirror(has_normals, fresnel_model, beta_in, d,
-                                                     ng_f, ns_f, entering, color,
-                                                     mats.ior[mat], drop)
-                stats[FRESNEL_SPLITS] += 1
-                n_split = split_fresnel(lights, split, n_split, paths, i, u_roulette, mirror_d,
-                                        mirror_beta, share, caustic,
-                                        offset_origin(p, ng, eps, mirror_d),
-                                        feature_albedo, media, (tri, mat, entering, ng_f), clear,
-                                        mnee_flags, light_passes)
+        if split is not None and share > 0.0:
+            n_split = split_fresnel(lights, split, n_split, out, n_out, kept, paths, i,
+                                    u_roulette, ray_kind, share, caustic, beta_in, d,
+                                    (p, ng, ng_f, ns_f, eps), has_normals, fresnel_model,
+                                    (tri, mat, entering, color, mats.ior[mat]), drop,
+                                    feature_albedo, media, clear, mnee_flags, light_passes,
+                                    stats)
         n_out = kept
     return n_out, n_shadow, n_programs, n_split
 
 
 @jit_inline
-def split_fresnel(lights, split, n_split, paths, i, u_roulette, mirror_d, beta, share, caustic,
-                  origin, feature_albedo, media, surface, clear, mnee_flags, light_passes):
-    """The Fresnel split at a smooth glass hit of path i that refracted: queue the mirror
-    reflection it did not take (direction mirror_d, throughput beta: the path's times colour)
-    as row n_split of the split's rays, which count the light at their hit at F (`share`) and
-    end; returns the new count.
+def features_and_passes(kind, paths, i, shadows, first_shadow, n_shadow, lobes, count, tables,
+                        d, normal, colors, ior, scattered, beta_in, feature_albedo,
+                        feature_normal, pass_sums):
+    """Path i's hit applied to its denoising features and light passes, where the render
+    makes them (features.py, light_passes.py): returns the (diffuse, glossy) pass weights its
+    next ray (`scattered`: ray kind, BSDF density, direction) carries."""
+    light_passes = pass_sums is not None
+    with_features = feature_albedo is not None and paths.feature_on[i] != 0
+    ray_kind, pdf_prev, new_d = scattered
+    weights = (ONE, ZERO)
+    if light_passes:
+        # Before smooth_lobes: a diffuse hit's shadow rays need no lobes, a layered one's
+        # are still in `lobes` from its scatter.
+        weights = pass_weights_of(kind, paths, i, shadows, first_shadow, n_shadow, lobes,
+                                  count, neg(d), ray_kind, pdf_prev, new_d)
+    if kind != LAYERED and (with_features or light_passes and paths.bounce[i] == 0):
+        count = smooth_lobes(kind, lobes, tables, neg(d), normal[0], normal[1], colors[0],
+                             colors[1], ior)
+    if with_features:
+        record_features(lobes, count, tables, neg(d), paths, i, feature_albedo,
+                        feature_normal)
+    if light_passes and paths.bounce[i] == 0:
+        add_colors(pass_sums, paths.path[i], lobes, count, tables, neg(d), beta_in)
+    return weights
+
+
+@jit_inline
+def split_fresnel(lights, split, n_split, out, n_out, kept, paths, i, u_roulette, ray_kind,
+                  share, caustic, beta_in, d, hit, has_normals, fresnel_model, surface, drop,
+                  feature_albedo, media, clear, mnee_flags, light_passes, stats):
+    """The Fresnel split at a smooth glass hit of path i of reflectance F (`share`), before
+    the path's first diffuse bounce: a path that reflected (its next ray row n_out of out,
+    if kept > n_out) counts the light at its next hit at F; one that refracted queues the
+    mirror reflection it did not take (throughput: the path's times colour) as row n_split
+    of the split's rays, which count the light at their hit at F and end. Returns the new
+    count of those rays.
+
+    Only before the first diffuse bounce: glints are seen through mirrors and glass, and
+    after a diffuse bounce a mirror ray seldom meets a lamp the light tracer does not carry
+    (split at every bounce, cornell_spheres took 6-8% longer for 2-7% less error).
 
     Glass picks reflection with probability F, and a path that reflects off water or a window
     rarely meets the lamp it mirrors: a glint's pixels are a few bright samples among dark
@@ -563,17 +574,29 @@ def split_fresnel(lights, split, n_split, paths, i, u_roulette, mirror_d, beta, 
     (in a white furnace exact, where the split's would vary by F (1 - F)). So where lamps are
     the only light the split shares (no emissive surface, no sun), a mirror ray that crosses no
     lamp would find nothing and is not traced: most miss a small lamp."""
+    if kind_count(paths.kinds[i], DIFFUSE_BOUNCE) > 0:
+        return n_split
+    if ray_kind == VISIBLE_GLOSSY:
+        if kept > n_out:
+            out.light_scale[n_out] = share
+        return n_split
+    p, ng, ng_f, ns_f, eps = hit
+    tri, mat, entering, color, ior = surface
+    mirror_d, beta = glass_mirror(has_normals, fresnel_model, beta_in, d, ng_f, ns_f, entering,
+                                  color, ior, drop)
+    stats[FRESNEL_SPLITS] += 1
+    origin = offset_origin(p, ng, eps, mirror_d)
     rays, counters, lamps_only = split
     if lamps_only and not crosses_a_lamp(lights, origin, mirror_d, VISIBLE_GLOSSY):
         return n_split
     made = go_on(rays, n_split, paths, i, u_roulette, (mirror_d, beta, VISIBLE_GLOSSY, 0.0,
                                                        caustic, 0.0, 0.0),
-                 origin, feature_albedo, counters, media, surface, clear)
+                 origin, feature_albedo, counters, media, (tri, mat, entering, ng_f), clear)
     if made > n_split:
         rays.light_scale[n_split] = share
         rays.world_scale[n_split] = 0.0
         if mnee_flags.shape[0] > 0:     # glass is no receiver: a reflection ends a chain
-            rays.mnee[n_split] = mnee_after(mnee_flags, paths.mnee[i], surface[0], GLASS,
+            rays.mnee[n_split] = mnee_after(mnee_flags, paths.mnee[i], tri, GLASS,
                                             VISIBLE_GLOSSY, False)
         if light_passes:
             weights = (row(paths.pass_diffuse, i), row(paths.pass_glossy, i))
