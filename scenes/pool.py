@@ -25,9 +25,10 @@ SUN_DIRECTION, SUN_IRRADIANCE = (-0.12, -0.08, -1.0), 3.0
 AREA_SIZE, AREA_POWER = 0.5, 78.5          # W: radiance P / (pi A) = 100
 
 
-def build(path, light="point", floor=None):
+def build(path, light="point", floor=None, caustics=True):
     """Build the scene and save it to path; light: "point", "sun" or "area"; floor: a function
-    making the floor's material (default: white diffuse)."""
+    making the floor's material (default: white diffuse); caustics: Cycles' shadow-caustics
+    flags set (off: Cycles renders the water's caustic with its plain path tracer)."""
     scene = common.new_scene((0.0, 0.0, 0.0))
     floor = common.floor("Floor", POOL_HALF, floor() if floor else
                          common.material("Floor", "diffuse", (0.8, 0.8, 0.8)))
@@ -39,7 +40,8 @@ def build(path, light="point", floor=None):
             "sun": lambda: common.sun("Sun", SUN_DIRECTION, SUN_IRRADIANCE),
             "area": lambda: common.area_lamp("Area", AREA_POWER, AREA_SIZE, LAMP_POSITION,
                                              None)}[light]()
-    common.shadow_caustics(lamp, [water], [floor])
+    if caustics:
+        common.shadow_caustics(lamp, [water], [floor])
     common.camera(scene, CAMERA, TARGET, lens=50.0)
     return common.save(path)
 

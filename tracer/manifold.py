@@ -14,6 +14,15 @@ straight segment x0 y) onto the manifold; the implicit function theorem then giv
 with y, whose determinant is the generalized geometry term that turns the lamp's area density
 into x0's solid angle.
 
+A point or spot lamp of radius r > 0 is a disk that faces whoever sees it (lights/point.py),
+so the last vertex's lamp point moves with it (facing_disk_point): its offset from the centre,
+uniform on the disk, turns with the disk. The last vertex's constraint then changes through y
+as well as directly (fill_system's y_motion), and the transfer determinant is per unit of the
+disk's area as that vertex sees it, the measure of the path tracer's ray that finds the lamp.
+Cycles' shadow caustics keep the point on the disk that faces the receiver and take the
+Jacobian in the plane across the last segment (kernel/light/point.h,
+point_light_mnee_sample_update), which overstates the light (docs/measurements.md).
+
 A sun's chain ends in a fixed direction instead of a point y (Cycles' light_fixed_direction):
 the last vertex's wo is that direction whatever the vertex does, and the lamp's two coordinates
 are the direction's own along two unit tangents of it, so the transfer determinant is per unit
@@ -270,13 +279,14 @@ def vertex_row(a, i):
 
 
 @jit_inline
-def fill_system(m, k, x0, y, y_ab, fixed, pos, n, dn_da, dn_db, ta, tb, ng, ior):
+def fill_system(m, k, x0, y, y_ab, fixed, pos, n, dn_da, dn_db, ta, tb, ng, ior, y_motion):
     """Fill m[:2k] (SYSTEM_COLUMNS) for the chain x0, pos[0 .. k), y (vertex i: shading normal
     n[i] and its derivatives, tangents ta[i], tb[i] of its triangle, geometric normal ng[i],
-    index ior[i]; y_ab the lamp's tangents at y; y a direction where fixed): each vertex's
-    blocks of the constraint's Jacobian in the vertices' tangent coordinates, the last one's
-    derivatives in y's, and the constraint itself. Returns the largest |constraint| of a
-    vertex."""
+    index ior[i]; y_ab the lamp's tangents at y; y a direction where fixed; y_motion how y moves
+    along the last vertex's tangents, zero but for a lamp that faces it, facing_disk_point):
+    each vertex's blocks of the constraint's Jacobian in the vertices' tangent coordinates, the
+    last one's derivatives in y's, and the constraint itself. Returns the largest |constraint|
+    of a vertex."""
     worst = 0.0
     for i in range(k):
         p = vertex_row(pos, i)
@@ -294,6 +304,13 @@ def fill_system(m, k, x0, y, y_ab, fixed, pos, n, dn_da, dn_db, ta, tb, ng, ior)
         before, here, after = constraint_derivatives(
             p_prev, p, p_next, ni, vertex_row(dn_da, i), vertex_row(dn_db, i), a, b, ngi,
             ior[i], prev_ab, next_ab, fixed and last)
+        if last and (dot(y_motion[0], y_motion[0]) > 0.0 or dot(y_motion[1], y_motion[1]) > 0.0):
+            # y moves with the vertex: its constraint's change through y joins its own.
+            _, _, through_y = constraint_derivatives(
+                p_prev, p, p_next, ni, vertex_row(dn_da, i), vertex_row(dn_db, i), a, b, ngi,
+                ior[i], prev_ab, y_motion, False)
+            here = (here[0] + through_y[0], here[1] + through_y[1], here[2] + through_y[2],
+                    here[3] + through_y[3])
         put_block(m, 2 * i, BEFORE, before)
         put_block(m, 2 * i, HERE, here)
         # The last vertex's next is the lamp: its block is dC/dy; the others' dC/dy is zero.
@@ -301,6 +318,27 @@ def fill_system(m, k, x0, y, y_ab, fixed, pos, n, dn_da, dn_db, ta, tb, ng, ior)
         if not last:
             put_block(m, 2 * i, DY, (0.0, 0.0, 0.0, 0.0))
     return worst
+
+
+@jit_inline
+def facing_disk_point(c, q, u0, p):
+    """The point of the disk of centre c that faces p (its normal the unit direction from c to
+    p) at the offset q of the disk facing u0 (q perpendicular to u0): q turned by the least
+    rotation taking u0 to that normal, which keeps the disk's area."""
+    u, _ = unit_towards(c, p)
+    g = dot(u, q) / (1.0 + dot(u0, u))
+    return madd(add(c, q), -g, add(u0, u))
+
+
+@jit_inline
+def facing_disk_motion(c, q, u0, p, e):
+    """How facing_disk_point(c, q, u0, p) moves when p moves by e."""
+    u, distance = unit_towards(c, p)
+    du = _unit_derivative(u, distance, e)
+    turn = 1.0 + dot(u0, u)
+    g = dot(u, q) / turn
+    dg = (dot(du, q) - g * dot(u0, du)) / turn
+    return add(mul(add(u0, u), -dg), mul(du, -g))
 
 
 @jit_inline

@@ -5,9 +5,11 @@ shadow caustics, kernel/integrator/mnee.h). The formulas are manifold.py's; this
 Where it runs is the file's: Cycles' shadow-caustics flags (an object's caustics caster and
 receiver, a lamp's caustics light; docs/scene-format.md). At a vertex on a receiver (diffuse,
 layered or a shader program's: RECEIVING_KINDS) the stage samples a caustics lamp and on it a
-point y (point and spot lamps of radius > 0: the disk that faces the vertex x0; area lamps of
-spread > 0: a point uniform on the lamp) or, for a sun, a direction (uniform in its cone; a sun
-of angle 0: its one direction, and y stands for that direction, manifold.py's fixed direction),
+point y (point and spot lamps of radius > 0: uniform on the disk that faces the chain's last
+vertex, as the path tracer's ray from that vertex finds it, so y turns with that vertex as the
+walk moves it: face_last_vertex; area lamps of spread > 0: a point uniform on the lamp) or, for
+a sun, a direction (uniform in its cone; a sun of angle 0: its one direction, and y stands for
+that direction, manifold.py's fixed direction),
 follows the segment x0 y collecting the smooth refracting triangles of casters it crosses (other
 objects are passed, as in Cycles; at most manifold.MAX_CASTERS), walks that seed chain onto the
 specular manifold by Newton's method (each step's points projected back onto their objects by a
@@ -71,9 +73,10 @@ from .lights.dispatch import delta_lamp
 from .lights.point import point_lamp_radiance, spot_attenuation
 from .lights.sun import sample_sun
 from .lobes import DIFFUSE_EVENT, REFLECT_EVENT, bsdf_eval
-from .manifold import (MAX_CASTERS, SYSTEM_COLUMNS, C, fill_system, geometry_term,
-                       normal_derivatives, refraction_weight, relative_ior, solve_blocks,
-                       toward_next, transfer_determinant, unit_towards, vertex_row)
+from .manifold import (MAX_CASTERS, SYSTEM_COLUMNS, C, facing_disk_motion, facing_disk_point,
+                       fill_system, geometry_term, normal_derivatives, refraction_weight,
+                       relative_ior, solve_blocks, toward_next, transfer_determinant,
+                       unit_towards, vertex_row)
 from .material_kinds import DIFFUSE, GLASS, LAYERED, PROGRAM, REFRACTION
 from .path_limits import DIFFUSE_BOUNCE, GLOSSY_BOUNCE, TRANSMISSION_BOUNCE, add_bounce, \
     clamp_light, clamp_limit, dropped_at, within_limits
@@ -263,6 +266,8 @@ class Chains(NamedTuple):
     lamp_kind: np.ndarray    # (n,) its codes kind
     fixed: np.ndarray        # (n,) 1: y is a direction (a sun's), 0: a point
     y: np.ndarray            # (n, 3) the lamp point (or direction)
+    centre: np.ndarray       # (n, 3) a point lamp's centre, and y's offset from it on the disk
+    offset: np.ndarray       # (n, 3) that faces x0 (facing_disk_point turns it to face xk)
     y_ab: np.ndarray         # (n, 2, 3) the lamp's unit tangents at y
     pdf: np.ndarray          # (n,) pick x area density of y (solid-angle density for a sun)
     state: np.ndarray        # (n,) PROBING ... FAILED
@@ -308,6 +313,7 @@ def new_chains(n: int) -> Chains:
         path=i(n), x0=f(n, 3), ng0=f(n, 3), ns0=f(n, 3), eps0=f(n), weight=f(n, 3), tri0=i(n),
         uv0=f(n, 2), view0=f(n, 3), entering0=i(n), ray0=i(n, 3),
         length0=f(n), limit=f(n), lamp=i(n), lamp_kind=i(n), fixed=i(n), y=f(n, 3),
+        centre=f(n, 3), offset=f(n, 3),
         y_ab=f(n, 2, 3), pdf=f(n), state=i(n), bent=i(n), k=i(n), room_diffuse=i(n),
         room_glossy=i(n), prim=i(n, v), pos=f(n, v, 3), n=f(n, v, 3), dn_da=f(n, v, 3),
         dn_db=f(n, v, 3), ta=f(n, v, 3), tb=f(n, v, 3), ng=f(n, v, 3), ior=f(n, v),
@@ -453,6 +459,10 @@ def seed_chains(tables, lights, mesh, mats, depth, bits, strat, limits, clamp, n
         chains.lamp_kind[n] = kind
         chains.fixed[n] = kind == SUN
         store(chains.y, n, y)
+        if kind == POINT:
+            c = row(lights.point_pos, lamp)
+            store(chains.centre, n, c)
+            store(chains.offset, n, sub(y, c))
         store(chains.y_ab[n], 0, ta)
         store(chains.y_ab[n], 1, tb)
         chains.pdf[n] = pmf * density
@@ -476,7 +486,7 @@ def sample_lamp(lights, kind, lamp, p, u0, u1):
         y = area_lamp_point(lights, lamp, u0, u1)
         return (y, row(lights.area_ex, lamp), row(lights.area_ey, lamp),
                 1.0 / lights.area_area[lamp])
-    # A point lamp's disk faces the receiver vertex.
+    # A point lamp's disk faces the receiver vertex (the walk turns it: face_last_vertex).
     c = row(lights.point_pos, lamp)
     r = lights.point_radius[lamp]
     toward, _ = unit_towards(c, p)
@@ -638,10 +648,11 @@ def newton_rays(mesh, chains, n):
             continue
         k = chains.k[c]
         if chains.resolve[c]:
+            y_motion = face_last_vertex(chains, c, k)
             worst = fill_system(system, k, row(chains.x0, c), row(chains.y, c), (
                 row(chains.y_ab[c], 0), row(chains.y_ab[c], 1)), chains.fixed[c] != 0,
                 chains.pos[c], chains.n[c], chains.dn_da[c], chains.dn_db[c], chains.ta[c],
-                chains.tb[c], chains.ng[c], chains.ior[c])
+                chains.tb[c], chains.ng[c], chains.ior[c], y_motion)
             if solve_blocks(system, k) == 0.0:
                 chains.state[c] = FAILED
                 continue
@@ -665,6 +676,26 @@ def newton_rays(mesh, chains, n):
             queue_ray(chains, m, c, segment_origin(mesh, chains, c, i, moved), moved, 2.0)
             m += 1
     return m
+
+
+@jit_inline
+def face_last_vertex(chains, c, k):
+    """Turn a point lamp's disk to face chain c's last vertex xk, as the path tracer's ray from
+    xk sees it (lights/point.py), moving y with it (facing_disk_point); returns how y moves
+    along xk's tangents (zero for the other lamps, whose points stay)."""
+    zero = (0.0, 0.0, 0.0)
+    if chains.lamp_kind[c] != POINT:
+        return zero, zero
+    centre, offset = row(chains.centre, c), row(chains.offset, c)
+    facing_x0, _ = unit_towards(centre, row(chains.x0, c))
+    p = vertex_row(chains.pos[c], k - 1)
+    store(chains.y, c, facing_disk_point(centre, offset, facing_x0, p))
+    normal, _ = unit_towards(centre, p)
+    ta, tb = orthonormal_basis(normal)
+    store(chains.y_ab[c], 0, ta)
+    store(chains.y_ab[c], 1, tb)
+    return (facing_disk_motion(centre, offset, facing_x0, p, vertex_row(chains.ta[c], k - 1)),
+            facing_disk_motion(centre, offset, facing_x0, p, vertex_row(chains.tb[c], k - 1)))
 
 
 @jit

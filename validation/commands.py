@@ -99,6 +99,8 @@ def cmd_compare(args) -> int:
               f"FLIP {data['flip'] if data['flip'] is None else round(data['flip'], 4)}{alpha}, "
               f"Snell {data['snell']['time_s']:.1f}s, "
               f"Cycles {data['cycles']['time_s']:.1f}s -> {html}")
+        for caveat in data.get("cycles_caveats") or []:
+            print(f"snell compare: note: {caveat}")
     else:
         print(f"snell compare: {data['verdict']} ({'; '.join(data['not_comparable'])}) -> {html}")
     return 0

@@ -71,7 +71,7 @@ def metrics_json(result) -> dict:
             "z_critical_normal", "tile_size", "tiles", "tiles_failed", "tile_max_abs_z",
             "sharpness_z", "sharpness_p", "sharpness_df", "sharpness_template",
             "sharpness_left_out", "failed_tests", "failing_tiles", "alpha_test", "light_allowance",
-            "mean_variance_from", "exporter_notes",
+            "mean_variance_from", "exporter_notes", "cycles_caveats",
             "max_abs_z", "mean_a", "mean_b", "mean_a_se", "mean_b_se", "mean_z", "mean_ratio",
             "mean_ratio_se", "relmse", "relmse_eps", "relmse_dropped_fraction", "rmse",
             "bias_rmse", "noise_rmse", "flip", "label", "scene", "exporter_warnings",
@@ -299,6 +299,9 @@ def _write_comparison(directory, result, title, figures):
     if result.get("exporter_warnings"):
         body += "<h3>Exporter warnings</h3><ul>" + "".join(
             f"<li>{html.escape(w)}</li>" for w in result["exporter_warnings"]) + "</ul>"
+    if result.get("cycles_caveats"):
+        body += "<h3>Where Cycles is biased</h3><ul>" + "".join(
+            f"<li>{html.escape(c)}</li>" for c in result["cycles_caveats"]) + "</ul>"
     if result.get("exporter_notes"):
         body += ("<p class='small'>Of these, the verdict does not count (Cycles renders their "
                  "cause the same way): " + "; ".join(html.escape(w)

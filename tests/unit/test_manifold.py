@@ -143,6 +143,7 @@ def test_solve_blocks_matches_numpy(k):
 
 IOR = 1.33
 UP = (0.0, 0.0, 1.0)
+STILL = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))      # a lamp point that does not move with x1
 
 
 def _lamp_tangents(y, fixed):
@@ -158,7 +159,7 @@ def _flat_system(x0, y, x1, fixed=False):
     rows = lambda v: np.array([v], np.float64)   # noqa: E731
     worst = manifold.fill_system(m, 1, tuple(x0), tuple(y), _lamp_tangents(y, fixed), fixed,
                                  rows(x1), rows(UP), np.zeros((1, 3)), np.zeros((1, 3)), rows(a),
-                                 rows(b), rows(UP), np.array([IOR]))
+                                 rows(b), rows(UP), np.array([IOR]), STILL)
     return m, worst, a, b
 
 
@@ -213,6 +214,101 @@ def test_geometry_term_is_the_solid_angle_per_lamp_area():
     # Without the interface (ior 1) it is the plain cos / d^2 of a lamp facing up.
     d = y - x0
     assert solid_angle != pytest.approx(abs(d[2]) / np.linalg.norm(d) ** 3, rel=0.05)
+
+
+# -- a point lamp's disk, which faces the vertex that sees it (lights/point.py) ---------------
+
+CENTRE = np.array([1.2, 0.5, 2.0])
+FACING_X0 = np.array([0.1, -0.2, -0.7]) - CENTRE
+FACING_X0 /= np.linalg.norm(FACING_X0)
+
+
+def _disk_offset(s, t):
+    """The offset s a + t b on the disk facing x0 (a, b its tangents)."""
+    a, b = (np.array(e) for e in orthonormal_basis(tuple(FACING_X0)))
+    return s * a + t * b
+
+
+def test_the_facing_disks_point_turns_with_the_vertex_and_keeps_its_offset():
+    """facing_disk_point: on the disk facing p at |q| from its centre, q itself where p is on
+    q's own disk's axis; facing_disk_motion against finite differences."""
+    q = tuple(_disk_offset(0.3, -0.2))
+    on_axis = tuple(CENTRE + 2.5 * FACING_X0)
+    assert manifold.facing_disk_point(tuple(CENTRE), q, tuple(FACING_X0), on_axis) == \
+        pytest.approx(tuple(CENTRE + q), abs=1e-12)
+    p = np.array([0.4, 0.1, 0.0])
+    y = np.array(manifold.facing_disk_point(tuple(CENTRE), q, tuple(FACING_X0), tuple(p)))
+    normal = (p - CENTRE) / np.linalg.norm(p - CENTRE)
+    assert np.dot(y - CENTRE, normal) == pytest.approx(0.0, abs=1e-12)
+    assert np.linalg.norm(y - CENTRE) == pytest.approx(np.linalg.norm(q), rel=1e-12)
+    assert np.linalg.norm(y - CENTRE - q) > 0.01            # it turned
+    h = 1e-6
+    for e in np.eye(3):
+        moved = [np.array(manifold.facing_disk_point(tuple(CENTRE), q, tuple(FACING_X0),
+                                                     tuple(p + sign * h * e)))
+                 for sign in (1, -1)]
+        motion = manifold.facing_disk_motion(tuple(CENTRE), q, tuple(FACING_X0), tuple(p),
+                                             tuple(e))
+        assert motion == pytest.approx(tuple((moved[0] - moved[1]) / (2 * h)), abs=1e-8)
+
+
+def _facing_system(x0, q, x1, turning=True):
+    """fill_system for one vertex x1 on the plane z = 0 and the lamp point of offset q on the
+    disk of centre CENTRE that faces x1 (turning: the point moves with x1)."""
+    m = np.zeros((12, manifold.SYSTEM_COLUMNS))
+    a, b = orthonormal_basis(UP)
+    args = tuple(CENTRE), tuple(q), tuple(FACING_X0), tuple(x1)
+    y = manifold.facing_disk_point(*args)
+    normal = (x1 - CENTRE) / np.linalg.norm(x1 - CENTRE)
+    motion = (manifold.facing_disk_motion(*args, a), manifold.facing_disk_motion(*args, b))
+    if not turning:
+        motion = STILL
+    rows = lambda v: np.array([v], np.float64)   # noqa: E731
+    worst = manifold.fill_system(m, 1, tuple(x0), y, orthonormal_basis(tuple(normal)), False,
+                                 rows(x1), rows(UP), np.zeros((1, 3)), np.zeros((1, 3)), rows(a),
+                                 rows(b), rows(UP), np.array([IOR]), motion)
+    return m, worst, a, b
+
+
+def _solve_facing(x0, q, iterations=40):
+    """x0's unit direction to x1 and x1 of the chain to the facing disk's point of offset q."""
+    x0 = np.asarray(x0, float)
+    d = CENTRE + q - x0
+    x1 = x0 + d * (-x0[2] / d[2])
+    for _ in range(iterations):
+        m, worst, a, b = _facing_system(x0, q, x1)
+        if worst < 1e-13:
+            break
+        assert manifold.solve_blocks(m, 1) != 0.0
+        x1 = x1 - m[0, manifold.C] * np.array(a) - m[1, manifold.C] * np.array(b)
+    w = x1 - x0
+    return w / np.linalg.norm(w), x1
+
+
+def test_a_facing_disks_geometry_term_is_the_solid_angle_per_disk_area():
+    """The chain to a point lamp's disk that faces its last vertex (the disk the path tracer's
+    ray from that vertex finds): the walk converges with the lamp point moving with x1, and
+    the geometry term is x0's solid angle per unit of the disk's area, against finite
+    differences of the solved chain over the offset. With the disk held facing x0 instead
+    (the lamp point not moving with x1) it is not."""
+    x0 = np.array([0.1, -0.2, -0.7])
+    q = _disk_offset(0.6, -0.4)
+    w, x1 = _solve_facing(x0, q)
+    m, worst, _, _ = _facing_system(x0, q, x1)
+    assert worst < 1e-12
+    manifold.solve_blocks(m, 1)
+    g = manifold.geometry_term(tuple(x0), tuple(x1), UP, manifold.transfer_determinant(m))
+    h = 1e-5
+    ws = (_solve_facing(x0, q + _disk_offset(h, 0))[0] -
+          _solve_facing(x0, q - _disk_offset(h, 0))[0]) / (2 * h)
+    wt = (_solve_facing(x0, q + _disk_offset(0, h))[0] -
+          _solve_facing(x0, q - _disk_offset(0, h))[0]) / (2 * h)
+    solid_angle = abs(np.dot(np.cross(ws, wt), w))
+    assert g == pytest.approx(solid_angle, rel=1e-5)
+    m, _, _, _ = _facing_system(x0, q, x1, turning=False)
+    manifold.solve_blocks(m, 1)
+    still = manifold.geometry_term(tuple(x0), tuple(x1), UP, manifold.transfer_determinant(m))
+    assert still != pytest.approx(solid_angle, rel=1e-3)
 
 
 def _sun_solid_angle(direction, solve):
@@ -274,7 +370,7 @@ def _slab_system(x0, y, x1, x2, fixed=False):
     worst = manifold.fill_system(
         m, 2, tuple(x0), tuple(y), _lamp_tangents(y, fixed), fixed, np.array([x2, x1]),
         np.array([DOWN, UP]), np.zeros((2, 3)), np.zeros((2, 3)), np.array([a_bottom, a_top]),
-        np.array([b_bottom, b_top]), np.array([DOWN, UP]), np.array([IOR, IOR]))
+        np.array([b_bottom, b_top]), np.array([DOWN, UP]), np.array([IOR, IOR]), STILL)
     return m, worst, (a_bottom, b_bottom), (a_top, b_top)
 
 

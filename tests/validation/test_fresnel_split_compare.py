@@ -8,8 +8,8 @@ estimator of the same image with the glints' noise taken out.
 batches meet some glints' pixels not at all, and there the split's correct image failed (the
 pool at 256 spp: 6 of 900 pixels, z up to 20). Held here against Cycles at 32 times the
 samples, where every glint is met in every batch. (The pool itself is no scene for this: at
-8192 spp Snell's shadow caustics and Cycles' differ in four tiles at its left edge, z -10 to
--17, with the split and without it alike; docs/measurements.md.)"""
+8192 spp its round lamp's light through the water shows the bias of Cycles' shadow caustics,
+docs/validation.md.)"""
 from __future__ import annotations
 
 import importlib
