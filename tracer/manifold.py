@@ -141,12 +141,13 @@ def _moved_end(wi, li, wo, lo, eta, h, h_length, s, t, ei, eo):
 
 @jit_inline
 def constraint_derivatives(p_prev, p, p_next, n, dn_da, dn_db, a, b, ng, ior, prev_ab, next_ab,
-                           fixed):
+                           fixed, follow):
     """The constraint's derivatives at vertex p (constraint's arguments; dn_da, dn_db the
     shading normal's derivatives along its triangle's unit tangents a and b) with respect to
     the tangent coordinates of p_prev (along prev_ab = (a', b')), of p itself and of p_next
     (along next_ab; where fixed, p_next is a direction and next_ab its unit tangents): three
-    2x2 blocks, each (dC0/du, dC0/dv, dC1/du, dC1/dv)."""
+    2x2 blocks, each (dC0/du, dC0/dv, dC1/du, dC1/dv). follow: how p_next moves when p moves
+    along a and along b (zero but for a lamp point that faces p, facing_disk_point)."""
     wi, li = unit_towards(p, p_prev)
     wo, lo = toward_next(p, p_next, fixed)
     # A fixed direction does not turn when p moves (its far end is at infinity).
@@ -160,9 +161,10 @@ def constraint_derivatives(p_prev, p, p_next, n, dn_da, dn_db, a, b, ng, ior, pr
     pv = _moved_end(wi, li, wo, lo, eta, h, h_length, s, t, prev_ab[1], zero)
     nu = _moved_end(wi, li, wo, lo, eta, h, h_length, s, t, zero, next_ab[0])
     nv = _moved_end(wi, li, wo, lo, eta, h, h_length, s, t, zero, next_ab[1])
-    # p itself moves both directions' near ends (their far ends by -e), the normal and frame.
-    su = _moved_end(wi, li, wo, lo_self, eta, h, h_length, s, t, neg(a), neg(a))
-    sv = _moved_end(wi, li, wo, lo_self, eta, h, h_length, s, t, neg(b), neg(b))
+    # p itself moves both directions' near ends (their far ends by -e, wo's by its own motion
+    # with p less e), the normal and frame.
+    su = _moved_end(wi, li, wo, lo_self, eta, h, h_length, s, t, neg(a), sub(follow[0], a))
+    sv = _moved_end(wi, li, wo, lo_self, eta, h, h_length, s, t, neg(b), sub(follow[1], b))
     dsu, dtu = _frame_derivative(n, dn_da, a, s, s_length)
     dsv, dtv = _frame_derivative(n, dn_db, a, s, s_length)
     return ((pu[0], pv[0], pu[1], pv[1]),
@@ -288,6 +290,7 @@ def fill_system(m, k, x0, y, y_ab, fixed, pos, n, dn_da, dn_db, ta, tb, ng, ior,
     last one's derivatives in y's, and the constraint itself. Returns the largest |constraint|
     of a vertex."""
     worst = 0.0
+    still = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     for i in range(k):
         p = vertex_row(pos, i)
         p_prev = x0 if i == 0 else vertex_row(pos, i - 1)
@@ -303,14 +306,7 @@ def fill_system(m, k, x0, y, y_ab, fixed, pos, n, dn_da, dn_db, ta, tb, ng, ior,
         m[2 * i, C], m[2 * i + 1, C] = c[0], c[1]
         before, here, after = constraint_derivatives(
             p_prev, p, p_next, ni, vertex_row(dn_da, i), vertex_row(dn_db, i), a, b, ngi,
-            ior[i], prev_ab, next_ab, fixed and last)
-        if last and (dot(y_motion[0], y_motion[0]) > 0.0 or dot(y_motion[1], y_motion[1]) > 0.0):
-            # y moves with the vertex: its constraint's change through y joins its own.
-            _, _, through_y = constraint_derivatives(
-                p_prev, p, p_next, ni, vertex_row(dn_da, i), vertex_row(dn_db, i), a, b, ngi,
-                ior[i], prev_ab, y_motion, False)
-            here = (here[0] + through_y[0], here[1] + through_y[1], here[2] + through_y[2],
-                    here[3] + through_y[3])
+            ior[i], prev_ab, next_ab, fixed and last, y_motion if last else still)
         put_block(m, 2 * i, BEFORE, before)
         put_block(m, 2 * i, HERE, here)
         # The last vertex's next is the lamp: its block is dC/dy; the others' dC/dy is zero.

@@ -15,6 +15,7 @@ from snell.tracer.fresnel import fresnel_dielectric
 from snell.tracer.sampling import orthonormal_basis
 
 RNG = np.random.default_rng(34)
+STILL = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))      # a next vertex that does not move with p
 
 
 def _triangle():
@@ -83,7 +84,7 @@ def test_constraint_derivatives_match_finite_differences(below, fixed):
     ior = 1.45
     before, here, after = manifold.constraint_derivatives(
         tuple(prev), tuple(p), tuple(nxt), n, dn_da, dn_db, a, b, tuple(ng), ior, prev_ab,
-        next_ab, fixed)
+        next_ab, fixed, STILL)
     h = 1e-6
 
     def block(move):
@@ -143,7 +144,6 @@ def test_solve_blocks_matches_numpy(k):
 
 IOR = 1.33
 UP = (0.0, 0.0, 1.0)
-STILL = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))      # a lamp point that does not move with x1
 
 
 def _lamp_tangents(y, fixed):
