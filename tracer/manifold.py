@@ -354,12 +354,15 @@ def geometry_term(x0, x1, ng1, transfer):
 
 
 @jit_inline
-def refraction_weight(fresnel_model, wi, wo, n, ng, ior, tint):
+def refraction_weight(fresnel_model, wi, wo, n, ng, ior, tint, glass):
     """What the path tracer's smooth refraction carries, on average, from wo's side to wi's at a
-    vertex (shading normal n): tint x (1 - F), and 0 unless wi and wo are on opposite sides
-    of both normals (as specular.sample_specular's validity)."""
+    vertex (shading normal n): through glass tint x (1 - F), through a refraction-only surface
+    tint alone (Cycles' Refraction BSDF has no Fresnel; specular.sample_specular), and 0
+    unless wi and wo are on opposite sides of both normals (as sample_specular's validity)."""
     ci = dot(wi, n)
     if not (ci * dot(wo, n) < 0.0 and dot(wi, ng) * dot(wo, ng) < 0.0):
         return (0.0, 0.0, 0.0)
+    if not glass:
+        return tint
     f, _ = fresnel(fresnel_model, abs(ci), relative_ior(wi, ng, ior))
     return mul(tint, max(1.0 - f, 0.0))

@@ -19,6 +19,7 @@ caster it meets (reseed), checks that each converged segment is free, and adds
 
     beta f(x0) |cos(x0)| prod(tint (1 - F)) L_e G / (pmf p_A(y))
 
+((1 - F) at glass only: a refraction-only caster, Cycles' Refraction BSDF, carries its tint),
 with f the receiver's BSDF from the viewer to the first vertex (albedo / pi on a diffuse one;
 as in Cycles, every lobe of a layered or program one: receiver_response), G = dw0/dA(y)
 (manifold.geometry_term), no clamp; for a sun dw0/dw(sun) over the cone's
@@ -285,6 +286,7 @@ class Chains(NamedTuple):
     ng: np.ndarray           # (n, MAX_CASTERS, 3) geometric normals (outward)
     ior: np.ndarray          # (n, MAX_CASTERS)
     tint: np.ndarray         # (n, MAX_CASTERS, 3) transmission colours
+    glass: np.ndarray        # (n, MAX_CASTERS) 1: glass (Fresnel), 0: refraction only
     step: np.ndarray         # (n,) the Newton step's scale
     resolve: np.ndarray      # (n,) 1: solve again before the next step
     delta: np.ndarray        # (n, 2 MAX_CASTERS) the last Newton step
@@ -317,7 +319,7 @@ def new_chains(n: int) -> Chains:
         y_ab=f(n, 2, 3), pdf=f(n), state=i(n), bent=i(n), k=i(n), room_diffuse=i(n),
         room_glossy=i(n), prim=i(n, v), pos=f(n, v, 3), n=f(n, v, 3), dn_da=f(n, v, 3),
         dn_db=f(n, v, 3), ta=f(n, v, 3), tb=f(n, v, 3), ng=f(n, v, 3), ior=f(n, v),
-        tint=f(n, v, 3), step=f(n), resolve=i(n), delta=f(n, 2 * v), transfer=f(n),
+        tint=f(n, v, 3), glass=i(n, v), step=f(n), resolve=i(n), delta=f(n, 2 * v), transfer=f(n),
         ray_o=f(n, 3), ray_d=f(n, 3), ray_t=f(n), first_ray=i(n), new_prim=i(n, v),
         new_u=f(n, v), new_v=f(n, v), o32=f32(m, 3), d32=f32(m, 3), tmax=f32(m), owner=i(m),
         scratch=f(2 * v, SYSTEM_COLUMNS))
@@ -357,6 +359,7 @@ def set_vertex(chains, c, i, mesh, mats, tri, b1, b2):
         chains.ng[c, i, k] = ng[k]
         chains.tint[c, i, k] = tint[k]
     chains.ior[c, i] = mats.ior[mat]
+    chains.glass[c, i] = mats.kind[mat] == GLASS
 
 
 @jit_inline
@@ -886,7 +889,8 @@ def chain_light(lights, fresnel_model, chains, c, response):
             wo, _ = unit_towards(p, vertex_row(chains.pos[c], i + 1))
         light = vmul(light, refraction_weight(fresnel_model, wi, wo, vertex_row(chains.n[c], i),
                                               vertex_row(chains.ng[c], i), chains.ior[c, i],
-                                              vertex_row(chains.tint[c], i)))
+                                              vertex_row(chains.tint[c], i),
+                                              chains.glass[c, i] != 0))
     last, _ = towards_lamp(chains, c, vertex_row(chains.pos[c], k - 1))
     emitted = lamp_radiance(lights, chains, c, last)
     g = geometry_term(x0, x1, vertex_row(chains.ng[c], 0), chains.transfer[c])

@@ -345,14 +345,20 @@ def test_a_suns_geometry_term_is_the_solid_angle_per_sun_solid_angle():
     assert g != pytest.approx(1.0, rel=0.05)
 
 
-def test_refraction_weight_is_one_minus_fresnel_on_opposite_sides():
+def test_refraction_weight_is_one_minus_fresnel_through_glass_on_opposite_sides():
     n = UP
     wi = (0.3, 0.0, math.sqrt(1 - 0.09))            # from above: entering the glass
     wo = (-0.2, 0.0, -math.sqrt(1 - 0.04))
     f, _ = fresnel_dielectric(math.sqrt(1 - 0.09), IOR)
-    weight = manifold.refraction_weight(0, wi, wo, n, n, IOR, (1.0, 0.5, 0.25))
+    weight = manifold.refraction_weight(0, wi, wo, n, n, IOR, (1.0, 0.5, 0.25), True)
     assert weight == pytest.approx(((1 - f), 0.5 * (1 - f), 0.25 * (1 - f)))
-    assert manifold.refraction_weight(0, wi, wi, n, n, IOR, (1.0, 1.0, 1.0)) == (0.0, 0.0, 0.0)
+    assert manifold.refraction_weight(0, wi, wi, n, n, IOR, (1.0, 1.0, 1.0), True) == \
+        (0.0, 0.0, 0.0)
+    # A refraction-only surface (Cycles' Refraction BSDF) has no Fresnel: its tint alone.
+    assert manifold.refraction_weight(0, wi, wo, n, n, IOR, (1.0, 0.5, 0.25), False) == \
+        (1.0, 0.5, 0.25)
+    assert manifold.refraction_weight(0, wi, wi, n, n, IOR, (1.0, 1.0, 1.0), False) == \
+        (0.0, 0.0, 0.0)
 
 
 # -- a slab: two flat interfaces (a chain of two vertices) -----------------------------------
