@@ -599,10 +599,9 @@ def split_fresnel(lights, split, n_split, out, n_out, kept, paths, i, u_roulette
             rays.mnee[n_split] = mnee_after(mnee_flags, paths.mnee[i], tri, GLASS,
                                             VISIBLE_GLOSSY, False)
         if light_passes:
-            weights = (row(paths.pass_diffuse, i), row(paths.pass_glossy, i))
-            if paths.bounce[i] == 0:
-                weights = (ZERO, ONE)     # a reflection at the first bounce: glossy
-            carry_pass_weights(rays, n_split, made, weights)
+            own = (row(paths.pass_diffuse, i), row(paths.pass_glossy, i))
+            carry_pass_weights(rays, n_split, made,
+                               singular_pass_weights(paths.bounce[i], own, VISIBLE_GLOSSY))
     return made
 
 
@@ -631,10 +630,19 @@ def pass_weights_of(kind, paths, i, shadows, first_shadow, n_shadow, lobes, coun
     if kind == DIFFUSE:
         return ONE, ZERO
     if pdf_bsdf == 0.0:
-        if ray_kind == VISIBLE_DIFFUSE:
-            return ONE, ZERO
-        return (ZERO, ONE) if ray_kind == VISIBLE_GLOSSY else (ZERO, ZERO)
+        return singular_pass_weights(bounce, own, ray_kind)
     return pass_weights(lobes, count, wi, wo)
+
+
+@jit_inline
+def singular_pass_weights(bounce, own, ray_kind):
+    """The (diffuse, glossy) pass weights of a singular sample's next ray: the path's own after
+    its first bounce; at it, by the sample's kind (glossy for a reflection)."""
+    if bounce > 0:
+        return own
+    if ray_kind == VISIBLE_DIFFUSE:
+        return ONE, ZERO
+    return (ZERO, ONE) if ray_kind == VISIBLE_GLOSSY else (ZERO, ZERO)
 
 
 @jit
