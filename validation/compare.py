@@ -152,7 +152,8 @@ def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label=
         stats["verdict"] = metrics.NOT_COMPARABLE
     stats["not_comparable"] = list(not_comparable)
     stats["exporter_notes"] = list(notes)
-    stats["cycles_caveats"] = cycles_caveats(scene) if scene is not None else []
+    stats["cycles_caveats"] = (cycles_caveats(scene, snell_result.stages) if scene is not None
+                               else [])
     if scene is not None and stats["failing_tiles"]:
         from ..tracer.integrator import Renderer
         index = Renderer(scene, scene.settings(threads=threads, caustics=False,
@@ -176,16 +177,16 @@ def compare_renders(snell_result, cyc, *, not_comparable=(), settings=(), label=
     return stats
 
 
-def cycles_caveats(scene) -> list[str]:
+def cycles_caveats(scene, stages: dict) -> list[str]:
     """Where Cycles' own render of the scene is known to be biased (its shadow caustics from a
-    round lamp, and a sun's, clamped), so that inconsistent tiles there may be Cycles'."""
-    from ..tracer.integrator import Renderer
+    round lamp, and a sun's, clamped), so that inconsistent tiles there may be Cycles'; stages:
+    what Snell's render of it ran (Renderer.stages())."""
     flagged = [light for light in scene.lights if light.get("caustics_light")]
     round_lamps = [light["name"] for light in flagged
                    if light["kind"] in ("point", "spot") and light.get("radius", 0.0) > 0.0
                    and light.get("soft_falloff", True)]
     suns = [light["name"] for light in flagged if light["kind"] == "sun"]
-    if not (round_lamps or suns) or not Renderer(scene).stages()["shadow caustics"][0]:
+    if not (round_lamps or suns) or not stages.get("shadow caustics", (False,))[0]:
         return []
     caveats = []
     if round_lamps:

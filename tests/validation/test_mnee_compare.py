@@ -149,35 +149,46 @@ def test_pool_with_shadow_caustics_is_consistent_with_cycles_path_tracer(plain_p
     spp: at 256 and 1024 its MNEE's heavy tail (the Jacobian near the caustic's folds)
     under-states a few pixels' variances against a reference this converged (pixels failed at
     256, one tile at 1024; mean ratios 1.006 and 0.996)."""
-    _assert_consistent_and_brighter_lamp_caught(plain_pool_reference, with_shadow_caustics,
-                                                spp=PLAIN_SNELL_SPP)
+    report = _assert_consistent_and_brighter_lamp_caught(
+        plain_pool_reference, with_shadow_caustics, spp=PLAIN_SNELL_SPP)
+    # The report names the round lamp whose light Cycles' shadow caustics overstate.
+    assert len(report["cycles_caveats"]) == 1 and "'Lamp'" in report["cycles_caveats"][0]
 
 
 def test_compare_notes_where_cycles_shadow_caustics_are_biased():
     """compare.cycles_caveats: a round caustics lamp and a sun get a note (Cycles' disk facing
     the receiver, Cycles' clamp) where the stage runs; an area lamp, or no flags, none."""
+    from snell.tracer.integrator import Renderer
     from snell.validation.compare import cycles_caveats
     from support.sds_scenes import pool, pool_area, pool_sun, shadow_caustics
-    round_lamp = cycles_caveats(shadow_caustics(pool(resolution=(8, 8))))
+
+    def caveats(scene):
+        return cycles_caveats(scene, Renderer(scene).stages())
+    round_lamp = caveats(shadow_caustics(pool(resolution=(8, 8))))
     assert len(round_lamp) == 1 and "'Lamp'" in round_lamp[0] and "disk" in round_lamp[0]
-    sun = cycles_caveats(shadow_caustics(pool(resolution=(8, 8), lamp=pool_sun(0.0))))
+    sun = caveats(shadow_caustics(pool(resolution=(8, 8), lamp=pool_sun(0.0))))
     assert len(sun) == 1 and "'Sun'" in sun[0] and "clamp" in sun[0]
-    assert cycles_caveats(shadow_caustics(pool(resolution=(8, 8), lamp=pool_area()))) == []
-    assert cycles_caveats(pool(resolution=(8, 8))) == []
+    assert caveats(shadow_caustics(pool(resolution=(8, 8), lamp=pool_area()))) == []
+    assert caveats(pool(resolution=(8, 8))) == []
+    # A render that ran no shadow caustics (its stages say so) gets no note.
+    assert cycles_caveats(shadow_caustics(pool(resolution=(8, 8))),
+                          {"shadow caustics": (False, "shadow caustics off")}) == []
 
 
 def _assert_consistent_and_brighter_lamp_caught(reference, modify=lambda s: s, spp=SPP):
     """The shadow-caustics stage runs in Snell's render (of the scene `modify` makes, at spp
     whatever Cycles' count), which is consistent with Cycles', and with the lamp 5% brighter is
-    not."""
+    not. Returns the consistent render's report."""
     from snell.tracer.integrator import Renderer
     # The water is an open sheet: its warning says so, and nothing else is replaced.
     assert all("not closed" in w for w in reference.warnings), reference.warnings
     assert Renderer(modify(reference.scene)).stages()["shadow caustics"][0]
-    verdict, detail = _verdict(reference.compare(modify, spp=spp))
+    report = reference.compare(modify, spp=spp)
+    verdict, detail = _verdict(report)
     assert verdict == "consistent", detail
     verdict, detail = _verdict(reference.compare(lambda s: brighter_lamp(modify(s)), spp=spp))
     assert verdict != "consistent", detail
+    return report
 
 
 def test_suns_and_area_lamps_with_shadow_caustics_are_consistent_with_cycles(
