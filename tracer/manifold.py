@@ -15,7 +15,7 @@ with y, whose determinant is the generalized geometry term that turns the lamp's
 into x0's solid angle.
 
 A point or spot lamp of radius r > 0 is a disk that faces whoever sees it (lights/point.py),
-so the last vertex's lamp point moves with it (facing_disk_point): its offset from the centre,
+so the last vertex's lamp point moves with it (facing_disk): its offset from the centre,
 uniform on the disk, turns with the disk. The last vertex's constraint then changes through y
 as well as directly (fill_system's y_motion), and the transfer determinant is per unit of the
 disk's area as that vertex sees it, the measure of the path tracer's ray that finds the lamp.
@@ -147,7 +147,7 @@ def constraint_derivatives(p_prev, p, p_next, n, dn_da, dn_db, a, b, ng, ior, pr
     the tangent coordinates of p_prev (along prev_ab = (a', b')), of p itself and of p_next
     (along next_ab; where fixed, p_next is a direction and next_ab its unit tangents): three
     2x2 blocks, each (dC0/du, dC0/dv, dC1/du, dC1/dv). follow: how p_next moves when p moves
-    along a and along b (zero but for a lamp point that faces p, facing_disk_point)."""
+    along a and along b (zero but for a lamp point that faces p, facing_disk)."""
     wi, li = unit_towards(p, p_prev)
     wo, lo = toward_next(p, p_next, fixed)
     # A fixed direction does not turn when p moves (its far end is at infinity).
@@ -285,7 +285,7 @@ def fill_system(m, k, x0, y, y_ab, fixed, pos, n, dn_da, dn_db, ta, tb, ng, ior,
     """Fill m[:2k] (SYSTEM_COLUMNS) for the chain x0, pos[0 .. k), y (vertex i: shading normal
     n[i] and its derivatives, tangents ta[i], tb[i] of its triangle, geometric normal ng[i],
     index ior[i]; y_ab the lamp's tangents at y; y a direction where fixed; y_motion how y moves
-    along the last vertex's tangents, zero but for a lamp that faces it, facing_disk_point):
+    along the last vertex's tangents, zero but for a lamp that faces it, facing_disk):
     each vertex's blocks of the constraint's Jacobian in the vertices' tangent coordinates, the
     last one's derivatives in y's, and the constraint itself. Returns the largest |constraint|
     of a vertex."""
@@ -317,22 +317,23 @@ def fill_system(m, k, x0, y, y_ab, fixed, pos, n, dn_da, dn_db, ta, tb, ng, ior,
 
 
 @jit_inline
-def facing_disk_point(c, q, u0, p):
-    """The point of the disk of centre c that faces p (its normal the unit direction from c to
-    p) at the offset q of the disk facing u0 (q perpendicular to u0): q turned by the least
-    rotation taking u0 to that normal, which keeps the disk's area."""
-    u, _ = unit_towards(c, p)
-    g = dot(u, q) / (1.0 + dot(u0, u))
-    return madd(add(c, q), -g, add(u0, u))
+def facing_disk(c, q, u0, p, ea, eb):
+    """The point of the disk of centre c that faces p (its normal u the unit direction from c
+    to p) at the offset q of the disk facing u0 (q perpendicular to u0): q turned by the least
+    rotation taking u0 to u, which keeps the disk's area. Returns (that point, u, how the point
+    moves when p moves by ea, and by eb)."""
+    u, distance = unit_towards(c, p)
+    turn = 1.0 + dot(u0, u)
+    g = dot(u, q) / turn
+    return (madd(add(c, q), -g, add(u0, u)), u,
+            _facing_motion(q, u0, u, distance, turn, g, ea),
+            _facing_motion(q, u0, u, distance, turn, g, eb))
 
 
 @jit_inline
-def facing_disk_motion(c, q, u0, p, e):
-    """How facing_disk_point(c, q, u0, p) moves when p moves by e."""
-    u, distance = unit_towards(c, p)
+def _facing_motion(q, u0, u, distance, turn, g, e):
+    """facing_disk's point's motion when p moves by e (u, distance, turn and g as there)."""
     du = _unit_derivative(u, distance, e)
-    turn = 1.0 + dot(u0, u)
-    g = dot(u, q) / turn
     dg = (dot(du, q) - g * dot(u0, du)) / turn
     return add(mul(add(u0, u), -dg), mul(du, -g))
 

@@ -74,10 +74,10 @@ from .lights.dispatch import delta_lamp
 from .lights.point import point_lamp_radiance, spot_attenuation
 from .lights.sun import sample_sun
 from .lobes import DIFFUSE_EVENT, REFLECT_EVENT, bsdf_eval
-from .manifold import (MAX_CASTERS, SYSTEM_COLUMNS, C, facing_disk_motion, facing_disk_point,
-                       fill_system, geometry_term, normal_derivatives, refraction_weight,
-                       relative_ior, solve_blocks, toward_next, transfer_determinant,
-                       unit_towards, vertex_row)
+from .manifold import (MAX_CASTERS, SYSTEM_COLUMNS, C, facing_disk, fill_system,
+                       geometry_term, normal_derivatives, refraction_weight, relative_ior,
+                       solve_blocks, toward_next, transfer_determinant, unit_towards,
+                       vertex_row)
 from .material_kinds import DIFFUSE, GLASS, LAYERED, PROGRAM, REFRACTION
 from .path_limits import DIFFUSE_BOUNCE, GLOSSY_BOUNCE, TRANSMISSION_BOUNCE, add_bounce, \
     clamp_light, clamp_limit, dropped_at, within_limits
@@ -268,7 +268,7 @@ class Chains(NamedTuple):
     fixed: np.ndarray        # (n,) 1: y is a direction (a sun's), 0: a point
     y: np.ndarray            # (n, 3) the lamp point (or direction)
     centre: np.ndarray       # (n, 3) a point lamp's centre, and y's offset from it on the disk
-    offset: np.ndarray       # (n, 3) that faces x0 (facing_disk_point turns it to face xk)
+    offset: np.ndarray       # (n, 3) that faces x0 (facing_disk turns it to face xk)
     y_ab: np.ndarray         # (n, 2, 3) the lamp's unit tangents at y
     pdf: np.ndarray          # (n,) pick x area density of y (solid-angle density for a sun)
     state: np.ndarray        # (n,) PROBING ... FAILED
@@ -684,21 +684,21 @@ def newton_rays(mesh, chains, n):
 @jit_inline
 def face_last_vertex(chains, c, k):
     """Turn a point lamp's disk to face chain c's last vertex xk, as the path tracer's ray from
-    xk sees it (lights/point.py), moving y with it (facing_disk_point); returns how y moves
-    along xk's tangents (zero for the other lamps, whose points stay)."""
+    xk sees it (lights/point.py), moving y with it (facing_disk); returns how y moves along
+    xk's tangents (zero for the other lamps, whose points stay)."""
     zero = (0.0, 0.0, 0.0)
     if chains.lamp_kind[c] != POINT:
         return zero, zero
-    centre, offset = row(chains.centre, c), row(chains.offset, c)
+    centre = row(chains.centre, c)
     facing_x0, _ = unit_towards(centre, row(chains.x0, c))
-    p = vertex_row(chains.pos[c], k - 1)
-    store(chains.y, c, facing_disk_point(centre, offset, facing_x0, p))
-    normal, _ = unit_towards(centre, p)
+    y, normal, along_a, along_b = facing_disk(
+        centre, row(chains.offset, c), facing_x0, vertex_row(chains.pos[c], k - 1),
+        vertex_row(chains.ta[c], k - 1), vertex_row(chains.tb[c], k - 1))
+    store(chains.y, c, y)
     ta, tb = orthonormal_basis(normal)
     store(chains.y_ab[c], 0, ta)
     store(chains.y_ab[c], 1, tb)
-    return (facing_disk_motion(centre, offset, facing_x0, p, vertex_row(chains.ta[c], k - 1)),
-            facing_disk_motion(centre, offset, facing_x0, p, vertex_row(chains.tb[c], k - 1)))
+    return along_a, along_b
 
 
 @jit

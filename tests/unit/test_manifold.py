@@ -229,26 +229,32 @@ def _disk_offset(s, t):
     return s * a + t * b
 
 
+def _facing_point(q, p):
+    """facing_disk's point of offset q for the disk of centre CENTRE facing p."""
+    return manifold.facing_disk(tuple(CENTRE), tuple(q), tuple(FACING_X0), p, UP, UP)[0]
+
+
 def test_the_facing_disks_point_turns_with_the_vertex_and_keeps_its_offset():
-    """facing_disk_point: on the disk facing p at |q| from its centre, q itself where p is on
-    q's own disk's axis; facing_disk_motion against finite differences."""
+    """facing_disk's point: on the disk facing p at |q| from its centre, q itself where p is on
+    q's own disk's axis; its normal the direction to p; its motion against finite
+    differences."""
     q = tuple(_disk_offset(0.3, -0.2))
     on_axis = tuple(CENTRE + 2.5 * FACING_X0)
-    assert manifold.facing_disk_point(tuple(CENTRE), q, tuple(FACING_X0), on_axis) == \
+    assert _facing_point(q, on_axis) == \
         pytest.approx(tuple(CENTRE + q), abs=1e-12)
     p = np.array([0.4, 0.1, 0.0])
-    y = np.array(manifold.facing_disk_point(tuple(CENTRE), q, tuple(FACING_X0), tuple(p)))
+    y = np.array(_facing_point(q, tuple(p)))
     normal = (p - CENTRE) / np.linalg.norm(p - CENTRE)
+    assert manifold.facing_disk(tuple(CENTRE), q, tuple(FACING_X0), tuple(p), UP, UP)[1] == \
+        pytest.approx(tuple(normal), abs=1e-12)
     assert np.dot(y - CENTRE, normal) == pytest.approx(0.0, abs=1e-12)
     assert np.linalg.norm(y - CENTRE) == pytest.approx(np.linalg.norm(q), rel=1e-12)
     assert np.linalg.norm(y - CENTRE - q) > 0.01            # it turned
     h = 1e-6
     for e in np.eye(3):
-        moved = [np.array(manifold.facing_disk_point(tuple(CENTRE), q, tuple(FACING_X0),
-                                                     tuple(p + sign * h * e)))
-                 for sign in (1, -1)]
-        motion = manifold.facing_disk_motion(tuple(CENTRE), q, tuple(FACING_X0), tuple(p),
-                                             tuple(e))
+        moved = [np.array(_facing_point(q, tuple(p + sign * h * e))) for sign in (1, -1)]
+        motion = manifold.facing_disk(tuple(CENTRE), q, tuple(FACING_X0), tuple(p), tuple(e),
+                                      tuple(e))[2]
         assert motion == pytest.approx(tuple((moved[0] - moved[1]) / (2 * h)), abs=1e-8)
 
 
@@ -257,12 +263,9 @@ def _facing_system(x0, q, x1, turning=True):
     disk of centre CENTRE that faces x1 (turning: the point moves with x1)."""
     m = np.zeros((12, manifold.SYSTEM_COLUMNS))
     a, b = orthonormal_basis(UP)
-    args = tuple(CENTRE), tuple(q), tuple(FACING_X0), tuple(x1)
-    y = manifold.facing_disk_point(*args)
-    normal = (x1 - CENTRE) / np.linalg.norm(x1 - CENTRE)
-    motion = (manifold.facing_disk_motion(*args, a), manifold.facing_disk_motion(*args, b))
-    if not turning:
-        motion = STILL
+    y, normal, along_a, along_b = manifold.facing_disk(tuple(CENTRE), tuple(q),
+                                                       tuple(FACING_X0), tuple(x1), a, b)
+    motion = (along_a, along_b) if turning else STILL
     rows = lambda v: np.array([v], np.float64)   # noqa: E731
     worst = manifold.fill_system(m, 1, tuple(x0), y, orthonormal_basis(tuple(normal)), False,
                                  rows(x1), rows(UP), np.zeros((1, 3)), np.zeros((1, 3)), rows(a),

@@ -143,7 +143,7 @@ def test_pool_with_shadow_caustics_is_consistent_with_cycles_path_tracer(plain_p
     not: Cycles keeps the lamp point on the disk that faces the receiver and takes its
     Jacobian across the last segment, 0.75% too bright here (+9% for a lamp of radius 1 m;
     docs/measurements.md), where Snell's disk faces the chain's last vertex as the path
-    tracer's does (manifold.facing_disk_point). Measured: mean ratio 1.0008 (mean z 0.41),
+    tracer's does (manifold.facing_disk). Measured: mean ratio 1.0008 (mean z 0.41),
     every test passed; the lamp 5% brighter 1.051 (mean z 25, 7 tiles failed); against Cycles'
     shadow caustics (8 seeds x 256 spp, Snell 256 spp) 0.9955, 3 tiles failed. Snell at 4096
     spp: at 256 and 1024 its MNEE's heavy tail (the Jacobian near the caustic's folds)
