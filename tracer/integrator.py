@@ -275,7 +275,7 @@ class Renderer:
         the light tracer connects to a pinhole or a thin lens, so an orthographic camera leaves
         every path to the path tracer (the same image, noisier caustics)."""
         self.caustics = None if self.camera.ortho else self._caustic_tables
-        # Which delta lamps' light at the camera's own hits MNEE leaves to the light tracer.
+        # Which lamps' light at the camera's own hits MNEE leaves to the light tracer.
         self.mnee, self._why_mnee = self._choose_mnee()
         # The path tracer leaves the light tracer's paths to it (not in the pure test mode),
         # those lit by the world too where the light tracer starts paths on it.
@@ -371,8 +371,11 @@ class Renderer:
                          (settings.light_groups, "light groups asked for")):
             if off:
                 return mnee.OFF, why
+        # The lamps whose light at the camera's own hits MNEE leaves to the light tracer: those
+        # it starts paths from where the path tracer leaves it their caustics (not in the pure
+        # test mode, where the path tracer renders every path).
         caustics = self.caustics
-        traced = frozenset() if caustics is None else frozenset(
+        traced = frozenset() if caustics is None or caustics.pure else frozenset(
             zip(caustics.emitter_kind.tolist(), caustics.emitter_index.tolist()))
         return mnee.mnee_tables(self.scene, self.lights.tables, self.materials.kind,
                                 self.materials.of_triangle, traced)

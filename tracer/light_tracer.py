@@ -477,7 +477,8 @@ def light_bounce(caustics, lights, mesh, mats, media, cam, margin, fresnel_model
     A path that reaches a shadow-caustics receiver (mnee_flags, the triangles' mnee.py flags;
     empty: none) after refractions at casters only, from a lamp manifold next-event
     estimation samples, is that stage's: neither stored nor continued, and connected to the
-    camera only from a delta sun (mnee.py: the stage leaves it the camera ray's own hits).
+    camera only from a delta sun, or through two or more casters onto a plain diffuse receiver
+    (mnee.py: the stage leaves it those of the camera ray's own hits).
     Returns (paths in out, connections queued, photons stored)."""
     n_out, n_conn, n_photons = 0, 0, 0
     for i in range(m):
@@ -527,9 +528,11 @@ def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, p
     if paths.dropped[i] != 0:
         return counts             # the camera path's diffuse ray here drops that lobe there
     # Manifold next-event estimation's path, but for its connection to the camera from a delta
-    # sun (mnee.seed_chains leaves a camera ray's own hit that light).
+    # sun, or through two or more casters onto a plain diffuse receiver (mnee.seed_chains
+    # leaves the camera ray's own hit that light).
     mnee_path = paths.mnee[i] > FROM_RECEIVER and mnee_flags[surface[1]] & RECEIVER != 0
-    if mnee_path and not caustics.emitter_delta[paths.lamp[i]]:
+    if mnee_path and not (caustics.emitter_delta[paths.lamp[i]]
+                          or (kind == DIFFUSE and paths.mnee[i] > FROM_RECEIVER + 1)):
         return counts
     max_depth = limits[0]
     bounces = paths.bounces[i]

@@ -35,16 +35,27 @@ wavefront.emitters gives it no light from a caustics lamp then, whether it cross
 escapes into a sun's disc (Cycles skips caustic lamps after a caster too, but also after
 reflections, which MNEE does not render). A light path's state (light_tracer.LightPaths.mnee)
 counts the same from its lamp, and the light tracer neither stores a photon nor goes on at a
-receiver after them, and connects to the camera only from a delta sun (below).
+receiver after them, and connects to the camera only where the stage leaves it the camera ray's
+own hit (below).
 
-Delta lamps: a sun of angle 0 is the stage's where the file flags it, as in Cycles (no camera
-path finds it, and the light tracer cannot render its paths seen through glass), except where
-the camera ray itself hits the receiver: there the light tracer's connection from the receiver
-to the camera renders exactly those paths (sun, refractions at casters, receiver, camera; any
-surface between blocks both the connection and the camera ray's depth 0), unbiased, so the
-stage starts no chain to a delta sun at depth 0 where the light tracer starts paths from it
-(with Snell's caustics off it does not, and the stage keeps that light too). Point lamps of
-radius 0 and area lamps of spread 0 stay the light tracer's alone.
+Where the camera ray itself hits the receiver, the light tracer's connection from the receiver
+to the camera renders exactly the stage's paths (lamp, refractions at casters, receiver, camera;
+any surface between blocks both the connection and the camera ray's depth 0), unbiased, and
+better: a light path lands where the glass focuses the light, where the stage's Jacobian is
+heavy-tailed, where light passes two or more refracting surfaces (a glass, a tumbler's walls:
+docs/measurements.md). Through one (a water surface), whose walks seldom fail, the stage's
+chains are far smoother than light paths spread over the floor. So at depth 0, towards a lamp
+the light tracer starts paths from and the path tracer leaves its caustics to (Snell's caustics
+on, not the pure light-tracing test), on a plain diffuse receiver (whose whole BSDF the
+connection carries) the stage's chains hold one refraction at most, and the light tracer
+connects its paths through two or more; on a layered or program receiver (the connection
+carries its Lambert lobe alone but from a delta lamp) the stage leaves it only a sun of angle
+0's light. Either way the split is exact: a path's refractions are counted alike by both.
+Past depth 0 (a receiver seen through glass, or after a bounce) the light tracer cannot reach
+the camera, and the stage keeps the light. A sun of angle 0 is the stage's where the file flags
+it, as in Cycles (no camera path finds it, and the light tracer cannot render its paths seen
+through glass); point lamps of radius 0 and area lamps of spread 0 stay the light tracer's
+alone.
 
 What MNEE itself leaves out is its bias: one solution per lamp sample (where waves fold the
 light, several paths join x0 and y, and the walk finds the one nearest its seed), and none where
@@ -122,12 +133,14 @@ class MneeTables(NamedTuple):
     pick_cdf: np.ndarray         # (M,) the cdf of picking the stage's lamp j
     pick_kind: np.ndarray        # (M,) its codes kind (AREA, POINT, SUN)
     pick_index: np.ndarray       # (M,) its row in that kind's light tables
-    pick_delta: np.ndarray       # (M,) bool: a delta lamp (a sun of angle 0, of the stage's) the
-    #                              light tracer starts paths from
+    pick_traced: np.ndarray      # (M,) bool: the light tracer starts paths from it, and connects
+    #                              them to the camera from a receiver the camera ray hits
+    pick_delta: np.ndarray       # (M,) bool: a delta lamp (a sun of angle 0, of the stage's)
 
 
 OFF = MneeTables(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool), np.zeros(0),
-                 np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool))
+                 np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool),
+                 np.zeros(0, bool))
 
 
 def mnee_lamp(light: dict, tables, kind: int, k: int) -> bool:
@@ -145,8 +158,9 @@ def mnee_lamp(light: dict, tables, kind: int, k: int) -> bool:
 def mnee_tables(scene, lights, material_kind, of_triangle,
                 light_traced=frozenset()) -> tuple[MneeTables, str]:
     """(the stage's tables, OFF where it does not run; why or why not). light_traced: the
-    (codes kind, row) of the lamps the light tracer starts paths from; a delta one's light at
-    the camera ray's own hit the stage leaves it (MneeTables.pick_delta)."""
+    (codes kind, row) of the lamps the light tracer starts paths from and the path tracer
+    leaves their caustics to; their light at the camera ray's own hit the stage leaves to the
+    light tracer's connection (MneeTables.pick_traced; seed_chains)."""
     objects = scene.objects
     flags = np.array([(CASTER if o.get("caustics_caster") else 0)
                       | (RECEIVER if o.get("caustics_receiver") else 0) for o in objects]
@@ -157,7 +171,7 @@ def mnee_tables(scene, lights, material_kind, of_triangle,
     materials = material_kind[of_triangle]
     receivers = np.any((tri_flags & RECEIVER != 0) & np.isin(materials, RECEIVING_KINDS))
     casters = np.any((tri_flags & CASTER != 0) & np.isin(materials, (GLASS, REFRACTION)))
-    lamp, pmf, kinds, index, delta, named = [], [], [], [], [], []
+    lamp, pmf, kinds, index, traced, delta, named = [], [], [], [], [], [], []
     for kind, names, pmfs in ((AREA, ("area",), lights.area_pmf),
                               (POINT, ("point", "spot"), lights.point_pmf),
                               (SUN, ("sun",), lights.sun_pmf)):
@@ -168,10 +182,14 @@ def mnee_tables(scene, lights, material_kind, of_triangle,
                 pmf.append(pmfs[k])
                 kinds.append(kind)
                 index.append(k)
-                delta.append(delta_lamp(lights, kind, k) and (kind, k) in light_traced)
+                traced.append((kind, k) in light_traced)
+                delta.append(delta_lamp(lights, kind, k))
                 named.append(f"{light.get('name', '?')!r}" + (
+                    "" if not traced[-1] else
                     " (a sun of angle 0: the light tracer's where the camera sees the receiver)"
-                    if delta[-1] else ""))
+                    if delta[-1] else
+                    " (the light tracer's through two or more casters where the camera sees a "
+                    "diffuse receiver)"))
     if not (receivers and casters and any(lamp)):
         return OFF, ("no shadow-caustics receiver, smooth glass caster and caustics light "
                      "(a point or spot lamp of radius > 0 with soft falloff on, an area lamp "
@@ -180,7 +198,7 @@ def mnee_tables(scene, lights, material_kind, of_triangle,
     pmf = pmf / pmf.sum() if pmf.sum() > 0 else np.full(len(pmf), 1.0 / len(pmf))
     return (MneeTables(tri_flags, oid, np.array(lamp, bool), np.cumsum(pmf),
                        np.array(kinds, np.int64), np.array(index, np.int64),
-                       np.array(delta, bool)),
+                       np.array(traced, bool), np.array(delta, bool)),
             f"shadow caustics: {len(kinds)} caustics light(s): {', '.join(named)}")
 
 
@@ -406,9 +424,10 @@ def seed_chains(tables, lights, mesh, mats, depth, bits, strat, limits, clamp, n
                 paths, prim, u, v, chains):
     """A chain per kept hit (rows `active`) on a receiver (RECEIVING_KINDS): a caustics lamp
     picked, a point y on it (a sun's direction) sampled (sample_lamp; the sampler's pairs,
-    stratified if strat), and the seed ray towards it; none for a sun of angle 0 at the camera
-    ray's own hit (depth 0) where the light tracer starts paths from it
-    (MneeTables.pick_delta): its connection renders that light. Returns the count."""
+    stratified if strat), and the seed ray towards it. At the camera ray's own hit (depth 0),
+    towards a lamp the light tracer starts paths from (MneeTables.pick_traced), whose
+    connection renders that light: no chain to a sun of angle 0, and on a plain diffuse
+    receiver a chain of one refraction at most. Returns the count."""
     n = 0
     cdf = tables.pick_cdf
     for j in range(n_active):
@@ -437,8 +456,13 @@ def seed_chains(tables, lights, mesh, mats, depth, bits, strat, limits, clamp, n
         j = pick_lamp(cdf, u_pick)
         pmf = cdf[j] - (cdf[j - 1] if j > 0 else 0.0)
         kind, lamp = tables.pick_kind[j], tables.pick_index[j]
-        if depth == 0 and tables.pick_delta[j]:
-            continue      # a delta sun's light at the camera ray's hit: the light tracer's
+        if depth == 0 and tables.pick_traced[j]:
+            # The light tracer's connection from the camera ray's hit renders a delta sun's
+            # light, and a lamp's through two or more casters onto a plain diffuse receiver.
+            if tables.pick_delta[j]:
+                continue
+            if surface_kind == DIFFUSE:
+                room_diffuse = 1
         y, ta, tb, density = sample_lamp(lights, kind, lamp, p, u0, u1)
         if not density > 0.0:
             continue

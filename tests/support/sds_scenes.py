@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from sds_geometry import POOL_HALF, tube, water_surface   # scenes/ (conftest.py's path)
-from support.builders import camera, make_scene, quad
+from support.builders import camera, icosphere, make_scene, quad
 from support.caustic_scenes import look_at
 
 WATER_IOR = 1.33
@@ -132,4 +132,17 @@ def tumbler(resolution=(32, 32), max_depth=8, lamp_radius=0.1, **render):
             "intensity": [20.0, 20.0, 20.0], "radius": lamp_radius}
     cam = look_at((-2.2, -0.4, 1.1), (0.0, 0.0, 0.25), resolution, lens=50.0)
     return make_scene([(*table, 0, _up(len(table[0]))), (*glass[:2], 1, glass[2])],
+                      TUMBLER_MATERIALS, cam, lights=[lamp], max_depth=max_depth, **render)
+
+
+def ball(resolution=(16, 16), max_depth=8, **render):
+    """A glass ball (IOR 1.5, smooth normals) above a diffuse floor under a small round lamp,
+    the camera above the floor: it sees the ball's caustic (lamp, two refractions, floor)
+    directly, and no light reaches the floor through one refraction alone."""
+    floor = quad((0.0, 0.0, 0.0), 1.5, 1.5)
+    glass = icosphere(3, 0.3, (0.0, 0.0, 0.45))
+    lamp = {"name": "Lamp", "kind": "point", "position": [0.5, 0.2, 1.8],
+            "intensity": [30.0, 30.0, 30.0], "radius": 0.1}
+    cam = look_at((0.0, -1.6, 1.6), (-0.15, 0.0, 0.0), resolution, lens=35.0)
+    return make_scene([(*floor, 0, _up(len(floor[0]))), (glass[0], glass[1], 1, glass[2])],
                       TUMBLER_MATERIALS, cam, lights=[lamp], max_depth=max_depth, **render)
