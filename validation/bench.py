@@ -25,7 +25,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -324,8 +324,11 @@ def reference(blend, opts: Options, cache_dir, log, setup=None):
     """(mean, info, variance of the mean) of the converged reference, from the cache when its
     key matches. setup: a
     caustic scene's (bench_scenes.BenchScene): its reference is Cycles' plain path tracer
-    (shadow caustics and guiding off) or Snell's hybrid; None: Cycles as forced."""
+    (shadow caustics and guiding off) or Snell's hybrid, of at least its least_ref_seeds
+    seeds; None: Cycles as forced."""
     import bpy
+    if setup is not None and setup.least_ref_seeds > opts.ref_seeds:
+        opts = replace(opts, ref_seeds=setup.least_ref_seeds)
     seeds = cycles.seeds_for(opts.ref_seeds)
     forced = [(k, v) for k, v, _ in cycles.forced_settings(opts.max_depth, opts.ref_spp, 0, 1)
               if k not in ("cycles.seed", "render.threads")]
