@@ -173,18 +173,23 @@ def convert_surface(name, surface, coverage):
         # warning.
         sides = Coverage()
         ior = fresnel_ior(node, groups, sides)
-        fac = mix_factor(node, Inputs(node, sides, groups)) if ior is None else None
+        if ior is None:         # the factor is read (and may fail) before the sides
+            fac = mix_factor(node, Inputs(node, sides, groups))
+            how = f"constant factor {fac:g}"
+
+            def combine(first, second):
+                return fold(node, fac, first, second)
+        else:
+            how = f"factor a Fresnel node of IOR {ior:g}"
+
+            def combine(first, second):
+                return fold_fresnel(node, ior, first, second)
         try:
             first = convert_surface(name, source_in(node.inputs[1], groups), sides)
             second = convert_surface(name, source_in(node.inputs[2], groups), sides)
         except NotFolded as exc:
             raise NotFolded(f"{node_text(node)} of {exc}") from None
-        if ior is None:
-            mixed = fold(node, fac, first, second)
-            how = f"constant factor {fac:g}"
-        else:
-            mixed = fold_fresnel(node, ior, first, second)
-            how = f"factor a Fresnel node of IOR {ior:g}"
+        mixed = combine(first, second)
         coverage.evaluate(node, f"{how}, folded into one {mixed['kind']} surface")
         coverage.evaluated += sides.evaluated
         for issue in sides.issues:
