@@ -40,21 +40,21 @@ own hit (below).
 
 Where the camera ray itself hits the receiver, the light tracer's connection from the receiver
 to the camera renders exactly the stage's paths (lamp, refractions at casters, receiver, camera;
-any surface between blocks both the connection and the camera ray's depth 0), unbiased, and
-better: a light path lands where the glass focuses the light, where the stage's Jacobian is
-heavy-tailed, where light passes two or more refracting surfaces (a glass, a tumbler's walls:
-docs/measurements.md). Through one (a water surface), whose walks seldom fail, the stage's
-chains are far smoother than light paths spread over the floor. So at depth 0, towards a lamp
-the light tracer starts paths from and the path tracer leaves its caustics to (Snell's caustics
-on, not the pure light-tracing test), on a plain diffuse receiver (whose whole BSDF the
-connection carries) the stage's chains hold one refraction at most, and the light tracer
-connects its paths through two or more; on a layered or program receiver (the connection
-carries its Lambert lobe alone but from a delta lamp) the stage leaves it only a sun of angle
-0's light. Either way the split is exact: a path's refractions are counted alike by both.
-Past depth 0 (a receiver seen through glass, or after a bounce) the light tracer cannot reach
-the camera, and the stage keeps the light. A sun of angle 0 is the stage's where the file flags
-it, as in Cycles (no camera path finds it, and the light tracer cannot render its paths seen
-through glass); point lamps of radius 0 and area lamps of spread 0 stay the light tracer's
+any surface between blocks both the connection and the camera ray's depth 0), unbiased. Where
+light passes two or more refracting surfaces (a glass, a tumbler's walls) it does better: a
+light path lands where the glass focuses the light, where the stage's Jacobian is heavy-tailed
+and its walks often fail (docs/measurements.md). Through one (a water surface), whose walks
+seldom fail, the stage's chains are far smoother than light paths spread over the floor. So at
+depth 0, towards a lamp the light tracer starts paths from and the path tracer leaves its
+caustics to (Snell's caustics on, not the pure light-tracing test), on a plain diffuse receiver
+(whose whole BSDF the connection carries) the stage's chains hold one refraction at most, and
+the light tracer connects its paths through two or more; on a layered or program receiver (the
+connection carries its Lambert lobe alone but from a delta lamp) the stage leaves it only a sun
+of angle 0's light. Either way the split is exact: a path's refractions are counted alike by
+both. Past depth 0 (a receiver seen through glass, or after a bounce) the light tracer cannot
+reach the camera, and the stage keeps the light. A sun of angle 0 is the stage's where the file
+flags it, as in Cycles (no camera path finds it, and the light tracer cannot render its paths
+seen through glass); point lamps of radius 0 and area lamps of spread 0 stay the light tracer's
 alone.
 
 What MNEE itself leaves out is its bias: one solution per lamp sample (where waves fold the
@@ -467,7 +467,7 @@ def seed_chains(tables, lights, mesh, mats, depth, bits, strat, limits, clamp, n
             if tables.pick_delta[j]:
                 continue
             if surface_kind == DIFFUSE:
-                room_diffuse = 1
+                room_diffuse = min(room_diffuse, 1)
         y, ta, tb, density = sample_lamp(lights, kind, lamp, p, u0, u1)
         if not density > 0.0:
             continue
