@@ -338,9 +338,10 @@ def test_a_lamps_caustic_through_one_caster_seen_directly_stays_the_stages():
     floor, camera) the stage keeps the light at the camera ray's own hit, whose chains are far
     smoother there than light paths spread over the floor: 4 seeds x 32 spp with the flags and
     without them (the light tracer's), the seeds' relative variance of the image with them is
-    under a tenth of the one without (measured 64x64: 0.00065 against 0.157), and the means
-    agree (3 standard errors and 1% of the mean, for the stage's bias). Deliberate error
-    caught: the light tracer's at any number of casters (the two images' variances alike)."""
+    under a tenth of the one without (measured 0.017 against 0.39; at 32x32, 6 x 64 spp, 0.00065
+    against 0.157), and the means agree (3 standard errors and 1% of the mean, for the stage's
+    bias). Deliberate error caught: the light tracer's at any number of casters (the two
+    images' variances alike)."""
     images = []
     for flagged in (True, False):
         scene = shadow_caustics(pool(resolution=(12, 12)), on=flagged)
