@@ -71,7 +71,8 @@ from .path_limits import (DIFFUSE_BOUNCE, GLOSSY_BOUNCE, NO_BOUNCES, TRANSMISSIO
 from . import media as medium
 from .photon_merging import record_photon
 from .media import empty_stacks
-from .mnee import FROM_RECEIVER, NO_CHAIN, RECEIVER, lamp_row, mnee_after
+from .mnee import (CAMERA_HIT_REFRACTIONS, FROM_RECEIVER, NO_CHAIN, RECEIVER, lamp_row,
+                   mnee_after)
 from .sampler import mix, random_pair
 from .sampling import (orthonormal_basis, sample_cosine_hemisphere, sample_uniform_cone,
                        sample_uniform_disk, sample_uniform_sphere)
@@ -532,7 +533,8 @@ def receiving_vertex(caustics, lights, mesh, mats, media, cam, margin, limits, p
     # leaves the camera ray's own hit that light).
     mnee_path = paths.mnee[i] > FROM_RECEIVER and mnee_flags[surface[1]] & RECEIVER != 0
     if mnee_path and not (caustics.emitter_delta[paths.lamp[i]]
-                          or (kind == DIFFUSE and paths.mnee[i] > FROM_RECEIVER + 1)):
+                          or (kind == DIFFUSE
+                              and paths.mnee[i] > FROM_RECEIVER + CAMERA_HIT_REFRACTIONS)):
         return counts
     max_depth = limits[0]
     bounces = paths.bounces[i]

@@ -109,6 +109,9 @@ RECEIVING_KINDS = (DIFFUSE, LAYERED, PROGRAM)
 # A path's state (Paths.mnee, LightPaths.mnee): NO_CHAIN, or FROM_RECEIVER + j after a receiver
 # (camera side) or a caustics lamp (light side) and j refractions at casters since.
 NO_CHAIN, FROM_RECEIVER = 0, 1
+# The refractions a chain may hold at the camera ray's own hit on a plain diffuse receiver, towards
+# a lamp the light tracer starts paths from: its connections render the paths through more.
+CAMERA_HIT_REFRACTIONS = 1
 # Chains.state
 # REJECTED: the probe found no chain in the seed (a caster that does not refract, more casters
 # than the chain may hold or than it probes); FAILED: no caster, or the walk failed.
@@ -467,7 +470,7 @@ def seed_chains(tables, lights, mesh, mats, depth, bits, strat, limits, clamp, n
             if tables.pick_delta[j]:
                 continue
             if surface_kind == DIFFUSE:
-                room_diffuse = min(room_diffuse, 1)
+                room_diffuse = min(room_diffuse, CAMERA_HIT_REFRACTIONS)
         y, ta, tb, density = sample_lamp(lights, kind, lamp, p, u0, u1)
         if not density > 0.0:
             continue
